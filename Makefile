@@ -1,0 +1,28 @@
+# frictionrt: `make demo` and `make test` each create .venv if missing, install, and run.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test bench clean
+
+$(BIN)/python:
+	$(PY) -m venv $(VENV)
+
+$(STAMP): $(BIN)/python pyproject.toml
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/frictionrt modes
+	$(BIN)/frictionrt impulse --fn1 100 --plot logs/impulse_fn1_100.png
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/plant.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache

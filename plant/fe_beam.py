@@ -1,0 +1,63 @@
+"""2-D Euler-Bernoulli frame elements: axial bar + bending beam, DOFs (u, w, theta) per node.
+
+theta = dw/dx. A point at height z above the neutral axis moves axially by u - z * theta, so the
+contact surfaces (offset h/2) have axial motion (SPEC section 2).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+DOFS_PER_NODE = 3  # u (axial) [m], w (transverse) [m], theta (rotation) [rad]
+U, W, THETA = 0, 1, 2
+
+
+def element_matrices(l: float, E: float, A: float, I: float, rho: float) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness and consistent mass of one frame element, DOFs (u1, w1, th1, u2, w2, th2).
+
+    Parameters: l [m] element length, E [Pa], A [m^2], I [m^4] second moment, rho [kg/m^3].
+    Returns (K [N/m, N, N m], M [kg, kg m, kg m^2]) as 6 x 6 arrays.
+    """
+    k = np.zeros((6, 6))
+    m = np.zeros((6, 6))
+    ax = [0, 3]
+    bd = [1, 2, 4, 5]
+    k[np.ix_(ax, ax)] = E * A / l * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    m[np.ix_(ax, ax)] = rho * A * l / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
+    k[np.ix_(bd, bd)] = E * I / l**3 * np.array([
+        [12.0, 6 * l, -12.0, 6 * l],
+        [6 * l, 4 * l**2, -6 * l, 2 * l**2],
+        [-12.0, -6 * l, 12.0, -6 * l],
+        [6 * l, 2 * l**2, -6 * l, 4 * l**2]])
+    m[np.ix_(bd, bd)] = rho * A * l / 420.0 * np.array([
+        [156.0, 22 * l, 54.0, -13 * l],
+        [22 * l, 4 * l**2, 13 * l, -3 * l**2],
+        [54.0, 13 * l, 156.0, -22 * l],
+        [-13 * l, -3 * l**2, -22 * l, 4 * l**2]])
+    return k, m
+
+
+def assemble_beam(x_nodes: np.ndarray, E: float, width: float, height: float, rho: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Global K, M of one beam meshed at `x_nodes` [m] (3 DOFs per node, node-major order)."""
+    n = len(x_nodes)
+    A = width * height
+    I = width * height**3 / 12.0
+    K = np.zeros((3 * n, 3 * n))
+    M = np.zeros((3 * n, 3 * n))
+    for e in range(n - 1):
+        ke, me = element_matrices(x_nodes[e + 1] - x_nodes[e], E, A, I, rho)
+        sl = slice(3 * e, 3 * e + 6)
+        K[sl, sl] += ke
+        M[sl, sl] += me
+    return K, M
+
+
+def mesh_nodes(x_start: float, x_end: float, required: list[float], h_max: float) -> np.ndarray:
+    """Node positions [m] from x_start to x_end that include every `required` x and have no
+    element longer than h_max (each gap between required points split evenly)."""
+    pts = sorted({round(x, 12) for x in [x_start, x_end, *required]})
+    nodes = [pts[0]]
+    for a, b in zip(pts[:-1], pts[1:]):
+        n_el = max(1, int(np.ceil((b - a) / h_max - 1e-9)))
+        nodes.extend(a + (b - a) * np.arange(1, n_el + 1) / n_el)
+    return np.array(nodes)

@@ -1,0 +1,191 @@
+"""Design time: from the configuration to the constant arrays of the plant step.
+
+    FE beams (plant.structure) --Craig-Bampton per beam--> reduced (K_r, M_r)
+        --eigen per beam--> modal basis V (mass-normalised), omega, zeta (bare-beam damping)
+        --Newmark constants--> PlantParams (plant.newmark)
+
+The full FE model uses the same path with T = I, so full and reduced models are stepped by
+the same kernel with the same integrator.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from plant.contact import _jenkins_pair
+from plant.craig_bampton import craig_bampton
+from plant.newmark import N_ENERGY, N_TAIL, PlantParams, PlantWork, _plant_step
+from plant.structure import Structure, build_structure
+from rt.config import Config
+
+RIGID_BODY_RAD_S = 2 * np.pi * 0.1  # below 0.1 Hz a substructure mode is a rigid-body mode
+
+
+@dataclass(frozen=True)
+class PlantModel:
+    """A built plant: kernel arrays plus what is needed to interpret them."""
+    cfg: Config
+    structure: Structure
+    params: PlantParams
+    Phi: np.ndarray           # (n_dof, n) physical <- modal
+    omega: np.ndarray         # (n,) [rad/s] uncoupled substructure frequencies
+    reduced: bool
+
+    @property
+    def n(self) -> int:
+        """Number of (modal) coordinates stepped."""
+        return len(self.omega)
+
+    @property
+    def n_pairs(self) -> int:
+        return self.structure.n_pairs
+
+    @property
+    def state_size(self) -> int:
+        return 3 * self.n + 3 * self.n_pairs + N_TAIL
+
+    def state_slots(self) -> dict[str, slice]:
+        """Named slots of the state vector (the one table the kernel's offsets follow)."""
+        n, p = self.n, self.n_pairs
+        o = 3 * n + 3 * p
+        names = ["E_fric", "E_damp", "W_exc", "W_screw", "F_exc_prev", "F_N1_prev"]
+        slots = {"q": slice(0, n), "qd": slice(n, 2 * n), "qdd": slice(2 * n, 3 * n),
+                 "w": slice(3 * n, 3 * n + p), "g": slice(3 * n + p, 3 * n + 3 * p)}
+        slots.update({nm: slice(o + i, o + i + 1) for i, nm in enumerate(names)})
+        return slots
+
+    def output_labels(self) -> list[tuple[str, str]]:
+        """(name, unit) of each entry of the step's output vector y."""
+        pts = self.structure.point_names
+        p = self.n_pairs
+        lab = [(f"w_{s}", "m") for s in pts] + [(f"v_{s}", "m/s") for s in pts] + \
+              [(f"a_{s}", "m/s^2") for s in pts] + [("u_rel", "m"), ("v_rel", "m/s")]
+        for sym, unit in (("g_n", "m"), ("g_t", "m"), ("f_n", "N"), ("f_t", "N")):
+            lab += [(f"{sym}_{j}", unit) for j in range(p)]
+        lab += [("E_fric", "J"), ("E_damp", "J"), ("W_exc", "J"), ("W_screw", "J"), ("newton_iter", "-")]
+        return lab
+
+    def output_index(self) -> dict[str, int]:
+        return {name: i for i, (name, _) in enumerate(self.output_labels())}
+
+    def new_work(self) -> PlantWork:
+        n, m = self.n, 2 * self.n_pairs
+        p = m // 2
+        return PlantWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(p), np.zeros(3 * p),
+                         np.zeros(m), np.zeros((m, m)), np.zeros(m, dtype=np.int64),
+                         np.full(p, -1, dtype=np.int64), np.zeros(p, dtype=np.int64))
+
+    def initial_state(self, F_N1: float | None = None) -> np.ndarray:
+        """Static equilibrium under the screw forces (sliders from zero), at rest."""
+        F = self.structure.F_N1_initial if F_N1 is None else F_N1
+        q, w, g = static_equilibrium(self, F)
+        x = np.zeros(self.state_size)
+        sl = self.state_slots()
+        x[sl["q"]] = q
+        x[sl["w"]] = w
+        x[sl["g"]] = g
+        x[sl["F_N1_prev"]] = F
+        return x
+
+    def step(self, k: int, x: np.ndarray, u: np.ndarray, x_next: np.ndarray, y: np.ndarray,
+             work: PlantWork) -> int:
+        """Checked wrapper of the plant kernel (use ``_plant_step`` directly in loops)."""
+        if x.shape != (self.state_size,) or x_next.shape != x.shape:
+            raise ValueError(f"state must have shape ({self.state_size},), got {x.shape}, {x_next.shape}")
+        if u.shape != (2,) or y.shape != (len(self.output_labels()),):
+            raise ValueError("u must be (F_exc [N], F_N1 [N]); y must have one entry per output label")
+        return _plant_step(np.int64(k), x, u, self.params, x_next, y, work)
+
+
+def _modal_basis(K: np.ndarray, M: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mass-normalised eigenbasis Phi = T V of the (reduced) pair T^T K T, T^T M T."""
+    Kr = T.T @ K @ T
+    Mr = T.T @ M @ T
+    lam, V = sla.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
+    return np.sqrt(np.maximum(lam, 0.0)), T @ V
+
+
+def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
+    """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``)."""
+    reduced = cfg.plant.reduced if reduced is None else reduced
+    st = build_structure(cfg)
+    blocks, omegas = [], []
+    for sub in st.subs:
+        if reduced:
+            T, _ = craig_bampton(sub.K, sub.M, sub.boundary, cfg.plant.cb_cutoff_hz)
+        else:
+            T = np.eye(sub.n)
+        om, Phi_s = _modal_basis(sub.K, sub.M, T)
+        blocks.append(Phi_s)
+        omegas.append(om)
+    Phi = sla.block_diag(*blocks)
+    omega = np.concatenate(omegas)
+    # rigid-body modes of free substructures (numerically ~0): exactly 0, undamped
+    omega = np.where(omega < RIGID_BODY_RAD_S, 0.0, omega)
+    zeta = np.where(omega > 0.0, cfg.plant.modal_damping, 0.0)
+    c = 2.0 * zeta * omega
+    h = cfg.dt_s / cfg.plant.substeps
+    s = 1.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2)
+    G = np.ascontiguousarray(st.gap_rows @ Phi)
+    params = PlantParams(
+        c=c, s=s, G=G, GT=np.ascontiguousarray(G.T), W=np.ascontiguousarray((G * s) @ G.T),
+        b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
+        out_rows=np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi),
+        k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(), h=float(h),
+        substeps=int(cfg.plant.substeps), tol=float(cfg.plant.newton_tol_m),
+        max_iter=int(cfg.plant.newton_max_iter))
+    for a in params:
+        if isinstance(a, np.ndarray):
+            a.setflags(write=False)
+    return PlantModel(cfg, st, params, Phi, omega, reduced)
+
+
+def contact_forces(model: PlantModel, g: np.ndarray, w_old: np.ndarray):
+    """Vectorised pair law over all pairs (design time): lambda (2p,), w_new (p,), dlambda/dg (2p, 2p)."""
+    p = model.params
+    m = len(g)
+    lam, w_new, D = np.zeros(m), np.zeros(m // 2), np.zeros((m, m))
+    for j in range(m // 2):
+        ln, lt, wn, dnn, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], p.k_n[j], p.k_t[j], p.mu[j])
+        lam[2 * j], lam[2 * j + 1], w_new[j] = ln, lt, wn
+        D[2 * j, 2 * j], D[2 * j + 1, 2 * j], D[2 * j + 1, 2 * j + 1] = dnn, dtn, dtt
+    return lam, w_new, D
+
+
+def static_equilibrium(model: PlantModel, F_N1: float, max_iter: int = 100):
+    """Static state under the screws: omega^2 q = f_const + b_N1 F_N1 + G^T lambda(G q, w = 0).
+
+    Newton from the all-closed, all-stuck linear solution. Returns (q, w, g).
+    """
+    p = model.params
+    K = np.diag(model.omega**2)
+    f = p.f_const + p.b_N1 * F_N1
+    m = p.G.shape[0]
+    k_all = np.zeros(m)
+    k_all[0::2], k_all[1::2] = p.k_n, p.k_t
+    q = np.linalg.solve(K + (p.G.T * k_all) @ p.G, f)
+    w0 = np.zeros(m // 2)
+    for _ in range(max_iter):
+        g = p.G @ q
+        lam, w, D = contact_forces(model, g, w0)
+        R = K @ q - f - p.G.T @ lam
+        if np.max(np.abs(R)) <= 1e-10 * max(1.0, np.max(np.abs(f))):
+            return q, w, g
+        q = q - np.linalg.solve(K - p.G.T @ D @ p.G, R)
+    raise RuntimeError(f"static equilibrium under the screws did not converge (F_N1 = {F_N1} N); "
+                       "check the interface stiffnesses and screw positions")
+
+
+def stuck_frequencies_hz(model: PlantModel, pairs: np.ndarray | None = None) -> np.ndarray:
+    """Eigenfrequencies [Hz] with the contact linearised as stuck (k_n, k_t) at `pairs`
+    (a boolean mask over the pairs; all pairs if None). Rigid-body modes excluded."""
+    p = model.params
+    mask = np.ones(model.n_pairs, bool) if pairs is None else np.asarray(pairs, bool)
+    k_all = np.zeros(p.G.shape[0])
+    k_all[0::2] = p.k_n * mask
+    k_all[1::2] = p.k_t * mask
+    lam = sla.eigvalsh(np.diag(model.omega**2) + (p.G.T * k_all) @ p.G)
+    f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+    return f[f > 1e-3]

@@ -1,0 +1,162 @@
+"""The beam assembly described by the configuration: meshes, DOF maps, interface kinematics.
+
+Everything that depends on *which* structure is simulated is derived here from
+``Config.plant``; nothing downstream knows about the benchmark's dimensions. A different
+assembly (a lap joint, a damper elsewhere) is a different TOML file.
+
+Physical coordinates are the free DOFs of all beams stacked beam by beam
+(3 per node: u, w, theta; clamped nodes removed).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, mesh_nodes
+from rt.config import Beam, Config
+
+
+@dataclass(frozen=True)
+class Substructure:
+    """One beam: its mesh, free-DOF matrices and the DOFs kept as Craig-Bampton boundary."""
+    beam: Beam
+    x_nodes: np.ndarray        # [m]
+    free: np.ndarray           # indices of free DOFs in the beam's 3*n_nodes vector
+    K: np.ndarray              # on free DOFs [SI]
+    M: np.ndarray
+    boundary: np.ndarray       # indices into the free DOFs
+    offset: int                # first index of this beam in the stacked physical vector
+
+    def dof(self, x: float, component: int) -> int:
+        """Stacked physical index of DOF `component` (U, W, THETA) at the node at x [m]."""
+        node = int(np.argmin(np.abs(self.x_nodes - x)))
+        if abs(self.x_nodes[node] - x) > 1e-9:
+            raise ValueError(f"no node of beam {self.beam.name!r} at x = {x} m")
+        hit = np.nonzero(self.free == DOFS_PER_NODE * node + component)[0]
+        if len(hit) == 0:
+            raise ValueError(f"DOF {component} of beam {self.beam.name!r} at x = {x} m is clamped")
+        return self.offset + int(hit[0])
+
+    @property
+    def n(self) -> int:
+        return len(self.free)
+
+
+@dataclass(frozen=True)
+class Structure:
+    """The assembled description: substructures, contact pairs and load/output rows.
+
+    Rows act on the stacked physical vector x (length n_dof):
+      gap_rows[2j]   = normal gap g_n of pair j (upper minus lower; > 0 open) [m]
+      gap_rows[2j+1] = tangential gap g_t of pair j (bottom of upper minus top of lower) [m]
+      point_rows[i]  = transverse displacement w at point i [m]
+      u_rel_row      = tangential relative displacement at the adaptive screw [m]
+    Load vectors give nodal forces for a unit input [N]:
+      b_exc  (excitation force, +z), b_N1 (adaptive screw force), f_const (the other screws).
+    """
+    subs: tuple[Substructure, ...]
+    x_pairs: np.ndarray
+    gap_rows: np.ndarray
+    point_names: tuple[str, ...]
+    point_rows: np.ndarray
+    u_rel_row: np.ndarray
+    b_exc: np.ndarray
+    b_N1: np.ndarray
+    f_const: np.ndarray
+    F_N1_initial: float
+    k_n: np.ndarray
+    k_t: np.ndarray
+    mu: np.ndarray
+
+    @property
+    def n_dof(self) -> int:
+        return sum(s.n for s in self.subs)
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.x_pairs)
+
+
+def _pair_positions(cfg: Config) -> np.ndarray:
+    i = cfg.plant.interface
+    n = int(round((i.x_end_m - i.x_start_m) / i.pitch_m))
+    return i.x_start_m + i.pitch_m * np.arange(n + 1)
+
+
+def build_structure(cfg: Config) -> Structure:
+    """Mesh every beam, assemble its K and M, and build the interface kinematics."""
+    p = cfg.plant
+    itf = p.interface
+    x_pairs = _pair_positions(cfg)
+    beams = {b.name: b for b in p.beams}
+    screws = p.screws
+
+    subs: list[Substructure] = []
+    offset = 0
+    for b in p.beams:
+        in_itf = b.name in (itf.lower, itf.upper)
+        full_nodes = list(x_pairs) + [s.x_m for s in screws] if in_itf else []
+        w_nodes = [pt.x_m for pt in p.points if pt.beam == b.name]
+        clamp_x = [c.x_m for c in p.clamps if c.beam == b.name]
+        x_nodes = mesh_nodes(b.x0_m, b.x0_m + b.length_m, full_nodes + w_nodes + clamp_x, p.element_length_m)
+        K, M = assemble_beam(x_nodes, b.E, b.width_m, b.height_m, b.rho)
+
+        def node_of(x):
+            return int(np.argmin(np.abs(x_nodes - x)))
+
+        fixed = {DOFS_PER_NODE * node_of(x) + c for x in clamp_x for c in (U, W, THETA)}
+        free = np.array([d for d in range(K.shape[0]) if d not in fixed], dtype=np.int64)
+        pos = {d: k for k, d in enumerate(free)}
+        bset = {DOFS_PER_NODE * node_of(x) + c for x in full_nodes for c in (U, W, THETA)}
+        bset |= {DOFS_PER_NODE * node_of(x) + W for x in w_nodes}
+        boundary = np.array(sorted(pos[d] for d in bset if d in pos), dtype=np.int64)
+        subs.append(Substructure(b, x_nodes, free, K[np.ix_(free, free)], M[np.ix_(free, free)],
+                                 boundary, offset))
+        offset += len(free)
+    by_name = {s.beam.name: s for s in subs}
+    n = offset
+    lo, up = by_name[itf.lower], by_name[itf.upper]
+    h_lo, h_up = beams[itf.lower].height_m, beams[itf.upper].height_m
+
+    def tangential_row(x):
+        # u at the bottom of the upper beam minus u at the top of the lower beam: u(z) = u - z theta
+        r = np.zeros(n)
+        r[up.dof(x, U)] += 1.0
+        r[up.dof(x, THETA)] += h_up / 2
+        r[lo.dof(x, U)] -= 1.0
+        r[lo.dof(x, THETA)] += h_lo / 2
+        return r
+
+    def normal_row(x):
+        r = np.zeros(n)
+        r[up.dof(x, W)] += 1.0
+        r[lo.dof(x, W)] -= 1.0
+        return r
+
+    gap_rows = np.zeros((2 * len(x_pairs), n))
+    for j, x in enumerate(x_pairs):
+        gap_rows[2 * j] = normal_row(x)
+        gap_rows[2 * j + 1] = tangential_row(x)
+
+    point_rows = np.zeros((len(p.points), n))
+    for i, pt in enumerate(p.points):
+        point_rows[i, by_name[pt.beam].dof(pt.x_m, W)] = 1.0
+    exc = next(pt for pt in p.points if pt.name == p.excitation_point)
+    b_exc = np.zeros(n)
+    b_exc[by_name[exc.beam].dof(exc.x_m, W)] = 1.0
+
+    # a screw pulls the upper beam down and the lower beam up: nodal forces -F and +F,
+    # i.e. -F times the normal-gap row
+    b_N1 = np.zeros(n)
+    f_const = np.zeros(n)
+    adaptive = next(s for s in screws if s.adaptive)
+    for s in screws:
+        if s.adaptive:
+            b_N1 -= normal_row(s.x_m)
+        else:
+            f_const -= s.F_N * normal_row(s.x_m)
+    n_p = len(x_pairs)
+    return Structure(tuple(subs), x_pairs, gap_rows, tuple(pt.name for pt in p.points), point_rows,
+                     tangential_row(adaptive.x_m), b_exc, b_N1, f_const, adaptive.F_N,
+                     np.full(n_p, itf.k_n), np.full(n_p, itf.k_t), np.full(n_p, itf.mu))

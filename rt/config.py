@@ -1,0 +1,442 @@
+"""The one typed configuration of frictionrt: frozen dataclasses with the SPEC defaults.
+
+Every physical parameter, gain and assumption lives here, in SI units. A configuration is
+resolved from the defaults, then an optional TOML file (``--config FILE``), then
+``--set key=value`` overrides, and validated once. Lists of named tables (beams, screws,
+points) are addressed by their ``name`` in ``--set`` keys, e.g.
+``--set plant.screws.adaptive.F_N=200``.
+
+Each numeric field carries its unit and allowed range in its metadata; ``validate`` refuses
+values outside it with a message that names the key, the value and the range.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, get_args, get_origin, get_type_hints
+
+
+class ConfigError(ValueError):
+    """A bad configuration value or file; the message names the key, the value and the fix."""
+
+
+def param(default, unit: str = "", lo: float | None = None, hi: float | None = None,
+          lo_inclusive: bool = True, doc: str = ""):
+    """A configuration field with a unit and an allowed range [lo, hi] (lo open if not inclusive)."""
+    meta = {"unit": unit, "lo": lo, "hi": hi, "lo_inclusive": lo_inclusive, "doc": doc}
+    if isinstance(default, (list, tuple)) or dataclasses.is_dataclass(default):
+        return field(default_factory=lambda d=default: d, metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+# --- structure description (SPEC section 1) -------------------------------------------------
+
+@dataclass(frozen=True)
+class Beam:
+    """A straight beam along x, rectangular section, neutral axis at height z0."""
+    name: str
+    x0_m: float = param(0.0, "m", doc="x of the beam's left end")
+    length_m: float = param(0.775, "m", lo=0.0, lo_inclusive=False)
+    width_m: float = param(0.040, "m", lo=0.0, lo_inclusive=False)
+    height_m: float = param(0.008, "m", lo=0.0, lo_inclusive=False)
+    z0_m: float = param(0.0, "m", doc="height of the neutral axis")
+    E: float = param(210e9, "Pa", lo=0.0, lo_inclusive=False, doc="Young's modulus")
+    rho: float = param(7850.0, "kg/m^3", lo=0.0, lo_inclusive=False, doc="density")
+    nu: float = param(0.3, "-", lo=0.0, hi=0.5, doc="Poisson's ratio (A)")
+
+
+@dataclass(frozen=True)
+class Clamp:
+    """All DOFs of `beam` fixed at x."""
+    beam: str
+    x_m: float = param(0.0, "m")
+
+
+@dataclass(frozen=True)
+class Screw:
+    """A screw pressing `upper` onto `lower` of the interface at x with normal force F_N."""
+    name: str
+    x_m: float = param(0.475, "m")
+    F_N: float = param(6000.0, "N", lo=0.0, doc="clamping force (initial value if adaptive)")
+    adaptive: bool = param(False, doc="true: F_N1, set by the piezo stack (a step input)")
+
+
+@dataclass(frozen=True)
+class Point:
+    """A named point on a beam where transverse motion is output (sensor or excitation)."""
+    name: str
+    beam: str = "main"
+    x_m: float = param(0.45, "m")
+
+
+@dataclass(frozen=True)
+class Interface:
+    """Node-to-node contact between the top of `lower` and the bottom of `upper` (SPEC 2)."""
+    lower: str = "main"
+    upper: str = "damper"
+    x_start_m: float = param(0.465, "m", doc="first contact pair")
+    x_end_m: float = param(0.625, "m", doc="last contact pair")
+    pitch_m: float = param(0.020, "m", lo=0.0, lo_inclusive=False, doc="pair spacing")
+    mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
+    k_n: float = param(1.0e9, "N/m", lo=0.0, lo_inclusive=False, doc="normal penalty stiffness per pair")
+    k_t: float = param(5.0e7, "N/m", lo=0.0, lo_inclusive=False, doc="Jenkins tangential stiffness per pair")
+
+
+def _default_beams():
+    return (Beam("main"),
+            Beam("damper", x0_m=0.465, length_m=0.160, z0_m=0.008))
+
+
+def _default_screws():
+    return (Screw("normal", x_m=0.475, F_N=6000.0, adaptive=False),
+            Screw("adaptive", x_m=0.615, F_N=100.0, adaptive=True))
+
+
+def _default_points():
+    return (Point("exc", "main", 0.325), Point("frf", "main", 0.45), Point("tip", "main", 0.765))
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Plant description and numerics (SPEC sections 1 and 2)."""
+    beams: tuple[Beam, ...] = field(default_factory=_default_beams)
+    clamps: tuple[Clamp, ...] = field(default_factory=lambda: (Clamp("main", 0.0),))
+    interface: Interface = field(default_factory=Interface)
+    screws: tuple[Screw, ...] = field(default_factory=_default_screws)
+    points: tuple[Point, ...] = field(default_factory=_default_points)
+    excitation_point: str = "exc"
+    frf_point: str = "frf"
+    element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False, doc="largest FE element")
+    modal_damping: float = param(0.001, "-", lo=0.0, hi=1.0, doc="zeta of the bare beams (A)")
+    cb_cutoff_hz: float = param(6000.0, "Hz", lo=0.0, lo_inclusive=False,
+                                doc="Craig-Bampton fixed-interface modes kept up to this frequency")
+    reduced: bool = param(True, doc="false: step the full FE model instead of Craig-Bampton")
+    substeps: int = param(1, "-", lo=1, hi=64, doc="plant substeps per controller step")
+    newton_tol_m: float = param(1e-13, "m", lo=0.0, lo_inclusive=False, doc="contact Newton tolerance on gaps")
+    newton_max_iter: int = param(40, "-", lo=1, hi=1000)
+
+
+@dataclass(frozen=True)
+class Rt:
+    """Real-time loop (SPEC section 7)."""
+    rate_hz: float = param(21000.0, "Hz", lo=0.0, lo_inclusive=False, doc="controller rate, dt = 1/rate_hz")
+    seed: int = param(0, "-", lo=0)
+
+
+@dataclass(frozen=True)
+class Tracking:
+    """Normal-force limits of both control laws (SPEC section 4)."""
+    F_min_N: float = param(40.0, "N", lo=0.0)
+    F_max_N: float = param(600.0, "N", lo=0.0, lo_inclusive=False)
+
+
+@dataclass(frozen=True)
+class Impulse:
+    """Simulated hammer test (SPEC section 6, Fig. 5)."""
+    peak_N: float = param(50.0, "N", lo=0.0, lo_inclusive=False, doc="half-sine hammer peak force")
+    duration_s: float = param(0.5e-3, "s", lo=0.0, lo_inclusive=False, doc="half-sine contact time")
+    record_s: float = param(4.0, "s", lo=0.0, lo_inclusive=False, doc="record length")
+    f_max_hz: float = param(1200.0, "Hz", lo=0.0, lo_inclusive=False, doc="upper end of the FRF plot and fit")
+
+
+@dataclass(frozen=True)
+class Config:
+    """The whole configuration tree."""
+    rt: Rt = field(default_factory=Rt)
+    plant: Plant = field(default_factory=Plant)
+    tracking: Tracking = field(default_factory=Tracking)
+    impulse: Impulse = field(default_factory=Impulse)
+
+    @property
+    def dt_s(self) -> float:
+        """Controller step [s]."""
+        return 1.0 / self.rt.rate_hz
+
+
+# --- loading and merging --------------------------------------------------------------------
+
+def _field_types(cls) -> dict[str, Any]:
+    return get_type_hints(cls)
+
+
+def _build(cls, data: dict, path: str):
+    """Build dataclass `cls` from a plain dict, refusing unknown keys and wrong types."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path or 'configuration'}: expected a table, got {data!r}")
+    types = _field_types(cls)
+    unknown = set(data) - set(types)
+    if unknown:
+        key = sorted(unknown)[0]
+        raise ConfigError(f"{_join(path, key)}: unknown key; allowed keys here: {', '.join(types)}")
+    kwargs = {}
+    for name, typ in types.items():
+        if name in data:
+            kwargs[name] = _convert(typ, data[name], _join(path, name))
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:  # a required field (e.g. a beam's name) is missing
+        raise ConfigError(f"{path}: {exc}") from None
+
+
+def _convert(typ, value, path: str):
+    origin = get_origin(typ)
+    if dataclasses.is_dataclass(typ):
+        return _build(typ, value, path)
+    if origin is tuple:
+        (item,) = [a for a in get_args(typ) if a is not Ellipsis]
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{path}: expected an array of tables, got {value!r}")
+        return tuple(_convert(item, v, f"{path}[{i}]") for i, v in enumerate(value))
+    if typ is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{path} = {value!r}: expected true or false")
+        return value
+    if typ is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{path} = {value!r}: expected an integer")
+        return value
+    if typ is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{path} = {value!r}: expected a number")
+        return float(value)
+    if typ is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{path} = {value!r}: expected a string")
+        return value
+    raise ConfigError(f"{path}: unsupported type {typ}")  # pragma: no cover - schema error
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def to_dict(obj) -> dict:
+    """Plain nested dict (tuples of tables become lists) of a configuration object."""
+    out = {}
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        if dataclasses.is_dataclass(v):
+            out[f.name] = to_dict(v)
+        elif isinstance(v, tuple):
+            out[f.name] = [to_dict(x) for x in v]
+        else:
+            out[f.name] = v
+    return out
+
+
+def _merge(base: dict, over: dict) -> dict:
+    """Deep-merge `over` into `base`; arrays of tables are replaced whole."""
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v
+    return out
+
+
+def _parse_value(text: str):
+    """A --set value: TOML literal if it parses (number, bool, quoted string), else a bare string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def _apply_set(data: dict, assignment: str) -> None:
+    """Apply one ``key=value``; list elements are addressed by their ``name``."""
+    if "=" not in assignment:
+        raise ConfigError(f"--set {assignment!r}: expected KEY=VALUE, e.g. plant.interface.mu=0.3")
+    key, text = assignment.split("=", 1)
+    parts = key.strip().split(".")
+    node, path = data, ""
+    for i, part in enumerate(parts):
+        last = i == len(parts) - 1
+        path = _join(path, part)
+        if isinstance(node, list):
+            named = [x for x in node if isinstance(x, dict) and x.get("name") == part]
+            if not named:
+                names = [x.get("name") for x in node]
+                raise ConfigError(f"--set {key}: no element named {part!r} in this list; names: {names}")
+            if last:
+                raise ConfigError(f"--set {key}: give a field of {part!r}, e.g. {key}.x_m=0.5")
+            node = named[0]
+            continue
+        if part not in node:
+            raise ConfigError(f"--set {key}: unknown key {path!r}; allowed here: {', '.join(node)}")
+        if last:
+            node[part] = _parse_value(text.strip())
+        else:
+            node = node[part]
+
+
+def load(config_file: str | Path | None = None, sets: list[str] | tuple[str, ...] = ()) -> Config:
+    """Resolve defaults <- TOML file <- ``--set`` overrides, then validate.
+
+    Raises ConfigError with a message naming the file, key or value at fault.
+    """
+    data = to_dict(Config())
+    if config_file is not None:
+        p = Path(config_file)
+        try:
+            over = tomllib.loads(p.read_text())
+        except FileNotFoundError:
+            raise ConfigError(f"{p}: configuration file not found") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"{p}: not valid TOML ({exc})") from None
+        data = _merge(data, over)
+    for s in sets:
+        _apply_set(data, s)
+    cfg = _build(Config, data, "")
+    validate(cfg)
+    return cfg
+
+
+# --- validation -----------------------------------------------------------------------------
+
+def _range_text(meta) -> str:
+    lo, hi = meta["lo"], meta["hi"]
+    unit = f" {meta['unit']}" if meta["unit"] not in ("", "-") else ""
+    left = "" if lo is None else (f"{lo:g} <= " if meta["lo_inclusive"] else f"{lo:g} < ")
+    right = "" if hi is None else f" <= {hi:g}"
+    return f"{left}value{right}{unit}" if (left or right) else f"a finite number{unit}"
+
+
+def _check_fields(obj, path: str) -> None:
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        key = _join(path, f.name)
+        if dataclasses.is_dataclass(v):
+            _check_fields(v, key)
+        elif isinstance(v, tuple):
+            for i, item in enumerate(v):
+                _check_fields(item, f"{key}[{getattr(item, 'name', i)}]")
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            meta = f.metadata
+            lo, hi = meta.get("lo"), meta.get("hi")
+            bad = not math.isfinite(v)
+            if lo is not None:
+                bad |= v < lo or (v == lo and not meta.get("lo_inclusive", True))
+            if hi is not None:
+                bad |= v > hi
+            if bad:
+                raise ConfigError(f"{key} = {v!r} is not allowed: must be {_range_text(meta)}")
+
+
+def _names(items, what: str, path: str) -> dict:
+    out = {}
+    for it in items:
+        if it.name in out:
+            raise ConfigError(f"{path}: two {what} named {it.name!r}; names must be unique")
+        out[it.name] = it
+    return out
+
+
+def validate(cfg: Config) -> None:
+    """Refuse values outside their range and inconsistent structure descriptions."""
+    _check_fields(cfg, "")
+    p = cfg.plant
+    t = cfg.tracking
+    if t.F_min_N > t.F_max_N:
+        raise ConfigError(f"tracking.F_min_N = {t.F_min_N:g} N > tracking.F_max_N = {t.F_max_N:g} N: "
+                          "F_min must not exceed F_max")
+    beams = _names(p.beams, "beams", "plant.beams")
+    points = _names(p.points, "points", "plant.points")
+    screws = _names(p.screws, "screws", "plant.screws")
+
+    def on_beam(key, beam_name, x):
+        if beam_name not in beams:
+            raise ConfigError(f"{key}: unknown beam {beam_name!r}; beams: {', '.join(beams)}")
+        b = beams[beam_name]
+        if not (b.x0_m - 1e-12 <= x <= b.x0_m + b.length_m + 1e-12):
+            raise ConfigError(f"{key} = {x:g} m lies outside beam {beam_name!r} "
+                              f"[{b.x0_m:g}, {b.x0_m + b.length_m:g}] m")
+
+    for c in p.clamps:
+        on_beam(f"plant.clamps[{c.beam}].x_m", c.beam, c.x_m)
+    for pt in p.points:
+        on_beam(f"plant.points[{pt.name}].x_m", pt.beam, pt.x_m)
+    for key in ("excitation_point", "frf_point"):
+        if getattr(p, key) not in points:
+            raise ConfigError(f"plant.{key} = {getattr(p, key)!r}: no such point; points: {', '.join(points)}")
+
+    i = p.interface
+    for role in ("lower", "upper"):
+        if getattr(i, role) not in beams:
+            raise ConfigError(f"plant.interface.{role} = {getattr(i, role)!r}: no such beam; "
+                              f"beams: {', '.join(beams)}")
+    if i.lower == i.upper:
+        raise ConfigError("plant.interface: lower and upper must be different beams")
+    lo_b, up_b = beams[i.lower], beams[i.upper]
+    if i.x_end_m < i.x_start_m:
+        raise ConfigError(f"plant.interface.x_end_m = {i.x_end_m:g} m < x_start_m = {i.x_start_m:g} m")
+    for key in ("x_start_m", "x_end_m"):
+        for b in (lo_b, up_b):
+            on_beam(f"plant.interface.{key}", b.name, getattr(i, key))
+    n = (i.x_end_m - i.x_start_m) / i.pitch_m
+    if abs(n - round(n)) > 1e-6:
+        raise ConfigError(f"plant.interface.pitch_m = {i.pitch_m:g} m does not divide the interface "
+                          f"length {i.x_end_m - i.x_start_m:g} m into whole pitches")
+    gap = (up_b.z0_m - up_b.height_m / 2) - (lo_b.z0_m + lo_b.height_m / 2)
+    if abs(gap) > 1e-9:
+        raise ConfigError(f"plant.beams[{up_b.name}].z0_m = {up_b.z0_m:g} m: the bottom of {up_b.name!r} "
+                          f"must touch the top of {lo_b.name!r} (set z0_m = "
+                          f"{lo_b.z0_m + (lo_b.height_m + up_b.height_m) / 2:g} m)")
+    adaptive = [s for s in p.screws if s.adaptive]
+    if len(adaptive) != 1:
+        raise ConfigError(f"plant.screws: exactly one screw must be adaptive (F_N1), found {len(adaptive)}")
+    for s in screws.values():
+        if not (i.x_start_m - 1e-12 <= s.x_m <= i.x_end_m + 1e-12):
+            raise ConfigError(f"plant.screws[{s.name}].x_m = {s.x_m:g} m lies outside the damper interface "
+                              f"[{i.x_start_m:g}, {i.x_end_m:g}] m")
+    fn1 = adaptive[0].F_N
+    if not (t.F_min_N <= fn1 <= t.F_max_N):
+        raise ConfigError(f"plant.screws[{adaptive[0].name}].F_N = {fn1:g} N lies outside "
+                          f"[tracking.F_min_N, tracking.F_max_N] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
+    if cfg.plant.element_length_m > i.pitch_m + 1e-12:
+        raise ConfigError(f"plant.element_length_m = {p.element_length_m:g} m must not exceed "
+                          f"plant.interface.pitch_m = {i.pitch_m:g} m")
+
+
+# --- printing -------------------------------------------------------------------------------
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(v)
+
+
+def _comment(meta) -> str:
+    parts = []
+    if meta.get("unit") and meta["unit"] != "-":
+        parts.append(f"[{meta['unit']}]")
+    if meta.get("doc"):
+        parts.append(meta["doc"])
+    return f"  # {' '.join(parts)}" if parts else ""
+
+
+def _emit(obj, path: str, lines: list[str], header: str | None) -> None:
+    scalars = [f for f in dataclasses.fields(obj)
+               if not dataclasses.is_dataclass(getattr(obj, f.name)) and not isinstance(getattr(obj, f.name), tuple)]
+    if header:
+        lines.append("")
+        lines.append(header)
+    for f in scalars:
+        lines.append(f"{f.name} = {_toml_value(getattr(obj, f.name))}{_comment(f.metadata)}")
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        key = _join(path, f.name)
+        if dataclasses.is_dataclass(v):
+            _emit(v, key, lines, f"[{key}]")
+        elif isinstance(v, tuple):
+            for item in v:
+                _emit(item, key, lines, f"[[{key}]]")
+
+
+def dumps(cfg: Config) -> str:
+    """The resolved configuration as TOML with units in comments (loadable by ``load``)."""
+    lines: list[str] = ["# frictionrt resolved configuration (SI units)"]
+    _emit(cfg, "", lines, None)
+    return "\n".join(lines) + "\n"
