@@ -16,7 +16,7 @@ import scipy.linalg as sla
 
 from plant.contact import _jenkins_pair
 from plant.craig_bampton import craig_bampton
-from plant.newmark import N_ENERGY, N_TAIL, PlantParams, PlantWork, _plant_step
+from plant.newmark import N_ENERGY, PlantParams, PlantWork, _plant_step
 from plant.structure import Structure, build_structure
 from rt.config import Config
 
@@ -44,15 +44,15 @@ class PlantModel:
 
     @property
     def state_size(self) -> int:
-        return 3 * self.n + 3 * self.n_pairs + N_TAIL
+        return 2 * self.n + 3 * self.n_pairs + N_ENERGY
 
     def state_slots(self) -> dict[str, slice]:
         """Named slots of the state vector (the one table the kernel's offsets follow)."""
         n, p = self.n, self.n_pairs
-        o = 3 * n + 3 * p
-        names = ["E_fric", "E_damp", "W_exc", "W_screw", "F_exc_prev", "F_N1_prev"]
-        slots = {"q": slice(0, n), "qd": slice(n, 2 * n), "qdd": slice(2 * n, 3 * n),
-                 "w": slice(3 * n, 3 * n + p), "g": slice(3 * n + p, 3 * n + 3 * p)}
+        o = 2 * n + 3 * p
+        names = ["E_fric", "E_damp", "W_exc", "W_screw"]
+        slots = {"q": slice(0, n), "qd": slice(n, 2 * n),
+                 "w": slice(2 * n, 2 * n + p), "g": slice(2 * n + p, 2 * n + 3 * p)}
         slots.update({nm: slice(o + i, o + i + 1) for i, nm in enumerate(names)})
         return slots
 
@@ -73,9 +73,11 @@ class PlantModel:
     def new_work(self) -> PlantWork:
         n, m = self.n, 2 * self.n_pairs
         p = m // 2
-        return PlantWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(p), np.zeros(3 * p),
-                         np.zeros(m), np.zeros((m, m)), np.zeros(m, dtype=np.int64),
-                         np.full(p, -1, dtype=np.int64), np.zeros(p, dtype=np.int64))
+        i64 = np.int64
+        return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
+                         lam1=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
+                         code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
+                         LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), pattern=np.full(p, -1, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""
@@ -86,7 +88,6 @@ class PlantModel:
         x[sl["q"]] = q
         x[sl["w"]] = w
         x[sl["g"]] = g
-        x[sl["F_N1_prev"]] = F
         return x
 
     def step(self, k: int, x: np.ndarray, u: np.ndarray, x_next: np.ndarray, y: np.ndarray,
@@ -127,12 +128,14 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     zeta = np.where(omega > 0.0, cfg.plant.modal_damping, 0.0)
     c = 2.0 * zeta * omega
     h = cfg.dt_s / cfg.plant.substeps
-    s = 1.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2)
+    s2 = 2.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2)
     G = np.ascontiguousarray(st.gap_rows @ Phi)
+    out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
-        c=c, s=s, G=G, GT=np.ascontiguousarray(G.T), W=np.ascontiguousarray((G * s) @ G.T),
+        omega2=omega**2, c=c, s2=s2, G=G, GT=np.ascontiguousarray(G.T),
+        W=np.ascontiguousarray((G * s2) @ G.T),
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
-        out_rows=np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi),
+        out_rows=out_rows, out_G=np.ascontiguousarray(out_rows @ G.T),
         k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(), h=float(h),
         substeps=int(cfg.plant.substeps), tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter))

@@ -1,23 +1,35 @@
-"""The plant step: Newmark (average acceleration) on decoupled substructure modes with Newton
+"""The plant step: Newmark average acceleration on decoupled substructure modes with Newton
 iterations on the contact gaps (SPEC section 2, "Time integration"). RT-safe, allocation-free.
 
 Condensation. Each substructure's (Craig-Bampton reduced or full) linear part is diagonalised
 once at design time: M = I, D = diag(c), K = diag(omega^2) in modal coordinates q, with
-c = 2 zeta omega. Newmark with beta = 1/4, gamma = 1/2 and step h then reads, per mode,
+c = 2 zeta omega. Average-acceleration Newmark (beta = 1/4, gamma = 1/2) is the trapezoidal
+rule; in its mean form over a step of length h, with dq = q1 - q0,
 
-    q_{n+1} = s (f_{n+1} + a0 q + a1 qd + qdd + c (a2 q + qd)) + s (G^T lambda)
-            =            q_pred                             + s G^T lambda,
-    s = 1 / (omega^2 + a2 c + a0),  a0 = 4/h^2, a1 = 4/h, a2 = 2/h,
+    (qd1 - qd0)/h + c (qd0 + qd1)/2 + omega^2 (q0 + q1)/2 = f_mean + (G^T Lambda)_i,
+    qd1 + qd0 = 2 dq / h,
 
-and the contact gaps g = G q obey the small system of the contact pairs only
+so per mode  q1 = q0 + s2 (f_mean + (2/h) qd0 - omega^2 q0)  +  s2 (G^T Lambda)
+                 = q_pred                                      +  s2 G^T Lambda,
+         s2 = 2 / (omega^2 + (2/h) c + 4/h^2),
 
-    g = g_pred + W lambda(g, w_n),      W = G diag(s) G^T   (2p x 2p, constant),
+and the contact gaps g1 = G q1 obey the small system of the contact pairs only
 
-which Newton solves (Jacobian I - W dlambda/dg, dense LU with partial pivoting).
+    g1 = g_pred + W Lambda(g0, g1, w0),        W = G diag(s2) G^T   (2p x 2p, constant),
 
-State vector x (see ``plant.model.state_slots``): q, qd, qdd (n each), slider w (p),
-gaps g (2p), then E_fric, E_damp, W_exc, W_screw [J] and the inputs of the last step
-F_exc_prev, F_N1_prev [N] (for the trapezoidal work).
+solved by Newton (Jacobian I - W dLambda/dg1, LU cached per contact pattern).
+
+Lambda is the mean contact force over the step: for the normal spring its discrete gradient
+(``plant.contact._normal_impulse``), for the Jenkins element the mean of its end-point forces
+(the trapezoid). Both are what average acceleration gives while no pair changes state; across
+an impact the discrete gradient keeps the contact's work equal to its energy change, so the
+energy balance holds to round-off (no energy pumped by chatter).
+
+Inputs are held over the step (zero-order hold), so f_mean is the held value and the input
+work over a step is F * (b . dq).
+
+State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), slider w (p),
+gaps g (2p), then E_fric, E_damp, W_exc, W_screw [J].
 """
 from __future__ import annotations
 
@@ -26,46 +38,54 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import _jenkins_pair
+from plant.contact import _jenkins_pair, _normal_impulse
 
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
-N_ENERGY = 4        # E_fric, E_damp, W_exc, W_screw
-N_TAIL = N_ENERGY + 2  # + F_exc_prev, F_N1_prev
+PLAIN_ITER = 4  # Newton iterations before steps are shortened by backtracking
+N_ENERGY = 4    # E_fric, E_damp, W_exc, W_screw
+TRANSITION = -2  # contact code of a pair that opens or closes within the step
 
 
 class PlantParams(NamedTuple):
     """Constant arrays of the plant step (built by ``plant.model.build_plant``)."""
+    omega2: np.ndarray     # (n,) omega^2 [1/s^2]
     c: np.ndarray          # (n,) 2 zeta omega [1/s]
-    s: np.ndarray          # (n,) Newmark modal compliance [s^2]
+    s2: np.ndarray         # (n,) 2 / (omega^2 + 2c/h + 4/h^2) [s^2]
     G: np.ndarray          # (2p, n) modal -> gaps (g_n, g_t interleaved) [m]
     GT: np.ndarray         # (n, 2p) its transpose, contiguous
-    W: np.ndarray          # (2p, 2p) Delassus matrix G diag(s) G^T [m/N]
+    W: np.ndarray          # (2p, 2p) Delassus matrix G diag(s2) G^T [m/N]
     b_exc: np.ndarray      # (n,) modal load of a unit excitation force
     b_N1: np.ndarray       # (n,) modal load of a unit adaptive screw force
     f_const: np.ndarray    # (n,) modal load of the constant screws [N]
     out_rows: np.ndarray   # (n_pts + 1, n) w at points, then u_rel
+    out_G: np.ndarray      # (n_pts + 1, 2p) out_rows G^T: contact force -> output acceleration
     k_n: np.ndarray        # (p,) [N/m]
     k_t: np.ndarray        # (p,) [N/m]
     mu: np.ndarray         # (p,) [-]
     h: float               # substep [s]
     substeps: int
-    tol: float             # Newton tolerance on gaps [m]
+    tol: float             # Newton tolerance on |r|_2 [m]
     max_iter: int
 
 
 class PlantWork(NamedTuple):
-    """Scratch buffers of the plant step (preallocated once)."""
+    """Scratch buffers of the plant step (preallocated once by ``PlantModel.new_work``)."""
     q_pred: np.ndarray     # (n,)
+    qdd_lin: np.ndarray    # (n,) modal acceleration at the end point without the contact forces
     g_pred: np.ndarray     # (2p,)
-    lam: np.ndarray        # (2p,)
+    g0: np.ndarray         # (2p,) gaps at the start of the step
+    lam: np.ndarray        # (2p,) mean contact force Lambda over the step
+    lam1: np.ndarray       # (2p,) end-point contact force lambda(g1)
     w_new: np.ndarray      # (p,)
-    d: np.ndarray          # (3p,) dlambda_n/dg_n, dlambda_t/dg_n, dlambda_t/dg_t
+    d: np.ndarray          # (3p,) dLambda_n/dg_n1, dLambda_t/dg_n1, dLambda_t/dg_t1
+    code: np.ndarray       # (p,) int64 contact state per pair of the current iterate
     r: np.ndarray          # (2p,)
+    dg: np.ndarray         # (2p,) Newton step
+    g_old: np.ndarray      # (2p,) iterate before the step
     LU: np.ndarray         # (2p, 2p) LU factors of the Newton Jacobian for `pattern`
     piv: np.ndarray        # (2p,) int64 row pivots of LU
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
-    code: np.ndarray       # (p,) int64 contact state per pair of the current iterate
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -117,43 +137,66 @@ def _lu_solve(LU, piv, b):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _contact_newton(g, g_pred, w_old, p, wk):
-    """Solve g = g_pred + W lambda(g, w_old) by Newton, starting from g (updated in place).
+def _contact_residual(g, g_pred, w_old, p, wk):
+    """Evaluate the mean contact force Lambda(g0 = wk.g0, g1 = g) and r = -(g - g_pred - W Lambda).
 
-    The Jacobian I - W dlambda/dg depends only on each pair's state (open, stick, slip+,
-    slip-), so its LU factors are kept with that pattern and reused while it holds: for the
-    piecewise-linear contact law one solve then lands on the solution. On return wk.lam holds
-    lambda and wk.w_new the slider positions. Returns the iterations used, or -1 if the
-    tolerance was not reached within p.max_iter. RT-safe.
+    Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and wk.r; returns
+    |r|_2^2. RT-safe.
+    """
+    m = g.shape[0]
+    for j in range(m // 2):
+        ln, dln, moved = _normal_impulse(wk.g0[2 * j], g[2 * j], p.k_n[j])
+        fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j],
+                                                  p.k_n[j], p.k_t[j], p.mu[j])
+        lt0 = -p.k_t[j] * (wk.g0[2 * j + 1] - w_old[j])
+        wk.lam[2 * j] = ln
+        wk.lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+        wk.lam1[2 * j] = fn1
+        wk.lam1[2 * j + 1] = lt1
+        wk.w_new[j] = wn
+        wk.d[3 * j] = dln
+        wk.d[3 * j + 1] = 0.5 * dtn
+        wk.d[3 * j + 2] = 0.5 * dtt
+        if moved:
+            wk.code[j] = TRANSITION
+        elif fn1 == 0.0:
+            wk.code[j] = 0
+        else:
+            wk.code[j] = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
+    res2 = 0.0
+    for i in range(m):
+        acc = 0.0
+        for k in range(m):
+            acc += p.W[i, k] * wk.lam[k]
+        ri = g[i] - g_pred[i] - acc
+        wk.r[i] = -ri
+        res2 += ri * ri
+    return res2
+
+
+@numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _contact_newton(g, g_pred, w_old, p, wk):
+    """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place).
+
+    The Jacobian I - W dLambda/dg depends only on each pair's state (open, stick, slip+,
+    slip-) unless the pair opens or closes within the step, so its LU factors are kept with
+    that pattern and reused while it holds: for the piecewise-linear law one solve then lands
+    on the solution. If plain Newton has not converged after PLAIN_ITER iterations (the
+    active set cycles), steps are shortened by backtracking on |r|^2. Returns the iterations
+    used, or -1 if |r|_2 did not fall below p.tol within p.max_iter. RT-safe.
     """
     m = g.shape[0]
     npair = m // 2
+    tol2 = p.tol * p.tol
+    res2 = _contact_residual(g, g_pred, w_old, p, wk)
     for it in range(p.max_iter):
+        if res2 <= tol2:
+            return it
         same = True
         for j in range(npair):
-            ln, lt, wn, dnn, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j],
-                                                      p.k_n[j], p.k_t[j], p.mu[j])
-            wk.lam[2 * j] = ln
-            wk.lam[2 * j + 1] = lt
-            wk.w_new[j] = wn
-            wk.d[3 * j] = dnn
-            wk.d[3 * j + 1] = dtn
-            wk.d[3 * j + 2] = dtt
-            c = 0 if dnn == 0.0 else (1 if dtn == 0.0 else (2 if dtn > 0.0 else 3))
-            wk.code[j] = c
-            same = same and c == wk.pattern[j]
-        res = 0.0
-        for i in range(m):
-            acc = 0.0
-            for k in range(m):
-                acc += p.W[i, k] * wk.lam[k]
-            ri = g[i] - g_pred[i] - acc
-            wk.r[i] = -ri
-            res = max(res, abs(ri))
-        if res <= p.tol:
-            return it
+            same = same and wk.code[j] == wk.pattern[j] and wk.code[j] != TRANSITION
         if not same:
-            # --- J = I - W dlambda/dg, dlambda/dg block diagonal [[dnn, 0], [dtn, dtt]] per pair
+            # --- J = I - W dLambda/dg, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]] per pair
             for i in range(m):
                 for j in range(npair):
                     wk.LU[i, 2 * j] = -(p.W[i, 2 * j] * wk.d[3 * j] + p.W[i, 2 * j + 1] * wk.d[3 * j + 1])
@@ -164,21 +207,32 @@ def _contact_newton(g, g_pred, w_old, p, wk):
                 wk.pattern[j] = wk.code[j]
         _lu_solve(wk.LU, wk.piv, wk.r)
         for i in range(m):
-            g[i] += wk.r[i]
-    return -1
+            wk.dg[i] = wk.r[i]
+            wk.g_old[i] = g[i]
+            g[i] += wk.dg[i]
+        new2 = _contact_residual(g, g_pred, w_old, p, wk)
+        if it >= PLAIN_ITER:
+            alpha = 1.0
+            while new2 >= res2 and alpha > 1e-6:
+                alpha *= 0.5
+                for i in range(m):
+                    g[i] = wk.g_old[i] + alpha * wk.dg[i]
+                new2 = _contact_residual(g, g_pred, w_old, p, wk)
+        res2 = new2
+    return -1 if res2 > tol2 else p.max_iter
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _plant_step(k, x, u, p, x_next, y, wk):
-    """Advance the plant over one controller step (p.substeps Newmark substeps, inputs held).
+    """Advance the plant over one controller step (p.substeps substeps, inputs held).
 
     Parameters
     ----------
     k : int64 tick (the plant is time-invariant; kept for the uniform step signature)
     x : state at t_k (read only);  x_next : state at t_{k+1} (written)
-    u : (2,) inputs held over the step: u[0] excitation force F_exc [N], u[1] F_N1 [N]
+    u : (2,) inputs held over [t_k, t_{k+1}): u[0] excitation force F_exc [N], u[1] F_N1 [N]
     p : PlantParams;  wk : PlantWork
-    y : outputs at t_{k+1}, layout of ``plant.model.output_labels``: w, w', w'' at points
+    y : outputs at t_{k+1}, layout of ``PlantModel.output_labels``: w, w', w'' at points
         [m, m/s, m/s^2]; u_rel [m], v_rel [m/s]; g_n, g_t [m], f_n, f_t [N] per pair;
         E_fric, E_damp, W_exc, W_screw [J]; Newton iterations (sum; -1 if any failed).
 
@@ -189,67 +243,58 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     m = p.G.shape[0]
     npair = m // 2
     h = p.h
-    a0 = 4.0 / (h * h)
-    a1 = 4.0 / h
     a2 = 2.0 / h
     for i in range(x.shape[0]):
         x_next[i] = x[i]
     q = x_next[0:n]
     qd = x_next[n:2 * n]
-    qdd = x_next[2 * n:3 * n]
-    w = x_next[3 * n:3 * n + npair]
-    g = x_next[3 * n + npair:3 * n + npair + m]
-    e = 3 * n + npair + m
+    w = x_next[2 * n:2 * n + npair]
+    g = x_next[2 * n + npair:2 * n + npair + m]
+    e = 2 * n + npair + m
     F_exc, F_N1 = u[0], u[1]
     iters = 0
     for _ in range(p.substeps):
         # --- predictor: linear part with the contact forces off
         for i in range(n):
             f = p.b_exc[i] * F_exc + p.b_N1[i] * F_N1 + p.f_const[i]
-            wk.q_pred[i] = p.s[i] * (f + a0 * q[i] + a1 * qd[i] + qdd[i] + p.c[i] * (a2 * q[i] + qd[i]))
+            wk.q_pred[i] = q[i] + p.s2[i] * (f + a2 * qd[i] - p.omega2[i] * q[i])
         for r in range(m):
             acc = 0.0
             for i in range(n):
                 acc += p.G[r, i] * wk.q_pred[i]
             wk.g_pred[r] = acc
-        # --- contact: g = g_pred + W lambda(g)
+            wk.g0[r] = g[r]
+        # --- contact: g1 = g_pred + W Lambda(g0, g1)
         it = _contact_newton(g, wk.g_pred, w, p, wk)
-        if it < 0 or iters < 0:
-            iters = -1
-        else:
-            iters += it
+        iters = -1 if (it < 0 or iters < 0) else iters + it
         # --- corrector and energy bookkeeping
         dW_exc = 0.0
-        dW_N1 = 0.0
-        dW_const = 0.0
+        dW_screw = 0.0
         dE_damp = 0.0
         for i in range(n):
             acc = 0.0
             for r in range(m):
                 acc += p.GT[i, r] * wk.lam[r]
-            q_new = wk.q_pred[i] + p.s[i] * acc
-            dq = q_new - q[i]
-            qdd_new = a0 * dq - a1 * qd[i] - qdd[i]
-            qd_new = qd[i] + 0.5 * h * (qdd[i] + qdd_new)
+            dq = wk.q_pred[i] - q[i] + p.s2[i] * acc
+            qd_new = a2 * dq - qd[i]
             v_mid = 0.5 * (qd[i] + qd_new)
             dE_damp += h * p.c[i] * v_mid * v_mid
             dW_exc += p.b_exc[i] * dq
-            dW_N1 += p.b_N1[i] * dq
-            dW_const += p.f_const[i] * dq
-            q[i] = q_new
+            f_screw = p.b_N1[i] * F_N1 + p.f_const[i]
+            dW_screw += f_screw * dq
+            q[i] += dq
             qd[i] = qd_new
-            qdd[i] = qdd_new
+            wk.qdd_lin[i] = p.b_exc[i] * F_exc + f_screw - p.c[i] * qd_new - p.omega2[i] * q[i]
         dE_fric = 0.0
         for j in range(npair):
-            dE_fric += abs(wk.lam[2 * j + 1] * (wk.w_new[j] - w[j]))
+            f_t0 = p.k_t[j] * (wk.g0[2 * j + 1] - w[j])
+            dE_fric += 0.5 * (f_t0 - wk.lam1[2 * j + 1]) * (wk.w_new[j] - w[j])
             w[j] = wk.w_new[j]
         x_next[e] += dE_fric
         x_next[e + 1] += dE_damp
-        x_next[e + 2] += 0.5 * (x_next[e + 4] + F_exc) * dW_exc
-        x_next[e + 3] += 0.5 * (x_next[e + 5] + F_N1) * dW_N1 + dW_const
-        x_next[e + 4] = F_exc
-        x_next[e + 5] = F_N1
-    # --- outputs
+        x_next[e + 2] += F_exc * dW_exc
+        x_next[e + 3] += dW_screw
+    # --- outputs at t_{k+1}; accelerations from the equation of motion at the end point
     n_rows = p.out_rows.shape[0]
     n_pts = n_rows - 1
     for r in range(n_rows):
@@ -259,7 +304,9 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         for i in range(n):
             a_x += p.out_rows[r, i] * q[i]
             a_v += p.out_rows[r, i] * qd[i]
-            a_a += p.out_rows[r, i] * qdd[i]
+            a_a += p.out_rows[r, i] * wk.qdd_lin[i]
+        for j in range(m):
+            a_a += p.out_G[r, j] * wk.lam1[j]
         if r < n_pts:
             y[r] = a_x
             y[n_pts + r] = a_v
@@ -271,8 +318,8 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     for j in range(npair):
         y[o + j] = g[2 * j]
         y[o + npair + j] = g[2 * j + 1]
-        y[o + 2 * npair + j] = wk.lam[2 * j]
-        y[o + 3 * npair + j] = -wk.lam[2 * j + 1]
+        y[o + 2 * npair + j] = wk.lam1[2 * j]
+        y[o + 3 * npair + j] = -wk.lam1[2 * j + 1]
     o += 4 * npair
     for i in range(N_ENERGY):
         y[o + i] = x_next[e + i]
