@@ -77,7 +77,8 @@ class PlantModel:
         return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
                          lam1=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
-                         LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), pattern=np.full(p, -1, dtype=i64))
+                         LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
+                         ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""

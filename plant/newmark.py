@@ -83,15 +83,17 @@ class PlantWork(NamedTuple):
     r: np.ndarray          # (2p,)
     dg: np.ndarray         # (2p,) Newton step
     g_old: np.ndarray      # (2p,) iterate before the step
-    LU: np.ndarray         # (2p, 2p) LU factors of the Newton Jacobian for `pattern`
+    LU: np.ndarray         # (2p, 2p) LU factors of the active block of the Jacobian for `pattern`
     piv: np.ndarray        # (2p,) int64 row pivots of LU
+    act: np.ndarray        # (p,) int64 active pairs of the current iterate (first n_act entries)
+    ra: np.ndarray         # (2p,) right-hand side / solution of the active block
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _lu_factor(A, piv):
-    """LU factorisation with partial pivoting in place (L unit lower, U upper). RT-safe."""
-    n = A.shape[0]
+def _lu_factor(A, piv, n):
+    """LU factorisation with partial pivoting of the leading n x n block of A, in place
+    (L unit lower, U upper). RT-safe."""
     for k in range(n):
         p = k
         amax = abs(A[k, k])
@@ -115,9 +117,9 @@ def _lu_factor(A, piv):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _lu_solve(LU, piv, b):
-    """Solve with the factors of ``_lu_factor``; b is overwritten by the solution. RT-safe."""
-    n = LU.shape[0]
+def _lu_solve(LU, piv, b, n):
+    """Solve with the factors of ``_lu_factor`` (leading n x n block); b[:n] is overwritten by
+    the solution. RT-safe."""
     for k in range(n):
         p = piv[k]
         if p != k:
@@ -140,10 +142,12 @@ def _lu_solve(LU, piv, b):
 def _contact_residual(g, g_pred, w_old, p, wk):
     """Evaluate the mean contact force Lambda(g0 = wk.g0, g1 = g) and r = -(g - g_pred - W Lambda).
 
-    Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and wk.r; returns
-    |r|_2^2. RT-safe.
+    Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code, the active pairs
+    wk.act[:n_act] (closed at the end of the step, or opening/closing within it; all others
+    have Lambda = 0) and wk.r. Returns (|r|_2^2, n_act). RT-safe.
     """
     m = g.shape[0]
+    n_act = 0
     for j in range(m // 2):
         ln, dln, moved = _normal_impulse(wk.g0[2 * j], g[2 * j], p.k_n[j])
         fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j],
@@ -163,61 +167,90 @@ def _contact_residual(g, g_pred, w_old, p, wk):
             wk.code[j] = 0
         else:
             wk.code[j] = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
+        if wk.code[j] != 0:
+            wk.act[n_act] = j
+            n_act += 1
     res2 = 0.0
     for i in range(m):
         acc = 0.0
-        for k in range(m):
-            acc += p.W[i, k] * wk.lam[k]
+        for a in range(n_act):
+            j = wk.act[a]
+            acc += p.W[i, 2 * j] * wk.lam[2 * j] + p.W[i, 2 * j + 1] * wk.lam[2 * j + 1]
         ri = g[i] - g_pred[i] - acc
         wk.r[i] = -ri
         res2 += ri * ri
-    return res2
+    return res2, n_act
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _contact_newton(g, g_pred, w_old, p, wk):
     """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place).
 
-    The Jacobian I - W dLambda/dg depends only on each pair's state (open, stick, slip+,
-    slip-) unless the pair opens or closes within the step, so its LU factors are kept with
-    that pattern and reused while it holds: for the piecewise-linear law one solve then lands
-    on the solution. If plain Newton has not converged after PLAIN_ITER iterations (the
-    active set cycles), steps are shortened by backtracking on |r|^2. Returns the iterations
-    used, or -1 if |r|_2 did not fall below p.tol within p.max_iter. RT-safe.
+    Partitioned solve. Pairs open at both ends of the step have Lambda = 0 and zero Jacobian
+    columns, so with the active pairs (a) first the Jacobian J = I - W dLambda/dg is
+
+        [ J_aa  0 ] [d_a]   [r_a]      J_aa d_a = r_a                 (LU, 2 n_act square)
+        [ J_ia  I ] [d_i] = [r_i]      d_i = r_i - J_ia d_a           (substitution)
+
+    J_aa depends only on the pairs' states (open, stick, slip+, slip-) unless a pair opens or
+    closes within the step, so its LU factors are kept with that pattern and reused while it
+    holds; for the piecewise-linear law one solve then lands on the solution. If plain Newton
+    has not converged after PLAIN_ITER iterations (the active set cycles), steps are shortened
+    by backtracking on |r|^2. Returns the iterations used, or -1 if |r|_2 did not fall below
+    p.tol within p.max_iter. RT-safe.
     """
     m = g.shape[0]
     npair = m // 2
     tol2 = p.tol * p.tol
-    res2 = _contact_residual(g, g_pred, w_old, p, wk)
+    res2, n_act = _contact_residual(g, g_pred, w_old, p, wk)
     for it in range(p.max_iter):
         if res2 <= tol2:
             return it
         same = True
         for j in range(npair):
             same = same and wk.code[j] == wk.pattern[j] and wk.code[j] != TRANSITION
+        ma = 2 * n_act
         if not same:
-            # --- J = I - W dLambda/dg, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]] per pair
-            for i in range(m):
-                for j in range(npair):
-                    wk.LU[i, 2 * j] = -(p.W[i, 2 * j] * wk.d[3 * j] + p.W[i, 2 * j + 1] * wk.d[3 * j + 1])
-                    wk.LU[i, 2 * j + 1] = -p.W[i, 2 * j + 1] * wk.d[3 * j + 2]
-                wk.LU[i, i] += 1.0
-            _lu_factor(wk.LU, wk.piv)
+            # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
+            for ra in range(ma):
+                i = 2 * wk.act[ra // 2] + ra % 2
+                for b in range(n_act):
+                    j = wk.act[b]
+                    wk.LU[ra, 2 * b] = -(p.W[i, 2 * j] * wk.d[3 * j] + p.W[i, 2 * j + 1] * wk.d[3 * j + 1])
+                    wk.LU[ra, 2 * b + 1] = -p.W[i, 2 * j + 1] * wk.d[3 * j + 2]
+                wk.LU[ra, ra] += 1.0
+            _lu_factor(wk.LU, wk.piv, ma)
             for j in range(npair):
                 wk.pattern[j] = wk.code[j]
-        _lu_solve(wk.LU, wk.piv, wk.r)
+        for ra in range(ma):
+            wk.ra[ra] = wk.r[2 * wk.act[ra // 2] + ra % 2]
+        _lu_solve(wk.LU, wk.piv, wk.ra, ma)
         for i in range(m):
-            wk.dg[i] = wk.r[i]
             wk.g_old[i] = g[i]
+            wk.dg[i] = wk.r[i]
+        # d_i = r_i + (W dLambda/dg)_ia d_a (active rows are overwritten below)
+        for b in range(n_act):
+            j = wk.act[b]
+            dn = wk.ra[2 * b]
+            dt = wk.ra[2 * b + 1]
+            cn = wk.d[3 * j] * dn
+            cnt = wk.d[3 * j + 1] * dn + wk.d[3 * j + 2] * dt
+            for i in range(m):
+                wk.dg[i] += p.W[i, 2 * j] * cn + p.W[i, 2 * j + 1] * cnt
+        for b in range(n_act):
+            j = wk.act[b]
+            wk.dg[2 * j] = wk.ra[2 * b]
+            wk.dg[2 * j + 1] = wk.ra[2 * b + 1]
+        for i in range(m):
             g[i] += wk.dg[i]
-        new2 = _contact_residual(g, g_pred, w_old, p, wk)
+        new2, n_act = _contact_residual(g, g_pred, w_old, p, wk)
         if it >= PLAIN_ITER:
             alpha = 1.0
             while new2 >= res2 and alpha > 1e-6:
                 alpha *= 0.5
                 for i in range(m):
                     g[i] = wk.g_old[i] + alpha * wk.dg[i]
-                new2 = _contact_residual(g, g_pred, w_old, p, wk)
+                new2, n_act = _contact_residual(g, g_pred, w_old, p, wk)
         res2 = new2
     return -1 if res2 > tol2 else p.max_iter
 
@@ -271,10 +304,16 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         dW_exc = 0.0
         dW_screw = 0.0
         dE_damp = 0.0
+        n_act = 0
+        for j in range(npair):
+            if wk.code[j] != 0:
+                wk.act[n_act] = j
+                n_act += 1
         for i in range(n):
             acc = 0.0
-            for r in range(m):
-                acc += p.GT[i, r] * wk.lam[r]
+            for b in range(n_act):
+                j = wk.act[b]
+                acc += p.GT[i, 2 * j] * wk.lam[2 * j] + p.GT[i, 2 * j + 1] * wk.lam[2 * j + 1]
             dq = wk.q_pred[i] - q[i] + p.s2[i] * acc
             qd_new = a2 * dq - qd[i]
             v_mid = 0.5 * (qd[i] + qd_new)

@@ -1,0 +1,156 @@
+"""``frictionrt``: the command-line entry point (one console script, subcommands).
+
+Every subcommand takes ``--config FILE`` and ``--set KEY=VALUE`` (repeatable); quantities
+are SI (m, s, N, Hz, Pa, kg) everywhere. Bad input ends with exit code 2 and one message
+naming the input and the problem.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from rt.config import ConfigError, dumps, load, to_dict
+
+EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
+examples:
+  frictionrt config --show
+  frictionrt --set plant.interface.mu=0.3 modes --json
+  frictionrt impulse --fn1 100 --plot logs/impulse.png
+  frictionrt bench plant --json"""
+
+
+def _common() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--config", metavar="FILE", help="TOML file overriding the defaults (SPEC values)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="sets",
+                   help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
+                        "(list elements by name); repeatable")
+    return p
+
+
+def build_parser() -> argparse.ArgumentParser:
+    common = _common()
+    ap = argparse.ArgumentParser(
+        prog="frictionrt", parents=[common], epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Real-time emulation of semi-actively controlled friction dampers (Becker & Gaul).")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    c = sub.add_parser("config", parents=[common], help="print the resolved configuration",
+                       description="Print the resolved configuration (defaults <- --config <- --set) as TOML "
+                                   "with units, or as JSON. The TOML output is a valid --config file.")
+    c.add_argument("--show", action="store_true", help="print it (the default action)")
+    c.add_argument("--json", action="store_true", help="JSON instead of TOML")
+
+    m = sub.add_parser("modes", parents=[common], help="eigenfrequencies [Hz]: bare beam, full and reduced model",
+                       description="Eigenfrequencies [Hz] of the bare main beam, and of the assembly with the "
+                                   "contact linearised as stuck: full FE and Craig-Bampton model; DOF counts; "
+                                   "the effective tangential stiffness k_T [N/m] at the adaptive screw.")
+    m.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+
+    i = sub.add_parser("impulse", parents=[common], help="simulated hammer test: accelerance FRF, modal damping",
+                       description="Hammer impulse (half-sine, impulse.peak_N [N], impulse.duration_s [s]) at "
+                                   "the excitation point with constant F_N1 [N]; accelerance FRF "
+                                   "[(m/s^2)/N] at the FRF point; natural frequencies [Hz] and damping "
+                                   "ratios [-] of bending modes 2-5.")
+    i.add_argument("--fn1", type=float, default=None, metavar="N",
+                   help="adaptive screw force F_N1 [N] (default: plant.screws.adaptive.F_N)")
+    i.add_argument("--plot", metavar="FILE", help="write the FRF plot (PNG) here")
+    i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+
+    b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
+                       description="Per-step wall time [us] of the compiled kernels: median, p99, p99.9, max.")
+    b.add_argument("target", choices=["plant"], help="plant: the Newmark/Newton step for 5, 9, 17, 33 pairs")
+    b.add_argument("--steps", type=int, default=21000, metavar="N", help="steps per case (default 21000 = 1 s)")
+    b.add_argument("--pairs", type=int, nargs="+", default=[5, 9, 17, 33], metavar="P",
+                   help="contact pair counts (default 5 9 17 33)")
+    b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+    return ap
+
+
+def _fail(msg: str) -> int:
+    print(f"frictionrt: error: {msg}", file=sys.stderr)
+    return 2
+
+
+def _cmd_config(cfg, args) -> int:
+    print(json.dumps(to_dict(cfg), indent=2) if args.json else dumps(cfg), end="" if not args.json else "\n")
+    return 0
+
+
+def _cmd_modes(cfg, args) -> int:
+    from plant.modes import modes_summary
+    s = modes_summary(cfg)
+    if args.json:
+        print(json.dumps(s))
+        return 0
+    print(f"bare cantilever (bending) [Hz]: {', '.join(f'{f:.2f}' for f in s['bare_cantilever_hz'])}")
+    print(f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15}")
+    for k, (a, r) in enumerate(zip(s["full_stuck_hz"], s["reduced_stuck_hz"])):
+        pre = s["preloaded_stuck_hz"][k] if k < len(s["preloaded_stuck_hz"]) else float("nan")
+        print(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f}")
+    print(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
+          f"closed by the screws {s['closed_pairs']}; k_T at the adaptive screw {s['k_T_adaptive_N_per_m']:.3g} N/m")
+    return 0
+
+
+def _cmd_impulse(cfg, args) -> int:
+    from plant.impulse import impulse_test, plot_frf
+    from plant.model import build_plant
+    fn1 = next(s.F_N for s in cfg.plant.screws if s.adaptive) if args.fn1 is None else args.fn1
+    t = cfg.tracking
+    if not (t.F_min_N <= fn1 <= t.F_max_N):
+        return _fail(f"--fn1 {fn1:g} N lies outside [F_min, F_max] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
+    if args.plot:
+        out = Path(args.plot)
+        if out.suffix.lower() != ".png":
+            return _fail(f"--plot {out}: the plot is written as PNG; give a file name ending in .png")
+        if not out.parent.exists():
+            return _fail(f"--plot {out}: folder {out.parent} does not exist")
+    res = impulse_test(build_plant(cfg), fn1)
+    if args.plot:
+        tmp = out.with_suffix(".tmp.png")
+        plot_frf(res, str(tmp), cfg.impulse.f_max_hz)
+        tmp.replace(out)  # never leave a half-written plot
+    if args.json:
+        print(json.dumps(res.to_json()))
+        return 0
+    print(f"impulse test, F_N1 = {fn1:g} N, hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms")
+    print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>9}")
+    for mode, f, z in zip(res.modes, res.freq_hz, res.damping_ratio):
+        print(f"{mode:>4} {f:>9.2f} {100 * z:>9.3f}")
+    if args.plot:
+        print(f"plot: {args.plot}")
+    return 0
+
+
+def _cmd_bench(cfg, args) -> int:
+    from rt.bench import bench_plant, format_table
+    if args.steps < 100:
+        return _fail(f"--steps {args.steps}: need at least 100 steps for percentiles")
+    if any(p < 2 for p in args.pairs):
+        return _fail(f"--pairs {args.pairs}: every pair count must be >= 2")
+    res = bench_plant(cfg, args.pairs, args.steps, progress=not args.json)
+    print(json.dumps(res) if args.json else format_table(res))
+    return 0
+
+
+COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "bench": _cmd_bench}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        cfg = load(args.config, args.sets)
+    except ConfigError as exc:
+        return _fail(str(exc))
+    try:
+        return COMMANDS[args.command](cfg, args)
+    except RuntimeError as exc:  # a run that failed numerically: say so, no traceback
+        print(f"frictionrt: {args.command} failed: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
