@@ -21,20 +21,24 @@ examples:
   frictionrt bench plant --json"""
 
 
-def _common() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--config", metavar="FILE", help="TOML file overriding the defaults (SPEC values)")
-    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="sets",
+def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
+    """--config and --set, accepted before or after the subcommand. The subcommands' copies
+    default to SUPPRESS so they never overwrite what was given before the subcommand."""
+    dflt = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
+    p.add_argument("--config", metavar="FILE", default=dflt(None),
+                   help="TOML file overriding the defaults (SPEC values)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
                    help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
                         "(list elements by name); repeatable")
-    return p
 
 
 def build_parser() -> argparse.ArgumentParser:
-    common = _common()
+    common = argparse.ArgumentParser(add_help=False)
+    _add_common(common, top=False)
     ap = argparse.ArgumentParser(
-        prog="frictionrt", parents=[common], epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        prog="frictionrt", epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Real-time emulation of semi-actively controlled friction dampers (Becker & Gaul).")
+    _add_common(ap, top=True)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     c = sub.add_parser("config", parents=[common], help="print the resolved configuration",

@@ -113,7 +113,7 @@ class Plant:
     frf_point: str = "frf"
     element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False, doc="largest FE element")
     modal_damping: float = param(0.001, "-", lo=0.0, hi=1.0, doc="zeta of the bare beams (A)")
-    cb_cutoff_hz: float = param(6000.0, "Hz", lo=0.0, lo_inclusive=False,
+    cb_cutoff_hz: float = param(15000.0, "Hz", lo=0.0, lo_inclusive=False,
                                 doc="Craig-Bampton fixed-interface modes kept up to this frequency")
     reduced: bool = param(True, doc="false: step the full FE model instead of Craig-Bampton")
     substeps: int = param(1, "-", lo=1, hi=64, doc="plant substeps per controller step")

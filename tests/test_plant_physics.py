@@ -1,0 +1,256 @@
+"""Physics checks of the plant (issue 2, checks 1-7): numbers against analytic solutions,
+an independent full model, exact linear theory and the energy balance."""
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from plant.contact import _jenkins_pair
+from plant.energy import balance
+from plant.impulse import MODES, accelerance_frf, fit_mode, hammer_force, impulse_test, identify
+from plant.model import build_plant, stuck_frequencies_hz
+from plant.modes import bare_beam_bending_hz
+from plant.simulate import run
+from rt.config import load
+
+# Euler-Bernoulli cantilever, L = 0.775 m, h = 8 mm, steel (issue 2, check 1)
+ANALYTIC_BARE_HZ = np.array([11.13, 69.74, 195.28, 382.67, 632.58, 944.97])
+
+
+def _series(model, Y, name):
+    return Y[:, model.output_index()[name]]
+
+
+def _pairs(model, Y, sym):
+    idx = model.output_index()
+    return Y[:, [idx[f"{sym}_{j}"] for j in range(model.n_pairs)]]
+
+
+# --- check 1 -------------------------------------------------------------------------------
+
+def test_bare_cantilever_matches_euler_bernoulli(full):
+    # the analytic values are given to 4-5 significant digits (rounding <= 0.05 %); the
+    # 10 mm cubic mesh converges far below that, so 0.1 % is the issue's tolerance with margin
+    f = bare_beam_bending_hz(full, "main")
+    assert f.shape == (6,)
+    np.testing.assert_allclose(f, ANALYTIC_BARE_HZ, rtol=1e-3)
+
+
+# --- check 2 -------------------------------------------------------------------------------
+
+def test_reduced_matches_full_stuck_frequencies_below_2khz(full, reduced):
+    f_full = stuck_frequencies_hz(full)
+    f_red = stuck_frequencies_hz(reduced)
+    n = int(np.sum(f_full < 2000.0))
+    assert n >= 8  # modes 1..8 of the assembly lie below 2 kHz
+    err = np.abs(f_red[:n] - f_full[:n]) / f_full[:n]
+    # Craig-Bampton only stiffens (Rayleigh-Ritz): reduced >= full, and SPEC asks 0.5 %
+    assert np.all(f_red[:n] >= f_full[:n] * (1 - 1e-9))
+    assert err.max() < 5e-3, f"largest error {100 * err.max():.3f} %"
+
+
+def test_reduced_transient_matches_full(cfg, full, reduced):
+    """Hammer 20 N at F_N1 = 100 N (pairs closed, the adaptive pair slips), 50 ms.
+
+    Compared: tip displacement, and tip acceleration in the band the models are built for
+    (zero-phase 4th-order low-pass at 1.5 kHz; SPEC validates the reduction below 2 kHz).
+    The raw acceleration differs by ~30 % whatever the cut-off: modes far above the 10.5 kHz
+    Nyquist frequency (up to MHz in the full model) are not damped by the trapezoidal rule
+    and ring near Nyquist after every zero-order-hold step; their sets differ between the two
+    models (docs/plant.md, "Unresolved modes").
+    """
+    import scipy.signal as ss
+    n = int(round(0.05 / cfg.dt_s))
+    F = hammer_force(n, cfg.dt_s, 20.0, 0.5e-3)
+    Y_f, _, _ = run(full, F, 100.0)
+    Y_r, _, _ = run(reduced, F, 100.0)
+    k_t = cfg.plant.interface.k_t
+    slider = _pairs(full, Y_f, "g_t")[:, 8] - _pairs(full, Y_f, "f_t")[:, 8] / k_t
+    assert np.ptp(slider) > 1e-7  # the contact is really active: the adaptive pair slips
+
+    def rel_rms(a, b):
+        return np.sqrt(np.mean((a - b) ** 2) / np.mean(a**2))
+
+    sos = ss.butter(4, 1500.0, fs=1 / cfg.dt_s, output="sos")
+    a_f = ss.sosfiltfilt(sos, _series(full, Y_f, "a_tip"))
+    a_r = ss.sosfiltfilt(sos, _series(reduced, Y_r, "a_tip"))
+    assert rel_rms(_series(full, Y_f, "w_tip"), _series(reduced, Y_r, "w_tip")) < 0.02
+    assert rel_rms(a_f, a_r) < 0.02, f"band-limited tip acceleration differs by {100 * rel_rms(a_f, a_r):.2f} %"
+
+
+# --- check 3 -------------------------------------------------------------------------------
+
+def _jenkins_cycle_energy(u0, F_N, k_t, mu, n=20000):
+    """Energy dissipated per cycle [J]: loop area of f_t over g_t = u0 sin, second cycle."""
+    k_n = 1e9
+    g_n = -F_N / k_n
+    w = 0.0
+    t = np.linspace(0.0, 2.0, 2 * n + 1)  # two periods; the first settles the slider
+    g_t = u0 * np.sin(2 * np.pi * t)
+    f = np.empty_like(t)
+    for i, gt in enumerate(g_t):
+        _, lt, w, _, _, _ = _jenkins_pair(g_n, gt, w, k_n, k_t, mu)
+        f[i] = -lt
+    sl = slice(n, 2 * n + 1)
+    return np.trapezoid(f[sl], g_t[sl])
+
+
+def test_jenkins_energy_per_cycle():
+    k_t, mu, u0 = 8e8, 0.4, 1e-6
+    for F_N in (100.0, 500.0, 900.0):
+        F_c = mu * F_N
+        expected = 4 * F_c * (u0 - F_c / k_t)
+        # trapezoid of a piecewise-linear loop sampled at 20000 points per cycle: error ~1e-4
+        assert _jenkins_cycle_energy(u0, F_N, k_t, mu) == pytest.approx(expected, rel=5e-3)
+
+
+def test_jenkins_energy_peaks_at_hysteresis_optimal_force():
+    k_t, mu, u0 = 8e8, 0.4, 1e-6
+    F_opt = k_t * u0 / (2 * mu)  # 1000 N
+    F_grid = np.linspace(0.5, 1.5, 41) * F_opt
+    W = np.array([_jenkins_cycle_energy(u0, F, k_t, mu, n=4000) for F in F_grid])
+    # grid spacing 2.5 % of F_opt: the discrete argmax lies within one spacing of F_opt
+    assert abs(F_grid[np.argmax(W)] - F_opt) <= 0.026 * F_opt
+    assert W.max() == pytest.approx(k_t * u0**2, rel=5e-3)
+
+
+# --- check 4 -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("peak, fn1", [(50.0, 100.0), (500.0, 40.0)])
+def test_energy_balance_on_transient(cfg, reduced, peak, fn1):
+    """W_exc + W_screw = dT + dV + E_fric + E_damp within 1 % of the input work.
+
+    W_exc and E_fric are recomputed here from the logged outputs (force times displacement of
+    the excitation point; mean tangential force times slider motion w = g_t - f_t / k_t), not
+    taken from the kernel's accumulators; T and V come from the state (plant.energy).
+    """
+    m = reduced
+    n = int(round(0.3 / cfg.dt_s))
+    F = hammer_force(n, cfg.dt_s, peak, 0.5e-3)
+    x0 = m.initial_state(fn1)
+    Y, x, _ = run(m, F, fn1, x0=x0)
+    w_exc = np.concatenate([[0.0], _series(m, Y, "w_exc")])
+    w_exc[0] = reduced.params.out_rows[0] @ x0[m.state_slots()["q"]]
+    W_exc = float(np.sum(F * np.diff(w_exc)))  # inputs are held over each step (ZOH)
+    g_t, f_t = _pairs(m, Y, "g_t"), _pairs(m, Y, "f_t")
+    k_t = cfg.plant.interface.k_t
+    w_sl = g_t - f_t / k_t
+    sl = m.state_slots()
+    g0 = x0[sl["g"]]
+    w0 = x0[sl["w"]]
+    f_t0 = k_t * (g0[1::2] - w0)
+    f_all = np.vstack([f_t0, f_t])
+    w_all = np.vstack([w0, w_sl])
+    E_fric = float(np.sum(0.5 * (f_all[1:] + f_all[:-1]) * np.diff(w_all, axis=0)))
+    b = balance(m, x0, x)
+    assert W_exc == pytest.approx(b["W_exc"], rel=1e-9)
+    assert E_fric == pytest.approx(b["E_fric"], rel=1e-6)
+    residual = W_exc + b["W_screw"] - b["dT"] - b["dV"] - E_fric - b["E_damp"]
+    assert E_fric > 0.1 * W_exc  # friction really dissipates in this transient
+    assert abs(residual) < 0.01 * W_exc, f"residual {residual:.3e} J of {W_exc:.3e} J input"
+
+
+# --- check 5 -------------------------------------------------------------------------------
+
+def test_step_size_convergence_second_order_on_stuck_case():
+    """dt, dt/2, dt/4 against dt/32 on a smooth case where no pair slips or opens: errors fall
+    by 4 per halving (average acceleration is second order)."""
+    errs = []
+    ref = None
+    for m_sub in (32, 1, 2, 4):
+        cfg = load(sets=[f"plant.substeps={m_sub}", "plant.interface.mu=2.0"])
+        model = build_plant(cfg)
+        n = int(round(0.02 / cfg.dt_s))
+        F = hammer_force(n, cfg.dt_s, 1.0, 4e-3)  # smooth 4 ms pulse, 1 N: stays stuck
+        Y, _, _ = run(model, F, 600.0)
+        w = _series(model, Y, "w_tip")
+        g_n = _pairs(model, Y, "g_n")
+        x0 = model.initial_state(600.0)
+        closed0 = x0[model.state_slots()["g"]][0::2] < 0
+        assert np.array_equal(g_n[-1] < 0, closed0)  # no pair opened or closed
+        if ref is None:
+            ref = w
+        else:
+            errs.append(np.sqrt(np.mean((w - ref) ** 2)))
+    order = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
+    assert np.all((order > 1.8) & (order < 2.2)), f"observed orders {order}"
+
+
+# --- check 6 -------------------------------------------------------------------------------
+
+def test_normal_contact_opens_and_closes_without_nan(cfg, reduced):
+    m = reduced
+    fn1, peak = cfg.tracking.F_min_N, 500.0
+    n = int(round(0.3 / cfg.dt_s))
+    Y, _, _ = run(m, hammer_force(n, cfg.dt_s, peak, 0.5e-3), fn1)
+    assert np.all(np.isfinite(Y))
+    g_n = _pairs(m, Y, "g_n")
+    f_n = _pairs(m, Y, "f_n")
+    closed = g_n < 0
+    changes = np.abs(np.diff(closed.astype(int), axis=0)).sum(axis=0)
+    far = [j for j in range(m.n_pairs) if min(abs(m.structure.x_pairs[j] - s.x_m) for s in cfg.plant.screws) > 0.03]
+    assert far and all(changes[j] >= 2 for j in far[:2]), f"open/close events per pair {changes}"
+    # penetration only as deep as the penalty law with the forces that act: f_n = k_n (-g_n),
+    # and the contact forces stay within a dynamic factor 3 of screw + hammer forces
+    k_n = cfg.plant.interface.k_n
+    np.testing.assert_allclose(f_n, np.maximum(0.0, -g_n) * k_n, rtol=1e-12, atol=1e-9)
+    bound = 3 * (cfg.plant.screws[0].F_N + fn1 + peak) / k_n
+    assert -g_n.min() < bound
+
+
+# --- check 7 -------------------------------------------------------------------------------
+
+def test_passive_damper_identified_modes(reduced, capsys):
+    res = impulse_test(reduced, 100.0)
+    f, z = res.freq_hz, res.damping_ratio
+    with capsys.disabled():
+        print(f"\n[check 7] F_N1 = 100 N, hammer {reduced.cfg.impulse.peak_N} N: modes {MODES} "
+              f"f = {np.round(f, 2)} Hz, zeta = {np.round(100 * z, 3)} %")
+    assert np.all(np.isfinite(f)) and np.all(np.isfinite(z))
+    assert 215.0 <= f[1] <= 235.0  # mode 3: the paper's friction-affected peak near 230 Hz
+    bare = reduced.cfg.plant.modal_damping
+    assert z[1] > 3 * bare and z[2] > 3 * bare  # modes 3 and 4 clearly above the bare 0.1 %
+    assert np.argmin(z) == 0  # mode 2 the least damped of modes 2-5
+
+
+def test_identification_matches_linear_theory(cfg, reduced):
+    """On a linear response (10 N hammer: nothing slips) the identified frequencies and
+    damping ratios equal the eigenvalues of the linearised damped system, mapped exactly
+    through the integrator; sdypy-EMA's LSCF, an independent identification, agrees too."""
+    m = reduced
+    x0 = m.initial_state(100.0)
+    closed = x0[m.state_slots()["g"]][0::2] < 0
+    p = m.params
+    k_all = np.zeros(p.G.shape[0])
+    k_all[0::2], k_all[1::2] = p.k_n * closed, p.k_t * closed
+    K = np.diag(m.omega**2) + (p.G.T * k_all) @ p.G
+    A = np.block([[np.zeros((m.n, m.n)), np.eye(m.n)], [-K, -np.diag(p.c)]])
+    lam = sla.eigvals(A)
+    lam = lam[lam.imag > 1.0]
+    lam = lam[np.argsort(np.abs(lam))]
+    # the trapezoidal rule maps each pole exactly by z = (1 + lam h/2) / (1 - lam h/2); what an
+    # FRF of the sampled response shows is s = ln(z) / h (period elongation (omega h)^2 / 12)
+    h = cfg.dt_s
+    s_d = np.log((1 + lam * h / 2) / (1 - lam * h / 2)) / h
+    f_th = np.abs(s_d) / (2 * np.pi)
+    z_th = -s_d.real / np.abs(s_d)
+    sel = [int(np.argmin(np.abs(f_th - f0))) for f0 in stuck_frequencies_hz(m, closed)[[k - 1 for k in MODES]]]
+    n = int(round(2.0 / cfg.dt_s))
+    F = hammer_force(n, cfg.dt_s, 10.0, 0.5e-3)
+    Y, _, _ = run(m, F, 100.0, x0=x0)
+    tau = 0.5
+    freq, H = accelerance_frf(F, _series(m, Y, "a_frf"), cfg.dt_s, tau)
+    fn, zeta = identify(freq, H, f_th[sel], tau)
+    # frequency: the fit resolves far below the 0.5 Hz bin; damping ~0.09 % to within 10 %
+    np.testing.assert_allclose(fn, f_th[sel], rtol=2e-4)
+    np.testing.assert_allclose(zeta, z_th[sel], rtol=0.10)
+    # cross-check with sdypy-EMA on the same FRF for mode 3 (windowed pole, before correction)
+    from sdypy import EMA
+    f0 = f_th[sel][1]
+    band = (freq > 0.92 * f0) & (freq < 1.08 * f0)
+    ema = EMA.Model(frf=H[band][None, :], freq=freq[band], lower=0.92 * f0, upper=1.08 * f0,
+                    pol_order_high=8, frf_form="accelerance")
+    ema.get_poles(method="lscf", show_progress=False)
+    ema.select_closest_poles([f0], f_window=0.05 * f0)
+    f_fit, xi_fit = fit_mode(freq, H, 0.92 * f0, 1.08 * f0)
+    assert float(np.asarray(ema.nat_freq)[0]) == pytest.approx(f_fit, rel=1e-3)
+    assert float(np.asarray(ema.nat_xi)[0]) == pytest.approx(xi_fit, rel=0.05)
