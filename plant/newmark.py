@@ -139,16 +139,17 @@ def _lu_solve(LU, piv, b, n):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _contact_residual(g, g_pred, w_old, p, wk):
-    """Evaluate the mean contact force Lambda(g0 = wk.g0, g1 = g) and r = -(g - g_pred - W Lambda).
+def _contact_laws(g, w_old, p, wk):
+    """Evaluate the mean contact force Lambda(g0 = wk.g0, g1 = g) of every pair.
 
-    Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code, the active pairs
+    Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and the active pairs
     wk.act[:n_act] (closed at the end of the step, or opening/closing within it; all others
-    have Lambda = 0) and wk.r. Returns (|r|_2^2, n_act). RT-safe.
+    have Lambda = 0). Returns (n_act, True if every pair's state equals wk.pattern and none
+    opens or closes). RT-safe.
     """
-    m = g.shape[0]
     n_act = 0
-    for j in range(m // 2):
+    same = True
+    for j in range(g.shape[0] // 2):
         ln, dln, moved = _normal_impulse(wk.g0[2 * j], g[2 * j], p.k_n[j])
         fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j],
                                                   p.k_n[j], p.k_t[j], p.mu[j])
@@ -162,16 +163,25 @@ def _contact_residual(g, g_pred, w_old, p, wk):
         wk.d[3 * j + 1] = 0.5 * dtn
         wk.d[3 * j + 2] = 0.5 * dtt
         if moved:
-            wk.code[j] = TRANSITION
+            c = TRANSITION
         elif fn1 == 0.0:
-            wk.code[j] = 0
+            c = 0
         else:
-            wk.code[j] = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
-        if wk.code[j] != 0:
+            c = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
+        wk.code[j] = c
+        same = same and c == wk.pattern[j] and c != TRANSITION
+        if c != 0:
             wk.act[n_act] = j
             n_act += 1
+    return n_act, same
+
+
+@numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def _contact_residual(g, g_pred, p, wk, n_act):
+    """r = -(g - g_pred - W Lambda) into wk.r (Lambda from ``_contact_laws``); returns |r|_2^2.
+    Only the active pairs' columns of W enter (the others have Lambda = 0). RT-safe."""
     res2 = 0.0
-    for i in range(m):
+    for i in range(g.shape[0]):
         acc = 0.0
         for a in range(n_act):
             j = wk.act[a]
@@ -179,7 +189,7 @@ def _contact_residual(g, g_pred, w_old, p, wk):
         ri = g[i] - g_pred[i] - acc
         wk.r[i] = -ri
         res2 += ri * ri
-    return res2, n_act
+    return res2
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -194,7 +204,9 @@ def _contact_newton(g, g_pred, w_old, p, wk):
 
     J_aa depends only on the pairs' states (open, stick, slip+, slip-) unless a pair opens or
     closes within the step, so its LU factors are kept with that pattern and reused while it
-    holds; for the piecewise-linear law one solve then lands on the solution. If plain Newton
+    holds. The law is affine within one pattern, so a step taken with the factors of pattern P
+    that lands on a point whose pattern is still P is the exact solution (to round-off): the
+    residual is not evaluated again there. If plain Newton
     has not converged after PLAIN_ITER iterations (the active set cycles), steps are shortened
     by backtracking on |r|^2. Returns the iterations used, or -1 if |r|_2 did not fall below
     p.tol within p.max_iter. RT-safe.
@@ -202,13 +214,11 @@ def _contact_newton(g, g_pred, w_old, p, wk):
     m = g.shape[0]
     npair = m // 2
     tol2 = p.tol * p.tol
-    res2, n_act = _contact_residual(g, g_pred, w_old, p, wk)
+    n_act, same = _contact_laws(g, w_old, p, wk)
+    res2 = _contact_residual(g, g_pred, p, wk, n_act)
     for it in range(p.max_iter):
         if res2 <= tol2:
             return it
-        same = True
-        for j in range(npair):
-            same = same and wk.code[j] == wk.pattern[j] and wk.code[j] != TRANSITION
         ma = 2 * n_act
         if not same:
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
@@ -243,14 +253,19 @@ def _contact_newton(g, g_pred, w_old, p, wk):
             wk.dg[2 * j + 1] = wk.ra[2 * b + 1]
         for i in range(m):
             g[i] += wk.dg[i]
-        new2, n_act = _contact_residual(g, g_pred, w_old, p, wk)
+        n_act, same = _contact_laws(g, w_old, p, wk)
+        if same:
+            # the law is affine within one pattern and the step solved it exactly there
+            return it + 1
+        new2 = _contact_residual(g, g_pred, p, wk, n_act)
         if it >= PLAIN_ITER:
             alpha = 1.0
             while new2 >= res2 and alpha > 1e-6:
                 alpha *= 0.5
                 for i in range(m):
                     g[i] = wk.g_old[i] + alpha * wk.dg[i]
-                new2, n_act = _contact_residual(g, g_pred, w_old, p, wk)
+                n_act, same = _contact_laws(g, w_old, p, wk)
+                new2 = _contact_residual(g, g_pred, p, wk, n_act)
         res2 = new2
     return -1 if res2 > tol2 else p.max_iter
 
