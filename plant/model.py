@@ -64,7 +64,8 @@ class PlantModel:
               [(f"a_{s}", "m/s^2") for s in pts] + [("u_rel", "m"), ("v_rel", "m/s")]
         for sym, unit in (("g_n", "m"), ("g_t", "m"), ("f_n", "N"), ("f_t", "N")):
             lab += [(f"{sym}_{j}", unit) for j in range(p)]
-        lab += [("E_fric", "J"), ("E_damp", "J"), ("W_exc", "J"), ("W_screw", "J"), ("newton_iter", "-")]
+        lab += [("E_fric", "J"), ("E_damp", "J"), ("W_exc", "J"), ("W_screw", "J"), ("newton_iter", "-"),
+                ("substep_fallbacks", "-")]
         return lab
 
     def output_index(self) -> dict[str, int]:
@@ -130,6 +131,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     c = 2.0 * zeta * omega
     h = cfg.dt_s / cfg.plant.substeps
     s2 = 2.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2)
+    h_fine = h / cfg.plant.fallback_split
+    s2_fine = 2.0 / (omega**2 + 2.0 / h_fine * c + 4.0 / h_fine**2)
     G = np.ascontiguousarray(st.gap_rows @ Phi)
     out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
@@ -138,7 +141,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
         out_rows=out_rows, out_G=np.ascontiguousarray(out_rows @ G.T),
         k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(), h=float(h),
-        substeps=int(cfg.plant.substeps), tol=float(cfg.plant.newton_tol_m),
+        substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
+        h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter))
     for a in params:
         if isinstance(a, np.ndarray):

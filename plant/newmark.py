@@ -65,6 +65,10 @@ class PlantParams(NamedTuple):
     mu: np.ndarray         # (p,) [-]
     h: float               # substep [s]
     substeps: int
+    s2_fine: np.ndarray    # (n,) s2 for the fallback substep h_fine
+    W_fine: np.ndarray     # (2p, 2p) W for the fallback substep h_fine
+    h_fine: float          # h / fine_split [s]
+    fine_split: int        # fallback substeps per failed substep
     tol: float             # Newton tolerance on |r|_2 [m]
     max_iter: int
 
@@ -177,7 +181,7 @@ def _contact_laws(g, w_old, p, wk):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _contact_residual(g, g_pred, p, wk, n_act):
+def _contact_residual(g, g_pred, W, wk, n_act):
     """r = -(g - g_pred - W Lambda) into wk.r (Lambda from ``_contact_laws``); returns |r|_2^2.
     Only the active pairs' columns of W enter (the others have Lambda = 0). RT-safe."""
     res2 = 0.0
@@ -185,7 +189,7 @@ def _contact_residual(g, g_pred, p, wk, n_act):
         acc = 0.0
         for a in range(n_act):
             j = wk.act[a]
-            acc += p.W[i, 2 * j] * wk.lam[2 * j] + p.W[i, 2 * j + 1] * wk.lam[2 * j + 1]
+            acc += W[i, 2 * j] * wk.lam[2 * j] + W[i, 2 * j + 1] * wk.lam[2 * j + 1]
         ri = g[i] - g_pred[i] - acc
         wk.r[i] = -ri
         res2 += ri * ri
@@ -193,7 +197,7 @@ def _contact_residual(g, g_pred, p, wk, n_act):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def _contact_newton(g, g_pred, w_old, p, wk):
+def _contact_newton(g, g_pred, w_old, W, p, wk):
     """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place).
 
     Partitioned solve. Pairs open at both ends of the step have Lambda = 0 and zero Jacobian
@@ -215,7 +219,7 @@ def _contact_newton(g, g_pred, w_old, p, wk):
     npair = m // 2
     tol2 = p.tol * p.tol
     n_act, same = _contact_laws(g, w_old, p, wk)
-    res2 = _contact_residual(g, g_pred, p, wk, n_act)
+    res2 = _contact_residual(g, g_pred, W, wk, n_act)
     for it in range(p.max_iter):
         if res2 <= tol2:
             return it
@@ -226,8 +230,8 @@ def _contact_newton(g, g_pred, w_old, p, wk):
                 i = 2 * wk.act[ra // 2] + ra % 2
                 for b in range(n_act):
                     j = wk.act[b]
-                    wk.LU[ra, 2 * b] = -(p.W[i, 2 * j] * wk.d[3 * j] + p.W[i, 2 * j + 1] * wk.d[3 * j + 1])
-                    wk.LU[ra, 2 * b + 1] = -p.W[i, 2 * j + 1] * wk.d[3 * j + 2]
+                    wk.LU[ra, 2 * b] = -(W[i, 2 * j] * wk.d[3 * j] + W[i, 2 * j + 1] * wk.d[3 * j + 1])
+                    wk.LU[ra, 2 * b + 1] = -W[i, 2 * j + 1] * wk.d[3 * j + 2]
                 wk.LU[ra, ra] += 1.0
             _lu_factor(wk.LU, wk.piv, ma)
             for j in range(npair):
@@ -246,7 +250,7 @@ def _contact_newton(g, g_pred, w_old, p, wk):
             cn = wk.d[3 * j] * dn
             cnt = wk.d[3 * j + 1] * dn + wk.d[3 * j + 2] * dt
             for i in range(m):
-                wk.dg[i] += p.W[i, 2 * j] * cn + p.W[i, 2 * j + 1] * cnt
+                wk.dg[i] += W[i, 2 * j] * cn + W[i, 2 * j + 1] * cnt
         for b in range(n_act):
             j = wk.act[b]
             wk.dg[2 * j] = wk.ra[2 * b]
@@ -257,7 +261,7 @@ def _contact_newton(g, g_pred, w_old, p, wk):
         if same:
             # the law is affine within one pattern and the step solved it exactly there
             return it + 1
-        new2 = _contact_residual(g, g_pred, p, wk, n_act)
+        new2 = _contact_residual(g, g_pred, W, wk, n_act)
         if it >= PLAIN_ITER:
             alpha = 1.0
             while new2 >= res2 and alpha > 1e-6:
@@ -265,14 +269,81 @@ def _contact_newton(g, g_pred, w_old, p, wk):
                 for i in range(m):
                     g[i] = wk.g_old[i] + alpha * wk.dg[i]
                 n_act, same = _contact_laws(g, w_old, p, wk)
-                new2 = _contact_residual(g, g_pred, p, wk, n_act)
+                new2 = _contact_residual(g, g_pred, W, wk, n_act)
         res2 = new2
     return -1 if res2 > tol2 else p.max_iter
+
+
+@numba.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
+def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
+    """One Newmark substep of length h (modal compliance s2, Delassus matrix W), in place on
+    the state views q, qd, w, g and the energy accumulators en = (E_fric, E_damp, W_exc,
+    W_screw). Returns the Newton iterations, or -1 with the state untouched if the contact
+    solve did not converge. RT-safe.
+    """
+    n = q.shape[0]
+    m = g.shape[0]
+    npair = m // 2
+    a2 = 2.0 / h
+    # --- predictor: linear part with the contact forces off
+    for i in range(n):
+        f = p.b_exc[i] * F_exc + p.b_N1[i] * F_N1 + p.f_const[i]
+        wk.q_pred[i] = q[i] + s2[i] * (f + a2 * qd[i] - p.omega2[i] * q[i])
+    for r in range(m):
+        acc = 0.0
+        for i in range(n):
+            acc += p.G[r, i] * wk.q_pred[i]
+        wk.g_pred[r] = acc
+        wk.g0[r] = g[r]
+    # --- contact: g1 = g_pred + W Lambda(g0, g1)
+    it = _contact_newton(g, wk.g_pred, w, W, p, wk)
+    if it < 0:
+        for r in range(m):
+            g[r] = wk.g0[r]
+        return -1
+    # --- corrector and energy bookkeeping
+    dW_exc = 0.0
+    dW_screw = 0.0
+    dE_damp = 0.0
+    n_act = 0
+    for j in range(npair):
+        if wk.code[j] != 0:
+            wk.act[n_act] = j
+            n_act += 1
+    for i in range(n):
+        acc = 0.0
+        for b in range(n_act):
+            j = wk.act[b]
+            acc += p.GT[i, 2 * j] * wk.lam[2 * j] + p.GT[i, 2 * j + 1] * wk.lam[2 * j + 1]
+        dq = wk.q_pred[i] - q[i] + s2[i] * acc
+        qd_new = a2 * dq - qd[i]
+        v_mid = 0.5 * (qd[i] + qd_new)
+        dE_damp += h * p.c[i] * v_mid * v_mid
+        dW_exc += p.b_exc[i] * dq
+        f_screw = p.b_N1[i] * F_N1 + p.f_const[i]
+        dW_screw += f_screw * dq
+        q[i] += dq
+        qd[i] = qd_new
+        wk.qdd_lin[i] = p.b_exc[i] * F_exc + f_screw - p.c[i] * qd_new - p.omega2[i] * q[i]
+    dE_fric = 0.0
+    for j in range(npair):
+        f_t0 = p.k_t[j] * (wk.g0[2 * j + 1] - w[j])
+        dE_fric += 0.5 * (f_t0 - wk.lam1[2 * j + 1]) * (wk.w_new[j] - w[j])
+        w[j] = wk.w_new[j]
+    en[0] += dE_fric
+    en[1] += dE_damp
+    en[2] += F_exc * dW_exc
+    en[3] += dW_screw
+    return it
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _plant_step(k, x, u, p, x_next, y, wk):
     """Advance the plant over one controller step (p.substeps substeps, inputs held).
+
+    A substep whose contact solve does not converge (the nonsmooth Newton can stall at a
+    pair's first touch) is redone as p.fine_split substeps of length h / p.fine_split; the
+    count of such fallbacks is an output.
 
     Parameters
     ----------
@@ -282,16 +353,15 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     p : PlantParams;  wk : PlantWork
     y : outputs at t_{k+1}, layout of ``PlantModel.output_labels``: w, w', w'' at points
         [m, m/s, m/s^2]; u_rel [m], v_rel [m/s]; g_n, g_t [m], f_n, f_t [N] per pair;
-        E_fric, E_damp, W_exc, W_screw [J]; Newton iterations (sum; -1 if any failed).
+        E_fric, E_damp, W_exc, W_screw [J]; Newton iterations (sum; -1 if any failed);
+        substep fallbacks.
 
-    Returns the Newton iterations summed over the substeps, or -1 if a solve did not converge.
-    RT-safe.
+    Returns the Newton iterations summed over the substeps, or -1 if a solve did not converge
+    even on the fine substeps. RT-safe.
     """
     n = p.c.shape[0]
     m = p.G.shape[0]
     npair = m // 2
-    h = p.h
-    a2 = 2.0 / h
     for i in range(x.shape[0]):
         x_next[i] = x[i]
     q = x_next[0:n]
@@ -299,55 +369,23 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     w = x_next[2 * n:2 * n + npair]
     g = x_next[2 * n + npair:2 * n + npair + m]
     e = 2 * n + npair + m
+    en = x_next[e:e + N_ENERGY]
     F_exc, F_N1 = u[0], u[1]
     iters = 0
+    fallbacks = 0
     for _ in range(p.substeps):
-        # --- predictor: linear part with the contact forces off
-        for i in range(n):
-            f = p.b_exc[i] * F_exc + p.b_N1[i] * F_N1 + p.f_const[i]
-            wk.q_pred[i] = q[i] + p.s2[i] * (f + a2 * qd[i] - p.omega2[i] * q[i])
-        for r in range(m):
-            acc = 0.0
-            for i in range(n):
-                acc += p.G[r, i] * wk.q_pred[i]
-            wk.g_pred[r] = acc
-            wk.g0[r] = g[r]
-        # --- contact: g1 = g_pred + W Lambda(g0, g1)
-        it = _contact_newton(g, wk.g_pred, w, p, wk)
+        it = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h, p.s2, p.W)
+        if it < 0:
+            fallbacks += 1
+            for j in range(npair):
+                wk.pattern[j] = -1  # the cached factors belong to W, not W_fine
+            it = 0
+            for _ in range(p.fine_split):
+                it_f = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h_fine, p.s2_fine, p.W_fine)
+                it = -1 if (it_f < 0 or it < 0) else it + it_f
+            for j in range(npair):
+                wk.pattern[j] = -1
         iters = -1 if (it < 0 or iters < 0) else iters + it
-        # --- corrector and energy bookkeeping
-        dW_exc = 0.0
-        dW_screw = 0.0
-        dE_damp = 0.0
-        n_act = 0
-        for j in range(npair):
-            if wk.code[j] != 0:
-                wk.act[n_act] = j
-                n_act += 1
-        for i in range(n):
-            acc = 0.0
-            for b in range(n_act):
-                j = wk.act[b]
-                acc += p.GT[i, 2 * j] * wk.lam[2 * j] + p.GT[i, 2 * j + 1] * wk.lam[2 * j + 1]
-            dq = wk.q_pred[i] - q[i] + p.s2[i] * acc
-            qd_new = a2 * dq - qd[i]
-            v_mid = 0.5 * (qd[i] + qd_new)
-            dE_damp += h * p.c[i] * v_mid * v_mid
-            dW_exc += p.b_exc[i] * dq
-            f_screw = p.b_N1[i] * F_N1 + p.f_const[i]
-            dW_screw += f_screw * dq
-            q[i] += dq
-            qd[i] = qd_new
-            wk.qdd_lin[i] = p.b_exc[i] * F_exc + f_screw - p.c[i] * qd_new - p.omega2[i] * q[i]
-        dE_fric = 0.0
-        for j in range(npair):
-            f_t0 = p.k_t[j] * (wk.g0[2 * j + 1] - w[j])
-            dE_fric += 0.5 * (f_t0 - wk.lam1[2 * j + 1]) * (wk.w_new[j] - w[j])
-            w[j] = wk.w_new[j]
-        x_next[e] += dE_fric
-        x_next[e + 1] += dE_damp
-        x_next[e + 2] += F_exc * dW_exc
-        x_next[e + 3] += dW_screw
     # --- outputs at t_{k+1}; accelerations from the equation of motion at the end point
     n_rows = p.out_rows.shape[0]
     n_pts = n_rows - 1
@@ -376,6 +414,7 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         y[o + 3 * npair + j] = -wk.lam1[2 * j + 1]
     o += 4 * npair
     for i in range(N_ENERGY):
-        y[o + i] = x_next[e + i]
+        y[o + i] = en[i]
     y[o + N_ENERGY] = iters
+    y[o + N_ENERGY + 1] = fallbacks
     return iters

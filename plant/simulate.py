@@ -52,8 +52,9 @@ def run(model: PlantModel, F_exc: np.ndarray, F_N1: np.ndarray | float, x0: np.n
     step_ns = np.empty(len(F_exc), dtype=np.int64)
     x, failed = _run(x0, U, model.params, model.new_work(), Y, step_ns)
     if failed:
-        raise RuntimeError(f"contact Newton did not converge in {failed} of {len(U)} steps; "
-                           "raise plant.newton_max_iter or plant.substeps")
+        raise RuntimeError(f"the contact solve did not converge in {failed} of {len(U)} steps, even on "
+                           f"{model.cfg.plant.fallback_split} fallback substeps; raise plant.substeps or "
+                           "plant.fallback_split (e.g. --set plant.substeps=2)")
     if not np.all(np.isfinite(Y)):
         raise RuntimeError("the plant produced NaN/Inf: check the configuration's stiffnesses and inputs")
     return Y, x, step_ns

@@ -119,6 +119,8 @@ class Plant:
     substeps: int = param(1, "-", lo=1, hi=64, doc="plant substeps per controller step")
     newton_tol_m: float = param(1e-13, "m", lo=0.0, lo_inclusive=False, doc="contact Newton tolerance on gaps")
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
+    fallback_split: int = param(4, "-", lo=2, hi=64,
+                                doc="a substep whose contact solve fails is redone as this many")
 
 
 @dataclass(frozen=True)
