@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.model import PlantModel, stuck_frequencies_hz
+from plant.model import PlantModel, preloaded_pairs, stuck_frequencies_hz
 from plant.simulate import run
 
 MODES = (2, 3, 4, 5)  # bending modes identified (mode 1 is not excited in the experiments)
@@ -124,9 +124,7 @@ def impulse_test(model: PlantModel, fn1: float) -> ImpulseResult:
     tau_w = imp.record_s / 4.0
     freq, H = accelerance_frf(force, accel, dt, tau_w)
     # approximate frequencies: the linearised preloaded model (closed pairs stuck)
-    x0 = model.initial_state(fn1)
-    pressed = x0[model.state_slots()["g"]][0::2] < 0.0
-    f_lin = stuck_frequencies_hz(model, pressed)
+    f_lin = stuck_frequencies_hz(model, preloaded_pairs(model, fn1))
     approx = np.array([f_lin[m - 1] for m in MODES])
     fn, zeta = identify(freq, H, approx, tau_w)
     return ImpulseResult(float(fn1), freq, H, MODES, fn, zeta, np.arange(n) * dt, force, accel)

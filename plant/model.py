@@ -186,14 +186,26 @@ def static_equilibrium(model: PlantModel, F_N1: float, max_iter: int = 100):
                        "check the interface stiffnesses and screw positions")
 
 
-def stuck_frequencies_hz(model: PlantModel, pairs: np.ndarray | None = None) -> np.ndarray:
-    """Eigenfrequencies [Hz] with the contact linearised as stuck (k_n, k_t) at `pairs`
-    (a boolean mask over the pairs; all pairs if None). Rigid-body modes excluded."""
+def preloaded_pairs(model: PlantModel, F_N1: float | None = None) -> np.ndarray:
+    """Boolean mask of the pairs the screws close (static equilibrium at F_N1 [N])."""
+    x0 = model.initial_state(F_N1)
+    return x0[model.state_slots()["g"]][0::2] < 0.0
+
+
+def stuck_stiffness(model: PlantModel, pairs: np.ndarray | None = None) -> np.ndarray:
+    """Modal stiffness with the contact linearised as stuck, k_n and k_t, at `pairs` (boolean
+    mask; all pairs if None): diag(omega^2) + G^T K_c G [1/s^2]."""
     p = model.params
     mask = np.ones(model.n_pairs, bool) if pairs is None else np.asarray(pairs, bool)
     k_all = np.zeros(p.G.shape[0])
     k_all[0::2] = p.k_n * mask
     k_all[1::2] = p.k_t * mask
-    lam = sla.eigvalsh(np.diag(model.omega**2) + (p.G.T * k_all) @ p.G)
+    return np.diag(p.omega2) + (p.G.T * k_all) @ p.G
+
+
+def stuck_frequencies_hz(model: PlantModel, pairs: np.ndarray | None = None) -> np.ndarray:
+    """Eigenfrequencies [Hz] with the contact linearised as stuck at `pairs`
+    (``stuck_stiffness``). Rigid-body modes excluded."""
+    lam = sla.eigvalsh(stuck_stiffness(model, pairs))
     f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
     return f[f > 1e-3]

@@ -5,7 +5,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from plant.fe_beam import U, W
-from plant.model import PlantModel, build_plant, stuck_frequencies_hz
+from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from rt.config import Config
 
 N_BARE = 6  # bending modes of the bare cantilever reported
@@ -30,13 +30,7 @@ def adaptive_screw_k_T(model: PlantModel, F_N1: float | None = None) -> float:
     """Effective tangential stiffness k_T [N/m] at the adaptive screw: a unit pair of opposite
     tangential forces on the two surfaces there, divided into u_rel, in the model linearised
     about the preloaded state (closed pairs stuck)."""
-    x0 = model.initial_state(F_N1)
-    closed = x0[model.state_slots()["g"]][0::2] < 0.0
-    p = model.params
-    k_all = np.zeros(p.G.shape[0])
-    k_all[0::2] = p.k_n * closed
-    k_all[1::2] = p.k_t * closed
-    K = np.diag(model.omega**2) + (p.G.T * k_all) @ p.G
+    K = stuck_stiffness(model, preloaded_pairs(model, F_N1))
     b = model.Phi.T @ model.structure.u_rel_row  # modal load of the unit tangential force pair
     return float(1.0 / (b @ np.linalg.solve(K, b)))
 
@@ -53,8 +47,7 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     f_full = stuck_frequencies_hz(full)
     f_red = stuck_frequencies_hz(red)
     n = int(np.sum(f_full < f_max_hz))
-    x0 = red.initial_state()
-    closed = x0[red.state_slots()["g"]][0::2] < 0.0
+    closed = preloaded_pairs(red)
     f_pre = stuck_frequencies_hz(red, closed)
     itf = cfg.plant.interface
     return {

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from plant.model import PlantModel, build_plant, stuck_frequencies_hz
+from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.simulate import run
 from rt.config import Config
 
@@ -32,9 +32,7 @@ def _with_pairs(cfg: Config, n_pairs: int) -> Config:
 
 def _excitation(model: PlantModel, n_steps: int, amplitude: float = 5.0) -> np.ndarray:
     """Sine at the preloaded mode-3 frequency [N]: the pairs stick and slip every cycle."""
-    x0 = model.initial_state()
-    closed = x0[model.state_slots()["g"]][0::2] < 0.0
-    f3 = stuck_frequencies_hz(model, closed)[2]
+    f3 = stuck_frequencies_hz(model, preloaded_pairs(model))[2]
     return amplitude * np.sin(2 * np.pi * f3 * np.arange(n_steps) * model.cfg.dt_s)
 
 
@@ -62,11 +60,7 @@ def bench_alternative(cfg: Config, n_steps: int) -> dict:
     import control
     model = build_plant(cfg)
     p = model.params
-    x0 = model.initial_state()
-    closed = x0[model.state_slots()["g"]][0::2] < 0.0
-    k_all = np.zeros(p.G.shape[0])
-    k_all[0::2], k_all[1::2] = p.k_n * closed, p.k_t * closed
-    K = np.diag(model.omega**2) + (p.G.T * k_all) @ p.G
+    K = stuck_stiffness(model, preloaded_pairs(model))
     n = model.n
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-K, -np.diag(p.c)]])
     B = np.concatenate([np.zeros(n), p.b_exc])[:, None]

@@ -7,7 +7,7 @@ import scipy.linalg as sla
 from plant.contact import _jenkins_pair
 from plant.energy import balance
 from plant.impulse import MODES, accelerance_frf, fit_mode, hammer_force, impulse_test, identify
-from plant.model import build_plant, stuck_frequencies_hz
+from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.modes import bare_beam_bending_hz
 from plant.simulate import run
 from rt.config import load
@@ -164,9 +164,7 @@ def test_step_size_convergence_second_order_on_stuck_case():
         Y, _, _ = run(model, F, 600.0)
         w = _series(model, Y, "w_tip")
         g_n = _pairs(model, Y, "g_n")
-        x0 = model.initial_state(600.0)
-        closed0 = x0[model.state_slots()["g"]][0::2] < 0
-        assert np.array_equal(g_n[-1] < 0, closed0)  # no pair opened or closed
+        assert np.array_equal(g_n[-1] < 0, preloaded_pairs(model, 600.0))  # no pair opened or closed
         if ref is None:
             ref = w
         else:
@@ -218,11 +216,9 @@ def test_identification_matches_linear_theory(cfg, reduced):
     through the integrator; sdypy-EMA's LSCF, an independent identification, agrees too."""
     m = reduced
     x0 = m.initial_state(100.0)
-    closed = x0[m.state_slots()["g"]][0::2] < 0
+    closed = preloaded_pairs(m, 100.0)
     p = m.params
-    k_all = np.zeros(p.G.shape[0])
-    k_all[0::2], k_all[1::2] = p.k_n * closed, p.k_t * closed
-    K = np.diag(m.omega**2) + (p.G.T * k_all) @ p.G
+    K = stuck_stiffness(m, closed)
     A = np.block([[np.zeros((m.n, m.n)), np.eye(m.n)], [-K, -np.diag(p.c)]])
     lam = sla.eigvals(A)
     lam = lam[lam.imag > 1.0]
