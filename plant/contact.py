@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _jenkins_pair(g_n, g_t, w_old, k_n, k_t, mu):
     """Pair force and its Jacobian. RT-safe.
 
@@ -43,7 +43,7 @@ def _jenkins_pair(g_n, g_t, w_old, k_n, k_t, mu):
     return f_n, -f_t, g_t - f_t / k_t, -k_n, mu * k_n * sgn, 0.0
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _normal_impulse(g0, g1, k_n):
     """Mean normal force over a step from g0 to g1: the discrete gradient of V = 1/2 k_n min(0, g)^2.
 

@@ -75,7 +75,7 @@ class PlantModel:
         n, m = self.n, 2 * self.n_pairs
         p = m // 2
         i64 = np.int64
-        return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
+        return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n), g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
                          lam1=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
@@ -136,7 +136,7 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     G = np.ascontiguousarray(st.gap_rows @ Phi)
     out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
-        omega2=omega**2, c=c, s2=s2, G=G, GT=np.ascontiguousarray(G.T),
+        omega2=omega**2, c=c, s2=s2, G=G,
         W=np.ascontiguousarray((G * s2) @ G.T),
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
         out_rows=out_rows, out_G=np.ascontiguousarray(out_rows @ G.T),

@@ -53,7 +53,6 @@ class PlantParams(NamedTuple):
     c: np.ndarray          # (n,) 2 zeta omega [1/s]
     s2: np.ndarray         # (n,) 2 / (omega^2 + 2c/h + 4/h^2) [s^2]
     G: np.ndarray          # (2p, n) modal -> gaps (g_n, g_t interleaved) [m]
-    GT: np.ndarray         # (n, 2p) its transpose, contiguous
     W: np.ndarray          # (2p, 2p) Delassus matrix G diag(s2) G^T [m/N]
     b_exc: np.ndarray      # (n,) modal load of a unit excitation force
     b_N1: np.ndarray       # (n,) modal load of a unit adaptive screw force
@@ -77,6 +76,7 @@ class PlantWork(NamedTuple):
     """Scratch buffers of the plant step (preallocated once by ``PlantModel.new_work``)."""
     q_pred: np.ndarray     # (n,)
     qdd_lin: np.ndarray    # (n,) modal acceleration at the end point without the contact forces
+    f_c: np.ndarray        # (n,) modal contact force G^T Lambda
     g_pred: np.ndarray     # (2p,)
     g0: np.ndarray         # (2p,) gaps at the start of the step
     lam: np.ndarray        # (2p,) mean contact force Lambda over the step
@@ -151,48 +151,65 @@ def _contact_laws(g, w_old, p, wk):
     have Lambda = 0). Returns (n_act, True if every pair's state equals wk.pattern and none
     opens or closes). RT-safe.
     """
+    lam, lam1, w_new, d, code, act, pattern = wk.lam, wk.lam1, wk.w_new, wk.d, wk.code, wk.act, wk.pattern
+    g0, k_n, k_t, mu = wk.g0, p.k_n, p.k_t, p.mu
     n_act = 0
     same = True
     for j in range(g.shape[0] // 2):
-        ln, dln, moved = _normal_impulse(wk.g0[2 * j], g[2 * j], p.k_n[j])
-        fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j],
-                                                  p.k_n[j], p.k_t[j], p.mu[j])
-        lt0 = -p.k_t[j] * (wk.g0[2 * j + 1] - w_old[j])
-        wk.lam[2 * j] = ln
-        wk.lam[2 * j + 1] = 0.5 * (lt0 + lt1)
-        wk.lam1[2 * j] = fn1
-        wk.lam1[2 * j + 1] = lt1
-        wk.w_new[j] = wn
-        wk.d[3 * j] = dln
-        wk.d[3 * j + 1] = 0.5 * dtn
-        wk.d[3 * j + 2] = 0.5 * dtt
+        if g0[2 * j] >= 0.0 and g[2 * j] >= 0.0:  # open at both ends: no force, slider relaxed
+            lam[2 * j] = 0.0
+            lam[2 * j + 1] = 0.0
+            lam1[2 * j] = 0.0
+            lam1[2 * j + 1] = 0.0
+            w_new[j] = g[2 * j + 1]
+            d[3 * j] = 0.0
+            d[3 * j + 1] = 0.0
+            d[3 * j + 2] = 0.0
+            code[j] = 0
+            same = same and pattern[j] == 0
+            continue
+        ln, dln, moved = _normal_impulse(g0[2 * j], g[2 * j], k_n[j])
+        fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], k_n[j], k_t[j], mu[j])
+        lt0 = -k_t[j] * (g0[2 * j + 1] - w_old[j])
+        lam[2 * j] = ln
+        lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+        lam1[2 * j] = fn1
+        lam1[2 * j + 1] = lt1
+        w_new[j] = wn
+        d[3 * j] = dln
+        d[3 * j + 1] = 0.5 * dtn
+        d[3 * j + 2] = 0.5 * dtt
         if moved:
             c = TRANSITION
         elif fn1 == 0.0:
             c = 0
         else:
             c = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
-        wk.code[j] = c
-        same = same and c == wk.pattern[j] and c != TRANSITION
+        code[j] = c
+        same = same and c == pattern[j] and c != TRANSITION
         if c != 0:
-            wk.act[n_act] = j
+            act[n_act] = j
             n_act += 1
     return n_act, same
 
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _contact_residual(g, g_pred, W, wk, n_act):
-    """r = -(g - g_pred - W Lambda) into wk.r (Lambda from ``_contact_laws``); returns |r|_2^2.
-    Only the active pairs' columns of W enter (the others have Lambda = 0). RT-safe."""
+    """r = -(g - g_pred - W Lambda) into r_ (Lambda from ``_contact_laws``); returns |r|_2^2.
+    Only the active pairs enter (the others have Lambda = 0). RT-safe."""
+    r_, act, lam = wk.r, wk.act, wk.lam
+    m = g.shape[0]
+    for i in range(m):
+        r_[i] = g_pred[i] - g[i]
+    for a in range(n_act):  # W is symmetric: add its active rows (contiguous) scaled by Lambda
+        j = act[a]
+        ln = lam[2 * j]
+        lt = lam[2 * j + 1]
+        for i in range(m):
+            r_[i] += W[2 * j, i] * ln + W[2 * j + 1, i] * lt
     res2 = 0.0
-    for i in range(g.shape[0]):
-        acc = 0.0
-        for a in range(n_act):
-            j = wk.act[a]
-            acc += W[i, 2 * j] * wk.lam[2 * j] + W[i, 2 * j + 1] * wk.lam[2 * j + 1]
-        ri = g[i] - g_pred[i] - acc
-        wk.r[i] = -ri
-        res2 += ri * ri
+    for i in range(m):
+        res2 += r_[i] * r_[i]
     return res2
 
 
@@ -215,6 +232,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
     by backtracking on |r|^2. Returns the iterations used, or -1 if |r|_2 did not fall below
     p.tol within p.max_iter. RT-safe.
     """
+    act, LU, d, piv, pattern, code, rhs, r_, g_old, dg = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code, wk.ra, wk.r, wk.g_old, wk.dg
     m = g.shape[0]
     npair = m // 2
     tol2 = p.tol * p.tol
@@ -227,36 +245,36 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
         if not same:
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
             for ra in range(ma):
-                i = 2 * wk.act[ra // 2] + ra % 2
+                i = 2 * act[ra // 2] + ra % 2
                 for b in range(n_act):
-                    j = wk.act[b]
-                    wk.LU[ra, 2 * b] = -(W[i, 2 * j] * wk.d[3 * j] + W[i, 2 * j + 1] * wk.d[3 * j + 1])
-                    wk.LU[ra, 2 * b + 1] = -W[i, 2 * j + 1] * wk.d[3 * j + 2]
-                wk.LU[ra, ra] += 1.0
-            _lu_factor(wk.LU, wk.piv, ma)
+                    j = act[b]
+                    LU[ra, 2 * b] = -(W[i, 2 * j] * d[3 * j] + W[i, 2 * j + 1] * d[3 * j + 1])
+                    LU[ra, 2 * b + 1] = -W[i, 2 * j + 1] * d[3 * j + 2]
+                LU[ra, ra] += 1.0
+            _lu_factor(LU, piv, ma)
             for j in range(npair):
-                wk.pattern[j] = wk.code[j]
+                pattern[j] = code[j]
         for ra in range(ma):
-            wk.ra[ra] = wk.r[2 * wk.act[ra // 2] + ra % 2]
-        _lu_solve(wk.LU, wk.piv, wk.ra, ma)
+            rhs[ra] = r_[2 * act[ra // 2] + ra % 2]
+        _lu_solve(LU, piv, rhs, ma)
         for i in range(m):
-            wk.g_old[i] = g[i]
-            wk.dg[i] = wk.r[i]
-        # d_i = r_i + (W dLambda/dg)_ia d_a (active rows are overwritten below)
+            g_old[i] = g[i]
+            dg[i] = r_[i]
+        # d_i = r_i + (W dLambda/dg)_ia d_a (active rows are overwritten below; W symmetric)
         for b in range(n_act):
-            j = wk.act[b]
-            dn = wk.ra[2 * b]
-            dt = wk.ra[2 * b + 1]
-            cn = wk.d[3 * j] * dn
-            cnt = wk.d[3 * j + 1] * dn + wk.d[3 * j + 2] * dt
+            j = act[b]
+            dn = rhs[2 * b]
+            dt = rhs[2 * b + 1]
+            cn = d[3 * j] * dn
+            cnt = d[3 * j + 1] * dn + d[3 * j + 2] * dt
             for i in range(m):
-                wk.dg[i] += W[i, 2 * j] * cn + W[i, 2 * j + 1] * cnt
+                dg[i] += W[2 * j, i] * cn + W[2 * j + 1, i] * cnt
         for b in range(n_act):
-            j = wk.act[b]
-            wk.dg[2 * j] = wk.ra[2 * b]
-            wk.dg[2 * j + 1] = wk.ra[2 * b + 1]
+            j = act[b]
+            dg[2 * j] = rhs[2 * b]
+            dg[2 * j + 1] = rhs[2 * b + 1]
         for i in range(m):
-            g[i] += wk.dg[i]
+            g[i] += dg[i]
         n_act, same = _contact_laws(g, w_old, p, wk)
         if same:
             # the law is affine within one pattern and the step solved it exactly there
@@ -267,7 +285,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
             while new2 >= res2 and alpha > 1e-6:
                 alpha *= 0.5
                 for i in range(m):
-                    g[i] = wk.g_old[i] + alpha * wk.dg[i]
+                    g[i] = g_old[i] + alpha * dg[i]
                 n_act, same = _contact_laws(g, w_old, p, wk)
                 new2 = _contact_residual(g, g_pred, W, wk, n_act)
         res2 = new2
@@ -281,55 +299,64 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     W_screw). Returns the Newton iterations, or -1 with the state untouched if the contact
     solve did not converge. RT-safe.
     """
+    b_exc, b_N1, f_const, omega2, G, c, k_t, q_pred, g_pred, g0, f_c, lam1, lam, code, qdd_lin, w_new = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c, p.k_t, wk.q_pred, wk.g_pred, wk.g0, wk.f_c, wk.lam1, wk.lam, wk.code, wk.qdd_lin, wk.w_new
     n = q.shape[0]
     m = g.shape[0]
     npair = m // 2
     a2 = 2.0 / h
     # --- predictor: linear part with the contact forces off
     for i in range(n):
-        f = p.b_exc[i] * F_exc + p.b_N1[i] * F_N1 + p.f_const[i]
-        wk.q_pred[i] = q[i] + s2[i] * (f + a2 * qd[i] - p.omega2[i] * q[i])
+        f = b_exc[i] * F_exc + b_N1[i] * F_N1 + f_const[i]
+        q_pred[i] = q[i] + s2[i] * (f + a2 * qd[i] - omega2[i] * q[i])
     for r in range(m):
         acc = 0.0
         for i in range(n):
-            acc += p.G[r, i] * wk.q_pred[i]
-        wk.g_pred[r] = acc
-        wk.g0[r] = g[r]
-    # --- contact: g1 = g_pred + W Lambda(g0, g1)
-    it = _contact_newton(g, wk.g_pred, w, W, p, wk)
+            acc += G[r, i] * q_pred[i]
+        g_pred[r] = acc
+        g0[r] = g[r]
+    # --- contact: g1 = g_pred + W Lambda(g0, g1), started from the previous step's mean force
+    # (g0 itself sits on the friction limit of a slipping pair and would look like stick)
+    for r in range(m):
+        g[r] = g_pred[r]
+    for j in range(npair):
+        if code[j] != 0:
+            ln = lam[2 * j]
+            lt = lam[2 * j + 1]
+            for r in range(m):
+                g[r] += W[2 * j, r] * ln + W[2 * j + 1, r] * lt
+    it = _contact_newton(g, g_pred, w, W, p, wk)
     if it < 0:
         for r in range(m):
-            g[r] = wk.g0[r]
+            g[r] = g0[r]
         return -1
     # --- corrector and energy bookkeeping
     dW_exc = 0.0
     dW_screw = 0.0
     dE_damp = 0.0
-    n_act = 0
-    for j in range(npair):
-        if wk.code[j] != 0:
-            wk.act[n_act] = j
-            n_act += 1
     for i in range(n):
-        acc = 0.0
-        for b in range(n_act):
-            j = wk.act[b]
-            acc += p.GT[i, 2 * j] * wk.lam[2 * j] + p.GT[i, 2 * j + 1] * wk.lam[2 * j + 1]
-        dq = wk.q_pred[i] - q[i] + s2[i] * acc
+        f_c[i] = 0.0
+    for j in range(npair):  # modal contact force G^T Lambda over the active pairs (rows of G)
+        if code[j] != 0:
+            ln = lam[2 * j]
+            lt = lam[2 * j + 1]
+            for i in range(n):
+                f_c[i] += G[2 * j, i] * ln + G[2 * j + 1, i] * lt
+    for i in range(n):
+        dq = q_pred[i] - q[i] + s2[i] * f_c[i]
         qd_new = a2 * dq - qd[i]
         v_mid = 0.5 * (qd[i] + qd_new)
-        dE_damp += h * p.c[i] * v_mid * v_mid
-        dW_exc += p.b_exc[i] * dq
-        f_screw = p.b_N1[i] * F_N1 + p.f_const[i]
+        dE_damp += h * c[i] * v_mid * v_mid
+        dW_exc += b_exc[i] * dq
+        f_screw = b_N1[i] * F_N1 + f_const[i]
         dW_screw += f_screw * dq
         q[i] += dq
         qd[i] = qd_new
-        wk.qdd_lin[i] = p.b_exc[i] * F_exc + f_screw - p.c[i] * qd_new - p.omega2[i] * q[i]
+        qdd_lin[i] = b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]
     dE_fric = 0.0
     for j in range(npair):
-        f_t0 = p.k_t[j] * (wk.g0[2 * j + 1] - w[j])
-        dE_fric += 0.5 * (f_t0 - wk.lam1[2 * j + 1]) * (wk.w_new[j] - w[j])
-        w[j] = wk.w_new[j]
+        f_t0 = k_t[j] * (g0[2 * j + 1] - w[j])
+        dE_fric += 0.5 * (f_t0 - lam1[2 * j + 1]) * (w_new[j] - w[j])
+        w[j] = w_new[j]
     en[0] += dE_fric
     en[1] += dE_damp
     en[2] += F_exc * dW_exc
@@ -359,6 +386,7 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     Returns the Newton iterations summed over the substeps, or -1 if a solve did not converge
     even on the fine substeps. RT-safe.
     """
+    out_rows, out_G, qdd_lin, lam1, pattern = p.out_rows, p.out_G, wk.qdd_lin, wk.lam1, wk.pattern
     n = p.c.shape[0]
     m = p.G.shape[0]
     npair = m // 2
@@ -378,13 +406,13 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         if it < 0:
             fallbacks += 1
             for j in range(npair):
-                wk.pattern[j] = -1  # the cached factors belong to W, not W_fine
+                pattern[j] = -1  # the cached factors belong to W, not W_fine
             it = 0
             for _ in range(p.fine_split):
                 it_f = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h_fine, p.s2_fine, p.W_fine)
                 it = -1 if (it_f < 0 or it < 0) else it + it_f
             for j in range(npair):
-                wk.pattern[j] = -1
+                pattern[j] = -1
         iters = -1 if (it < 0 or iters < 0) else iters + it
     # --- outputs at t_{k+1}; accelerations from the equation of motion at the end point
     n_rows = p.out_rows.shape[0]
@@ -394,11 +422,11 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         a_v = 0.0
         a_a = 0.0
         for i in range(n):
-            a_x += p.out_rows[r, i] * q[i]
-            a_v += p.out_rows[r, i] * qd[i]
-            a_a += p.out_rows[r, i] * wk.qdd_lin[i]
+            a_x += out_rows[r, i] * q[i]
+            a_v += out_rows[r, i] * qd[i]
+            a_a += out_rows[r, i] * qdd_lin[i]
         for j in range(m):
-            a_a += p.out_G[r, j] * wk.lam1[j]
+            a_a += out_G[r, j] * lam1[j]
         if r < n_pts:
             y[r] = a_x
             y[n_pts + r] = a_v
@@ -410,8 +438,8 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     for j in range(npair):
         y[o + j] = g[2 * j]
         y[o + npair + j] = g[2 * j + 1]
-        y[o + 2 * npair + j] = wk.lam1[2 * j]
-        y[o + 3 * npair + j] = -wk.lam1[2 * j + 1]
+        y[o + 2 * npair + j] = lam1[2 * j]
+        y[o + 3 * npair + j] = -lam1[2 * j + 1]
     o += 4 * npair
     for i in range(N_ENERGY):
         y[o + i] = en[i]

@@ -140,10 +140,15 @@ def test_energy_balance_on_transient(cfg, reduced, peak, fn1):
     f_t0 = k_t * (g0[1::2] - w0)
     f_all = np.vstack([f_t0, f_t])
     w_all = np.vstack([w0, w_sl])
-    E_fric = float(np.sum(0.5 * (f_all[1:] + f_all[:-1]) * np.diff(w_all, axis=0)))
+    dE_fric = np.sum(0.5 * (f_all[1:] + f_all[:-1]) * np.diff(w_all, axis=0), axis=1)
+    E_fric = float(dE_fric.sum())
     b = balance(m, x0, x)
     assert W_exc == pytest.approx(b["W_exc"], rel=1e-9)
-    assert E_fric == pytest.approx(b["E_fric"], rel=1e-6)
+    # per step, the trapezoid over the step equals the kernel's increment, except on steps
+    # redone as fallback substeps (the kernel sums the trapezoid over h/4 pieces there)
+    fb = _series(m, Y, "substep_fallbacks") > 0
+    dE_k = np.diff(np.concatenate([[x0[sl["E_fric"]][0]], _series(m, Y, "E_fric")]))
+    np.testing.assert_allclose(dE_fric[~fb], dE_k[~fb], rtol=1e-6, atol=1e-12 * abs(E_fric))
     residual = W_exc + b["W_screw"] - b["dT"] - b["dV"] - E_fric - b["E_damp"]
     assert E_fric > 0.1 * W_exc  # friction really dissipates in this transient
     assert abs(residual) < 0.01 * W_exc, f"residual {residual:.3e} J of {W_exc:.3e} J input"
