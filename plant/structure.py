@@ -70,10 +70,6 @@ class Structure:
     mu: np.ndarray
 
     @property
-    def n_dof(self) -> int:
-        return sum(s.n for s in self.subs)
-
-    @property
     def n_pairs(self) -> int:
         return len(self.x_pairs)
 

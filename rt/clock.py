@@ -6,7 +6,6 @@ and timing from Python would measure the call overhead instead of the step.
 from __future__ import annotations
 
 import numba
-import numpy as np
 from numba import types
 
 CLOCK_MONOTONIC = 1
@@ -20,7 +19,3 @@ def _now_ns(ts):
     _clock_gettime(CLOCK_MONOTONIC, ts.ctypes.data)
     return ts[0] * 1_000_000_000 + ts[1]
 
-
-def now_ns() -> int:
-    """Monotonic time [ns] from Python, same clock as ``_now_ns``."""
-    return int(_now_ns(np.zeros(2, dtype=np.int64)))

@@ -45,7 +45,9 @@ class Beam:
     z0_m: float = param(0.0, "m", doc="height of the neutral axis")
     E: float = param(210e9, "Pa", lo=0.0, lo_inclusive=False, doc="Young's modulus")
     rho: float = param(7850.0, "kg/m^3", lo=0.0, lo_inclusive=False, doc="density")
-    nu: float = param(0.3, "-", lo=0.0, hi=0.5, doc="Poisson's ratio (A)")
+    nu: float = param(0.3, "-", lo=0.0, hi=0.5,
+                      doc="Poisson's ratio (A); not used by Euler-Bernoulli elements (sets the "
+                          "Mindlin ratio quoted for k_t/k_n)")
 
 
 @dataclass(frozen=True)
@@ -127,7 +129,6 @@ class Plant:
 class Rt:
     """Real-time loop (SPEC section 7)."""
     rate_hz: float = param(21000.0, "Hz", lo=0.0, lo_inclusive=False, doc="controller rate, dt = 1/rate_hz")
-    seed: int = param(0, "-", lo=0)
 
 
 @dataclass(frozen=True)

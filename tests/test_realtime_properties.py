@@ -38,3 +38,17 @@ def test_kernels_are_compiled_with_cache_and_nogil():
               newmark._lu_factor, newmark._lu_solve, simulate._run):
         assert f.targetoptions.get("nogil") is True, f.__name__
         assert type(f._cache).__name__ == "FunctionCache", f.__name__
+
+
+def test_checked_step_wrapper(reduced):
+    import pytest
+    m = reduced
+    x = m.initial_state()
+    x_next, y, wk = np.empty_like(x), np.empty(len(m.output_labels())), m.new_work()
+    with pytest.raises(ValueError, match="state must have shape"):
+        m.step(0, x[:-1], np.zeros(2), x_next, y, wk)
+    with pytest.raises(ValueError, match="F_exc"):
+        m.step(0, x, np.zeros(3), x_next, y, wk)
+    it = m.step(0, x, np.array([0.0, m.structure.F_N1_initial]), x_next, y, wk)
+    # at the static equilibrium with no excitation nothing moves
+    assert it >= 0 and np.allclose(x_next[m.state_slots()["q"]], x[m.state_slots()["q"]], rtol=1e-9, atol=1e-15)
