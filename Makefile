@@ -25,4 +25,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/plant.py
 
 clean:
-	rm -rf $(VENV) .pytest_cache
+	rm -rf $(VENV) .pytest_cache "$${XDG_CACHE_HOME:-$$HOME/.cache}/frictionrt"

@@ -43,6 +43,7 @@ from plant.contact import _jenkins_pair, _normal_impulse
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
 PLAIN_ITER = 4  # Newton iterations before steps are shortened by backtracking
+ROUNDOFF = 64 * np.finfo(np.float64).eps  # relative floor of the Newton tolerance on the gaps
 N_ENERGY = 4    # E_fric, E_damp, W_exc, W_screw
 TRANSITION = -2  # contact code of a pair that opens or closes within the step
 
@@ -229,13 +230,17 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
     that lands on a point whose pattern is still P is the exact solution (to round-off): the
     residual is not evaluated again there. If plain Newton
     has not converged after PLAIN_ITER iterations (the active set cycles), steps are shortened
-    by backtracking on |r|^2. Returns the iterations used, or -1 if |r|_2 did not fall below
-    p.tol within p.max_iter. RT-safe.
+    by backtracking on |r|^2. Converged when |r|_2 <= p.tol + ROUNDOFF max|g_pred|. Returns the
+    iterations used, or -1 if that was not reached within p.max_iter. RT-safe.
     """
     act, LU, d, piv, pattern, code, rhs, r_, g_old, dg = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code, wk.ra, wk.r, wk.g_old, wk.dg
     m = g.shape[0]
     npair = m // 2
-    tol2 = p.tol * p.tol
+    scale = 0.0
+    for i in range(m):
+        scale = max(scale, abs(g_pred[i]))
+    tol = p.tol + ROUNDOFF * scale  # never ask for less than round-off of the gaps allows
+    tol2 = tol * tol
     n_act, same = _contact_laws(g, w_old, p, wk)
     res2 = _contact_residual(g, g_pred, W, wk, n_act)
     for it in range(p.max_iter):
@@ -314,16 +319,7 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
             acc += G[r, i] * q_pred[i]
         g_pred[r] = acc
         g0[r] = g[r]
-    # --- contact: g1 = g_pred + W Lambda(g0, g1), started from the previous step's mean force
-    # (g0 itself sits on the friction limit of a slipping pair and would look like stick)
-    for r in range(m):
-        g[r] = g_pred[r]
-    for j in range(npair):
-        if code[j] != 0:
-            ln = lam[2 * j]
-            lt = lam[2 * j + 1]
-            for r in range(m):
-                g[r] += W[2 * j, r] * ln + W[2 * j + 1, r] * lt
+    # --- contact: g1 = g_pred + W Lambda(g0, g1), Newton started from g0
     it = _contact_newton(g, g_pred, w, W, p, wk)
     if it < 0:
         for r in range(m):

@@ -119,7 +119,8 @@ class Plant:
                                 doc="Craig-Bampton fixed-interface modes kept up to this frequency")
     reduced: bool = param(True, doc="false: step the full FE model instead of Craig-Bampton")
     substeps: int = param(1, "-", lo=1, hi=64, doc="plant substeps per controller step")
-    newton_tol_m: float = param(1e-13, "m", lo=0.0, lo_inclusive=False, doc="contact Newton tolerance on gaps")
+    newton_tol_m: float = param(1e-18, "m", lo=0.0, lo_inclusive=False,
+                                doc="contact Newton tolerance on the gaps (plus 64 eps max|gap|)")
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
     fallback_split: int = param(4, "-", lo=2, hi=64,
                                 doc="a substep whose contact solve fails is redone as this many")

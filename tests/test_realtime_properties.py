@@ -52,3 +52,15 @@ def test_checked_step_wrapper(reduced):
     it = m.step(0, x, np.array([0.0, m.structure.F_N1_initial]), x_next, y, wk)
     # at the static equilibrium with no excitation nothing moves
     assert it >= 0 and np.allclose(x_next[m.state_slots()["q"]], x[m.state_slots()["q"]], rtol=1e-9, atol=1e-15)
+
+
+def test_numba_cache_is_keyed_on_the_kernel_sources():
+    # numba only re-checks a cached function's own file; a source-hash directory makes an
+    # edit anywhere in the run-time packages start a fresh cache (rt/jit_cache.py)
+    from plant import newmark, simulate
+    from rt import jit_cache
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    for f in (newmark._plant_step, simulate._run):
+        assert Path(f._cache._cache_path).is_relative_to(jit_cache.cache_dir())
+    assert len(jit_cache.source_hash()) == 16

@@ -1,0 +1,42 @@
+"""Numba's on-disk cache, keyed on the source of every kernel.
+
+Numba invalidates a cached function only when its own file changes: ``plant.simulate._run``
+keeps the machine code of an old ``plant.newmark._plant_step`` after newmark.py is edited
+(it happened). The cache directory is therefore named after a hash of all .py files of the
+run-time packages, so any edit starts a fresh cache. ``configure`` must run before the first
+``numba.njit(cache=True)`` decorator executes; the packages' ``__init__`` call it. A user's
+own NUMBA_CACHE_DIR is respected (and then invalidation is theirs to manage).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+
+PACKAGES = ("rt", "plant", "observer", "tracking")
+_ROOT = Path(__file__).resolve().parents[1]
+
+
+def source_hash() -> str:
+    """SHA-256 (first 16 hex digits) over the run-time packages' Python sources."""
+    h = hashlib.sha256()
+    for pkg in PACKAGES:
+        for f in sorted((_ROOT / pkg).glob("*.py")):
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    h.update(numba.__version__.encode())
+    return h.hexdigest()[:16]
+
+
+def cache_dir() -> Path:
+    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
+    return base / "frictionrt" / f"numba-{source_hash()}"
+
+
+def configure() -> None:
+    """Point numba's cache at ``cache_dir()`` unless NUMBA_CACHE_DIR is set."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    numba.config.CACHE_DIR = str(cache_dir())
