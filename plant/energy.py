@@ -33,5 +33,6 @@ def balance(model: PlantModel, x0: np.ndarray, x: np.ndarray) -> dict[str, float
     terms = {k: float(x[sl[k]][0] - x0[sl[k]][0]) for k in ("W_exc", "W_screw", "E_fric", "E_damp")}
     terms["dT"] = T - T0
     terms["dV"] = V - V0
-    terms["residual"] = terms["W_exc"] + terms["W_screw"] - terms["dT"] - terms["dV"] - terms["E_fric"] - terms["E_damp"]
+    terms["residual"] = (terms["W_exc"] + terms["W_screw"]
+                         - terms["dT"] - terms["dV"] - terms["E_fric"] - terms["E_damp"])
     return terms

@@ -75,7 +75,8 @@ class PlantModel:
         n, m = self.n, 2 * self.n_pairs
         p = m // 2
         i64 = np.int64
-        return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n), g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
+        return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
+                         g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
                          lam1=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),

@@ -152,6 +152,8 @@ def _contact_laws(g, w_old, p, wk):
     have Lambda = 0). Returns (n_act, True if every pair's state equals wk.pattern and none
     opens or closes). RT-safe.
     """
+    # fields unpacked into locals: inside loops numba would reload every array pointer from
+    # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below
     lam, lam1, w_new, d, code, act, pattern = wk.lam, wk.lam1, wk.w_new, wk.d, wk.code, wk.act, wk.pattern
     g0, k_n, k_t, mu = wk.g0, p.k_n, p.k_t, p.mu
     n_act = 0
@@ -196,7 +198,7 @@ def _contact_laws(g, w_old, p, wk):
 
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _contact_residual(g, g_pred, W, wk, n_act):
-    """r = -(g - g_pred - W Lambda) into r_ (Lambda from ``_contact_laws``); returns |r|_2^2.
+    """r = -(g - g_pred - W Lambda) into wk.r (Lambda from ``_contact_laws``); returns |r|_2^2.
     Only the active pairs enter (the others have Lambda = 0). RT-safe."""
     r_, act, lam = wk.r, wk.act, wk.lam
     m = g.shape[0]
@@ -228,12 +230,13 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
     closes within the step, so its LU factors are kept with that pattern and reused while it
     holds. The law is affine within one pattern, so a step taken with the factors of pattern P
     that lands on a point whose pattern is still P is the exact solution (to round-off): the
-    residual is not evaluated again there. If plain Newton
-    has not converged after PLAIN_ITER iterations (the active set cycles), steps are shortened
-    by backtracking on |r|^2. Converged when |r|_2 <= p.tol + ROUNDOFF max|g_pred|. Returns the
-    iterations used, or -1 if that was not reached within p.max_iter. RT-safe.
+    residual is not evaluated again there. If plain Newton has not converged after PLAIN_ITER
+    iterations (the active set cycles), steps are shortened by backtracking on |r|^2.
+    Converged when |r|_2 <= p.tol + ROUNDOFF max|g_pred|. Returns the iterations used, or -1
+    if that was not reached within p.max_iter. RT-safe.
     """
-    act, LU, d, piv, pattern, code, rhs, r_, g_old, dg = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code, wk.ra, wk.r, wk.g_old, wk.dg
+    act, LU, d, piv, pattern, code = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code
+    rhs, r_, g_old, dg = wk.ra, wk.r, wk.g_old, wk.dg
     m = g.shape[0]
     npair = m // 2
     scale = 0.0
@@ -297,6 +300,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
     return -1 if res2 > tol2 else p.max_iter
 
 
+# inlined into _plant_step (two call sites): measured ~5 % faster per step at 9 and 33 pairs
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     """One Newmark substep of length h (modal compliance s2, Delassus matrix W), in place on
@@ -304,7 +308,9 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     W_screw). Returns the Newton iterations, or -1 with the state untouched if the contact
     solve did not converge. RT-safe.
     """
-    b_exc, b_N1, f_const, omega2, G, c, k_t, q_pred, g_pred, g0, f_c, lam1, lam, code, qdd_lin, w_new = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c, p.k_t, wk.q_pred, wk.g_pred, wk.g0, wk.f_c, wk.lam1, wk.lam, wk.code, wk.qdd_lin, wk.w_new
+    b_exc, b_N1, f_const, omega2, G, c, k_t = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c, p.k_t
+    q_pred, g_pred, g0, f_c, qdd_lin = wk.q_pred, wk.g_pred, wk.g0, wk.f_c, wk.qdd_lin
+    lam1, lam, code, w_new = wk.lam1, wk.lam, wk.code, wk.w_new
     n = q.shape[0]
     m = g.shape[0]
     npair = m // 2

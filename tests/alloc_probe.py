@@ -12,7 +12,7 @@ from plant.newmark import _plant_step
 from rt.config import load
 
 
-@numba.njit
+@numba.njit(cache=True)
 def _step_many(x, x_next, U, p, y, wk):
     for k in range(U.shape[0]):
         if k % 2 == 0:
