@@ -19,6 +19,9 @@ from pathlib import Path
 from typing import Any, get_args, get_origin, get_type_hints
 
 
+LAWS = ("passive", "hysteresis", "lyapunov")
+
+
 class ConfigError(ValueError):
     """A bad configuration value or file; the message names the key, the value and the fix."""
 
@@ -130,13 +133,59 @@ class Plant:
 class Rt:
     """Real-time loop (SPEC section 7)."""
     rate_hz: float = param(21000.0, "Hz", lo=0.0, lo_inclusive=False, doc="controller rate, dt = 1/rate_hz")
+    seed: int = param(0, "-", lo=0, doc="seed of the sensor noise")
 
 
 @dataclass(frozen=True)
 class Tracking:
-    """Normal-force limits of both control laws (SPEC section 4)."""
+    """Control laws and force tracking (SPEC sections 3 and 4)."""
     F_min_N: float = param(40.0, "N", lo=0.0)
     F_max_N: float = param(600.0, "N", lo=0.0, lo_inclusive=False)
+    law: str = param("passive", doc="passive | hysteresis | lyapunov")
+    F_passive_N: float = param(40.0, "N", lo=0.0, doc="constant F_N1 of the passive law")
+    K_f: float = param(2.5e7, "N/m", lo=0.0, lo_inclusive=False, doc="hysteresis-optimal gain, F_N = K_f u0 (Eq. 3)")
+    T1_s: float = param(0.020, "s", lo=0.0, lo_inclusive=False, doc="RT1 amplitude filter time constant (Eq. 4)")
+    eps_m_s: float = param(0.010, "m/s", lo=0.0, lo_inclusive=False, doc="Lyapunov boundary layer")
+    pid_bandwidth_hz: float = param(300.0, "Hz", lo=0.0, lo_inclusive=False,
+                                    doc="target crossover of the force-tracking loop (design time)")
+    pid_phase_margin_deg: float = param(60.0, "deg", lo=10.0, hi=89.0, doc="target phase margin (design time)")
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """DAC, 30 kHz analog low-pass, amplifier and piezo stack (SPEC section 3)."""
+    dac_bits: int = param(16, "-", lo=8, hi=24)
+    V_min: float = param(0.0, "V", doc="amplifier output range, low end")
+    V_max: float = param(150.0, "V", lo=0.0, lo_inclusive=False, doc="amplifier output range, high end")
+    lowpass_hz: float = param(30000.0, "Hz", lo=0.0, lo_inclusive=False, doc="analog 2nd-order Butterworth (A)")
+    amp_bandwidth_hz: float = param(20000.0, "Hz", lo=0.0, lo_inclusive=False,
+                                    doc="amplifier small-signal bandwidth (first order) (A)")
+    current_limit_A: float = param(1.0, "A", lo=0.0, lo_inclusive=False, doc="amplifier current limit (A)")
+    capacitance_F: float = param(1.5e-6, "F", lo=0.0, lo_inclusive=False, doc="piezo stack capacitance (A)")
+    F0_N: float = param(40.0, "N", lo=0.0, doc="F_N1 at 0 V: F = F0 + c_v V (A)")
+    c_v: float = param(3.73, "N/V", lo=0.0, lo_inclusive=False, doc="static voltage-force gain (A)")
+    k_stack: float = param(2.0e7, "N/m", lo=0.0, lo_inclusive=False, doc="piezo stack stiffness (A)")
+    k_screw: float = param(2.0e7, "N/m", lo=0.0, lo_inclusive=False, doc="screw stiffness in series (A)")
+    moving_mass_kg: float = param(0.020, "kg", lo=0.0, lo_inclusive=False, doc="stack moving mass (A)")
+    zeta_stack: float = param(0.05, "-", lo=0.0, hi=1.0, doc="damping ratio of the stack resonance (A)")
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """Accelerometers, bolt-force sensors and the ADC (SPEC section 3)."""
+    adc_bits: int = param(16, "-", lo=8, hi=24)
+    acc_range: float = param(500.0, "m/s^2", lo=0.0, lo_inclusive=False, doc="accelerometer ADC full scale +-")
+    acc_noise_rms: float = param(0.01, "m/s^2", lo=0.0, doc="accelerometer noise")
+    acc_bandwidth_hz: float = param(5000.0, "Hz", lo=0.0, lo_inclusive=False,
+                                    doc="accelerometer + anti-alias low-pass (2nd order) (A); attenuates "
+                                        "the near-Nyquist content of unresolved plant modes")
+    velocity_corner_hz: float = param(2.0, "Hz", lo=0.0, lo_inclusive=False,
+                                      doc="leaky integrator corner (tip velocity)")
+    force_range_N: float = param(1000.0, "N", lo=0.0, lo_inclusive=False, doc="force ADC full scale (0..range)")
+    strain_bandwidth_hz: float = param(1000.0, "Hz", lo=0.0, lo_inclusive=False, doc="strain-gauge bolt force")
+    strain_noise_N: float = param(0.5, "N", lo=0.0, doc="strain-gauge noise rms")
+    cell_bandwidth_hz: float = param(20000.0, "Hz", lo=0.0, lo_inclusive=False, doc="piezo force cell")
+    cell_noise_N: float = param(0.05, "N", lo=0.0, doc="piezo force cell noise rms")
 
 
 @dataclass(frozen=True)
@@ -154,6 +203,8 @@ class Config:
     rt: Rt = field(default_factory=Rt)
     plant: Plant = field(default_factory=Plant)
     tracking: Tracking = field(default_factory=Tracking)
+    actuator: Actuator = field(default_factory=Actuator)
+    sensors: Sensors = field(default_factory=Sensors)
     impulse: Impulse = field(default_factory=Impulse)
 
     @property
@@ -343,6 +394,11 @@ def validate(cfg: Config) -> None:
     _check_fields(cfg, "")
     p = cfg.plant
     t = cfg.tracking
+    if t.law not in LAWS:
+        raise ConfigError(f"tracking.law = {t.law!r}: must be one of {', '.join(LAWS)}")
+    a = cfg.actuator
+    if a.V_min >= a.V_max:
+        raise ConfigError(f"actuator.V_min = {a.V_min:g} V must be below actuator.V_max = {a.V_max:g} V")
     if t.F_min_N > t.F_max_N:
         raise ConfigError(f"tracking.F_min_N = {t.F_min_N:g} N > tracking.F_max_N = {t.F_max_N:g} N: "
                           "F_min must not exceed F_max")
