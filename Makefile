@@ -17,6 +17,9 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	$(BIN)/frictionrt modes
 	$(BIN)/frictionrt impulse --fn1 100 --plot logs/impulse_fn1_100.png
+	for law in passive hysteresis lyapunov; do \
+	  $(BIN)/frictionrt simulate --law $$law --freq 223.6 --amp 5 --duration 1 --out logs/$$law || exit 1; \
+	done
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -18,6 +18,8 @@ examples:
   frictionrt config --show
   frictionrt --set plant.interface.mu=0.3 modes --json
   frictionrt impulse --fn1 100 --plot logs/impulse.png
+  frictionrt simulate --law lyapunov --freq 223.6 --amp 5 --duration 1 --out logs/lyap
+  frictionrt budget
   frictionrt bench plant --json"""
 
 
@@ -62,6 +64,32 @@ def build_parser() -> argparse.ArgumentParser:
                    help="adaptive screw force F_N1 [N] (default: plant.screws.adaptive.F_N)")
     i.add_argument("--plot", metavar="FILE", help="write the FRF plot (PNG) here")
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+
+    s = sub.add_parser("simulate", parents=[common], help="closed loop at 21 kHz: sine excitation, a law, the actuator",
+                       description="Run the closed loop (sensors -> estimator -> law -> force tracking -> "
+                                   "actuator -> plant) with a sine excitation force of --amp [N] at --freq [Hz] "
+                                   "for --duration [s]; print the summary (acceleration at x = 0.45 m [m/s^2], "
+                                   "mean F_N1 [N], actuator energy [J], overruns) and save the log as .npz.")
+    s.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
+                   help="control law (default: tracking.law)")
+    s.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
+                   help="oracle: the plant's band-limited u_rel, v_rel; observer: comes with the observer issue")
+    s.add_argument("--freq", type=float, required=True, metavar="HZ", help="excitation frequency [Hz]")
+    s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
+    s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s] (default 1)")
+    s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
+    s.add_argument("--out", metavar="PATH", help="save the log here (.npz appended if missing)")
+    s.add_argument("--json", action="store_true", help="the summary as one JSON object")
+
+    g = sub.add_parser("budget", parents=[common], help="per-component tick times [us] against the 47.6 us budget",
+                       description="Run the loop offline (timed per component) and paced; print median, p99, "
+                                   "p99.9 and max [us] per component and for the whole tick, and the paced run's "
+                                   "overruns, lateness [us] and drift [us].")
+    g.add_argument("--ticks", type=int, default=105000, metavar="N", help="offline ticks (default 105000 = 5 s)")
+    g.add_argument("--paced-s", type=float, default=5.0, metavar="S", help="paced run length [s] (default 5)")
+    g.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov")
+    g.add_argument("--json", action="store_true", help="one JSON object instead of a table")
 
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
                        description="Per-step wall time [us] of the compiled kernels: median, p99, p99.9, max.")
@@ -140,7 +168,61 @@ def _cmd_bench(cfg, args) -> int:
     return 0
 
 
-COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "bench": _cmd_bench}
+def _cmd_simulate(cfg, args) -> int:
+    import numpy as np
+    from tqdm import tqdm
+
+    from rt.config import dumps
+    from rt.loop import build_loop, check_run_input, run, summary
+    if args.estimator == "observer":
+        return _fail("--estimator observer: the observer lands with its own issue; use --estimator oracle")
+    if args.seed is not None and args.seed < 0:
+        return _fail(f"--seed {args.seed}: must be a non-negative integer")
+    out = None
+    if args.out:
+        out = Path(args.out if args.out.endswith(".npz") else args.out + ".npz")
+        if not out.parent.exists():
+            return _fail(f"--out {args.out}: folder {out.parent} does not exist")
+    try:
+        loop = build_loop(cfg, args.law)
+        n = check_run_input(loop, args.freq, args.amp, args.duration)
+        with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
+            r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update)
+    except ValueError as exc:
+        return _fail(str(exc))
+    s = summary(r)
+    if out is not None:
+        tmp = out.with_suffix(".tmp.npz")
+        np.savez_compressed(tmp, log=r.log, names=[n for n, _, _ in loop.signals],
+                            units=[u for _, u, _ in loop.signals], owners=[o for _, _, o in loop.signals],
+                            dt=cfg.dt_s, config=dumps(cfg), summary=json.dumps(s))
+        tmp.replace(out)  # never leave a half-written log
+        s["out"] = str(out)
+    if args.json:
+        print(json.dumps(s))
+        return 0
+    print(f"law {s['law']}, estimator {s['estimator']}, {s['amp_n']:g} N at {s['freq_hz']:g} Hz, {s['ticks']} ticks"
+          f"{' (paced)' if s['paced'] else ''}")
+    print(f"acceleration at x = 0.45 m: first harmonic {s['acc045_amplitude']:.4g} m/s^2, RMS {s['acc045_rms']:.4g}, "
+          f"peak {s['acc045_peak']:.4g} (last 20 %)")
+    print(f"mean F_N1 {s['fn1_mean_n']:.2f} N, actuator energy {s['actuator_energy_j']:.4g} J, "
+          f"tick median {s['tick_median_us']:.2f} us, overruns {s['overruns']}")
+    if out is not None:
+        print(f"log: {out}")
+    return 0
+
+
+def _cmd_budget(cfg, args) -> int:
+    from rt.budget import budget, format_budget
+    if args.ticks < 1000 or args.paced_s <= 0:
+        return _fail(f"--ticks {args.ticks} / --paced-s {args.paced_s}: need >= 1000 ticks and a positive paced time")
+    res = budget(cfg, args.law, args.ticks, args.paced_s)
+    print(json.dumps(res) if args.json else format_budget(res))
+    return 0
+
+
+COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
+            "budget": _cmd_budget, "bench": _cmd_bench}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -146,6 +146,9 @@ class Tracking:
     K_f: float = param(2.5e7, "N/m", lo=0.0, lo_inclusive=False, doc="hysteresis-optimal gain, F_N = K_f u0 (Eq. 3)")
     T1_s: float = param(0.020, "s", lo=0.0, lo_inclusive=False, doc="RT1 amplitude filter time constant (Eq. 4)")
     eps_m_s: float = param(0.010, "m/s", lo=0.0, lo_inclusive=False, doc="Lyapunov boundary layer")
+    setpoint_filter_hz: float = param(1000.0, "Hz", lo=0.0, lo_inclusive=False,
+                                      doc="2nd-order low-pass on F* before feedforward and PID "
+                                          "(keeps the law's switching out of the stack resonance)")
     pid_bandwidth_hz: float = param(300.0, "Hz", lo=0.0, lo_inclusive=False,
                                     doc="target crossover of the force-tracking loop (design time)")
     pid_phase_margin_deg: float = param(60.0, "deg", lo=10.0, hi=89.0, doc="target phase margin (design time)")
@@ -168,6 +171,9 @@ class Actuator:
     k_screw: float = param(2.0e7, "N/m", lo=0.0, lo_inclusive=False, doc="screw stiffness in series (A)")
     moving_mass_kg: float = param(0.020, "kg", lo=0.0, lo_inclusive=False, doc="stack moving mass (A)")
     zeta_stack: float = param(0.05, "-", lo=0.0, hi=1.0, doc="damping ratio of the stack resonance (A)")
+    substeps: int = param(8, "-", lo=1, hi=256, doc="actuator substeps per controller step")
+    fine_substeps: int = param(8, "-", lo=1, hi=256,
+                               doc="finer substeps of a substep in which the amplifier changes regime")
 
 
 @dataclass(frozen=True)
@@ -189,6 +195,14 @@ class Sensors:
 
 
 @dataclass(frozen=True)
+class Observer:
+    """Estimators of u_rel, v_rel at the adaptive screw (SPEC section 5)."""
+    oracle_bandwidth_hz: float = param(1500.0, "Hz", lo=0.0, lo_inclusive=False,
+                                       doc="oracle: the plant's u_rel, v_rel through a 2nd-order "
+                                           "Butterworth (removes unresolved-mode ringing)")
+
+
+@dataclass(frozen=True)
 class Impulse:
     """Simulated hammer test (SPEC section 6, Fig. 5)."""
     peak_N: float = param(50.0, "N", lo=0.0, lo_inclusive=False, doc="half-sine hammer peak force")
@@ -205,6 +219,7 @@ class Config:
     tracking: Tracking = field(default_factory=Tracking)
     actuator: Actuator = field(default_factory=Actuator)
     sensors: Sensors = field(default_factory=Sensors)
+    observer: Observer = field(default_factory=Observer)
     impulse: Impulse = field(default_factory=Impulse)
 
     @property

@@ -1,0 +1,346 @@
+"""The hard fixed-step loop (SPEC section 7): every tick of a run inside one compiled function.
+
+One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order:
+
+    1 sensors    accelerations of the plant at t_k and the bolt-force sensors' analog outputs
+                 (integrated inside the actuator, exact between samples) -> ADC readings
+    2 estimator  oracle: the plant's true u_rel, v_rel at t_k, band-limited (observer.oracle;
+                 the observer comes with its issue)
+    3 law        F* (passive, hysteresis-optimal with RT1, Lyapunov)
+    4 tracking   V_cmd = feedforward + PID on the law's force sensor
+    5 actuator   DAC -> 30 kHz low-pass -> amplifier -> piezo stack over [t_k, t_k+1]
+    6 plant      over [t_k, t_k+1]: F_exc(t_k) held, F_N1 = mean of its values at t_k, t_k+1
+    7 log        every signal of the tick into row k of the preallocated log
+
+Two ways to run, one function: as fast as possible (offline, deterministic), or paced to the
+wall clock: absolute deadlines next += period, busy-wait on CLOCK_MONOTONIC, overruns counted
+and skipped by whole periods, each tick's execution time and lateness logged. Ticks run in
+chunks so that Python can show progress between them; the deadline carries over.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from plant.actuator import ACTUATOR_OUTPUTS, ActuatorParams, _actuator_step, build_actuator
+from plant.actuator import initial_state as actuator_initial_state
+from plant.actuator import output_index as actuator_output_index
+from plant.model import PlantModel, build_plant
+from observer.oracle import ORACLE_OUTPUTS, build_oracle
+from rt.biquad import BiquadParams, _biquad_step, rest_state
+from plant.newmark import _plant_step
+from rt.clock import _now_ns
+from rt.config import Config
+from rt.noise import new_rng
+from rt.sensors import SENSOR_OUTPUTS, SensorParams, _sensors_step, build_sensors
+from rt.sensors import initial_state as sensors_initial_state
+from rt.sensors import output_index as sensor_output_index
+from tracking.force_tracking import (FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign,
+                                     _force_tracking_step, design_force_tracking)
+from tracking.force_tracking import initial_state as tracking_initial_state
+from tracking.laws import LAWS_OUTPUTS, LAWS_SLOTS, _laws_step, build_laws
+from tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
+
+COMPONENTS = ("sensors", "estimator", "law", "tracking", "actuator", "plant", "log")
+ESTIMATORS = ("oracle",)
+# clock state shared by the chunks of one run (int64): next deadline [ns], overruns, ticks run
+CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class Loop:
+    """Everything a run needs, built once at design time from the configuration."""
+    cfg: Config
+    law: str
+    plant: PlantModel
+    actuator: ActuatorParams
+    sensors: SensorParams
+    oracle: BiquadParams
+    prefilter: BiquadParams
+    law_params: object
+    design: ForceTrackingDesign
+    force_sensor: str
+    signals: tuple[tuple[str, str, str], ...]   # (name, unit, owner) per log column
+
+    def column(self, name: str) -> int:
+        return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
+
+
+def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
+    """Log columns in order: (name, unit, owning package)."""
+    sig = [("F_exc", "N", "rt")]
+    sig += [(n, u, "sensors") for n, u in SENSOR_OUTPUTS]
+    sig += [(n, u, "observer") for n, u in ORACLE_OUTPUTS]
+    sig += [(n, u, "tracking") for n, u in LAWS_OUTPUTS]
+    sig += [(n, u, "tracking") for n, u in PREFILTER_OUTPUTS]
+    sig += [(n, u, "tracking") for n, u in FORCE_TRACKING_OUTPUTS]
+    sig += [(n, u, "actuator") for n, u in ACTUATOR_OUTPUTS]
+    sig += [(n, u, "plant") for n, u in plant.output_labels()]
+    sig += [("tick_ns", "ns", "rt"), ("late_ns", "ns", "rt")]
+    return tuple(sig)
+
+
+def build_loop(cfg: Config, law: str | None = None) -> Loop:
+    """Design time: plant, actuator, sensors, law and the force-tracking design for its sensor.
+
+    Raises ValueError (from the design) if the force-tracking loop would be unstable."""
+    law = cfg.tracking.law if law is None else law
+    plant = build_plant(cfg)
+    sensor = SENSOR_OF_LAW[law]
+    design = design_force_tracking(cfg, sensor)
+    return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), build_prefilter(cfg),
+                build_laws(cfg, law), design, sensor, loop_signals(plant))
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _put(log, row, c, y):
+    """log[row, c:c + len(y)] = y; returns the next column. RT-safe."""
+    for i in range(y.shape[0]):
+        log[row, c + i] = y[i]
+    return c + y.shape[0]
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _copy(src, dst):
+    """dst[:] = src (a component's next state becomes its state). RT-safe."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
+def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_ns, clk, ts,
+               xs, xs_n, ys, us, sens_p, rng,
+               xo, xo_n, yo, uo, oracle_p,
+               xl, xl_n, yl, ul, law_p,
+               xq, xq_n, yq, uq, pre_p,
+               xf, xf_n, yf, uf, ft_p,
+               xa, xa_n, ya, ua, act_p,
+               xp, xp_n, yp, up, plant_p, plant_wk,
+               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell,
+               log, comp_ns):
+    """Run ticks k0 <= k < k1 (see the module docstring); states are advanced in place.
+
+    log[k - k0] receives the tick's signals (``loop_signals`` order); comp_ns[k - k0] the
+    per-component times [ns] if timing; ts is the clock's (2,) int64 scratch. Returns the number
+    of failed plant solves.
+    """
+    failed = 0
+    for k in range(k0, k1):
+        row = k - k0
+        if paced:
+            while _now_ns(ts) < clk[CLK_DEADLINE]:
+                pass
+        t_start = _now_ns(ts)
+        late = t_start - clk[CLK_DEADLINE] if paced else 0
+        # 1 sensors: plant accelerations and the force sensors' analog outputs at t_k
+        us[0] = yp[col_a_tip]
+        us[1] = yp[col_a_frf]
+        us[2] = ya[col_strain]
+        us[3] = ya[col_cell]
+        _sensors_step(k, xs, us, sens_p, xs_n, ys, rng)
+        t1 = _now_ns(ts) if timing else 0
+        # 2 estimator (oracle)
+        uo[0] = yp[col_urel]
+        uo[1] = yp[col_vrel]
+        _biquad_step(k, xo, uo, oracle_p, xo_n, yo)
+        ul[0] = yo[0]
+        ul[1] = yo[1]
+        t2 = _now_ns(ts) if timing else 0
+        # 3 law
+        _laws_step(k, xl, ul, law_p, xl_n, yl)
+        t3 = _now_ns(ts) if timing else 0
+        # 4 force tracking on the law's sensor, setpoint through the prefilter
+        uq[0] = yl[0]
+        _biquad_step(k, xq, uq, pre_p, xq_n, yq)
+        uf[0] = yq[0]
+        uf[1] = ys[force_col]
+        _force_tracking_step(k, xf, uf, ft_p, xf_n, yf)
+        t4 = _now_ns(ts) if timing else 0
+        # 5 actuator over the tick
+        F_start = ya[0]
+        ua[0] = yf[0]
+        _actuator_step(k, xa, ua, act_p, xa_n, ya)
+        t5 = _now_ns(ts) if timing else 0
+        # 6 plant over the tick
+        F_exc = exc_amp * math.sin(exc_omega * (k * dt))
+        up[0] = F_exc
+        up[1] = 0.5 * (F_start + ya[0])
+        if _plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk) < 0:
+            failed += 1
+        t6 = _now_ns(ts) if timing else 0
+        # 7 log and advance the states
+        log[row, 0] = F_exc
+        c = _put(log, row, 1, ys)
+        c = _put(log, row, c, yo)
+        c = _put(log, row, c, yl)
+        c = _put(log, row, c, yq)
+        c = _put(log, row, c, yf)
+        c = _put(log, row, c, ya)
+        c = _put(log, row, c, yp)
+        _copy(xs_n, xs)
+        _copy(xo_n, xo)
+        _copy(xl_n, xl)
+        _copy(xq_n, xq)
+        _copy(xf_n, xf)
+        _copy(xa_n, xa)
+        _copy(xp_n, xp)
+        t_end = _now_ns(ts)
+        log[row, c] = t_end - t_start
+        log[row, c + 1] = late
+        if timing:
+            comp_ns[row, 0] = t1 - t_start
+            comp_ns[row, 1] = t2 - t1
+            comp_ns[row, 2] = t3 - t2
+            comp_ns[row, 3] = t4 - t3
+            comp_ns[row, 4] = t5 - t4
+            comp_ns[row, 5] = t6 - t5
+            comp_ns[row, 6] = t_end - t6
+        clk[CLK_TICKS] += 1
+        if paced:
+            clk[CLK_DEADLINE] += period_ns
+            if t_end > clk[CLK_DEADLINE]:  # overrun: skip ahead by whole periods
+                missed = (t_end - clk[CLK_DEADLINE]) // period_ns + 1
+                clk[CLK_OVERRUNS] += missed
+                clk[CLK_DEADLINE] += missed * period_ns
+    return failed
+
+
+@dataclass
+class Run:
+    """A finished (or interrupted) run: the log and its figures."""
+    loop: Loop
+    freq_hz: float
+    amp_n: float
+    log: np.ndarray            # (ticks, len(loop.signals))
+    comp_ns: np.ndarray | None  # (ticks, len(COMPONENTS)) if timed
+    overruns: int
+    paced: bool
+    wall_ns: int
+
+    def signal(self, name: str) -> np.ndarray:
+        return self.log[:, self.loop.column(name)]
+
+
+MAX_LOG_BYTES = 4 * 2**30  # a run's log must fit in memory with room to spare
+
+
+def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float) -> int:
+    """Number of ticks of a run; ValueError (naming the option and the limit) for an excitation
+    at or above Nyquist, a negative amplitude or duration, or a log that would not fit in memory."""
+    dt = loop.cfg.dt_s
+    nyq = 0.5 / dt
+    if not (math.isfinite(freq_hz) and 0.0 <= freq_hz < nyq):
+        raise ValueError(f"--freq {freq_hz:g} Hz: must lie in [0, {nyq:g}) Hz (below the Nyquist frequency)")
+    if not (math.isfinite(amp_n) and amp_n >= 0.0):
+        raise ValueError(f"--amp {amp_n:g} N: must be a finite force >= 0 N")
+    if not (math.isfinite(duration_s) and duration_s > 0.0):
+        raise ValueError(f"--duration {duration_s:g} s: must be > 0 s")
+    n_ticks = int(round(duration_s / dt))
+    n_sig = len(loop.signals)
+    if n_ticks * n_sig * 8 > MAX_LOG_BYTES:
+        raise ValueError(f"--duration {duration_s:g} s: the log would need "
+                         f"{n_ticks * n_sig * 8 / 2**30:.1f} GiB (> {MAX_LOG_BYTES / 2**30:.0f} GiB); "
+                         f"run at most {MAX_LOG_BYTES / (n_sig * 8) * dt:.0f} s")
+    return n_ticks
+
+
+def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
+        timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None) -> Run:
+    """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
+
+    Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
+    log that would not fit in memory; RuntimeError if a plant step failed.
+    """
+    cfg = loop.cfg
+    dt = cfg.dt_s
+    n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s)
+    n_sig = len(loop.signals)
+    seed = cfg.rt.seed if seed is None else seed
+    plant = loop.plant
+    oi = plant.output_index()
+    # --- initial states: at rest at F_N1 = F0 (0 V), everything at its steady state
+    F0 = cfg.actuator.F0_N
+    xp = plant.initial_state(F0)
+    yp = np.zeros(len(plant.output_labels()))
+    xa = actuator_initial_state(loop.actuator, V=cfg.actuator.V_min)
+    ya = np.zeros(len(ACTUATOR_OUTPUTS))
+    ya[0] = loop.actuator.F0 + loop.actuator.k_screw * xa[3]
+    ai = actuator_output_index()
+    ya[ai["F_strain_a"]] = ya[ai["F_cell_a"]] = ya[0]
+    xs = sensors_initial_state(loop.sensors, F_N1=ya[0])
+    xo = rest_state(loop.oracle, (0.0, 0.0))
+    xq = rest_state(loop.prefilter, (cfg.tracking.F_min_N,))
+    xl = np.zeros(len(LAWS_SLOTS))
+    xf = tracking_initial_state(ya[0])
+    bufs = dict(xs=xs, ys=np.zeros(len(SENSOR_OUTPUTS)), xl=xl, yl=np.zeros(len(LAWS_OUTPUTS)),
+                xf=xf, yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)), xa=xa, ya=ya, xp=xp, yp=yp)
+    rng = new_rng(seed)
+    log = np.empty((n_ticks, n_sig))
+    comp_ns = np.zeros((n_ticks, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
+    period_ns = int(round(dt * 1e9))
+    clk = np.zeros(3, dtype=np.int64)
+    force_col = sensor_output_index()["F_strain" if loop.force_sensor == "strain" else "F_cell"]
+    args_fixed = (dt, amp_n, 2 * math.pi * freq_hz, force_col, timing, paced, period_ns, clk,
+                  np.zeros(2, dtype=np.int64))
+    work = plant.new_work()
+    t_wall = _now_ns(np.zeros(2, dtype=np.int64))
+    clk[CLK_DEADLINE] = t_wall + period_ns
+    failed = 0
+    k = 0
+    while k < n_ticks:
+        k1 = min(n_ticks, k + chunk)
+        failed += _run_ticks(k, k1, *args_fixed,
+                             bufs["xs"], np.empty_like(xs), bufs["ys"], np.zeros(4), loop.sensors, rng,
+                             xo, np.empty_like(xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
+                             bufs["xl"], np.empty_like(xl), bufs["yl"], np.zeros(2), loop.law_params,
+                             xq, np.empty_like(xq), np.zeros(1), np.zeros(1), loop.prefilter,
+                             bufs["xf"], np.empty_like(xf), bufs["yf"], np.zeros(2), loop.design.params,
+                             bufs["xa"], np.empty_like(xa), bufs["ya"], np.zeros(1), loop.actuator,
+                             bufs["xp"], np.empty_like(xp), bufs["yp"], np.zeros(2), plant.params, work,
+                             oi["u_rel"], oi["v_rel"], oi["a_tip"], oi["a_frf"], ai["F_strain_a"], ai["F_cell_a"],
+                             log[k:k1], comp_ns[k:k1] if timing else comp_ns)
+        if progress is not None:
+            progress(k1 - k)
+        k = k1
+    wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
+    if failed:
+        raise RuntimeError(f"the plant's contact solve failed in {failed} of {n_ticks} ticks; "
+                           "raise plant.substeps or plant.fallback_split")
+    if not np.all(np.isfinite(log)):
+        raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
+    return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall))
+
+
+def first_harmonic_amplitude(x: np.ndarray, freq_hz: float, dt: float) -> float:
+    """Amplitude of the component at freq_hz of x (least squares on sin, cos, offset) over the
+    whole periods at the end of x."""
+    n_per = 1.0 / (freq_hz * dt)
+    n = int(np.floor(len(x) / n_per) * n_per) if freq_hz > 0 else len(x)
+    n = max(n, 2)
+    t = (np.arange(len(x) - n, len(x))) * dt
+    A = np.column_stack([np.sin(2 * np.pi * freq_hz * t), np.cos(2 * np.pi * freq_hz * t), np.ones(n)])
+    c, *_ = np.linalg.lstsq(A, x[-n:], rcond=None)
+    return float(np.hypot(c[0], c[1]))
+
+
+def summary(r: Run) -> dict:
+    """The figures `frictionrt simulate` prints (SI units)."""
+    dt = r.loop.cfg.dt_s
+    n = len(r.log)
+    tail = slice(n - max(int(0.2 * n), 2), n)
+    a = r.signal("a_frf")
+    return {
+        "law": r.loop.law, "estimator": "oracle", "freq_hz": r.freq_hz, "amp_n": r.amp_n, "ticks": n,
+        "acc045_amplitude": first_harmonic_amplitude(a[tail], r.freq_hz, dt),
+        "acc045_rms": float(np.sqrt(np.mean(a[tail] ** 2))),
+        "acc045_peak": float(np.max(np.abs(a[tail]))),
+        "fn1_mean_n": float(np.mean(r.signal("F_N1"))),
+        "actuator_energy_j": float(r.signal("E")[-1]),
+        "overruns": r.overruns, "paced": r.paced,
+        "tick_median_us": float(np.median(r.signal("tick_ns")) / 1e3),
+        "tick_max_us": float(np.max(r.signal("tick_ns")) / 1e3),
+        "wall_s": r.wall_ns / 1e9,
+    }

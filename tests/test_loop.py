@@ -1,0 +1,103 @@
+"""The closed loop: timing budget, determinism, bad input, and the laws' first physics figures."""
+import json
+
+import numpy as np
+import pytest
+
+from rt.cli import main
+from rt.config import load
+from rt.loop import COMPONENTS, build_loop, run, summary
+
+BUDGET_US = 1e6 / 21000
+F3, AMP = 223.6, 5.0  # mode-3 resonance (preloaded, linearised) and a moderate force
+
+
+@pytest.fixture(scope="module")
+def loops():
+    cfg = load()
+    return {law: build_loop(cfg, law) for law in ("passive", "hysteresis", "lyapunov")}
+
+
+def test_timing_budget_per_component_and_tick(loops):
+    # robust on a shared 2-core machine: the median tick far below the budget (a quarter),
+    # its p99 below the budget; every component's median below a tenth. The tight figures
+    # (median ~2 us) are `frictionrt budget`'s, not asserted here.
+    r = run(loops["lyapunov"], F3, AMP, 1.0, timing=True)
+    tick_us = r.signal("tick_ns") / 1e3
+    assert np.median(tick_us) < BUDGET_US / 4
+    assert np.percentile(tick_us, 99) < BUDGET_US
+    med = np.median(r.comp_ns, axis=0) / 1e3
+    for name, m in zip(COMPONENTS, med):
+        assert m < BUDGET_US / 10, f"{name}: median {m:.2f} us"
+
+
+def test_same_seed_bit_identical_other_seed_changes_noise(loops):
+    L = loops["hysteresis"]
+    timing_cols = [L.column("tick_ns"), L.column("late_ns")]  # wall-clock, not signals
+    keep = np.setdiff1d(np.arange(len(L.signals)), timing_cols)
+    a = run(L, F3, AMP, 0.2, seed=7).log[:, keep]
+    b = run(L, F3, AMP, 0.2, seed=7).log[:, keep]
+    c = run(L, F3, AMP, 0.2, seed=8)
+    assert np.array_equal(a, b)
+    # another seed: the noisy readings differ, the structure's response hardly
+    i_meas = list(keep).index(L.column("a_frf_meas"))
+    assert not np.array_equal(a[:, i_meas], c.log[:, L.column("a_frf_meas")])
+    s_a = summary(run(L, F3, AMP, 0.2, seed=7))
+    assert summary(c)["acc045_amplitude"] == pytest.approx(s_a["acc045_amplitude"], rel=0.02)
+
+
+@pytest.mark.parametrize("freq, amp, dur, match", [
+    (11000.0, 5.0, 0.1, "Nyquist"),
+    (200.0, -1.0, 0.1, "--amp"),
+    (200.0, 5.0, 1e6, "GiB"),
+    (200.0, 5.0, 0.0, "--duration"),
+])
+def test_bad_run_input_is_refused_before_the_loop(loops, freq, amp, dur, match):
+    with pytest.raises(ValueError, match=match):
+        run(loops["passive"], freq, amp, dur)
+
+
+def test_unstable_force_tracking_design_is_refused():
+    with pytest.raises(ValueError, match="pid_bandwidth_hz"):
+        build_loop(load(sets=["tracking.pid_bandwidth_hz=8000"]), "lyapunov")
+
+
+def test_first_physics_figures_of_the_laws(loops, capsys):
+    """Oracle estimator at the mode-3 resonance, 5 N, 1 s. Measured (this model, see the
+    issue notes): Lyapunov reduces the 0.45 m acceleration against passive F_N1 = 40 N and
+    uses far more actuator energy than hysteresis-optimal (SPEC claim C6); at this amplitude
+    hysteresis-optimal stays at F_min (K_f u0 < 40 N), i.e. equals passive."""
+    s = {law: summary(run(L, F3, AMP, 1.0)) for law, L in loops.items()}
+    with capsys.disabled():
+        for law, v in s.items():
+            print(f"\n[loop] {law}: acc045 {v['acc045_amplitude']:.4f} m/s^2, F_N1 mean {v['fn1_mean_n']:.1f} N, "
+                  f"E {v['actuator_energy_j']:.3g} J", end="")
+    assert s["lyapunov"]["acc045_amplitude"] < 0.95 * s["passive"]["acc045_amplitude"]
+    assert s["lyapunov"]["actuator_energy_j"] > 100 * s["hysteresis"]["actuator_energy_j"]
+    assert s["hysteresis"]["fn1_mean_n"] == pytest.approx(40.0, abs=1.0)
+
+
+def test_simulate_cli_json_and_log(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["simulate", "--law", "lyapunov", "--freq", "223.6", "--amp", "5", "--duration", "0.1",
+                 "--out", str(out), "--json"])
+    s = json.loads(capsys.readouterr().out)
+    assert code == 0
+    for key in ("acc045_amplitude", "fn1_mean_n", "actuator_energy_j", "ticks", "overruns"):
+        assert key in s
+    assert s["ticks"] == 2100
+    data = np.load(str(out) + ".npz")
+    assert data["log"].shape == (2100, len(data["names"])) and "plant.interface" in str(data["config"])
+
+
+@pytest.mark.parametrize("args, words", [
+    (["simulate", "--freq", "20000", "--amp", "5"], ["--freq", "Nyquist"]),
+    (["simulate", "--freq", "200", "--amp", "-5"], ["--amp"]),
+    (["simulate", "--freq", "200", "--amp", "5", "--estimator", "observer"], ["observer"]),
+    (["--set", "tracking.pid_bandwidth_hz=8000", "simulate", "--law", "lyapunov", "--freq", "200", "--amp", "5"],
+     ["pid_bandwidth_hz"]),
+])
+def test_simulate_bad_input_exit_2(args, words, capsys):
+    code = main(args)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and all(w in err[0] for w in words)
