@@ -17,9 +17,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	$(BIN)/frictionrt modes
 	$(BIN)/frictionrt impulse --fn1 100 --plot logs/impulse_fn1_100.png
-	for law in passive hysteresis lyapunov; do \
-	  $(BIN)/frictionrt simulate --law $$law --freq 223.6 --amp 5 --duration 1 --out logs/$$law || exit 1; \
-	done
+	$(BIN)/frictionrt compare --freq 223.6 --amp 5 --duration 1 --plot logs/compare_laws.png
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -82,6 +82,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", metavar="PATH", help="save the log here (.npz appended if missing)")
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
 
+    q = sub.add_parser("compare", parents=[common], help="the three laws at one excitation: table and plot",
+                       description="Run passive, hysteresis-optimal and Lyapunov with the same sine excitation "
+                                   "(--amp [N] at --freq [Hz], --duration [s]); print the acceleration amplitude at "
+                                   "x = 0.45 m [m/s^2], its reduction against passive [%], mean F_N1 [N] and "
+                                   "actuator energy [J]; optionally plot displacement and F_N1 (PNG).")
+    q.add_argument("--freq", type=float, default=223.6, metavar="HZ", help="excitation frequency [Hz] (223.6)")
+    q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
+    q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
+    q.add_argument("--plot", metavar="FILE", help="write the time histories here (PNG)")
+    q.add_argument("--json", action="store_true", help="the table as JSON")
+
     g = sub.add_parser("budget", parents=[common], help="per-component tick times [us] against the 47.6 us budget",
                        description="Run the loop offline (timed per component) and paced; print median, p99, "
                                    "p99.9 and max [us] per component and for the whole tick, and the paced run's "
@@ -213,6 +224,39 @@ def _cmd_simulate(cfg, args) -> int:
     return 0
 
 
+def _cmd_compare(cfg, args) -> int:
+    from tqdm import tqdm
+
+    from rt.compare import compare, plot, table
+    from rt.loop import build_loop, check_run_input
+    if args.plot:
+        out = Path(args.plot)
+        if out.suffix.lower() != ".png" or not out.parent.exists():
+            return _fail(f"--plot {out}: give a .png file in an existing folder")
+    try:
+        n = check_run_input(build_loop(cfg, "passive"), args.freq, args.amp, args.duration)
+        with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:
+            runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update)
+    except ValueError as exc:
+        return _fail(str(exc))
+    rows = table(runs)
+    if args.plot:
+        tmp = out.with_suffix(".tmp.png")
+        plot(runs, str(tmp))
+        tmp.replace(out)
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"{args.amp:g} N at {args.freq:g} Hz, {args.duration:g} s per law, oracle estimator")
+    print(f"{'law':>11} {'acc 0.45 m [m/s^2]':>19} {'vs passive':>11} {'mean F_N1 [N]':>14} {'energy [J]':>11}")
+    for r in rows:
+        print(f"{r['law']:>11} {r['acc045_amplitude']:>19.4f} {-r['reduction_pct']:>+10.1f}% "
+              f"{r['fn1_mean_n']:>14.1f} {r['actuator_energy_j']:>11.3g}")
+    if args.plot:
+        print(f"plot: {args.plot}")
+    return 0
+
+
 def _cmd_budget(cfg, args) -> int:
     from rt.budget import budget, format_budget
     if args.ticks < 1000 or args.paced_s <= 0:
@@ -223,7 +267,7 @@ def _cmd_budget(cfg, args) -> int:
 
 
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
-            "budget": _cmd_budget, "bench": _cmd_bench}
+            "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench}
 
 
 def main(argv: list[str] | None = None) -> int:

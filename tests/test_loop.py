@@ -101,3 +101,12 @@ def test_simulate_bad_input_exit_2(args, words, capsys):
     code = main(args)
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and all(w in err[0] for w in words)
+
+
+def test_compare_cli_table_and_plot(tmp_path, capsys):
+    png = tmp_path / "laws.png"
+    code = main(["compare", "--duration", "0.2", "--plot", str(png), "--json"])
+    rows = json.loads(capsys.readouterr().out)
+    assert code == 0 and [r["law"] for r in rows] == ["passive", "hysteresis", "lyapunov"]
+    assert rows[0]["reduction_pct"] == 0.0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
