@@ -77,7 +77,7 @@ class PlantModel:
         i64 = np.int64
         return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
                          g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
-                         lam1=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
+                         lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
                          ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64))
@@ -141,7 +141,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         W=np.ascontiguousarray((G * s2) @ G.T),
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
         out_rows=out_rows, out_G=np.ascontiguousarray(out_rows @ G.T),
-        k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(), h=float(h),
+        k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(),
+        c_n=st.k_n * cfg.plant.interface.tau_s, c_t=st.k_t * cfg.plant.interface.tau_s, h=float(h),
         substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
         h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter))

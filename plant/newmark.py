@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import _jenkins_pair, _normal_impulse
+from plant.contact import _interface_dashpot, _jenkins_pair, _normal_impulse
 
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
@@ -69,6 +69,8 @@ class PlantParams(NamedTuple):
     k_n: np.ndarray        # (p,) [N/m]
     k_t: np.ndarray        # (p,) [N/m]
     mu: np.ndarray         # (p,) [-]
+    c_n: np.ndarray        # (p,) normal interface dashpot k_n tau [N s/m]
+    c_t: np.ndarray        # (p,) tangential interface dashpot k_t tau [N s/m]
     h: float               # substep [s]
     substeps: int
     s2_fine: np.ndarray    # (n,) s2 for the fallback substep h_fine
@@ -87,7 +89,8 @@ class PlantWork(NamedTuple):
     g_pred: np.ndarray     # (2p,)
     g0: np.ndarray         # (2p,) gaps at the start of the step
     lam: np.ndarray        # (2p,) mean contact force Lambda over the step
-    lam1: np.ndarray       # (2p,) end-point contact force lambda(g1)
+    lam1: np.ndarray       # (2p,) end-point force lambda(g1) of the springs and sliders
+    lamd: np.ndarray       # (2p,) interface dashpot force over the step (included in lam)
     w_new: np.ndarray      # (p,)
     d: np.ndarray          # (3p,) dLambda_n/dg_n1, dLambda_t/dg_n1, dLambda_t/dg_t1
     code: np.ndarray       # (p,) int64 contact state per pair of the current iterate
@@ -150,7 +153,7 @@ def _lu_solve(LU, piv, b, n):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
-def _contact_laws(g, w_old, p, wk):
+def _contact_laws(g, w_old, p, wk, inv_h):
     """Evaluate the mean contact force Lambda(g0 = wk.g0, g1 = g) of every pair.
 
     Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and the active pairs
@@ -160,8 +163,9 @@ def _contact_laws(g, w_old, p, wk):
     """
     # fields unpacked into locals: inside loops numba would reload every array pointer from
     # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below
-    lam, lam1, w_new, d, code, act, pattern = wk.lam, wk.lam1, wk.w_new, wk.d, wk.code, wk.act, wk.pattern
-    g0, k_n, k_t, mu = wk.g0, p.k_n, p.k_t, p.mu
+    lam, lam1, lamd, w_new, d = wk.lam, wk.lam1, wk.lamd, wk.w_new, wk.d
+    code, act, pattern = wk.code, wk.act, wk.pattern
+    g0, k_n, k_t, mu, c_n, c_t = wk.g0, p.k_n, p.k_t, p.mu, p.c_n, p.c_t
     n_act = 0
     same = True
     for j in range(g.shape[0] // 2):
@@ -171,6 +175,8 @@ def _contact_laws(g, w_old, p, wk):
             lam1[2 * j] = 0.0
             lam1[2 * j + 1] = 0.0
             w_new[j] = g[2 * j + 1]
+            lamd[2 * j] = 0.0
+            lamd[2 * j + 1] = 0.0
             d[3 * j] = 0.0
             d[3 * j + 1] = 0.0
             d[3 * j + 2] = 0.0
@@ -212,6 +218,15 @@ def _contact_laws(g, w_old, p, wk):
                     w_new[j] = wn
                     d[3 * j + 1] = 0.5 * dtn
                     d[3 * j + 2] = 0.0
+        ldn, ldt, ddn, ddtn, ddtt = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
+                                                       c_n[j] * inv_h, c_t[j] * inv_h)
+        lam[2 * j] += ldn
+        lam[2 * j + 1] += ldt
+        lamd[2 * j] = ldn
+        lamd[2 * j + 1] = ldt
+        d[3 * j] += ddn
+        d[3 * j + 1] += ddtn
+        d[3 * j + 2] += ddtt
         code[j] = c
         same = same and c == pattern[j] and c != TRANSITION
         if c != 0:
@@ -241,8 +256,9 @@ def _contact_residual(g, g_pred, W, wk, n_act):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
-def _contact_newton(g, g_pred, w_old, W, p, wk):
-    """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place).
+def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
+    """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place);
+    inv_h = 1/h of the substep (the interface dashpots' mean force is c dg / h).
 
     Partitioned solve. Pairs open at both ends of the step have Lambda = 0 and zero Jacobian
     columns, so with the active pairs (a) first the Jacobian J = I - W dLambda/dg is
@@ -268,7 +284,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
         scale = max(scale, abs(g_pred[i]))
     tol = p.tol + ROUNDOFF * scale  # never ask for less than round-off of the gaps allows
     tol2 = tol * tol
-    n_act, same = _contact_laws(g, w_old, p, wk)
+    n_act, same = _contact_laws(g, w_old, p, wk, inv_h)
     res2 = _contact_residual(g, g_pred, W, wk, n_act)
     for it in range(p.max_iter):
         if res2 <= tol2:
@@ -307,7 +323,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
             dg[2 * j + 1] = rhs[2 * b + 1]
         for i in range(m):
             g[i] += dg[i]
-        n_act, same = _contact_laws(g, w_old, p, wk)
+        n_act, same = _contact_laws(g, w_old, p, wk, inv_h)
         if same:
             # the law is affine within one pattern and the step solved it exactly there
             return it + 1
@@ -318,7 +334,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk):
                 alpha *= 0.5
                 for i in range(m):
                     g[i] = g_old[i] + alpha * dg[i]
-                n_act, same = _contact_laws(g, w_old, p, wk)
+                n_act, same = _contact_laws(g, w_old, p, wk, inv_h)
                 new2 = _contact_residual(g, g_pred, W, wk, n_act)
         res2 = new2
     return -1 if res2 > tol2 else p.max_iter
@@ -334,7 +350,7 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     """
     b_exc, b_N1, f_const, omega2, G, c, k_t = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c, p.k_t
     q_pred, g_pred, g0, f_c, qdd_lin = wk.q_pred, wk.g_pred, wk.g0, wk.f_c, wk.qdd_lin
-    lam1, lam, code, w_new = wk.lam1, wk.lam, wk.code, wk.w_new
+    lam1, lam, lamd, code, w_new = wk.lam1, wk.lam, wk.lamd, wk.code, wk.w_new
     n = q.shape[0]
     m = g.shape[0]
     npair = m // 2
@@ -350,7 +366,7 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
         g_pred[r] = acc
         g0[r] = g[r]
     # --- contact: g1 = g_pred + W Lambda(g0, g1), Newton started from g0
-    it = _contact_newton(g, g_pred, w, W, p, wk)
+    it = _contact_newton(g, g_pred, w, W, p, wk, 1.0 / h)
     if it < 0:
         for r in range(m):
             g[r] = g0[r]
@@ -383,6 +399,8 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
         f_t0 = k_t[j] * (g0[2 * j + 1] - w[j])
         dE_fric += 0.5 * (f_t0 - lam1[2 * j + 1]) * (w_new[j] - w[j])
         w[j] = w_new[j]
+        # the interface dashpots dissipate -lamd . dg >= 0
+        dE_damp -= lamd[2 * j] * (g[2 * j] - g0[2 * j]) + lamd[2 * j + 1] * (g[2 * j + 1] - g0[2 * j + 1])
     en[0] += dE_fric
     en[1] += dE_damp
     en[2] += F_exc * dW_exc
@@ -412,7 +430,7 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     Returns the Newton iterations summed over the substeps, or -1 if a solve did not converge
     even on the fine substeps. RT-safe.
     """
-    out_rows, out_G, qdd_lin, lam1, pattern = p.out_rows, p.out_G, wk.qdd_lin, wk.lam1, wk.pattern
+    out_rows, out_G, qdd_lin, lam1, lamd, pattern = p.out_rows, p.out_G, wk.qdd_lin, wk.lam1, wk.lamd, wk.pattern
     n = p.c.shape[0]
     m = p.G.shape[0]
     npair = m // 2
@@ -452,7 +470,7 @@ def _plant_step(k, x, u, p, x_next, y, wk):
             a_v += out_rows[r, i] * qd[i]
             a_a += out_rows[r, i] * qdd_lin[i]
         for j in range(m):
-            a_a += out_G[r, j] * lam1[j]
+            a_a += out_G[r, j] * (lam1[j] + lamd[j])
         if r < n_pts:
             y[r] = a_x
             y[n_pts + r] = a_v

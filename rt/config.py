@@ -88,6 +88,9 @@ class Interface:
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
     k_n: float = param(1.0e9, "N/m", lo=0.0, lo_inclusive=False,
                       doc="normal penalty stiffness per pair (calibrated, see docs/plant.md)")
+    tau_s: float = param(2e-6, "s", lo=0.0, hi=1e-3,
+                         doc="interface damping: Kelvin-Voigt dashpots c = k tau on the pairs (A); "
+                             "damps the contact modes the 21 kHz step cannot resolve")
     k_t: float = param(8.0e8, "N/m", lo=0.0, lo_inclusive=False,
                       doc="Jenkins tangential stiffness per pair (Mindlin ratio 0.82 k_n)")
 

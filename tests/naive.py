@@ -81,41 +81,59 @@ def normal_impulse(g0, g1, k_n):
 
 # --- all pairs over one step ------------------------------------------------------------------
 
-def mean_contact_force(g0, g1, w0, k_n, k_t, mu):
+def interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h):
+    """Mean dashpot forces over a step, from their definition (vectorised over pairs):
+    the normal one acts on the change of penetration p = min(0, g_n), the tangential one on the
+    change of g_t, weighted by the share of the step in contact phi = dp / dg_n (1 closed, 0 open).
+    Returns (Ld_n, Ld_t, dLd_n/dg_n1, dLd_t/dg_n1, dLd_t/dg_t1)."""
+    p0, p1 = np.minimum(0.0, gn0), np.minimum(0.0, gn1)
+    dp, dgn, dgt = p1 - p0, gn1 - gn0, gt1 - gt0
+    in1 = (gn1 < 0.0).astype(float)           # dp / dg_n1
+    safe = np.where(dgn != 0.0, dgn, 1.0)
+    phi = np.where(dgn != 0.0, dp / safe, in1)
+    dphi = np.where(dgn != 0.0, (in1 - phi) / safe, 0.0)
+    return -cn_h * dp, -ct_h * phi * dgt, -cn_h * in1, -ct_h * dgt * dphi, -ct_h * phi
+
+
+def mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h=0.0, ct_h=0.0):
     """Mean contact force Lambda over a step and its Jacobian wrt g1 (all pairs).
 
     g0, g1: (2p,) gaps (g_n, g_t interleaved) at the start and end; w0: (p,) slider at the start.
     Lambda_n = discrete gradient of the normal potential; Lambda_t = mean of the tangential
     spring forces at the two ends, -(k_t (g0_t - w0) + f_t(g1)) / 2 (the Jenkins force is
-    always its spring's force k_t (g_t - w)).
-    Returns (Lam (2p,), dLam/dg1 (2p, 2p), lam1 (2p,) end-point force, w1 (p,), state (p,),
-    moved (p,) True where the pair opens or closes within the step).
+    always its spring's force k_t (g_t - w)); plus the interface dashpots (c/h = cn_h, ct_h).
+    Returns (Lam (2p,), dLam/dg1 (2p, 2p), lam1 (2p,) end-point spring/slider force, w1 (p,),
+    state (p,), moved (p,) True where the pair opens or closes within the step, Ld (2p,) the
+    dashpot part of Lam).
     """
     gn0, gt0, gn1, gt1 = g0[0::2], g0[1::2], g1[0::2], g1[1::2]
     Ln, dLn, moved = normal_impulse(gn0, gn1, k_n)
     ln1, lt1, w1, _, dtn, dtt, state = jenkins_pair(gn1, gt1, w0, k_n, k_t, mu)
     lt0 = -k_t * (gt0 - w0)
     m = len(g1)
+    Ldn, Ldt, dDnn, dDtn, dDtt = interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h)
+    Ld = np.empty(m)
+    Ld[0::2], Ld[1::2] = Ldn, Ldt
     Lam = np.empty(m)
-    Lam[0::2] = Ln
-    Lam[1::2] = 0.5 * (lt0 + lt1)
+    Lam[0::2] = Ln + Ldn
+    Lam[1::2] = 0.5 * (lt0 + lt1) + Ldt
     J = np.zeros((m, m))
     i = np.arange(m // 2)
-    J[2 * i, 2 * i] = dLn
-    J[2 * i + 1, 2 * i] = 0.5 * dtn
-    J[2 * i + 1, 2 * i + 1] = 0.5 * dtt
+    J[2 * i, 2 * i] = dLn + dDnn
+    J[2 * i + 1, 2 * i] = 0.5 * dtn + dDtn
+    J[2 * i + 1, 2 * i + 1] = 0.5 * dtt + dDtt
     lam1 = np.empty(m)
     lam1[0::2], lam1[1::2] = ln1, lt1
-    return Lam, J, lam1, w1, state, moved
+    return Lam, J, lam1, w1, state, moved, Ld
 
 
-def contact_residual(g1, g0, g_pred, w0, W, k_n, k_t, mu):
+def contact_residual(g1, g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0):
     """R(g1) = g1 - g_pred - W Lambda(g0, g1, w0) [m] and its Jacobian I - W dLambda/dg1."""
-    Lam, D, *_ = mean_contact_force(g0, g1, w0, k_n, k_t, mu)
+    Lam, D, *_ = mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h, ct_h)
     return g1 - g_pred - W @ Lam, np.eye(len(g1)) - W @ D
 
 
-def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, max_iter=200):
+def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, max_iter=200):
     """Solve g1 = g_pred + W Lambda(g0, g1, w0) by a dense damped Newton on the full 2p system.
 
     Seeded from the predictor g_pred (contact off); each step is a numpy.linalg.solve with
@@ -123,7 +141,7 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, max_iter=200):
     i.e. to round-off. Returns (g1, |R|_2).
     """
     g = np.array(g_pred, dtype=float)
-    R, J = contact_residual(g, g0, g_pred, w0, W, k_n, k_t, mu)
+    R, J = contact_residual(g, g0, g_pred, w0, W, k_n, k_t, mu, cn_h, ct_h)
     r = np.linalg.norm(R)
     for _ in range(max_iter):
         if r == 0.0:
@@ -132,7 +150,7 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, max_iter=200):
         a = 1.0
         while True:
             g_try = g + a * d
-            R_try, J_try = contact_residual(g_try, g0, g_pred, w0, W, k_n, k_t, mu)
+            R_try, J_try = contact_residual(g_try, g0, g_pred, w0, W, k_n, k_t, mu, cn_h, ct_h)
             r_try = np.linalg.norm(R_try)
             if r_try < r or a < 1e-12:
                 break
@@ -159,19 +177,20 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     f = P.b_exc * F_exc + f_screw
     q_pred = q + s2 * (f + (2.0 / h) * qd - P.omega2 * q)
     g_pred = P.G @ q_pred
-    g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu)
-    Lam, _, lam1, w1, state, moved = mean_contact_force(g, g1, w, P.k_n, P.k_t, P.mu)
+    cn_h, ct_h = P.c_n / h, P.c_t / h
+    g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu, cn_h, ct_h)
+    Lam, _, lam1, w1, state, moved, Ld = mean_contact_force(g, g1, w, P.k_n, P.k_t, P.mu, cn_h, ct_h)
     q1 = q_pred + s2 * (P.G.T @ Lam)
     dq = q1 - q
     qd1 = (2.0 / h) * dq - qd
     f_t0 = P.k_t * (g[1::2] - w)          # spring force at the start
     f_t1 = -lam1[1::2]                     # and at the end
     E["E_fric"] += float(np.sum(0.5 * (f_t0 + f_t1) * (w1 - w)))
-    E["E_damp"] += float(h * np.sum(P.c * (0.5 * (qd + qd1)) ** 2))
+    E["E_damp"] += float(h * np.sum(P.c * (0.5 * (qd + qd1)) ** 2)) - float(Ld @ (g1 - g))
     E["W_exc"] += F_exc * float(P.b_exc @ dq)
     E["W_screw"] += float(f_screw @ dq)
     info = {"state": state, "moved": moved, "res": res, "gq_mismatch": float(np.max(np.abs(P.G @ q1 - g1)))}
-    return q1, qd1, w1, g1, lam1, info
+    return q1, qd1, w1, g1, lam1 + Ld, lam1, info
 
 
 def plant_step(x, u, P, slots, labels, split=None):
@@ -184,13 +203,13 @@ def plant_step(x, u, P, slots, labels, split=None):
         g1     = solve of g1 = G q_pred + W Lambda(g0, g1, w0)
         q1     = q_pred + s2 G^T Lambda,   qd1 = (2/h)(q1 - q0) - qd0
         E_fric  += sum 1/2 (f_t0 + f_t1)(w1 - w0)      f_t = k_t (g_t - w), spring force
-        E_damp  += h sum c v_mid^2,  v_mid = (qd0 + qd1)/2
+        E_damp  += h sum c v_mid^2 + (interface dashpots) -Ld . (g1 - g0),  v_mid = (qd0 + qd1)/2
         W_exc   += F_exc b_exc . dq,  W_screw += (b_N1 F_N1 + f_const) . dq
     ``split`` (one int per substep, default all 1) redoes a substep as that many substeps of
     h / split: the kernel's fallback when its Newton fails, which the reference cannot see, so
     the caller passes it.
     Outputs at the end point, by label: w, w' at the points and u_rel, v_rel from out_rows;
-    accelerations out_rows (f - c qd1 - omega^2 q1 + G^T lambda1); gaps, f_n = lambda1_n,
+    accelerations out_rows (f - c qd1 - omega^2 q1 + G^T (lambda1 + Ld)); gaps, f_n = lambda1_n,
     f_t = -lambda1_t per pair; the energies. Labels not listed here (solver counters) are NaN.
 
     Returns (x_next, y, info) with info a dict of lists of per-substep diagnostics (pair
@@ -206,7 +225,7 @@ def plant_step(x, u, P, slots, labels, split=None):
     info = {"state": [], "moved": [], "res": [], "gq_mismatch": []}
     for n_sub in split:
         for _ in range(n_sub):
-            q, qd, w, g, lam1, inf = newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, P.h / n_sub)
+            q, qd, w, g, lam_acc, lam1, inf = newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, P.h / n_sub)
             for key, values in info.items():
                 values.append(inf[key])
     x_next = np.array(x, dtype=float)
@@ -215,7 +234,7 @@ def plant_step(x, u, P, slots, labels, split=None):
         x_next[slots[nm]] = val
 
     f = P.b_exc * F_exc + P.b_N1 * F_N1 + P.f_const
-    acc = f - P.c * qd - P.omega2 * q + P.G.T @ lam1   # modal acceleration at the end point
+    acc = f - P.c * qd - P.omega2 * q + P.G.T @ lam_acc   # modal acceleration at the end point
     disp, vel, accel = P.out_rows @ q, P.out_rows @ qd, P.out_rows @ acc
     names = [nm for nm, _ in labels]
     y = np.full(len(names), np.nan)

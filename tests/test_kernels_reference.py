@@ -89,6 +89,18 @@ def small():
     return build_plant(load(sets=["plant.interface.pitch_m=0.04", "plant.substeps=2"]))
 
 
+@pytest.fixture(scope="module")
+def undamped():
+    """The default plant without interface damping (tau = 0), where capped Newton solves fail
+    and fall back to fine substeps (with the dashpots they hardly ever do)."""
+    return build_plant(load(sets=["plant.interface.tau_s=0"]))
+
+
+@pytest.fixture(scope="module")
+def small_undamped():
+    return build_plant(load(sets=["plant.interface.pitch_m=0.04", "plant.substeps=2", "plant.interface.tau_s=0"]))
+
+
 def scenario(m, name, n_steps=N_STEPS):
     """Inputs U (n_steps, 2) and initial state of a named excitation."""
     dt = m.cfg.dt_s
@@ -481,17 +493,19 @@ def test_contact_newton_matches_reference(model):
     counts = np.zeros(4, int)
     n_moved = 0
     for g0, w0, g_pred in newton_cases(m, rng, 150):
-        g_ref, res_ref = naive.solve_contact(g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu)
-        Lam, D, lam1, w1, state, moved = naive.mean_contact_force(g0, g_ref, w0, P.k_n, P.k_t, P.mu)
+        cn_h, ct_h = P.c_n / P.h, P.c_t / P.h
+        g_ref, res_ref = naive.solve_contact(g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu, cn_h, ct_h)
+        Lam, D, lam1, w1, state, moved, _ = naive.mean_contact_force(g0, g_ref, w0, P.k_n, P.k_t, P.mu,
+                                                                     cn_h, ct_h)
         gs = np.max(np.abs(np.concatenate([g_ref, g_pred, g0])))
         assert res_ref <= 1e-14 * gs, "reference did not converge"
         counts += np.bincount(state, minlength=4)
         n_moved += int(moved.sum())
         wk.g0[:] = g0
         g = g_pred.copy()
-        it = _contact_newton(g, g_pred, w0, P.W, P, wk)
+        it = _contact_newton(g, g_pred, w0, P.W, P, wk, 1.0 / P.h)
         assert it >= 0, "kernel Newton did not converge"
-        R, _ = naive.contact_residual(g, g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu)
+        R, _ = naive.contact_residual(g, g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu, cn_h, ct_h)
         assert np.linalg.norm(R) <= 2.0 * _kernel_tol(P, g_pred)
         fs = max(np.max(np.abs(Lam)), np.max(np.abs(lam1)), 1.0)
         assert_rel(g, g_ref, gs, "g1")
@@ -521,7 +535,7 @@ def test_plant_step_one_step_matches_reference(request, key, name):
         assert counts[naive.STICK] > 0 and counts[naive.SLIP_POS] + counts[naive.SLIP_NEG] > 0
 
 
-@pytest.mark.parametrize("key,name", [("model", "sine"), ("small", "sine100")])
+@pytest.mark.parametrize("key,name", [("undamped", "sine"), ("small_undamped", "sine100")])
 def test_plant_step_fallback_matches_reference(request, key, name):
     """The fallback path: with p.max_iter = 5 some substeps' contact solves give up and are
     redone as p.fine_split substeps of h / fine_split (>= 10 steps in each run); the reference

@@ -259,10 +259,10 @@ def test_identification_matches_linear_theory(cfg, reduced):
 
 
 def test_contact_solve_falls_back_to_fine_substeps():
-    """A step whose contact Newton stalls (a pair's solution at first touch: k_t = 5e8,
-    F_N1 = 40 N, 500 N hammer; step 2138 stalls at |r| ~ 2e-8 m) is redone on fine substeps;
-    the run completes and the energy balance still closes."""
-    cfg = load(sets=["plant.interface.k_t=5e8"])
+    """A step whose contact Newton stalls (a pair's solution at first touch; without interface
+    damping, k_t = 5e8, F_N1 = 40 N, 500 N hammer: step 2138 stalls at |r| ~ 2e-8 m) is redone
+    on fine substeps; the run completes and the energy balance still closes."""
+    cfg = load(sets=["plant.interface.k_t=5e8", "plant.interface.tau_s=0"])
     m = build_plant(cfg)
     n = int(round(0.3 / cfg.dt_s))
     x0 = m.initial_state(40.0)
@@ -270,3 +270,27 @@ def test_contact_solve_falls_back_to_fine_substeps():
     assert Y[:, m.output_index()["substep_fallbacks"]].sum() >= 1
     b = balance(m, x0, x)
     assert abs(b["residual"]) < 1e-6 * b["W_exc"]
+
+
+def test_one_substep_is_converged_with_interface_damping():
+    """Stick-slip every cycle (5 N sine at 223.6 Hz, F_N1 = 40 N): one substep per controller
+    step gives the first harmonic of 16 substeps within 0.5 % (measured 0.02 %), and the
+    acceleration is not swamped by unresolved contact modes (without interface damping 97 %
+    of its energy lay above 5 kHz and the run was not converged)."""
+    from rt.loop import first_harmonic_amplitude
+    res = {}
+    for sub in (1, 16):
+        cfg = load(sets=[f"plant.substeps={sub}"])
+        m = build_plant(cfg)
+        n = int(round(1.0 / cfg.dt_s))
+        F = 5.0 * np.sin(2 * np.pi * 223.6 * np.arange(n) * cfg.dt_s)
+        Y, _, _ = run(m, F, 40.0)
+        tail = slice(n - n // 5, n)
+        w = _series(m, Y, "w_frf")[tail]
+        a = _series(m, Y, "a_frf")[tail]
+        res[sub] = first_harmonic_amplitude(w, 223.6, cfg.dt_s)
+        if sub == 1:
+            A = np.abs(np.fft.rfft(a))
+            f = np.fft.rfftfreq(len(a), cfg.dt_s)
+            assert (A[f > 5000] ** 2).sum() / (A**2).sum() < 0.3
+    assert res[1] == pytest.approx(res[16], rel=5e-3)
