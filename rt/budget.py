@@ -30,7 +30,8 @@ def budget(cfg: Config, law: str = "lyapunov", ticks: int = 105000, paced_s: flo
     n_p = len(late) + p.overruns  # ticks the wall clock allowed for
     drift_us = (p.wall_ns - n_p * dt * 1e9) / 1e3
     return {"budget_us": dt * 1e6, "law": law, "ticks": len(r.log), "components": comps, "total": total,
-            "paced": {"ticks": len(late), "overruns": p.overruns, "late_p99_us": float(np.percentile(late, 99) / 1e3),
+            "paced": {"ticks": len(late), "overruns": p.overruns,
+                      "late_p99_us": float(np.percentile(late, 99) / 1e3),
                       "late_max_us": float(late.max() / 1e3), "drift_us": float(drift_us),
                       "tick_median_us": float(np.median(p.signal("tick_ns")) / 1e3)}}
 
