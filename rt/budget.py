@@ -43,5 +43,6 @@ def format_budget(res: dict) -> str:
         lines.append(f"{name:>10} {s['median_us']:>8.3f} {s['p99_us']:>8.3f} {s['p999_us']:>8.3f} {s['max_us']:>9.1f}")
     p = res["paced"]
     lines.append(f"paced: {p['ticks']} ticks, {p['overruns']} overruns, lateness p99 {p['late_p99_us']:.2f} us, "
-                 f"max {p['late_max_us']:.1f} us, drift {p['drift_us']:.1f} us, tick median {p['tick_median_us']:.2f} us")
+                 f"max {p['late_max_us']:.1f} us, drift {p['drift_us']:.1f} us, "
+                 f"tick median {p['tick_median_us']:.2f} us")
     return "\n".join(lines)
