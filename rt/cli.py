@@ -104,7 +104,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
                        description="Per-step wall time [us] of the compiled kernels: median, p99, p99.9, max.")
-    b.add_argument("target", choices=["plant"], help="plant: the Newmark/Newton step for 5, 9, 17, 33 pairs")
+    b.add_argument("target", choices=["plant", "loop"],
+                   help="plant: the Newmark/Newton step for 5, 9, 17, 33 pairs; loop: the whole tick and the "
+                        "controller part against python-control's nlsys simulation of it")
     b.add_argument("--steps", type=int, default=21000, metavar="N", help="steps per case (default 21000 = 1 s)")
     b.add_argument("--pairs", type=int, nargs="+", default=[5, 9, 17, 33], metavar="P",
                    help="contact pair counts (default 5 9 17 33)")
@@ -169,7 +171,13 @@ def _cmd_impulse(cfg, args) -> int:
 
 
 def _cmd_bench(cfg, args) -> int:
-    from rt.bench import bench_plant, format_table
+    from rt.bench import bench_loop, bench_plant, format_loop, format_table
+    if args.target == "loop":
+        if args.steps < 1000:
+            return _fail(f"--steps {args.steps}: need at least 1000 steps")
+        res = bench_loop(cfg, n_steps=args.steps)
+        print(json.dumps(res) if args.json else format_loop(res))
+        return 0
     if args.steps < 100:
         return _fail(f"--steps {args.steps}: need at least 100 steps for percentiles")
     if any(p < 2 for p in args.pairs):

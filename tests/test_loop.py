@@ -110,3 +110,15 @@ def test_compare_cli_table_and_plot(tmp_path, capsys):
     assert code == 0 and [r["law"] for r in rows] == ["passive", "hysteresis", "lyapunov"]
     assert rows[0]["reduction_pct"] == 0.0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_loop_against_python_control(capsys):
+    # python-control's nlsys + input_output_response drives the same discrete controller part
+    # (same step functions): identical V_cmd, and the compiled loop must be much faster
+    code = main(["bench", "loop", "--json", "--steps", "2000"])
+    r = json.loads(capsys.readouterr().out)
+    assert code == 0
+    for key in ("median_us", "p99_us", "p999_us", "max_us"):
+        assert r["total"][key] > 0
+    assert r["max_abs_diff_v"] == 0.0
+    assert r["speedup"] > 10
