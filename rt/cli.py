@@ -209,7 +209,10 @@ def _cmd_simulate(cfg, args) -> int:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update)
     except ValueError as exc:
         return _fail(str(exc))
+    if len(r.log) < 2:
+        return _fail("interrupted before the loop ran: nothing to summarise")
     s = summary(r)
+    s["interrupted"] = r.interrupted
     if out is not None:
         tmp = out.with_suffix(".tmp.npz")
         np.savez_compressed(tmp, log=r.log, names=[n for n, _, _ in loop.signals],
@@ -219,7 +222,9 @@ def _cmd_simulate(cfg, args) -> int:
         s["out"] = str(out)
     if args.json:
         print(json.dumps(s))
-        return 0
+        return 130 if r.interrupted else 0
+    if r.interrupted:
+        print(f"interrupted (Ctrl-C) after {s['ticks']} ticks: the summary and the log cover those")
     print(f"law {s['law']}, estimator {s['estimator']}, {s['amp_n']:g} N at {s['freq_hz']:g} Hz, {s['ticks']} ticks"
           f"{' (paced)' if s['paced'] else ''}")
     print(f"acceleration at x = 0.45 m (last 20 %): first harmonic {s['acc045_amplitude']:.4g} m/s^2; raw RMS "
@@ -229,7 +234,7 @@ def _cmd_simulate(cfg, args) -> int:
           f"tick median {s['tick_median_us']:.2f} us, overruns {s['overruns']}")
     if out is not None:
         print(f"log: {out}")
-    return 0
+    return 130 if r.interrupted else 0
 
 
 def _cmd_compare(cfg, args) -> int:

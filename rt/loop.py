@@ -20,6 +20,7 @@ chunks so that Python can show progress between them; the deadline carries over.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numba
@@ -46,8 +47,9 @@ from tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
 
 COMPONENTS = ("sensors", "estimator", "law", "tracking", "actuator", "plant", "log")
 ESTIMATORS = ("oracle",)
-# clock state shared by the chunks of one run (int64): next deadline [ns], overruns, ticks run
-CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS = 0, 1, 2
+# state shared by the chunks of one run and the Python thread watching it (int64): next deadline
+# [ns], overruns, ticks run, stop request (set by the watcher: the loop ends after its tick)
+CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS, CLK_STOP = 0, 1, 2, 3
 
 
 @dataclass(frozen=True)
@@ -129,6 +131,8 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
     """
     failed = 0
     for k in range(k0, k1):
+        if clk[CLK_STOP]:
+            break
         row = k - k0
         if paced:
             while _now_ns(ts) < clk[CLK_DEADLINE]:
@@ -219,6 +223,7 @@ class Run:
     overruns: int
     paced: bool
     wall_ns: int
+    interrupted: bool = False  # stopped by Ctrl-C: the log holds the ticks run until then
 
     def signal(self, name: str) -> np.ndarray:
         return self.log[:, self.loop.column(name)]
@@ -281,37 +286,70 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     log = np.empty((n_ticks, n_sig))
     comp_ns = np.zeros((n_ticks, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
     period_ns = int(round(dt * 1e9))
-    clk = np.zeros(3, dtype=np.int64)
+    clk = np.zeros(4, dtype=np.int64)
     force_col = sensor_output_index()["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     args_fixed = (dt, amp_n, 2 * math.pi * freq_hz, force_col, timing, paced, period_ns, clk,
                   np.zeros(2, dtype=np.int64))
     work = plant.new_work()
+    failed = [0]
+    errors: list[BaseException] = []
+
+    def worker():
+        try:
+            _chunks()
+        except BaseException as exc:  # re-raised in the calling thread
+            errors.append(exc)
+
+    def _chunks():
+        # paced: one compiled call for the whole run (Python between chunks would overrun)
+        step = n_ticks if paced else chunk
+        k = 0
+        while k < n_ticks and not clk[CLK_STOP]:
+            k1 = min(n_ticks, k + step)
+            failed[0] += _run_ticks(k, k1, *args_fixed,
+                                    bufs["xs"], np.empty_like(xs), bufs["ys"], np.zeros(4), loop.sensors, rng,
+                                    xo, np.empty_like(xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
+                                    bufs["xl"], np.empty_like(xl), bufs["yl"], np.zeros(2), loop.law_params,
+                                    xq, np.empty_like(xq), np.zeros(1), np.zeros(1), loop.prefilter,
+                                    bufs["xf"], np.empty_like(xf), bufs["yf"], np.zeros(2), loop.design.params,
+                                    bufs["xa"], np.empty_like(xa), bufs["ya"], np.zeros(1), loop.actuator,
+                                    bufs["xp"], np.empty_like(xp), bufs["yp"], np.zeros(2), plant.params, work,
+                                    oi["u_rel"], oi["v_rel"], oi["a_tip"], oi["a_frf"],
+                                    ai["F_strain_a"], ai["F_cell_a"],
+                                    log[k:k1], comp_ns[k:k1] if timing else comp_ns)
+            k = k1
+
+    # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
+    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept
     t_wall = _now_ns(np.zeros(2, dtype=np.int64))
     clk[CLK_DEADLINE] = t_wall + period_ns
-    failed = 0
-    k = 0
-    while k < n_ticks:
-        k1 = min(n_ticks, k + chunk)
-        failed += _run_ticks(k, k1, *args_fixed,
-                             bufs["xs"], np.empty_like(xs), bufs["ys"], np.zeros(4), loop.sensors, rng,
-                             xo, np.empty_like(xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
-                             bufs["xl"], np.empty_like(xl), bufs["yl"], np.zeros(2), loop.law_params,
-                             xq, np.empty_like(xq), np.zeros(1), np.zeros(1), loop.prefilter,
-                             bufs["xf"], np.empty_like(xf), bufs["yf"], np.zeros(2), loop.design.params,
-                             bufs["xa"], np.empty_like(xa), bufs["ya"], np.zeros(1), loop.actuator,
-                             bufs["xp"], np.empty_like(xp), bufs["yp"], np.zeros(2), plant.params, work,
-                             oi["u_rel"], oi["v_rel"], oi["a_tip"], oi["a_frf"], ai["F_strain_a"], ai["F_cell_a"],
-                             log[k:k1], comp_ns[k:k1] if timing else comp_ns)
+    thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
+    thread.start()
+    shown = 0
+    interrupted = False
+    while thread.is_alive():
+        try:
+            thread.join(0.1)
+        except KeyboardInterrupt:
+            clk[CLK_STOP] = 1
+            interrupted = True
         if progress is not None:
-            progress(k1 - k)
-        k = k1
+            ticks = int(clk[CLK_TICKS])
+            progress(ticks - shown)
+            shown = ticks
+    if errors:
+        raise errors[0]
+    n_run = int(clk[CLK_TICKS])
+    log = log[:n_run]
+    comp_ns = comp_ns[:n_run] if timing else comp_ns
     wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
-    if failed:
-        raise RuntimeError(f"the plant's contact solve failed in {failed} of {n_ticks} ticks; "
-                           "raise plant.substeps or plant.fallback_split")
+    if failed[0]:
+        raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
+                           "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
     if not np.all(np.isfinite(log)):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
-    return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall))
+    return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
+               interrupted)
 
 
 def first_harmonic_amplitude(x: np.ndarray, freq_hz: float, dt: float) -> float:
