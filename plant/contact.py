@@ -13,7 +13,8 @@ gap directions (and its opposite on the lower body), so its generalised force is
     lambda_n = f_n,  lambda_t = -f_t
 
 Interface damping (``_interface_dashpot``): Kelvin-Voigt dashpots c = k tau in parallel with the
-normal spring and the Jenkins element, acting over the share of a step the pair is in contact.
+normal spring (on the change of penetration) and the Jenkins element (faded in over a
+penetration depth).
 
 Over a time step the normal spring acts through its discrete gradient (``_normal_impulse``),
 so that the work of the contact over the step equals the change of its stored energy even
@@ -69,32 +70,30 @@ def _normal_impulse(g0, g1, k_n):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h):
+def _interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
     """Mean force of the interface dashpots over a step (Kelvin-Voigt, c = k tau). RT-safe.
 
         normal:      Lambda_dn = -(c_n/h) (min(0, g_n1) - min(0, g_n0))   (penetration change)
-        tangential:  Lambda_dt = -(c_t/h) phi (g_t1 - g_t0),
-                     phi = (min(0, g_n1) - min(0, g_n0)) / (g_n1 - g_n0)  (share of the step in contact)
+        tangential:  Lambda_dt = -(c_t/h) s (g_t1 - g_t0),   s = min(1, P / depth),
+                     P = -(min(0, g_n0) + min(0, g_n1)) / 2               (mean penetration)
 
     Both vanish for a pair open over the whole step and are continuous where it opens or
-    closes; their work -Lambda_d . dg = (c_n/h) dp dg_n + (c_t/h) phi dg_t^2 >= 0 (dp and dg_n
-    share their sign). Parameters: gaps at the start and end of the step [m]; cn_h, ct_h = c/h
-    [N/m]. Returns (Lambda_dn, Lambda_dt [N], dLambda_dn/dg_n1, dLambda_dt/dg_n1,
-    dLambda_dt/dg_t1 [N/m]).
+    closes; the tangential one fades in over the penetration `depth` [m] (a weight that changed
+    over the few nanometres of a barely closed pair's gap stalled Newton). Their work
+    -Lambda_d . dg = (c_n/h) dp dg_n + (c_t/h) s dg_t^2 >= 0 (dp and dg_n share their sign).
+    Parameters: gaps at the start and end of the step [m]; cn_h, ct_h = c/h [N/m].
+    Returns (Lambda_dn, Lambda_dt [N], dLambda_dn/dg_n1, dLambda_dt/dg_n1, dLambda_dt/dg_t1
+    [N/m], True while 0 < P < depth: the force is then not affine in the gaps).
     """
-    c0 = gn0 < 0.0
-    c1 = gn1 < 0.0
-    if c0 and c1:
-        phi, dphi, dp_dg = 1.0, 0.0, 1.0
-    elif not c0 and not c1:
-        return 0.0, 0.0, 0.0, 0.0, 0.0
-    else:
-        dgn = gn1 - gn0  # nonzero: the ends lie on opposite sides of 0
-        p1 = gn1 if c1 else 0.0
-        p0 = gn0 if c0 else 0.0
-        phi = (p1 - p0) / dgn
-        dp_dg = 1.0 if c1 else 0.0
-        dphi = (dp_dg - phi) / dgn
-    dp = (gn1 if c1 else 0.0) - (gn0 if c0 else 0.0)
+    p0 = gn0 if gn0 < 0.0 else 0.0
+    p1 = gn1 if gn1 < 0.0 else 0.0
+    if p0 == 0.0 and p1 == 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, False
+    dp_dg = 1.0 if gn1 < 0.0 else 0.0
     dgt = gt1 - gt0
-    return -cn_h * dp, -ct_h * phi * dgt, -cn_h * dp_dg, -ct_h * dgt * dphi, -ct_h * phi
+    pen = -0.5 * (p0 + p1)
+    if pen >= depth:
+        return -cn_h * (p1 - p0), -ct_h * dgt, -cn_h * dp_dg, 0.0, -ct_h, False
+    s = pen / depth
+    ds = -0.5 * dp_dg / depth
+    return -cn_h * (p1 - p0), -ct_h * s * dgt, -cn_h * dp_dg, -ct_h * dgt * ds, -ct_h * s, True

@@ -142,7 +142,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
         out_rows=out_rows, out_G=np.ascontiguousarray(out_rows @ G.T),
         k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(),
-        c_n=st.k_n * cfg.plant.interface.tau_s, c_t=st.k_t * cfg.plant.interface.tau_s, h=float(h),
+        c_n=st.k_n * cfg.plant.interface.tau_s, c_t=st.k_t * cfg.plant.interface.tau_s,
+        dashpot_depth=float(cfg.plant.interface.dashpot_depth_m), h=float(h),
         substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
         h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter))

@@ -91,6 +91,8 @@ class Interface:
     tau_s: float = param(2e-6, "s", lo=0.0, hi=1e-3,
                          doc="interface damping: Kelvin-Voigt dashpots c = k tau on the pairs (A); "
                              "damps the contact modes the 21 kHz step cannot resolve")
+    dashpot_depth_m: float = param(1e-8, "m", lo=0.0, lo_inclusive=False,
+                                   doc="penetration over which the tangential dashpot fades in (A)")
     k_t: float = param(8.0e8, "N/m", lo=0.0, lo_inclusive=False,
                       doc="Jenkins tangential stiffness per pair (Mindlin ratio 0.82 k_n)")
 

@@ -81,21 +81,21 @@ def normal_impulse(g0, g1, k_n):
 
 # --- all pairs over one step ------------------------------------------------------------------
 
-def interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h):
-    """Mean dashpot forces over a step, from their definition (vectorised over pairs):
-    the normal one acts on the change of penetration p = min(0, g_n), the tangential one on the
-    change of g_t, weighted by the share of the step in contact phi = dp / dg_n (1 closed, 0 open).
+def interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
+    """Mean dashpot forces over a step, from their definition (vectorised over pairs): the normal
+    one acts on the change of penetration p = min(0, g_n); the tangential one on the change of
+    g_t, weighted by s = min(1, P / depth) with P the mean penetration -(p0 + p1)/2.
     Returns (Ld_n, Ld_t, dLd_n/dg_n1, dLd_t/dg_n1, dLd_t/dg_t1)."""
     p0, p1 = np.minimum(0.0, gn0), np.minimum(0.0, gn1)
-    dp, dgn, dgt = p1 - p0, gn1 - gn0, gt1 - gt0
-    in1 = (gn1 < 0.0).astype(float)           # dp / dg_n1
-    safe = np.where(dgn != 0.0, dgn, 1.0)
-    phi = np.where(dgn != 0.0, dp / safe, in1)
-    dphi = np.where(dgn != 0.0, (in1 - phi) / safe, 0.0)
-    return -cn_h * dp, -ct_h * phi * dgt, -cn_h * in1, -ct_h * dgt * dphi, -ct_h * phi
+    in1 = (gn1 < 0.0).astype(float)                 # dp1 / dg_n1
+    P = -0.5 * (p0 + p1)
+    s = np.minimum(1.0, P / depth)
+    ds = np.where(P < depth, -0.5 * in1 / depth, 0.0)
+    dgt = gt1 - gt0
+    return -cn_h * (p1 - p0), -ct_h * s * dgt, -cn_h * in1, -ct_h * dgt * ds, -ct_h * s
 
 
-def mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h=0.0, ct_h=0.0):
+def mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0):
     """Mean contact force Lambda over a step and its Jacobian wrt g1 (all pairs).
 
     g0, g1: (2p,) gaps (g_n, g_t interleaved) at the start and end; w0: (p,) slider at the start.
@@ -111,7 +111,7 @@ def mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h=0.0, ct_h=0.0):
     ln1, lt1, w1, _, dtn, dtt, state = jenkins_pair(gn1, gt1, w0, k_n, k_t, mu)
     lt0 = -k_t * (gt0 - w0)
     m = len(g1)
-    Ldn, Ldt, dDnn, dDtn, dDtt = interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h)
+    Ldn, Ldt, dDnn, dDtn, dDtt = interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth)
     Ld = np.empty(m)
     Ld[0::2], Ld[1::2] = Ldn, Ldt
     Lam = np.empty(m)
@@ -127,13 +127,13 @@ def mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h=0.0, ct_h=0.0):
     return Lam, J, lam1, w1, state, moved, Ld
 
 
-def contact_residual(g1, g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0):
+def contact_residual(g1, g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0):
     """R(g1) = g1 - g_pred - W Lambda(g0, g1, w0) [m] and its Jacobian I - W dLambda/dg1."""
-    Lam, D, *_ = mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h, ct_h)
+    Lam, D, *_ = mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h, ct_h, depth)
     return g1 - g_pred - W @ Lam, np.eye(len(g1)) - W @ D
 
 
-def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, max_iter=200):
+def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0, max_iter=200):
     """Solve g1 = g_pred + W Lambda(g0, g1, w0) by a dense damped Newton on the full 2p system.
 
     Seeded from the predictor g_pred (contact off); each step is a numpy.linalg.solve with
@@ -141,7 +141,7 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, max_iter=
     i.e. to round-off. Returns (g1, |R|_2).
     """
     g = np.array(g_pred, dtype=float)
-    R, J = contact_residual(g, g0, g_pred, w0, W, k_n, k_t, mu, cn_h, ct_h)
+    R, J = contact_residual(g, g0, g_pred, w0, W, k_n, k_t, mu, cn_h, ct_h, depth)
     r = np.linalg.norm(R)
     for _ in range(max_iter):
         if r == 0.0:
@@ -150,7 +150,7 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, max_iter=
         a = 1.0
         while True:
             g_try = g + a * d
-            R_try, J_try = contact_residual(g_try, g0, g_pred, w0, W, k_n, k_t, mu, cn_h, ct_h)
+            R_try, J_try = contact_residual(g_try, g0, g_pred, w0, W, k_n, k_t, mu, cn_h, ct_h, depth)
             r_try = np.linalg.norm(R_try)
             if r_try < r or a < 1e-12:
                 break
@@ -178,8 +178,9 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     q_pred = q + s2 * (f + (2.0 / h) * qd - P.omega2 * q)
     g_pred = P.G @ q_pred
     cn_h, ct_h = P.c_n / h, P.c_t / h
-    g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu, cn_h, ct_h)
-    Lam, _, lam1, w1, state, moved, Ld = mean_contact_force(g, g1, w, P.k_n, P.k_t, P.mu, cn_h, ct_h)
+    g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu, cn_h, ct_h, P.dashpot_depth)
+    Lam, _, lam1, w1, state, moved, Ld = mean_contact_force(g, g1, w, P.k_n, P.k_t, P.mu, cn_h, ct_h,
+                                                             P.dashpot_depth)
     q1 = q_pred + s2 * (P.G.T @ Lam)
     dq = q1 - q
     qd1 = (2.0 / h) * dq - qd

@@ -494,9 +494,10 @@ def test_contact_newton_matches_reference(model):
     n_moved = 0
     for g0, w0, g_pred in newton_cases(m, rng, 150):
         cn_h, ct_h = P.c_n / P.h, P.c_t / P.h
-        g_ref, res_ref = naive.solve_contact(g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu, cn_h, ct_h)
+        g_ref, res_ref = naive.solve_contact(g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu, cn_h, ct_h,
+                                             P.dashpot_depth)
         Lam, D, lam1, w1, state, moved, _ = naive.mean_contact_force(g0, g_ref, w0, P.k_n, P.k_t, P.mu,
-                                                                     cn_h, ct_h)
+                                                                     cn_h, ct_h, P.dashpot_depth)
         gs = np.max(np.abs(np.concatenate([g_ref, g_pred, g0])))
         assert res_ref <= 1e-14 * gs, "reference did not converge"
         counts += np.bincount(state, minlength=4)
@@ -505,7 +506,7 @@ def test_contact_newton_matches_reference(model):
         g = g_pred.copy()
         it = _contact_newton(g, g_pred, w0, P.W, P, wk, 1.0 / P.h)
         assert it >= 0, "kernel Newton did not converge"
-        R, _ = naive.contact_residual(g, g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu, cn_h, ct_h)
+        R, _ = naive.contact_residual(g, g0, g_pred, w0, P.W, P.k_n, P.k_t, P.mu, cn_h, ct_h, P.dashpot_depth)
         assert np.linalg.norm(R) <= 2.0 * _kernel_tol(P, g_pred)
         fs = max(np.max(np.abs(Lam)), np.max(np.abs(lam1)), 1.0)
         assert_rel(g, g_ref, gs, "g1")
