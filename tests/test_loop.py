@@ -62,19 +62,24 @@ def test_unstable_force_tracking_design_is_refused():
         build_loop(load(sets=["tracking.pid_bandwidth_hz=8000"]), "lyapunov")
 
 
-def test_first_physics_figures_of_the_laws(loops, capsys):
-    """Oracle estimator at the mode-3 resonance, 5 N, 1 s. Measured (this model, see the
-    issue notes): Lyapunov reduces the 0.45 m acceleration against passive F_N1 = 40 N and
-    uses far more actuator energy than hysteresis-optimal (SPEC claim C6); at this amplitude
-    hysteresis-optimal stays at F_min (K_f u0 < 40 N), i.e. equals passive."""
-    s = {law: summary(run(L, F3, AMP, 1.0)) for law, L in loops.items()}
+def test_laws_reduce_the_mode3_peak_at_5N(loops, capsys):
+    """Oracle estimator, 5 N, the mode-3 resonance region (190..202 Hz, 1.5 s per point): both
+    laws lower the peak of the 0.45 m acceleration against passive F_N1 = 40 N and Lyapunov
+    more than hysteresis-optimal (SPEC claims C3, C5); Lyapunov uses far more actuator energy
+    (C6). Measured: peaks 34.6 / 33.1 / 18.6 m/s^2 (passive / hysteresis / Lyapunov), i.e.
+    -4.4 % and -46 %. The margins below are what the model must keep, not the figures."""
+    freqs = np.arange(190.0, 205.0, 3.0)
+    peak, energy = {}, {}
+    for law, L in loops.items():
+        s = [summary(run(L, f, AMP, 1.5)) for f in freqs]
+        peak[law] = max(v["acc045_amplitude"] for v in s)
+        energy[law] = max(v["actuator_energy_j"] for v in s)
     with capsys.disabled():
-        for law, v in s.items():
-            print(f"\n[loop] {law}: acc045 {v['acc045_amplitude']:.4f} m/s^2, F_N1 mean {v['fn1_mean_n']:.1f} N, "
-                  f"E {v['actuator_energy_j']:.3g} J", end="")
-    assert s["lyapunov"]["acc045_amplitude"] < 0.95 * s["passive"]["acc045_amplitude"]
-    assert s["lyapunov"]["actuator_energy_j"] > 100 * s["hysteresis"]["actuator_energy_j"]
-    assert s["hysteresis"]["fn1_mean_n"] == pytest.approx(40.0, abs=1.0)
+        print("\n[loop] mode-3 peak at 5 N: " + ", ".join(f"{law} {p:.2f} m/s^2" for law, p in peak.items()), end="")
+    assert peak["hysteresis"] < peak["passive"]
+    assert peak["lyapunov"] < 0.7 * peak["passive"]
+    assert peak["lyapunov"] < peak["hysteresis"]
+    assert energy["lyapunov"] > 100 * energy["hysteresis"]
 
 
 def test_simulate_cli_json_and_log(tmp_path, capsys):
