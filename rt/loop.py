@@ -213,6 +213,50 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
 
 
 @dataclass
+class LoopState:
+    """Every state of the loop between two ticks: each component's state slots x*, the outputs
+    of the previous tick that the next one reads (y*), the noise generator's state and the
+    plant's contact-solver cache."""
+    xs: np.ndarray
+    ys: np.ndarray
+    xo: np.ndarray
+    xl: np.ndarray
+    yl: np.ndarray
+    xq: np.ndarray
+    xf: np.ndarray
+    yf: np.ndarray
+    xa: np.ndarray
+    ya: np.ndarray
+    xp: np.ndarray
+    yp: np.ndarray
+    rng: np.ndarray
+    plant_work: object  # PlantWork: its cached contact factors decide round-off, so they carry over
+    k: int = 0  # the next tick to run
+
+    def copy(self) -> LoopState:
+        new = {n: (v.copy() if isinstance(v, np.ndarray) else v) for n, v in vars(self).items()}
+        new["plant_work"] = type(self.plant_work)(*(a.copy() for a in self.plant_work))
+        return LoopState(**new)
+
+
+def initial_loop_state(loop: Loop, seed: int) -> LoopState:
+    """At rest at F_N1 = F0 (0 V), every filter at its steady state; noise seeded with seed."""
+    cfg = loop.cfg
+    plant = loop.plant
+    xa = actuator_initial_state(loop.actuator, V=cfg.actuator.V_min)
+    ya = np.zeros(len(ACTUATOR_OUTPUTS))
+    ya[0] = loop.actuator.F0 + loop.actuator.k_screw * xa[3]
+    ai = actuator_output_index()
+    ya[ai["F_strain_a"]] = ya[ai["F_cell_a"]] = ya[0]
+    return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=ya[0]), ys=np.zeros(len(SENSOR_OUTPUTS)),
+                     xo=rest_state(loop.oracle, (0.0, 0.0)), xl=np.zeros(len(LAWS_SLOTS)),
+                     yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
+                     xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)), xa=xa, ya=ya,
+                     xp=plant.initial_state(cfg.actuator.F0_N), yp=np.zeros(len(plant.output_labels())),
+                     rng=new_rng(seed), plant_work=plant.new_work())
+
+
+@dataclass
 class Run:
     """A finished (or interrupted) run: the log and its figures."""
     loop: Loop
@@ -224,6 +268,7 @@ class Run:
     paced: bool
     wall_ns: int
     interrupted: bool = False  # stopped by Ctrl-C: the log holds the ticks run until then
+    final: LoopState | None = None  # every state after the last tick run (a next run's start)
 
     def signal(self, name: str) -> np.ndarray:
         return self.log[:, self.loop.column(name)]
@@ -253,8 +298,14 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float)
 
 
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
-        timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None) -> Run:
+        timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
+        start: LoopState | None = None) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
+
+    The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
+    of a previous run: a step-sine continues from the previous frequency's state; that start
+    is not modified). Ticks continue from the start's tick k (t = k dt), so a run split in two
+    at the same frequency equals one run, bit for bit.
 
     Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
     log that would not fit in memory; RuntimeError if a plant step failed.
@@ -266,23 +317,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     seed = cfg.rt.seed if seed is None else seed
     plant = loop.plant
     oi = plant.output_index()
-    # --- initial states: at rest at F_N1 = F0 (0 V), everything at its steady state
-    F0 = cfg.actuator.F0_N
-    xp = plant.initial_state(F0)
-    yp = np.zeros(len(plant.output_labels()))
-    xa = actuator_initial_state(loop.actuator, V=cfg.actuator.V_min)
-    ya = np.zeros(len(ACTUATOR_OUTPUTS))
-    ya[0] = loop.actuator.F0 + loop.actuator.k_screw * xa[3]
     ai = actuator_output_index()
-    ya[ai["F_strain_a"]] = ya[ai["F_cell_a"]] = ya[0]
-    xs = sensors_initial_state(loop.sensors, F_N1=ya[0])
-    xo = rest_state(loop.oracle, (0.0, 0.0))
-    xq = rest_state(loop.prefilter, (cfg.tracking.F_min_N,))
-    xl = np.zeros(len(LAWS_SLOTS))
-    xf = tracking_initial_state(ya[0])
-    bufs = dict(xs=xs, ys=np.zeros(len(SENSOR_OUTPUTS)), xl=xl, yl=np.zeros(len(LAWS_OUTPUTS)),
-                xf=xf, yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)), xa=xa, ya=ya, xp=xp, yp=yp)
-    rng = new_rng(seed)
+    st = initial_loop_state(loop, seed) if start is None else start.copy()
     log = np.empty((n_ticks, n_sig))
     comp_ns = np.zeros((n_ticks, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
     period_ns = int(round(dt * 1e9))
@@ -290,7 +326,6 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     force_col = sensor_output_index()["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     args_fixed = (dt, amp_n, 2 * math.pi * freq_hz, force_col, timing, paced, period_ns, clk,
                   np.zeros(2, dtype=np.int64))
-    work = plant.new_work()
     failed = [0]
     errors: list[BaseException] = []
 
@@ -303,17 +338,17 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     def _chunks():
         # paced: one compiled call for the whole run (Python between chunks would overrun)
         step = n_ticks if paced else chunk
-        k = 0
+        k = 0  # row of the log; tick st.k + k
         while k < n_ticks and not clk[CLK_STOP]:
             k1 = min(n_ticks, k + step)
-            failed[0] += _run_ticks(k, k1, *args_fixed,
-                                    bufs["xs"], np.empty_like(xs), bufs["ys"], np.zeros(4), loop.sensors, rng,
-                                    xo, np.empty_like(xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
-                                    bufs["xl"], np.empty_like(xl), bufs["yl"], np.zeros(2), loop.law_params,
-                                    xq, np.empty_like(xq), np.zeros(1), np.zeros(1), loop.prefilter,
-                                    bufs["xf"], np.empty_like(xf), bufs["yf"], np.zeros(2), loop.design.params,
-                                    bufs["xa"], np.empty_like(xa), bufs["ya"], np.zeros(1), loop.actuator,
-                                    bufs["xp"], np.empty_like(xp), bufs["yp"], np.zeros(2), plant.params, work,
+            failed[0] += _run_ticks(st.k + k, st.k + k1, *args_fixed,
+                                    st.xs, np.empty_like(st.xs), st.ys, np.zeros(4), loop.sensors, st.rng,
+                                    st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
+                                    st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params,
+                                    st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
+                                    st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params,
+                                    st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator,
+                                    st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work,
                                     oi["u_rel"], oi["v_rel"], oi["a_tip"], oi["a_frf"],
                                     ai["F_strain_a"], ai["F_cell_a"],
                                     log[k:k1], comp_ns[k:k1] if timing else comp_ns)
@@ -340,6 +375,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     if errors:
         raise errors[0]
     n_run = int(clk[CLK_TICKS])
+    st.k += n_run
     log = log[:n_run]
     comp_ns = comp_ns[:n_run] if timing else comp_ns
     wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
@@ -349,7 +385,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     if not np.all(np.isfinite(log)):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
-               interrupted)
+               interrupted, st)
 
 
 def first_harmonic_amplitude(x: np.ndarray, freq_hz: float, dt: float) -> float:

@@ -84,15 +84,14 @@ def normal_impulse(g0, g1, k_n):
 def interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
     """Mean dashpot forces over a step, from their definition (vectorised over pairs): the normal
     one acts on the change of penetration p = min(0, g_n); the tangential one on the change of
-    g_t, weighted by s = min(1, P / depth) with P the mean penetration -(p0 + p1)/2.
+    g_t, weighted by s = S(min(1, -p0 / depth)), S(x) = 3x^2 - 2x^3 (penetration at the start).
     Returns (Ld_n, Ld_t, dLd_n/dg_n1, dLd_t/dg_n1, dLd_t/dg_t1)."""
     p0, p1 = np.minimum(0.0, gn0), np.minimum(0.0, gn1)
     in1 = (gn1 < 0.0).astype(float)                 # dp1 / dg_n1
-    P = -0.5 * (p0 + p1)
-    s = np.minimum(1.0, P / depth)
-    ds = np.where(P < depth, -0.5 * in1 / depth, 0.0)
+    x = np.minimum(1.0, -p0 / depth)
+    s = 3.0 * x**2 - 2.0 * x**3
     dgt = gt1 - gt0
-    return -cn_h * (p1 - p0), -ct_h * s * dgt, -cn_h * in1, -ct_h * dgt * ds, -ct_h * s
+    return -cn_h * (p1 - p0), -ct_h * s * dgt, -cn_h * in1, np.zeros_like(s), -ct_h * s
 
 
 def mean_contact_force(g0, g1, w0, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0):

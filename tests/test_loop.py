@@ -46,6 +46,21 @@ def test_same_seed_bit_identical_other_seed_changes_noise(loops):
     assert summary(c)["acc045_amplitude"] == pytest.approx(s_a["acc045_amplitude"], rel=0.02)
 
 
+def test_run_continued_from_its_final_state_equals_one_run(loops):
+    # the step-sine FRF continues from the previous point's state: a run split in two at the
+    # same frequency must be the same run, bit for bit (all states incl. noise and the plant's
+    # contact-solver cache carry over; ticks continue)
+    L = loops["lyapunov"]
+    keep = np.setdiff1d(np.arange(len(L.signals)), [L.column("tick_ns"), L.column("late_ns")])
+    whole = run(L, F3, AMP, 0.1)
+    first = run(L, F3, AMP, 0.04)
+    second = run(L, F3, AMP, 0.06, start=first.final)
+    assert first.final.k == 840 and second.final.k == 2100
+    assert np.array_equal(whole.log[:, keep], np.vstack([first.log, second.log])[:, keep])
+    third = run(L, F3, AMP, 0.01, start=first.final)  # the start is not consumed
+    assert np.array_equal(third.log[:, keep], second.log[:210, keep])
+
+
 @pytest.mark.parametrize("freq, amp, dur, match", [
     (11000.0, 5.0, 0.1, "Nyquist"),
     (200.0, -1.0, 0.1, "--amp"),
