@@ -66,6 +66,7 @@ class Loop:
     design: ForceTrackingDesign
     force_sensor: str
     signals: tuple[tuple[str, str, str], ...]   # (name, unit, owner) per log column
+    estimator: str = "oracle"                   # one of ESTIMATORS
 
     def column(self, name: str) -> int:
         return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
@@ -85,16 +86,20 @@ def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
     return tuple(sig)
 
 
-def build_loop(cfg: Config, law: str | None = None) -> Loop:
-    """Design time: plant, actuator, sensors, law and the force-tracking design for its sensor.
+def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle") -> Loop:
+    """Design time: plant, actuator, sensors, estimator, law and the force-tracking design for
+    its sensor.
 
-    Raises ValueError (from the design) if the force-tracking loop would be unstable."""
+    Raises ValueError (from the design) if the force-tracking loop would be unstable, or for an
+    unknown estimator."""
     law = cfg.tracking.law if law is None else law
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator {estimator!r}: expected one of {', '.join(ESTIMATORS)}")
     plant = build_plant(cfg)
     sensor = SENSOR_OF_LAW[law]
     design = design_force_tracking(cfg, sensor)
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), build_prefilter(cfg),
-                build_laws(cfg, law), design, sensor, loop_signals(plant))
+                build_laws(cfg, law), design, sensor, loop_signals(plant), estimator)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
@@ -407,7 +412,7 @@ def summary(r: Run) -> dict:
     tail = slice(n - max(int(0.2 * n), 2), n)
     a = r.signal("a_frf")
     return {
-        "law": r.loop.law, "estimator": "oracle", "freq_hz": r.freq_hz, "amp_n": r.amp_n, "ticks": n,
+        "law": r.loop.law, "estimator": r.loop.estimator, "freq_hz": r.freq_hz, "amp_n": r.amp_n, "ticks": n,
         "acc045_amplitude": first_harmonic_amplitude(a[tail], r.freq_hz, dt),
         "acc045_rms": float(np.sqrt(np.mean(a[tail] ** 2))),
         "acc045_peak": float(np.max(np.abs(a[tail]))),
