@@ -1,0 +1,344 @@
+"""Run logs as MCAP files: one ROS 2 (CDR) topic per owning package, encoded with numpy in blocks.
+
+A run's log is a float64 array (ticks, n_sig) whose columns are ``signals`` = (name, unit, owner)
+(``rt.loop.loop_signals``). The file holds:
+
+    topics     /rt /sensors /observer /tracking /actuator /plant (those owning a column), in that
+               order; one message per tick per topic, messages interleaved tick by tick
+    schema     per topic, encoding "ros2msg", name "frictionrt/msg/<Owner>" (e.g.
+               frictionrt/msg/Plant), text one line "float64 FIELD" per signal of the owner in
+               column order, so Foxglove plots /tracking.F_set_filtered by name
+    message    encoding "cdr", little endian: the encapsulation header 00 01 00 00, then the
+               owner's m float64 fields. CDR aligns relative to the end of the header, so the
+               fields sit at 8-byte offsets without padding: 4 + 8 m bytes, bit-exact copies
+               of the log (NaN payloads, -0.0, inf and denormals included)
+    times      log_time = publish_time = (k * 10**9) // rate_hz [ns], the floor of t_k = k / rate_hz
+               in exact integer arithmetic (k round(1e9 dt) would drift: 1/21000 s is not a
+               whole number of ns); sequence = k mod 2**32 (MCAP's field is uint32). The reader
+               recovers k = ceil(log_time rate_hz / 10**9) and checks both. rate_hz must be a
+               whole number of Hz; ticks up to 2**63 / 10**9 (5 days at 21 kHz)
+    chunks     zstd, CHUNK_BYTES = 1 MiB uncompressed (17 per simulated second at 21 kHz; 4 or 16 MiB
+               compress no better: the float64 noise dominates)
+    metadata   record "frictionrt": the caller's strings (resolved configuration TOML, package
+               versions, seed, start time, command line); record "signals": "signals" = JSON
+               list of {name, field, unit, owner, column}, "rate_hz", "dt_s", "time" (the rule
+               above)
+
+Field names are the signal names where they are valid ros2msg field names as Foxglove parses
+them, ``[A-Za-z][A-Za-z0-9_]*`` (rosidl's stricter lower-case rule is not applied: F_N1 stays
+F_N1). Other names are sanitised deterministically (invalid characters -> "_", a leading
+non-letter gets "f_", a clash gets "_2", "_3", ...); the original name stays in the "signals"
+record and ``read_mcap`` returns it.
+
+Nothing is half-written: the writer writes ``NAME.mcap.part`` and renames it onto ``NAME.mcap``
+on close. An exception inside ``with McapLogWriter(...)`` (a crash of the run, Ctrl-C) still
+closes the file, so everything written up to then is a valid, readable MCAP file, and then
+propagates. Only a killed process leaves a ``.part`` file behind (``mcap recover`` salvages
+its complete chunks).
+
+``read_mcap`` decodes each topic with one ``np.frombuffer`` over its concatenated payloads.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Self
+
+import numpy as np
+import zstandard
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+
+OWNERS = ("rt", "sensors", "observer", "tracking", "actuator", "plant")
+CDR_LE = b"\x00\x01\x00\x00"   # CDR encapsulation header: plain CDR, little endian
+CHUNK_BYTES = 1 << 20          # uncompressed chunk size [B]
+MAGIC = b"\x89MCAP0\r\n"
+FIELD_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+MAX_TICK = (2**63 - 1) // 10**9  # k * 10**9 must fit int64
+
+
+def field_names(signals) -> tuple[str, ...]:
+    """ros2msg field name of each signal (see the module docstring for the sanitising rule)."""
+    used: set[str] = set()
+    out = []
+    for name, _, _ in signals:
+        base = re.sub(r"[^A-Za-z0-9_]", "_", name)
+        if not FIELD_RE.match(base):
+            base = "f_" + base
+        field, n = base, 1
+        while field in used:
+            n += 1
+            field = f"{base}_{n}"
+        used.add(field)
+        out.append(field)
+    return tuple(out)
+
+
+def tick_time_ns(k: np.ndarray, rate_hz: int) -> np.ndarray:
+    """t_k = (k * 10**9) // rate_hz [ns] (int64), exact for 0 <= k <= MAX_TICK."""
+    return (np.asarray(k, dtype=np.int64) * 10**9) // rate_hz
+
+
+def check_rate(path: Path, rate_hz: float) -> int:
+    """The tick rate as a whole number of Hz (ValueError naming the file otherwise)."""
+    if not (math.isfinite(rate_hz) and rate_hz > 0 and float(rate_hz).is_integer()):
+        raise ValueError(f"{path}: rate_hz must be a positive whole number of Hz, got {rate_hz}")
+    return int(rate_hz)
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One owner's topic: its log columns and ros2msg schema."""
+    owner: str
+    columns: np.ndarray   # int64 log columns, in order
+    fields: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        return "/" + self.owner
+
+    @property
+    def schema_name(self) -> str:
+        return f"frictionrt/msg/{self.owner.capitalize()}"
+
+    @property
+    def schema_text(self) -> bytes:
+        return "".join(f"float64 {f}\n" for f in self.fields).encode()
+
+    @property
+    def message_size(self) -> int:
+        return len(CDR_LE) + 8 * len(self.fields)
+
+
+def check_owners(path: Path, signals) -> None:
+    """ValueError naming the file if a signal's owner is not one of OWNERS."""
+    unknown = sorted({o for _, _, o in signals} - set(OWNERS))
+    if unknown:
+        raise ValueError(f"{path}: unknown signal owner(s) {unknown}; owners are {list(OWNERS)}")
+
+
+def topics_of(signals) -> tuple[Topic, ...]:
+    """The topics of a signal layout (owners checked), in OWNERS order."""
+    fields = field_names(signals)
+    owners = [o for _, _, o in signals]
+    out = []
+    for owner in OWNERS:
+        cols = [c for c, o in enumerate(owners) if o == owner]
+        if cols:
+            out.append(Topic(owner, np.array(cols, dtype=np.int64), tuple(fields[c] for c in cols)))
+    return tuple(out)
+
+
+def signals_record(signals, rate_hz: int) -> dict[str, str]:
+    """The "signals" metadata record: the layout, the rate and the time rule."""
+    rows = [{"name": n, "field": f, "unit": u, "owner": o, "column": c}
+            for c, ((n, u, o), f) in enumerate(zip(signals, field_names(signals)))]
+    return {"signals": json.dumps(rows), "rate_hz": str(rate_hz), "dt_s": repr(1.0 / rate_hz),
+            "time": "log_time = publish_time = (k * 10**9) // rate_hz [ns]; sequence = k mod 2**32"}
+
+
+def part_path(path: Path) -> Path:
+    """Where a log is written until it is complete: NAME.mcap -> NAME.mcap.part."""
+    return path.with_name(path.name + ".part")
+
+
+class McapLogWriter:
+    """Writes a run's log to ``path`` in blocks of ticks (see the module docstring).
+
+    Parameters
+    ----------
+    path : the .mcap file; written as ``path.part`` and renamed on close.
+    signals : (name, unit, owner) per log column.
+    rate_hz : tick rate [Hz], a whole number (t_k = k / rate_hz).
+    metadata : strings stored in the "frictionrt" metadata record.
+
+    Use as a context manager, or call ``close()``; either way the file is finished and renamed,
+    also when the ``with`` block raises.
+    """
+
+    def __init__(self, path: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str]):
+        self.path = Path(path)
+        self.signals = tuple(tuple(s) for s in signals)
+        self.rate_hz = check_rate(self.path, rate_hz)
+        check_owners(self.path, self.signals)
+        self.topics = topics_of(self.signals)
+        bad = [k for k, v in metadata.items() if not (isinstance(k, str) and isinstance(v, str))]
+        if bad:
+            raise ValueError(f"{self.path}: metadata keys and values must be strings: {bad}")
+        self._part = part_path(self.path)
+        self._file = open(self._part, "wb")
+        self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
+        self._writer.start(library="frictionrt")
+        self._channels = []
+        for tp in self.topics:
+            schema = self._writer.register_schema(tp.schema_name, "ros2msg", tp.schema_text)
+            self._channels.append(self._writer.register_channel(tp.name, "cdr", schema))
+        self._writer.add_metadata("frictionrt", dict(metadata))
+        self._writer.add_metadata("signals", signals_record(self.signals, self.rate_hz))
+        self._k_next = 0
+
+    def write_block(self, k0: int, block: np.ndarray) -> None:
+        """Append ticks k0 .. k0 + n - 1; block is float64 (n, n_sig), row i = tick k0 + i.
+
+        Ticks must increase from block to block (k0 >= the previous block's end); a gap (a
+        dropped block) is allowed."""
+        if self._file.closed:
+            raise ValueError(f"{self.path}: write_block after close")
+        k0 = int(k0)
+        n_sig = len(self.signals)
+        if block.ndim != 2 or block.shape[1] != n_sig or block.dtype != np.float64:
+            raise ValueError(f"{self.path}: block must be float64 (n, {n_sig}), got {block.dtype} {block.shape}")
+        n = block.shape[0]
+        if k0 < self._k_next or k0 + n - 1 > MAX_TICK:
+            raise ValueError(f"{self.path}: block ticks {k0}..{k0 + n - 1} must start at >= {self._k_next} "
+                             f"and end at <= {MAX_TICK}")
+        if n == 0:
+            return
+        k = np.arange(k0, k0 + n, dtype=np.int64)
+        times = tick_time_ns(k, self.rate_hz).tolist()
+        seqs = (k & 0xFFFFFFFF).tolist()
+        streams = []
+        for tp, channel in zip(self.topics, self._channels):
+            msg = np.empty((n, tp.message_size), dtype=np.uint8)
+            msg[:, :4] = np.frombuffer(CDR_LE, dtype=np.uint8)
+            msg[:, 4:] = np.ascontiguousarray(block[:, tp.columns], dtype="<f8").view(np.uint8)
+            streams.append((channel, msg.tobytes(), tp.message_size))
+        add = self._writer.add_message
+        for i, (t, seq) in enumerate(zip(times, seqs)):
+            for channel, data, size in streams:
+                a = i * size
+                add(channel, t, data[a:a + size], t, seq)
+        self._k_next = k0 + n
+
+    def close(self) -> None:
+        """Finish the file (summary, indexes, footer) and rename it onto ``path``. Idempotent."""
+        if self._file.closed:
+            return
+        try:
+            self._writer.finish()
+        finally:
+            self._file.close()
+        os.replace(self._part, self.path)
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.close()  # also on an exception: the ticks written so far stay a valid file
+
+
+@dataclass(frozen=True)
+class McapLog:
+    """A log read back from MCAP. Columns of absent topics, and ticks a topic lacks, are NaN."""
+    path: Path
+    signals: tuple[tuple[str, str, str], ...]  # (name, unit, owner) per column, original names
+    log: np.ndarray          # float64 (ticks, n_sig), the written column order
+    k: np.ndarray            # int64 tick of each row, increasing
+    rate_hz: int             # [Hz]
+    metadata: dict[str, str]  # the "frictionrt" record
+    topics: tuple[str, ...]  # topics present in the file, e.g. ("/sensors",)
+
+    @property
+    def t(self) -> np.ndarray:
+        """t_k = k / rate_hz [s]."""
+        return self.k / self.rate_hz
+
+    def column(self, name: str) -> int:
+        return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
+
+
+def _check_framing(path: Path) -> None:
+    """ValueError unless the file starts and ends with the MCAP magic."""
+    size = path.stat().st_size
+    with open(path, "rb") as f:
+        head = f.read(len(MAGIC))
+        if head != MAGIC:
+            raise ValueError(f"{path}: not an MCAP file (no MCAP magic at the start)")
+        f.seek(max(size - len(MAGIC), 0))
+        if size < 2 * len(MAGIC) or f.read(len(MAGIC)) != MAGIC:
+            raise ValueError(f"{path}: truncated MCAP file (no closing magic: the writer did not finish)")
+
+
+def _decode_topic(path: Path, tp: Topic, payloads: list[bytes]) -> np.ndarray:
+    """(n, m) float64 values of one topic's CDR payloads."""
+    size, n = tp.message_size, len(payloads)
+    buf = b"".join(payloads)
+    if len(buf) != n * size:
+        raise ValueError(f"{path}: {tp.name} messages are not all {size} bytes (schema has {len(tp.fields)} fields)")
+    rows = np.frombuffer(buf, dtype=np.uint8).reshape(n, size)
+    if np.any(rows[:, :4] != np.frombuffer(CDR_LE, dtype=np.uint8)):
+        raise ValueError(f"{path}: {tp.name} has messages that are not little-endian CDR")
+    return np.ascontiguousarray(rows[:, 4:]).view("<f8").astype(np.float64, copy=False)
+
+
+def _ticks(path: Path, tp: Topic, times: list[int], seqs: list[int], rate_hz: int) -> np.ndarray:
+    """Ticks of one topic's messages from their log times, checked against the time rule."""
+    if max(times) > tick_time_ns(MAX_TICK, rate_hz):
+        raise ValueError(f"{path}: {tp.name} has log times beyond the last representable tick")
+    t = np.array(times, dtype=np.int64)
+    k = -((-t * rate_hz) // 10**9)   # ceil(t rate / 1e9): t = floor(k 1e9 / rate)
+    if np.any(tick_time_ns(k, rate_hz) != t) or np.any((k & 0xFFFFFFFF) != np.array(seqs, dtype=np.int64)):
+        raise ValueError(f"{path}: {tp.name} has log times or sequence numbers off the tick grid of {rate_hz} Hz")
+    dk = np.diff(k)
+    if np.any(dk == 0):
+        raise ValueError(f"{path}: {tp.name} has duplicated ticks (first k = {int(k[1:][dk == 0][0])})")
+    if np.any(dk < 0):
+        raise ValueError(f"{path}: {tp.name} ticks are not increasing (k = {int(k[1:][dk < 0][0])} after a later tick)")
+    return k
+
+
+def read_mcap(path: str | os.PathLike) -> McapLog:
+    """Read a log written by ``McapLogWriter``; ValueError naming the file on any problem.
+
+    Topics not in the "signals" record are ignored; a topic of the record may be absent (its
+    columns come back NaN, ``McapLog.topics`` lists the present ones)."""
+    path = Path(path)
+    _check_framing(path)
+    try:
+        with open(path, "rb") as f:
+            reader = make_reader(f, validate_crcs=True)
+            meta = {m.name: m.metadata for m in reader.iter_metadata()}
+            if "signals" not in meta:
+                raise ValueError(f"{path}: no 'signals' metadata record: not a frictionrt log")
+            rec = meta["signals"]
+            rows = json.loads(rec["signals"])
+            signals = tuple((r["name"], r["unit"], r["owner"]) for r in rows)
+            if [r["column"] for r in rows] != list(range(len(rows))) or \
+                    [r["field"] for r in rows] != list(field_names(signals)):
+                raise ValueError(f"{path}: the 'signals' record's columns or field names are inconsistent")
+            rate_hz = check_rate(path, float(rec["rate_hz"]))
+            check_owners(path, signals)
+            topics = {tp.name: tp for tp in topics_of(signals)}
+            data: dict[str, tuple[list, list, list]] = {}
+            checked: set[int] = set()   # channel ids whose schema matched
+            for schema, channel, msg in reader.iter_messages(log_time_order=False):
+                tp = topics.get(channel.topic)
+                if tp is None:
+                    continue
+                if channel.id not in checked:
+                    if schema is None or schema.encoding != "ros2msg" or channel.message_encoding != "cdr" \
+                            or schema.name != tp.schema_name or schema.data != tp.schema_text:
+                        raise ValueError(f"{path}: the schema of {tp.name} does not match the 'signals' record")
+                    checked.add(channel.id)
+                payloads, times, seqs = data.setdefault(channel.topic, ([], [], []))
+                payloads.append(msg.data)
+                times.append(msg.log_time)
+                seqs.append(msg.sequence)
+    except (McapError, zstandard.ZstdError, OSError, EOFError, KeyError, TypeError, struct.error,
+            json.JSONDecodeError) as e:
+        raise ValueError(f"{path}: unreadable MCAP log ({type(e).__name__}: {e})") from e
+    present = [name for name in topics if name in data]
+    ks = {name: _ticks(path, topics[name], data[name][1], data[name][2], rate_hz) for name in present}
+    k = np.unique(np.concatenate(list(ks.values()))) if ks else np.zeros(0, dtype=np.int64)
+    log = np.full((len(k), len(signals)), np.nan)
+    for name in present:
+        tp = topics[name]
+        log[np.searchsorted(k, ks[name])[:, None], tp.columns] = _decode_topic(path, tp, data[name][0])
+    return McapLog(path, signals, log, k, rate_hz, dict(meta.get("frictionrt", {})), tuple(present))
+

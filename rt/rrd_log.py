@@ -1,0 +1,155 @@
+"""Run logs as rerun .rrd recordings (rerun-sdk 0.41), sent column-wise in blocks.
+
+The recording (its own ``rr.RecordingStream``, never the global one; nothing is spawned) holds:
+
+    /<owner>/<name>   one entity per log column, ``rr.Scalars``, e.g. /plant/v_rel; a static
+                      ``unit`` (AnyValues) on each
+    /hysteresis       ``rr.Points2D`` per tick at (u_rel [um], -F_t [N]) where
+                      F_t = sum_j f_t_j is the interface's total tangential (friction) force: the
+                      plant logs no tangential force at the adaptive screw itself, and u_rel is
+                      the slip there. y is -F_t because rerun's 2-D view points y down, so the
+                      loop appears with positive force up. Only if u_rel and f_t_* are logged.
+    timelines         "t": duration (k * 10**9) // rate_hz [ns] (the MCAP log_time, exact);
+                      "tick": sequence k
+    properties        "frictionrt": the caller's metadata strings (configuration TOML, versions,
+                      seed, ...), if given
+
+The default blueprint (embedded with ``blueprint=True``) has a "damper" tab with "F_N1 setpoint
+vs measured" (the law's F_set, the prefiltered setpoint F_set_filtered, the true F_N1 and the
+strain-gauge and force-cell readings F_strain, F_cell, whichever are logged) above the friction
+hysteresis (the last HYSTERESIS_WINDOW_S before the time cursor), and one time-series tab per
+owner.
+
+The file is written as ``NAME.rrd.part`` and renamed onto ``NAME.rrd`` on close; an exception
+inside ``with RrdLogWriter(...)`` still closes (and renames) the file.
+"""
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+from typing import Self
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from rt.mcap_log import MAX_TICK, OWNERS, check_owners, check_rate, part_path, tick_time_ns
+
+SETPOINT_SIGNALS = ("F_set", "F_set_filtered", "F_N1", "F_strain", "F_cell")
+HYSTERESIS_WINDOW_S = 0.02   # [s] of the hysteresis view before the time cursor (4.5 periods at 224 Hz)
+
+
+def entity_path(name: str, owner: str) -> str:
+    """Entity of a log column: /<owner>/<name>."""
+    return f"/{owner}/{rr.escape_entity_path_part(name)}"
+
+
+def _hysteresis_columns(signals) -> tuple[int, np.ndarray] | None:
+    """(u_rel column, f_t_* columns) of the plant, or None if either is not logged."""
+    cols = {(o, n): c for c, (n, _, o) in enumerate(signals)}
+    u = cols.get(("plant", "u_rel"))
+    ft = [c for (o, n), c in cols.items() if o == "plant" and n.startswith("f_t_")]
+    return None if u is None or not ft else (u, np.array(ft, dtype=np.int64))
+
+
+def default_blueprint(signals) -> rrb.Blueprint:
+    """Setpoint vs measured F_N1 and the friction hysteresis, then one time-series tab per owner."""
+    paths = {n: entity_path(n, o) for n, _, o in signals}
+    damper = [rrb.TimeSeriesView(origin="/", contents=[paths[n] for n in SETPOINT_SIGNALS if n in paths],
+                                 name="F_N1 setpoint vs measured")]
+    if _hysteresis_columns(signals) is not None:
+        window = rrb.VisibleTimeRange("t", start=rrb.TimeRangeBoundary.cursor_relative(seconds=-HYSTERESIS_WINDOW_S),
+                                      end=rrb.TimeRangeBoundary.cursor_relative())
+        damper.append(rrb.Spatial2DView(origin="/hysteresis", name="friction hysteresis: F_t [N] up vs u_rel [um]",
+                                        time_ranges=window))
+    owners = [o for o in OWNERS if any(s[2] == o for s in signals)]
+    return rrb.Blueprint(rrb.Tabs(rrb.Vertical(*damper, name="damper"),
+                                  *[rrb.TimeSeriesView(origin=f"/{o}", name=o) for o in owners]))
+
+
+class RrdLogWriter:
+    """Writes a run's log to an .rrd file in blocks of ticks (see the module docstring).
+
+    Parameters
+    ----------
+    path : the .rrd file; written as ``path.part`` and renamed on close.
+    signals : (name, unit, owner) per log column.
+    rate_hz : tick rate [Hz], a whole number (t_k = k / rate_hz).
+    metadata : strings sent as the recording property "frictionrt".
+    blueprint : embed ``default_blueprint(signals)``.
+    app_id : rerun application id (blueprints are remembered per application).
+    """
+
+    def __init__(self, path: str | os.PathLike, signals, rate_hz: float, *, metadata: dict[str, str] | None = None,
+                 blueprint: bool = True, app_id: str = "frictionrt"):
+        self.path = Path(path)
+        self.signals = tuple(tuple(s) for s in signals)
+        self.rate_hz = check_rate(self.path, rate_hz)
+        check_owners(self.path, self.signals)
+        self._paths = [entity_path(n, o) for n, _, o in self.signals]
+        self._hysteresis = _hysteresis_columns(self.signals)
+        self._part = part_path(self.path)
+        self._rec = rr.RecordingStream(app_id, recording_id=uuid.uuid4())
+        self._rec.save(self._part, default_blueprint=default_blueprint(self.signals) if blueprint else None)
+        if metadata:
+            self._rec.send_property("frictionrt", rr.AnyValues(**metadata))
+        for p, (_, unit, _) in zip(self._paths, self.signals):
+            self._rec.log(p, rr.AnyValues(unit=unit), static=True)
+        self._open = True
+        self._k_next = 0
+
+    def write_block(self, k0: int, block: np.ndarray) -> None:
+        """Append ticks k0 .. k0 + n - 1; block is float64 (n, n_sig), row i = tick k0 + i.
+
+        Ticks must increase from block to block; a gap (a dropped block) is allowed."""
+        if not self._open:
+            raise ValueError(f"{self.path}: write_block after close")
+        k0 = int(k0)
+        n_sig = len(self.signals)
+        if block.ndim != 2 or block.shape[1] != n_sig or block.dtype != np.float64:
+            raise ValueError(f"{self.path}: block must be float64 (n, {n_sig}), got {block.dtype} {block.shape}")
+        n = block.shape[0]
+        if k0 < self._k_next or k0 + n - 1 > MAX_TICK:
+            raise ValueError(f"{self.path}: block ticks {k0}..{k0 + n - 1} must start at >= {self._k_next} "
+                             f"and end at <= {MAX_TICK}")
+        if n == 0:
+            return
+        k = np.arange(k0, k0 + n, dtype=np.int64)
+        index = [rr.TimeColumn("t", duration=tick_time_ns(k, self.rate_hz).astype("timedelta64[ns]")),
+                 rr.TimeColumn("tick", sequence=k)]
+        cols = np.ascontiguousarray(block.T)
+        for p, x in zip(self._paths, cols):
+            self._rec.send_columns(p, indexes=index, columns=rr.Scalars.columns(scalars=x), strict=True)
+        if self._hysteresis is not None:
+            u, ft = self._hysteresis
+            with np.errstate(over="ignore", invalid="ignore"):  # a diverged run plots as inf
+                xy = np.column_stack([1e6 * block[:, u], -block[:, ft].sum(axis=1)])
+            self._rec.send_columns("/hysteresis", indexes=index, columns=rr.Points2D.columns(positions=xy),
+                                   strict=True)
+        self._k_next = k0 + n
+
+    def close(self) -> None:
+        """Flush, finish the file and rename it onto ``path``. Idempotent."""
+        if not self._open:
+            return
+        self._open = False
+        self._rec.flush()
+        self._rec.disconnect()  # drops the file sink: footer written, file closed
+        os.replace(self._part, self.path)
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.close()  # also on an exception: the ticks sent so far stay a valid recording
+
+
+def write_rrd(path: str | os.PathLike, signals, log: np.ndarray, rate_hz: float, *, k0: int = 0,
+              blueprint: bool = True, app_id: str = "frictionrt", metadata: dict[str, str] | None = None,
+              block_ticks: int = 21000) -> None:
+    """Write a whole log (float64 (ticks, n_sig), row i = tick k0 + i) to ``path`` as .rrd,
+    in blocks of ``block_ticks`` (see ``RrdLogWriter``)."""
+    with RrdLogWriter(path, signals, rate_hz, metadata=metadata, blueprint=blueprint, app_id=app_id) as w:
+        for i in range(0, len(log), block_ticks):
+            w.write_block(k0 + i, log[i:i + block_ticks])

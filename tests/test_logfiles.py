@@ -1,0 +1,282 @@
+"""Log files: MCAP (rt.mcap_log) bit-exact round trip, time rule, layout and errors; rrd (rt.rrd_log)."""
+import struct
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+
+from rt.loop import loop_signals
+from rt.mcap_log import CDR_LE, McapLogWriter, field_names, read_mcap, signals_record, tick_time_ns, topics_of
+from rt.rrd_log import RrdLogWriter, write_rrd
+
+RATE = 21000
+META = {"config": "[rt]\nrate_hz = 21000.0  # Hz\n", "versions": "numpy 2.4, mcap 1.6.0", "seed": "7",
+        "start": "2026-01-01T00:00:00Z", "command": "frictionrt simulate --law lyapunov µ"}
+
+
+@pytest.fixture(scope="module")
+def signals(reduced):
+    return loop_signals(reduced)
+
+
+def special_log(n: int, n_sig: int, seed: int = 0) -> np.ndarray:
+    """Random values plus every float64 corner: +-0, +-inf, NaNs with payloads, denormals,
+    extremes (n >= 8)."""
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal((n, n_sig)) * 10.0 ** rng.uniform(-9, 9, n_sig)
+    corners = np.array([-0.0, 0.0, np.inf, -np.inf, np.nan, 5e-324, -2.2e-308, 1.7976931348623157e308])
+    x[:len(corners), 0] = corners
+    x[1, :] = corners[np.arange(n_sig) % len(corners)]
+    x[2, -1] = np.array(0x7FF8_0000_0000_0123, dtype=np.uint64).view(np.float64)   # quiet NaN, payload
+    x[3, -1] = np.array(0xFFF0_0000_0000_0001, dtype=np.uint64).view(np.float64)   # signalling NaN, sign
+    return x
+
+
+def write(path, signals, log, k0=0, block=None, metadata=META):
+    with McapLogWriter(path, signals, RATE, metadata) as w:
+        step = block or len(log)
+        for i in range(0, len(log), step):
+            w.write_block(k0 + i, log[i:i + step])
+
+
+def raw_messages(path):
+    with open(path, "rb") as f:
+        return [(ch.topic, m.log_time, m.publish_time, m.sequence, bytes(m.data))
+                for _, ch, m in make_reader(f).iter_messages(log_time_order=False)]
+
+
+def test_round_trip_is_bit_exact(tmp_path, signals):
+    log = special_log(1500, len(signals))
+    write(tmp_path / "a.mcap", signals, log)
+    back = read_mcap(tmp_path / "a.mcap")
+    assert back.signals == signals and back.rate_hz == RATE
+    assert back.topics == ("/rt", "/sensors", "/observer", "/tracking", "/actuator", "/plant")
+    np.testing.assert_array_equal(back.k, np.arange(1500))
+    np.testing.assert_array_equal(back.log.view(np.uint64), log.view(np.uint64))
+
+
+def test_messages_are_cdr_of_the_owners_columns_at_exact_tick_times(tmp_path, signals):
+    # k0 beyond 2**32 (sequence wraps) and k * 1e9 beyond 2**53 (float times would be inexact)
+    k0, n = 9_000_000_000, 40
+    log = special_log(n, len(signals), seed=1)
+    write(tmp_path / "a.mcap", signals, log, k0=k0)
+    msgs = raw_messages(tmp_path / "a.mcap")
+    topics = topics_of(signals)
+    assert len(msgs) == n * len(topics)
+    for j, (topic, log_time, publish_time, seq, data) in enumerate(msgs):
+        i, tp = divmod(j, len(topics))
+        k = k0 + i
+        assert topic == topics[tp].name
+        assert log_time == publish_time == k * 10**9 // RATE       # Python ints: exact
+        assert seq == k % 2**32
+        cols = topics[tp].columns
+        assert data == CDR_LE + struct.pack(f"<{len(cols)}d", *log[i, cols])  # independent encoder
+    back = read_mcap(tmp_path / "a.mcap")
+    np.testing.assert_array_equal(back.k, k0 + np.arange(n))
+    np.testing.assert_array_equal(tick_time_ns(back.k, RATE), [k * 10**9 // RATE for k in range(k0, k0 + n)])
+
+
+def test_an_independent_ros2_decoder_reads_fields_by_name(tmp_path, signals):
+    # rerun's MCAP reader (Rust) with its ROS 2 message-definition decoder, as Foxglove decodes
+    from rerun.chunk import McapReader
+
+    log = special_log(1200, len(signals), seed=5)
+    write(tmp_path / "a.mcap", signals, log, block=500)
+    reader = McapReader(tmp_path / "a.mcap", timeline_type="duration_ns", decoders=["ros2_reflection"],
+                        include_topic_regex=["^/tracking$"])
+    t, v = [], []
+    for c in reader.stream().to_chunks():
+        rb = c.to_record_batch()
+        t.append(rb.column("message_log_time").cast("int64").to_numpy())
+        v.append(rb.column("frictionrt.msg.Tracking:message").flatten().field("F_set_filtered").to_numpy())
+    t, v = np.concatenate(t), np.concatenate(v)
+    np.testing.assert_array_equal(t, np.arange(1200) * 10**9 // RATE)
+    col = [n for n, _, _ in signals].index("F_set_filtered")
+    np.testing.assert_array_equal(v.view(np.uint64), log[:, col].view(np.uint64))
+
+
+def test_blocks_write_the_same_file_content_as_one_block(tmp_path, signals):
+    log = special_log(1000, len(signals), seed=2)
+    write(tmp_path / "one.mcap", signals, log, k0=5)
+    write(tmp_path / "blocks.mcap", signals, log, k0=5, block=137)
+    assert raw_messages(tmp_path / "one.mcap") == raw_messages(tmp_path / "blocks.mcap")
+    a, b = read_mcap(tmp_path / "one.mcap"), read_mcap(tmp_path / "blocks.mcap")
+    np.testing.assert_array_equal(a.log.view(np.uint64), b.log.view(np.uint64))
+
+
+def test_schemas_list_the_fields_of_each_owner(tmp_path, signals):
+    write(tmp_path / "a.mcap", signals, special_log(8, len(signals)))
+    with open(tmp_path / "a.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    by_topic = {ch.topic: (ch, summary.schemas[ch.schema_id]) for ch in summary.channels.values()}
+    for owner in ("rt", "sensors", "observer", "tracking", "actuator", "plant"):
+        ch, schema = by_topic["/" + owner]
+        assert ch.message_encoding == "cdr" and schema.encoding == "ros2msg"
+        assert schema.name == f"frictionrt/msg/{owner.capitalize()}"
+        assert schema.data.decode().splitlines() == [f"float64 {n}" for n, _, o in signals if o == owner]
+    assert "float64 F_set_filtered" in by_topic["/tracking"][1].data.decode()
+
+
+def test_metadata_round_trip(tmp_path, signals):
+    write(tmp_path / "a.mcap", signals, special_log(8, len(signals)))
+    back = read_mcap(tmp_path / "a.mcap")
+    assert back.metadata == META
+    with open(tmp_path / "a.mcap", "rb") as f:
+        rec = {m.name: m.metadata for m in make_reader(f).iter_metadata()}["signals"]
+    assert rec["rate_hz"] == "21000" and float(rec["dt_s"]) == 1 / 21000
+
+
+def test_field_names_are_sanitised_deterministically():
+    sig = [("F_N1", "N", "rt"), ("a b", "-", "rt"), ("a_b", "-", "rt"), ("1x", "-", "rt"), ("_y", "-", "rt"),
+           ("a-b", "-", "rt")]
+    assert field_names(sig) == ("F_N1", "a_b", "a_b_2", "f_1x", "f__y", "a_b_3")
+
+
+def test_odd_names_round_trip_with_their_original_names(tmp_path):
+    sig = (("a b", "m", "plant"), ("a_b", "m", "plant"), ("2nd", "N", "sensors"))
+    log = special_log(10, 3)
+    write(tmp_path / "a.mcap", sig, log)
+    back = read_mcap(tmp_path / "a.mcap")
+    assert back.signals == sig and back.topics == ("/sensors", "/plant")
+    np.testing.assert_array_equal(back.log.view(np.uint64), log.view(np.uint64))
+
+
+def raw_file(path, signals, messages, schema_text=None):
+    """An MCAP file written with mcap's own writer: the frictionrt signals record and the given
+    messages [(owner, k, values)] (e.g. measured data: only /sensors)."""
+    topics = {tp.owner: tp for tp in topics_of(signals)}
+    with open(path, "wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD)
+        w.start()
+        channels = {}
+        for owner in dict.fromkeys(o for o, _, _ in messages):
+            tp = topics[owner]
+            sid = w.register_schema(tp.schema_name, "ros2msg", schema_text or tp.schema_text)
+            channels[owner] = w.register_channel(tp.name, "cdr", sid)
+        w.add_metadata("signals", signals_record(signals, RATE))
+        for owner, k, values in messages:
+            t = k * 10**9 // RATE
+            w.add_message(channels[owner], t, CDR_LE + np.asarray(values, "<f8").tobytes(), t, k)
+        w.finish()
+
+
+def test_missing_topics_read_as_nan(tmp_path, signals):
+    sensors = topics_of(signals)[1]
+    assert sensors.name == "/sensors"
+    vals = np.random.default_rng(3).standard_normal((50, len(sensors.columns)))
+    raw_file(tmp_path / "meas.mcap", signals, [("sensors", 100 + i, v) for i, v in enumerate(vals)])
+    back = read_mcap(tmp_path / "meas.mcap")
+    assert back.topics == ("/sensors",) and back.metadata == {}
+    np.testing.assert_array_equal(back.k, 100 + np.arange(50))
+    np.testing.assert_array_equal(back.log[:, sensors.columns], vals)
+    others = np.setdiff1d(np.arange(len(signals)), sensors.columns)
+    assert np.isnan(back.log[:, others]).all()
+
+
+@pytest.mark.parametrize("ticks, problem", [([0, 1, 1, 2], "duplicated ticks"),
+                                            ([0, 2, 1, 3], "not increasing")])
+def test_bad_ticks_are_refused(tmp_path, signals, ticks, problem):
+    m = len(topics_of(signals)[1].columns)
+    raw_file(tmp_path / "bad.mcap", signals, [("sensors", k, np.zeros(m)) for k in ticks])
+    with pytest.raises(ValueError, match=f"bad.mcap.*{problem}"):
+        read_mcap(tmp_path / "bad.mcap")
+
+
+def test_schema_mismatch_is_refused(tmp_path, signals):
+    m = len(topics_of(signals)[1].columns)
+    raw_file(tmp_path / "bad.mcap", signals, [("sensors", 0, np.zeros(m))], schema_text=b"float64 x\n")
+    with pytest.raises(ValueError, match="bad.mcap.*schema of /sensors does not match"):
+        read_mcap(tmp_path / "bad.mcap")
+
+
+def test_truncated_and_foreign_files_are_refused_naming_the_file(tmp_path, signals):
+    write(tmp_path / "a.mcap", signals, special_log(500, len(signals)))
+    data = (tmp_path / "a.mcap").read_bytes()
+    for cut in (1, 100, len(data) // 2, len(data) - 9):
+        (tmp_path / "cut.mcap").write_bytes(data[:-cut])
+        with pytest.raises(ValueError, match="cut.mcap.*truncated"):
+            read_mcap(tmp_path / "cut.mcap")
+    (tmp_path / "text.mcap").write_text("time,F_N1\n0,100\n")
+    with pytest.raises(ValueError, match="text.mcap.*not an MCAP file"):
+        read_mcap(tmp_path / "text.mcap")
+    (tmp_path / "empty.mcap").write_bytes(b"")
+    with pytest.raises(ValueError, match="empty.mcap.*not an MCAP file"):
+        read_mcap(tmp_path / "empty.mcap")
+
+
+def test_no_part_file_after_close_and_after_an_exception(tmp_path, signals):
+    log = special_log(300, len(signals))
+    write(tmp_path / "a.mcap", signals, log)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mcap"]
+    with pytest.raises(KeyboardInterrupt), McapLogWriter(tmp_path / "b.mcap", signals, RATE, META) as w:
+        w.write_block(0, log[:200])
+        assert (tmp_path / "b.mcap.part").exists() and not (tmp_path / "b.mcap").exists()
+        raise KeyboardInterrupt
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mcap", "b.mcap"]
+    back = read_mcap(tmp_path / "b.mcap")  # the ticks written before the interrupt
+    np.testing.assert_array_equal(back.log.view(np.uint64), log[:200].view(np.uint64))
+
+
+def test_writer_refuses_bad_blocks(tmp_path, signals):
+    with McapLogWriter(tmp_path / "a.mcap", signals, RATE, META) as w:
+        w.write_block(0, np.zeros((10, len(signals))))
+        with pytest.raises(ValueError, match="a.mcap.*must start at >= 10"):
+            w.write_block(5, np.zeros((10, len(signals))))
+        with pytest.raises(ValueError, match="a.mcap.*float64"):
+            w.write_block(10, np.zeros((10, len(signals) - 1)))
+    with pytest.raises(ValueError, match="b.mcap.*whole number"):
+        McapLogWriter(tmp_path / "b.mcap", signals, 21000.5, META)
+
+
+# --- rrd -------------------------------------------------------------------------------------------
+
+def rrd_column(path, entity):
+    """(tick, t [ns], values) of a Scalars entity, read back with rerun's chunk reader."""
+    from rerun.chunk import RrdReader
+
+    ticks, times, values = [], [], []
+    for c in RrdReader(path).stream().to_chunks():
+        if c.entity_path == entity and not c.is_static:
+            rb = c.to_record_batch()
+            ticks.append(rb.column("tick").to_numpy())
+            times.append(rb.column("t").cast("int64").to_numpy())
+            values.append(rb.column("Scalars:scalars").flatten().to_numpy(zero_copy_only=False))
+    order = np.argsort(np.concatenate(ticks))
+    return tuple(np.concatenate(x)[order] for x in (ticks, times, values))
+
+
+def test_rrd_is_written_and_reads_back(tmp_path, signals):
+    from rerun.chunk import RrdReader
+
+    log = special_log(2000, len(signals), seed=4)
+    write_rrd(tmp_path / "a.rrd", signals, log, RATE, k0=10, block_ticks=700, metadata=META)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.rrd"]
+    assert (tmp_path / "a.rrd").stat().st_size > 0
+    assert len(RrdReader(tmp_path / "a.rrd").blueprints()) == 1
+    k, t, v = rrd_column(tmp_path / "a.rrd", "/plant/v_rel")
+    np.testing.assert_array_equal(k, 10 + np.arange(2000))
+    np.testing.assert_array_equal(t, (k * 10**9) // RATE)
+    names = [n for n, _, _ in signals]
+    np.testing.assert_array_equal(v.view(np.uint64), log[:, names.index("v_rel")].view(np.uint64))
+    # the hysteresis points: (u_rel [um], -sum_j f_t_j [N])
+    chunks = [c.to_record_batch() for c in RrdReader(tmp_path / "a.rrd").stream().to_chunks()
+              if c.entity_path == "/hysteresis"]
+    tick = np.concatenate([rb.column("tick").to_numpy() for rb in chunks])
+    xy = np.concatenate([np.stack(rb.column("Points2D:positions").flatten().to_numpy(zero_copy_only=False))
+                         for rb in chunks])[np.argsort(tick)]
+    ft = [i for i, n in enumerate(names) if n.startswith("f_t_")]
+    with np.errstate(over="ignore", invalid="ignore"):
+        np.testing.assert_array_equal(xy[:, 0], (1e6 * log[:, names.index("u_rel")]).astype(np.float32))
+        np.testing.assert_array_equal(xy[:, 1], (-log[:, ft].sum(axis=1)).astype(np.float32))
+
+
+def test_rrd_writer_closes_after_an_exception(tmp_path, signals):
+    log = special_log(100, len(signals))
+    with pytest.raises(RuntimeError), RrdLogWriter(tmp_path / "a.rrd", signals, RATE, blueprint=False) as w:
+        w.write_block(0, log)
+        raise RuntimeError("crash")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.rrd"]
+    k, _, v = rrd_column(tmp_path / "a.rrd", "/actuator/F_N1")
+    np.testing.assert_array_equal(k, np.arange(100))
+    np.testing.assert_array_equal(v, log[:, [n for n, _, _ in signals].index("F_N1")])
