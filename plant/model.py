@@ -66,6 +66,7 @@ class PlantModel:
             lab += [(f"{sym}_{j}", unit) for j in range(p)]
         lab += [("E_fric", "J"), ("E_damp", "J"), ("W_exc", "J"), ("W_screw", "J"), ("newton_iter", "-"),
                 ("substep_fallbacks", "-")]
+        lab += [(f"abar_{s}", "m/s^2") for s in pts]
         return lab
 
     def output_index(self) -> dict[str, int]:

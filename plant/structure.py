@@ -85,7 +85,6 @@ def build_structure(cfg: Config) -> Structure:
     p = cfg.plant
     itf = p.interface
     x_pairs = _pair_positions(cfg)
-    beams = {b.name: b for b in p.beams}
     screws = p.screws
 
     subs: list[Substructure] = []
@@ -112,23 +111,12 @@ def build_structure(cfg: Config) -> Structure:
         offset += len(free)
     by_name = {s.beam.name: s for s in subs}
     n = offset
-    lo, up = by_name[itf.lower], by_name[itf.upper]
-    h_lo, h_up = beams[itf.lower].height_m, beams[itf.upper].height_m
 
     def tangential_row(x):
-        # u at the bottom of the upper beam minus u at the top of the lower beam: u(z) = u - z theta
-        r = np.zeros(n)
-        r[up.dof(x, U)] += 1.0
-        r[up.dof(x, THETA)] += h_up / 2
-        r[lo.dof(x, U)] -= 1.0
-        r[lo.dof(x, THETA)] += h_lo / 2
-        return r
+        return interface_rows(cfg, subs, x)[1]
 
     def normal_row(x):
-        r = np.zeros(n)
-        r[up.dof(x, W)] += 1.0
-        r[lo.dof(x, W)] -= 1.0
-        return r
+        return interface_rows(cfg, subs, x)[0]
 
     gap_rows = np.zeros((2 * len(x_pairs), n))
     for j, x in enumerate(x_pairs):
@@ -156,3 +144,24 @@ def build_structure(cfg: Config) -> Structure:
     return Structure(tuple(subs), x_pairs, gap_rows, tuple(pt.name for pt in p.points), point_rows,
                      tangential_row(adaptive.x_m), b_exc, b_N1, f_const, adaptive.F_N,
                      np.full(n_p, itf.k_n), np.full(n_p, itf.k_t), np.full(n_p, itf.mu))
+
+
+def interface_rows(cfg: Config, subs: tuple[Substructure, ...] | list[Substructure], x: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(normal row, tangential row) of the interface at x [m] on the stacked physical vector:
+    g_n = w_upper - w_lower [m] (> 0 open) and g_t = u at the bottom of the upper beam minus u
+    at the top of the lower beam, u(z) = u - z theta [m]. Both beams need a node at x."""
+    itf = cfg.plant.interface
+    beams = {b.name: b for b in cfg.plant.beams}
+    by_name = {s.beam.name: s for s in subs}
+    lo, up = by_name[itf.lower], by_name[itf.upper]
+    n = sum(s.n for s in subs)
+    r_n = np.zeros(n)
+    r_n[up.dof(x, W)] += 1.0
+    r_n[lo.dof(x, W)] -= 1.0
+    r_t = np.zeros(n)
+    r_t[up.dof(x, U)] += 1.0
+    r_t[up.dof(x, THETA)] += beams[itf.upper].height_m / 2
+    r_t[lo.dof(x, U)] -= 1.0
+    r_t[lo.dof(x, THETA)] += beams[itf.lower].height_m / 2
+    return r_n, r_t

@@ -102,6 +102,15 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov")
     g.add_argument("--json", action="store_true", help="one JSON object instead of a table")
 
+    o = sub.add_parser("observer", parents=[common], help="observer design: kept modes, Kalman gain, eigenvalues",
+                       description="Design the nonlinear observer from the configuration (docs/observer.md): the "
+                                   "simplified linear model (damper tied at the normal screw, normal springs "
+                                   "around the adaptive screw), its kept modes [Hz], the Kalman gain (dlqe on the "
+                                   "exact ZOH discretisation), and the largest eigenvalue modulus of the discrete "
+                                   "observer, without friction and linearised with it at F_max (implicit, as run, "
+                                   "and explicit, to show why it is implicit).")
+    o.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
                        description="Per-step wall time [us] of the compiled kernels: median, p99, p99.9, max.")
     b.add_argument("target", choices=["plant", "loop"],
@@ -193,8 +202,6 @@ def _cmd_simulate(cfg, args) -> int:
 
     from rt.config import dumps
     from rt.loop import build_loop, check_run_input, run, summary
-    if args.estimator == "observer":
-        return _fail("--estimator observer: the observer lands with its own issue; use --estimator oracle")
     if args.seed is not None and args.seed < 0:
         return _fail(f"--seed {args.seed}: must be a non-negative integer")
     out = None
@@ -203,7 +210,7 @@ def _cmd_simulate(cfg, args) -> int:
         if not out.parent.exists():
             return _fail(f"--out {args.out}: folder {out.parent} does not exist")
     try:
-        loop = build_loop(cfg, args.law)
+        loop = build_loop(cfg, args.law, args.estimator)
         n = check_run_input(loop, args.freq, args.amp, args.duration)
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update)
@@ -232,6 +239,9 @@ def _cmd_simulate(cfg, args) -> int:
           f"docs/plant.md 2.6)")
     print(f"mean F_N1 {s['fn1_mean_n']:.2f} N, actuator energy {s['actuator_energy_j']:.4g} J, "
           f"tick median {s['tick_median_us']:.2f} us, overruns {s['overruns']}")
+    if "v_rel_nrmse" in s:
+        print(f"estimation (last 20 %, against the plant's band-limited truth): NRMSE v_rel {s['v_rel_nrmse']:.3f}, "
+              f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %")
     if out is not None:
         print(f"log: {out}")
     return 130 if r.interrupted else 0
@@ -270,6 +280,26 @@ def _cmd_compare(cfg, args) -> int:
     return 0
 
 
+def _cmd_observer(cfg, args) -> int:
+    from observer.kalman import design_observer
+    try:
+        d = design_observer(cfg).summary(cfg.tracking.F_max_N)
+    except ValueError as exc:
+        return _fail(str(exc))
+    if args.json:
+        print(json.dumps(d))
+        return 0
+    print(f"observer: {d['n_states']} states, modes [Hz]: {', '.join(f'{f:.1f}' for f in d['modes_hz'])}")
+    print(f"  tied at x = {d['x_tied_m']} m, normal springs at x = {d['x_springs_m']} m, zeta {d['zeta']:g}, "
+          f"static correction D_u {d['D_u_m_per_n']:.3e} m/N")
+    print(f"  Kalman (dlqe): Q = diag{tuple(d['Q_n2'])} N^2, R = {d['R_m2_s2']:.3g} (m/s)^2; "
+          f"|M| {d['gain_norm_filter']:.3g}, |L| {d['gain_norm_predictor']:.3g}")
+    print(f"  max |eig| discrete: {d['max_abs_eig_discrete']:.7f} (no friction), "
+          f"{d['max_abs_eig_discrete_friction_fmax']:.7f} (friction at F_max = {d['F_max_n']:g} N, implicit), "
+          f"{d['max_abs_eig_discrete_friction_fmax_explicit']:.4f} (explicit ZOH would be)")
+    return 0
+
+
 def _cmd_budget(cfg, args) -> int:
     from rt.budget import budget, format_budget
     if args.ticks < 1000 or args.paced_s <= 0:
@@ -280,7 +310,8 @@ def _cmd_budget(cfg, args) -> int:
 
 
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
-            "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench}
+            "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
+            "observer": _cmd_observer}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -185,7 +185,9 @@ class Actuator:
 class Sensors:
     """Accelerometers, bolt-force sensors and the ADC (SPEC section 3)."""
     adc_bits: int = param(16, "-", lo=8, hi=24)
-    acc_range: float = param(500.0, "m/s^2", lo=0.0, lo_inclusive=False, doc="accelerometer ADC full scale +-")
+    acc_range: float = param(5000.0, "m/s^2", lo=0.0, lo_inclusive=False,
+                             doc="accelerometer ADC full scale +- (A, ~500 g; at 500 m/s^2 the tip's impact spikes "
+                                 "under the Lyapunov law clipped one-sidedly and the integrated velocity drifted)")
     acc_noise_rms: float = param(0.01, "m/s^2", lo=0.0, doc="accelerometer noise")
     acc_bandwidth_hz: float = param(5000.0, "Hz", lo=0.0, lo_inclusive=False,
                                     doc="accelerometer + anti-alias low-pass (2nd order) (A); attenuates "
@@ -205,6 +207,20 @@ class Observer:
     oracle_bandwidth_hz: float = param(1500.0, "Hz", lo=0.0, lo_inclusive=False,
                                        doc="oracle: the plant's u_rel, v_rel through a 2nd-order "
                                            "Butterworth (removes unresolved-mode ringing)")
+    n_modes: int = param(7, "-", lo=1, hi=60, doc="modes kept in the observer's linear model (SPEC 5)")
+    modal_damping: float = param(0.005, "-", lo=0.0, hi=1.0,
+                                 doc="observer's modal damping ratio (A: between the bare beams' 0.1 % and "
+                                     "the joint's 1.3..1.5 % at modes 3, 4)")
+    mu: float = param(0.4, "-", lo=0.0, doc="observer's friction coefficient (nominal = plant.interface.mu)")
+    alpha_s_m: float = param(2000.0, "s/m", lo=0.0, lo_inclusive=False,
+                             doc="friction regularisation f_r = mu F_N (2/pi) arctan(alpha v_rel)")
+    exc_noise_N: float = param(20.0, "N", lo=0.0,
+                               doc="process noise: rms per step of the unknown excitation force (Kalman)")
+    fric_noise_N: float = param(100.0, "N", lo=0.0,
+                                doc="process noise: rms per step of the friction model's error (Kalman); "
+                                    ">= 5 exc_noise_N keeps the observer stable with the stiff stuck friction")
+    meas_noise_m_s: float = param(1e-4, "m/s", lo=0.0, lo_inclusive=False,
+                                  doc="measurement noise: rms of the integrated tip velocity (Kalman)")
 
 
 @dataclass(frozen=True)

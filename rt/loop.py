@@ -2,10 +2,12 @@
 
 One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order:
 
-    1 sensors    accelerations of the plant at t_k and the bolt-force sensors' analog outputs
+    1 sensors    mean accelerations of the plant over the last tick (plant outputs abar_*) and the
+                 bolt-force sensors' analog outputs
                  (integrated inside the actuator, exact between samples) -> ADC readings
-    2 estimator  oracle: the plant's true u_rel, v_rel at t_k, band-limited (observer.oracle;
-                 the observer comes with its issue)
+    2 estimator  oracle: the plant's true u_rel, v_rel at t_k, band-limited (observer.oracle),
+                 or observer: the Kalman-designed nonlinear observer on the measured tip
+                 velocity and the force cell's F_N (observer.step)
     3 law        F* (passive, hysteresis-optimal with RT1, Lyapunov)
     4 tracking   V_cmd = feedforward + PID on the law's force sensor
     5 actuator   DAC -> 30 kHz low-pass -> amplifier -> piezo stack over [t_k, t_k+1]
@@ -30,7 +32,10 @@ from plant.actuator import ACTUATOR_OUTPUTS, ActuatorParams, _actuator_step, bui
 from plant.actuator import initial_state as actuator_initial_state
 from plant.actuator import output_index as actuator_output_index
 from plant.model import PlantModel, build_plant
+from observer.accuracy import band_limited_truth, nrmse
+from observer.kalman import ObserverParams, design_observer
 from observer.oracle import ORACLE_OUTPUTS, build_oracle
+from observer.step import OBSERVER_OUTPUTS, _observer_step
 from rt.biquad import BiquadParams, _biquad_step, rest_state
 from plant.newmark import _plant_step
 from rt.clock import _now_ns
@@ -46,7 +51,7 @@ from tracking.laws import LAWS_OUTPUTS, LAWS_SLOTS, _laws_step, build_laws
 from tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
 
 COMPONENTS = ("sensors", "estimator", "law", "tracking", "actuator", "plant", "log")
-ESTIMATORS = ("oracle",)
+ESTIMATORS = ("oracle", "observer")
 # state shared by the chunks of one run and the Python thread watching it (int64): next deadline
 # [ns], overruns, ticks run, stop request (set by the watcher: the loop ends after its tick)
 CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS, CLK_STOP = 0, 1, 2, 3
@@ -61,6 +66,7 @@ class Loop:
     actuator: ActuatorParams
     sensors: SensorParams
     oracle: BiquadParams
+    observer: ObserverParams  # the designed observer, or empty arrays when the oracle runs
     prefilter: BiquadParams
     law_params: object
     design: ForceTrackingDesign
@@ -76,7 +82,7 @@ def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
     """Log columns in order: (name, unit, owning package)."""
     sig = [("F_exc", "N", "rt")]
     sig += [(n, u, "sensors") for n, u in SENSOR_OUTPUTS]
-    sig += [(n, u, "observer") for n, u in ORACLE_OUTPUTS]
+    sig += [(n, u, "observer") for n, u in OBSERVER_OUTPUTS]  # the oracle fills the first two
     sig += [(n, u, "tracking") for n, u in LAWS_OUTPUTS]
     sig += [(n, u, "tracking") for n, u in PREFILTER_OUTPUTS]
     sig += [(n, u, "tracking") for n, u in FORCE_TRACKING_OUTPUTS]
@@ -86,9 +92,11 @@ def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
     return tuple(sig)
 
 
-def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle") -> Loop:
+def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
+               observer_cfg: Config | None = None) -> Loop:
     """Design time: plant, actuator, sensors, estimator, law and the force-tracking design for
-    its sensor.
+    its sensor. The observer is designed from ``observer_cfg`` if given (a model that differs
+    from the plant: robustness studies), else from cfg.
 
     Raises ValueError (from the design) if the force-tracking loop would be unstable, or for an
     unknown estimator."""
@@ -98,8 +106,17 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle") -
     plant = build_plant(cfg)
     sensor = SENSOR_OF_LAW[law]
     design = design_force_tracking(cfg, sensor)
-    return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), build_prefilter(cfg),
-                build_laws(cfg, law), design, sensor, loop_signals(plant), estimator)
+    observer = design_observer(observer_cfg or cfg).params if estimator == "observer" else _no_observer()
+    return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
+                build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator)
+
+
+def _no_observer() -> ObserverParams:
+    """Observer parameters of size 0 (same types): the compiled loop's observer branch is not
+    taken when the oracle runs."""
+    e = np.zeros(0)
+    return ObserverParams(A_d=np.zeros((0, 0)), B_dT=e, M=e, L=e, C_meas=e, C_u=e, C_v=e, CvA=e, beta=-1.0,
+                          D_u=0.0, mu=0.0, alpha=1.0)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
@@ -120,16 +137,18 @@ def _copy(src, dst):
 @numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
 def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_ns, clk, ts,
                xs, xs_n, ys, us, sens_p, rng,
-               xo, xo_n, yo, uo, oracle_p,
+               observe, xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
                xl, xl_n, yl, ul, law_p,
                xq, xq_n, yq, uq, pre_p,
                xf, xf_n, yf, uf, ft_p,
                xa, xa_n, ya, ua, act_p,
                xp, xp_n, yp, up, plant_p, plant_wk,
-               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell,
+               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_vtip, col_cell_meas,
                log, comp_ns):
     """Run ticks k0 <= k < k1 (see the module docstring); states are advanced in place.
 
+    observe selects the estimator: False the oracle (states xo), True the observer (states xe;
+    inputs: the measured tip velocity and force-cell reading).
     log[k - k0] receives the tick's signals (``loop_signals`` order); comp_ns[k - k0] the
     per-component times [ns] if timing; ts is the clock's (2,) int64 scratch. Returns the number
     of failed plant solves.
@@ -154,9 +173,18 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         # 2 estimator (oracle)
         uo[0] = yp[col_urel]
         uo[1] = yp[col_vrel]
-        _biquad_step(k, xo, uo, oracle_p, xo_n, yo)
-        ul[0] = yo[0]
-        ul[1] = yo[1]
+        if observe:
+            ue[0] = ys[col_vtip]
+            ue[1] = ys[col_cell_meas]
+            _observer_step(k, xe, ue, obs_p, xe_n, ye)
+        else:
+            _biquad_step(k, xo, uo, oracle_p, xo_n, yo)
+            ye[0] = yo[0]
+            ye[1] = yo[1]
+            ye[2] = 0.0
+            ye[3] = 0.0
+        ul[0] = ye[0]
+        ul[1] = ye[1]
         t2 = _now_ns(ts) if timing else 0
         # 3 law
         _laws_step(k, xl, ul, law_p, xl_n, yl)
@@ -183,14 +211,17 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         # 7 log and advance the states
         log[row, 0] = F_exc
         c = _put(log, row, 1, ys)
-        c = _put(log, row, c, yo)
+        c = _put(log, row, c, ye)
         c = _put(log, row, c, yl)
         c = _put(log, row, c, yq)
         c = _put(log, row, c, yf)
         c = _put(log, row, c, ya)
         c = _put(log, row, c, yp)
         _copy(xs_n, xs)
-        _copy(xo_n, xo)
+        if observe:
+            _copy(xe_n, xe)
+        else:
+            _copy(xo_n, xo)
         _copy(xl_n, xl)
         _copy(xq_n, xq)
         _copy(xf_n, xf)
@@ -225,6 +256,7 @@ class LoopState:
     xs: np.ndarray
     ys: np.ndarray
     xo: np.ndarray
+    xe: np.ndarray
     xl: np.ndarray
     yl: np.ndarray
     xq: np.ndarray
@@ -254,7 +286,7 @@ def initial_loop_state(loop: Loop, seed: int) -> LoopState:
     ai = actuator_output_index()
     ya[ai["F_strain_a"]] = ya[ai["F_cell_a"]] = ya[0]
     return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=ya[0]), ys=np.zeros(len(SENSOR_OUTPUTS)),
-                     xo=rest_state(loop.oracle, (0.0, 0.0)), xl=np.zeros(len(LAWS_SLOTS)),
+                     xo=rest_state(loop.oracle, (0.0, 0.0)), xe=np.zeros(loop.observer.M.shape[0]), xl=np.zeros(len(LAWS_SLOTS)),
                      yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
                      xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)), xa=xa, ya=ya,
                      xp=plant.initial_state(cfg.actuator.F0_N), yp=np.zeros(len(plant.output_labels())),
@@ -328,7 +360,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     comp_ns = np.zeros((n_ticks, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
     period_ns = int(round(dt * 1e9))
     clk = np.zeros(4, dtype=np.int64)
-    force_col = sensor_output_index()["F_strain" if loop.force_sensor == "strain" else "F_cell"]
+    si = sensor_output_index()
+    force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     args_fixed = (dt, amp_n, 2 * math.pi * freq_hz, force_col, timing, paced, period_ns, clk,
                   np.zeros(2, dtype=np.int64))
     failed = [0]
@@ -348,14 +381,17 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             k1 = min(n_ticks, k + step)
             failed[0] += _run_ticks(st.k + k, st.k + k1, *args_fixed,
                                     st.xs, np.empty_like(st.xs), st.ys, np.zeros(4), loop.sensors, st.rng,
-                                    st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
+                                    loop.estimator == "observer", st.xo, np.empty_like(st.xo),
+                                    np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle, st.xe,
+                                    np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2),
+                                    loop.observer,
                                     st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params,
                                     st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
                                     st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params,
                                     st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator,
                                     st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work,
-                                    oi["u_rel"], oi["v_rel"], oi["a_tip"], oi["a_frf"],
-                                    ai["F_strain_a"], ai["F_cell_a"],
+                                    oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"],
+                                    ai["F_strain_a"], ai["F_cell_a"], si["v_tip_meas"], si["F_cell"],
                                     log[k:k1], comp_ns[k:k1] if timing else comp_ns)
             k = k1
 
@@ -422,4 +458,20 @@ def summary(r: Run) -> dict:
         "tick_median_us": float(np.median(r.signal("tick_ns")) / 1e3),
         "tick_max_us": float(np.max(r.signal("tick_ns")) / 1e3),
         "wall_s": r.wall_ns / 1e9,
-    }
+    } | (_estimation_errors(r) if r.loop.estimator != "oracle" else {})
+
+
+def _estimation_errors(r: Run) -> dict:
+    """NRMSE of the estimates against the band-limited plant truth (observer.accuracy), and
+    the relative error of the law's RT1 amplitude u0 against the RT1 filter's steady state on
+    the truth, the mean of (pi/2)|u_rel| (tracking.rt1), both over the last 20 %."""
+    cfg = r.loop.cfg
+    dt, f_c = cfg.dt_s, cfg.observer.oracle_bandwidth_hz
+    v_true = band_limited_truth(r.signal("v_rel"), dt, f_c)
+    u_true = band_limited_truth(r.signal("u_rel"), dt, f_c)
+    n = len(r.log)
+    tail = slice(n - max(int(0.2 * n), 2), n)
+    u0_true = float(np.mean(0.5 * np.pi * np.abs(u_true[tail])))
+    u0_hat = float(np.mean(r.signal("u0")[tail]))
+    return {"v_rel_nrmse": nrmse(r.signal("v_rel_hat"), v_true), "u_rel_nrmse": nrmse(r.signal("u_rel_hat"), u_true),
+            "u0_rel_error": (u0_hat - u0_true) / u0_true if u0_true > 0 else float("nan")}

@@ -209,7 +209,8 @@ def plant_step(x, u, P, slots, labels, split=None):
     h / split: the kernel's fallback when its Newton fails, which the reference cannot see, so
     the caller passes it.
     Outputs at the end point, by label: w, w' at the points and u_rel, v_rel from out_rows;
-    accelerations out_rows (f - c qd1 - omega^2 q1 + G^T (lambda1 + Ld)); gaps, f_n = lambda1_n,
+    accelerations out_rows (f - c qd1 - omega^2 q1 + G^T (lambda1 + Ld)); mean accelerations
+    abar = out_rows (qd1 - qd0) / dt over the controller step; gaps, f_n = lambda1_n,
     f_t = -lambda1_t per pair; the energies. Labels not listed here (solver counters) are NaN.
 
     Returns (x_next, y, info) with info a dict of lists of per-substep diagnostics (pair
@@ -218,6 +219,7 @@ def plant_step(x, u, P, slots, labels, split=None):
     F_exc, F_N1 = float(u[0]), float(u[1])
     q = x[slots["q"]].copy()
     qd = x[slots["qd"]].copy()
+    qd_start = qd.copy()
     w = x[slots["w"]].copy()
     g = x[slots["g"]].copy()
     E = {nm: float(x[slots[nm]][0]) for nm in ("E_fric", "E_damp", "W_exc", "W_screw")}
@@ -243,6 +245,7 @@ def plant_step(x, u, P, slots, labels, split=None):
         y[names.index(f"w_{s}")] = disp[i]
         y[names.index(f"v_{s}")] = vel[i]
         y[names.index(f"a_{s}")] = accel[i]
+        y[names.index(f"abar_{s}")] = P.out_rows[i] @ (qd - qd_start) / (P.h * P.substeps)
     y[names.index("u_rel")] = disp[len(pts)]
     y[names.index("v_rel")] = vel[len(pts)]
     for j in range(len(w)):

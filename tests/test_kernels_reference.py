@@ -226,6 +226,7 @@ def compare_run(m, P, U, Xk, Yk, Xr, Yr, what, rows="terms"):
         assert_rel(Yk[:, col[f"w_{s}"]], Yr[:, col[f"w_{s}"]], disp_scale[i], f"{what}: w_{s}")
         assert_rel(Yk[:, col[f"v_{s}"]], Yr[:, col[f"v_{s}"]], vel_scale[i], f"{what}: v_{s}")
         assert_rel(Yk[:, col[f"a_{s}"]], Yr[:, col[f"a_{s}"]], acc_scale[i], f"{what}: a_{s}")
+        assert_rel(Yk[:, col[f"abar_{s}"]], Yr[:, col[f"abar_{s}"]], acc_scale[i], f"{what}: abar_{s}")
     assert_rel(Yk[:, col["u_rel"]], Yr[:, col["u_rel"]], disp_scale[-1], f"{what}: u_rel")
     assert_rel(Yk[:, col["v_rel"]], Yr[:, col["v_rel"]], vel_scale[-1], f"{what}: v_rel")
     # --- pair outputs: gaps and forces as groups

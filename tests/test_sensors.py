@@ -39,7 +39,9 @@ N_STAT = 100_000
 
 @pytest.fixture(scope="module")
 def cfg():
-    return load()
+    # a +-500 m/s^2 accelerometer range (the default is +-5000): the LSB (0.015 m/s^2) then
+    # lies near the noise (0.01 m/s^2), so both noise and quantisation are visible in the tests
+    return load(sets=["sensors.acc_range=500"])
 
 
 @pytest.fixture(scope="module")
