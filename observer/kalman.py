@@ -95,13 +95,14 @@ def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
     return E[:n, :n], E[:n, n:]
 
 
-def design_observer(cfg: Config) -> ObserverDesign:
-    """Model, exact discretisation at cfg.dt_s, Kalman gain (module docstring).
+def design_observer(cfg: Config, plant=None) -> ObserverDesign:
+    """Model, exact discretisation at cfg.dt_s, Kalman gain (module docstring); ``plant``: the
+    plant built from cfg, if at hand (``observer.model.build_observer_model``).
 
     Raises ValueError if the error dynamics would not be stable, without friction or linearised
     with it at any F_N in [0, F_max] (``discrete_eigenvalues``), or if the friction path has the
     wrong sign (a model error in the configuration)."""
-    model = build_observer_model(cfg)
+    model = build_observer_model(cfg, plant)
     o = cfg.observer
     dt = cfg.dt_s
     A_d, B_d = zoh(model.A, np.column_stack([model.B_T, model.B_F]), dt)

@@ -7,8 +7,10 @@ The simplified structure: the plant's FE beams (``plant.structure``, unreduced) 
   get the plant's stuck contact stiffnesses k_n (normal) and k_t (tangential), which is rigid
   for the modes the observer keeps (the plant's stuck pairs there never slip: 6000 N preload);
 * no other normal contact;
-* normal springs k_n around the adaptive screw (the pairs within one pitch of it), tangentially
-  free: the friction force f_r acts there as an input, on the adaptive screw's tangential
+* normal springs k_n around the adaptive screw: the pairs within one pitch of it that the
+  screws close at F_N1 = F_min (the plant's static equilibrium; with the default structure the
+  pair at 0.625 m: a spring also at 0.605 m, which is open there, put modes 3 and 4 at 202 and
+  382 Hz against the passive damper's resonances at 196 and 370 Hz), tangentially free: the friction force f_r acts there as an input, on the adaptive screw's tangential
   row t (u_rel = t x), +f_r on the lower beam and -f_r on the upper one (generalised force
   -t^T f_r, opposing v_rel for f_r of the sign of v_rel).
 
@@ -36,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from plant.model import PlantModel, build_plant, preloaded_pairs
 from plant.structure import build_structure, interface_rows
 from rt.config import Config
 
@@ -69,8 +72,9 @@ def _near(x_pairs: np.ndarray, x: float, pitch: float) -> np.ndarray:
     return x_pairs[np.abs(x_pairs - x) <= pitch * (1 + 1e-9)]
 
 
-def build_observer_model(cfg: Config) -> ObserverModel:
-    """The observer's linear model from the configuration (module docstring).
+def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> ObserverModel:
+    """The observer's linear model from the configuration (module docstring); ``plant`` is the
+    plant built from the same cfg if the caller has it (its static equilibrium is used).
 
     Raises ValueError if the tied structure is not fixed against rigid-body motion, or if the
     configuration asks for more modes than it has.
@@ -83,7 +87,9 @@ def build_observer_model(cfg: Config) -> ObserverModel:
     normal = next(s for s in p.screws if not s.adaptive)
     adaptive = next(s for s in p.screws if s.adaptive)
     x_tied = _near(st.x_pairs, normal.x_m, itf.pitch_m)
-    x_springs = _near(st.x_pairs, adaptive.x_m, itf.pitch_m)
+    plant = build_plant(cfg) if plant is None else plant
+    closed = st.x_pairs[preloaded_pairs(plant, cfg.tracking.F_min_N)]
+    x_springs = _near(closed, adaptive.x_m, itf.pitch_m)
     if len(x_tied) == 0 or len(x_springs) == 0:
         raise ValueError("observer: no interface pair within one pitch of the "
                          f"{'normal' if len(x_tied) == 0 else 'adaptive'} screw; check plant.interface")

@@ -212,7 +212,7 @@ class Observer:
                                  doc="observer's modal damping ratio (A: between the bare beams' 0.1 % and "
                                      "the joint's 1.3..1.5 % at modes 3, 4)")
     mu: float = param(0.4, "-", lo=0.0, doc="observer's friction coefficient (nominal = plant.interface.mu)")
-    alpha_s_m: float = param(2000.0, "s/m", lo=0.0, lo_inclusive=False,
+    alpha_s_m: float = param(100.0, "s/m", lo=0.0, lo_inclusive=False,
                              doc="friction regularisation f_r = mu F_N (2/pi) arctan(alpha v_rel)")
     exc_noise_N: float = param(20.0, "N", lo=0.0,
                                doc="process noise: rms per step of the unknown excitation force (Kalman)")

@@ -106,7 +106,10 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
     plant = build_plant(cfg)
     sensor = SENSOR_OF_LAW[law]
     design = design_force_tracking(cfg, sensor)
-    observer = design_observer(observer_cfg or cfg).params if estimator == "observer" else _no_observer()
+    if estimator == "observer":
+        observer = (design_observer(cfg, plant) if observer_cfg is None else design_observer(observer_cfg)).params
+    else:
+        observer = _no_observer()
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
                 build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator)
 
@@ -336,13 +339,17 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float)
 
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
         timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
-        start: LoopState | None = None) -> Run:
+        start: LoopState | None = None, writer=None) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
 
     The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
     of a previous run: a step-sine continues from the previous frequency's state; that start
     is not modified). Ticks continue from the start's tick k (t = k dt), so a run split in two
     at the same frequency equals one run, bit for bit.
+
+    ``writer`` (an ``rt.writer.LogWriter``) drains the log to files while the loop runs: its
+    ``start(log, clk, k0, paced)`` is called before the first tick, its ``finish()`` (write the
+    rest, close the files) after the last one, also on an error or Ctrl-C.
 
     Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
     log that would not fit in memory; RuntimeError if a plant step failed.
@@ -400,19 +407,28 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     t_wall = _now_ns(np.zeros(2, dtype=np.int64))
     clk[CLK_DEADLINE] = t_wall + period_ns
     thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
+    if writer is not None:
+        writer.start(log, clk, st.k, paced)
     thread.start()
     shown = 0
     interrupted = False
-    while thread.is_alive():
-        try:
-            thread.join(0.1)
-        except KeyboardInterrupt:
-            clk[CLK_STOP] = 1
-            interrupted = True
-        if progress is not None:
-            ticks = int(clk[CLK_TICKS])
-            progress(ticks - shown)
-            shown = ticks
+    try:
+        while thread.is_alive():
+            try:
+                thread.join(0.1)
+            except KeyboardInterrupt:
+                clk[CLK_STOP] = 1
+                interrupted = True
+            if progress is not None:
+                ticks = int(clk[CLK_TICKS])
+                progress(ticks - shown)
+                shown = ticks
+    finally:
+        if writer is not None:  # the log's rows are final once the loop's thread has ended
+            if thread.is_alive():  # an exception here: stop the loop first
+                clk[CLK_STOP] = 1
+                thread.join()
+            writer.finish()
     if errors:
         raise errors[0]
     n_run = int(clk[CLK_TICKS])
@@ -420,6 +436,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     log = log[:n_run]
     comp_ns = comp_ns[:n_run] if timing else comp_ns
     wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
+    if writer is not None and writer.error is not None:
+        raise RuntimeError(f"the log writer failed: {writer.error!r}") from writer.error
     if failed[0]:
         raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
                            "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
