@@ -113,8 +113,8 @@ def test_simulate_cli_json_and_log(tmp_path, capsys):
 @pytest.mark.parametrize("args, words", [
     (["simulate", "--freq", "20000", "--amp", "5"], ["--freq", "Nyquist"]),
     (["simulate", "--freq", "200", "--amp", "-5"], ["--amp"]),
-    (["--set", "observer.fric_noise_N=0", "simulate", "--freq", "200", "--amp", "5", "--estimator", "observer"],
-     ["observer", "fric_noise_N", "unstable"]),
+    (["--set", "observer.alpha_s_m=8000", "simulate", "--freq", "200", "--amp", "5", "--estimator", "observer"],
+     ["observer", "fric_noise_N", "alpha_s_m", "unstable"]),
     (["--set", "tracking.pid_bandwidth_hz=8000", "simulate", "--law", "lyapunov", "--freq", "200", "--amp", "5"],
      ["pid_bandwidth_hz"]),
 ])
