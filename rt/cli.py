@@ -11,6 +11,8 @@ import json
 import sys
 from pathlib import Path
 
+from rt.cli_frf import add_parser as add_frf_parser
+from rt.cli_frf import cmd_frf
 from rt.config import ConfigError, dumps, load, to_dict
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
@@ -120,6 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--pairs", type=int, nargs="+", default=[5, 9, 17, 33], metavar="P",
                    help="contact pair counts (default 5 9 17 33)")
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+    add_frf_parser(sub, parents=[common])
     return ap
 
 
@@ -311,7 +314,7 @@ def _cmd_budget(cfg, args) -> int:
 
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
-            "observer": _cmd_observer}
+            "observer": _cmd_observer, "frf": cmd_frf}
 
 
 def main(argv: list[str] | None = None) -> int:

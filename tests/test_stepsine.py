@@ -1,0 +1,217 @@
+"""Step-sine FRF engine (rt.stepsine, rt.cli_frf): harmonic fit, amplitude control, settling,
+sweep continuity, the FRF against direct long runs, backends giving identical numbers, the CLI."""
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+from rt.cli import _add_common
+from rt.cli_frf import add_parser, cmd_frf
+from rt.config import load
+from rt.loop import build_loop, first_harmonic_amplitude, run
+from rt.stepsine import (Branch, Settle, harmonics, resonance_grid, run_branches, settle_point, steady, sweep,
+                         sweep_direction, update_amplitude)
+
+DT = 1.0 / 21000
+AMP = 5.0
+FREQS = (190.0, 193.0, 196.0, 199.0, 205.0)  # around the passive 5 N mode-3 peak (196 Hz, docs/loop.md)
+FAST = Settle(max_s=1.0)  # the detector's defaults, a shorter give-up time
+
+
+# --- harmonics --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("window", ["rect", "hann"])
+def test_harmonics_recovers_amplitude_phase_thd(window):
+    f, k0 = 196.3, 123457  # not commensurate with the sample rate, an arbitrary start tick
+    amps, phases = [2.5, 0.7, 0.0, 0.2, 0.05], [0.3, -1.2, 0.0, 2.9, -2.0]
+    k = k0 + np.arange(2000)  # 18.7 periods: the fit takes the whole 18 at the end
+    x = 0.8 + sum(A * np.cos(2 * np.pi * (h + 1) * f * (k * DT) + p) for h, (A, p) in enumerate(zip(amps, phases)))
+    r = harmonics(x, f, DT, 5, k0=k0, window=window)
+    assert r.amp == pytest.approx(2.5, abs=1e-9)
+    assert r.phase_rad == pytest.approx(0.3, abs=1e-9)
+    assert r.thd == pytest.approx(np.sqrt(0.7**2 + 0.2**2 + 0.05**2) / 2.5, abs=1e-9)
+    assert np.allclose(np.abs(r.X), amps, atol=1e-9) and r.offset == pytest.approx(0.8, abs=1e-9)
+    assert r.n_samples == round(18 / (f * DT))
+
+
+def test_harmonics_phase_convention_and_bad_input():
+    k = np.arange(1000)
+    s = harmonics(np.sin(2 * np.pi * 500.0 * k * DT), 500.0, DT)  # sin = cos(. - pi/2)
+    assert s.phase_rad == pytest.approx(-np.pi / 2, abs=1e-9)
+    assert np.isnan(harmonics(np.sin(2 * np.pi * 6000.0 * k * DT), 6000.0, DT, 5).thd)  # 12 kHz > Nyquist
+    with pytest.raises(ValueError, match="less than one period"):
+        harmonics(np.zeros(50), 196.0, DT)
+    with pytest.raises(ValueError, match="Nyquist"):
+        harmonics(np.zeros(5000), 10500.0, DT)
+    with pytest.raises(ValueError, match="window"):
+        harmonics(np.zeros(5000), 196.0, DT, window="hamming")
+
+
+# --- amplitude control and the detector on synthetic sequences --------------------------------
+
+def test_amplitude_update_exact_for_a_static_gain_and_limited():
+    assert update_amplitude(5.0, 5.0, 5.0) == 5.0                      # ideal force: nothing to correct
+    assert 0.6 * update_amplitude(5.0, 0.6 * 5.0, 5.0) == pytest.approx(5.0, rel=1e-15)  # one update
+    # a shaker whose force drops to 20 % at resonance: the factor limit (2) takes three updates
+    F_cmd, history = 5.0, []
+    for _ in range(4):
+        F_cmd = update_amplitude(F_cmd, 0.2 * F_cmd, 5.0)
+        history.append(F_cmd)
+    assert history == pytest.approx([10.0, 20.0, 25.0, 25.0])
+    assert update_amplitude(5.0, 0.0, 5.0, step_max=2.0) == 10.0
+
+
+def test_steady_waits_out_a_slow_beat_but_not_scatter():
+    j = np.arange(12)
+    # a free vibration decaying slowly and beating with the excitation: the last blocks change by
+    # less than 1 % each, but H is still 2.5 % away from its limit 1
+    beat = 1.0 + 0.08 * (0.9 * np.exp(0.3j)) ** j
+    assert np.all(np.abs(np.diff(beat[-3:])) < 0.01) and abs(beat[-1] - 1.0) > 0.025
+    ok, residual = steady(list(beat), 3, 0.01)
+    assert not ok  # the geometric tail is exact here:
+    assert residual == pytest.approx(abs(beat[-1] - 1.0) / abs(beat[-3:].mean()), rel=1e-9)
+    # uncorrelated 1 % scatter of a response that is not exactly periodic
+    scatter = 2.0 * (1.0 + 0.01 * np.random.default_rng(1).standard_normal(12))
+    assert steady(list(scatter), 3, 0.01)[0]
+    assert steady([2.0] * 6, 3, 0.01) == (True, 0.0) and steady([2.0] * 5, 3, 0.01)[0] is False
+
+
+def test_settings_refused_with_the_fix():
+    with pytest.raises(ValueError, match="settle.n_blocks"):
+        Settle(n_blocks=1)
+    with pytest.raises(ValueError, match="raise settle.max_s"):
+        Settle(max_s=0.5).check([20.0], DT)  # 6 blocks of 10 periods = 3 s
+
+
+def test_grids_and_directions():
+    g = resonance_grid([100.0, 104.0], half_width_rel=0.05, n_per_peak=11)  # overlapping bands merged
+    assert np.all(np.diff(g) >= 0.5) and g[0] == pytest.approx(95.0) and g[-1] == pytest.approx(109.2)
+    assert len(resonance_grid([74.0, 211.0], 0.15, 31)) == 62
+    assert [sweep_direction(f) for f in ([1, 2, 3], [3, 2, 1], [1, 3, 2])] == ["up", "down", "given"]
+
+
+# --- the closed loop --------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def passive():
+    return build_loop(load(), "passive")
+
+
+@pytest.fixture(scope="module")
+def upsweep(passive):
+    return sweep(passive, FREQS, AMP, settle=FAST)
+
+
+def test_up_sweep_settles_holds_the_force_and_continues(upsweep):
+    r = upsweep
+    assert r.direction == "up" and r.law == "passive" and np.all(r.settled)
+    assert np.all(r.n_blocks >= 2 * FAST.n_blocks)
+    assert np.allclose(r.F_amp, AMP, rtol=0.01) and np.allclose(r.F_cmd, AMP, rtol=1e-12)
+    # each point starts where the previous one ended: ticks (and every state) continue
+    assert r.k_start[0] == 0 and np.array_equal(r.k_start[1:], r.k_end[:-1])
+    assert np.allclose(r.settle_s, (r.k_end - r.k_start) * DT)
+    assert np.allclose(r.F_N1_mean, 40.0, atol=1.0) and np.all(r.energy_j > 0)
+
+
+def test_ideal_force_converges_in_one_update(passive):
+    p, final = settle_point(passive, 196.0, AMP, settle=FAST)
+    assert p.F_meas_blocks[0] == pytest.approx(AMP, rel=1e-9)       # measured = commanded = target
+    assert np.allclose(p.F_cmd_blocks, AMP, rtol=1e-9)              # so every update keeps it
+    assert final.k == p.k_end and p.settled
+
+
+def test_peak_and_level_agree_with_direct_long_runs(passive, upsweep):
+    # direct 1.5 s runs from rest, first harmonic of the last 0.3 s
+    direct = np.array([first_harmonic_amplitude(run(passive, f, AMP, 1.5).signal("a_frf")[-6300:], f, DT)
+                       for f in FREQS]) / AMP
+    assert np.argmax(upsweep.H_abs) == np.argmax(direct) == FREQS.index(196.0)
+    i = FREQS.index(196.0)
+    assert upsweep.H_abs[i] == pytest.approx(direct[i], rel=0.02)
+    # the phase passes -90 deg (accelerance through a resonance) between the first and last point
+    assert np.degrees(upsweep.phase_rad[0]) > -90.0 > np.degrees(upsweep.phase_rad[-1])
+
+
+# --- backends ---------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def branches():
+    cfg = load()
+    return [Branch(cfg, "passive", AMP, (196.0, 199.0), settle=FAST),
+            Branch(cfg, "lyapunov", AMP, (199.0, 196.0), settle=FAST)]
+
+
+@pytest.fixture(scope="module")
+def sequential(branches):
+    return [r.to_dict() for r in run_branches(branches, jobs=1, progress=False)]
+
+
+def test_joblib_processes_bit_identical_to_sequential(branches, sequential):
+    assert [r.to_dict() for r in run_branches(branches, jobs=2, progress=False)] == sequential
+    assert [r["direction"] for r in sequential] == ["up", "down"]
+
+
+def test_dask_cluster_bit_identical_to_sequential(branches, sequential):
+    from distributed import LocalCluster
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster:
+        res = run_branches(branches, dask_address=cluster.scheduler_address, progress=False)
+    assert [r.to_dict() for r in res] == sequential
+
+
+# --- command line -----------------------------------------------------------------------------
+
+def _parser():
+    """frictionrt's top level (--config, --set) with only the frf subcommand."""
+    ap = argparse.ArgumentParser(prog="frictionrt")
+    _add_common(ap, top=True)
+    add_parser(ap.add_subparsers(dest="command"))
+    return ap
+
+
+def _frf(argv, capsys):
+    ap = _parser()
+    args = ap.parse_args(["frf", *argv])
+    code = cmd_frf(load(args.config, args.sets), args)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--law", "passive", "--amp", "-5", "--freqs", "196"], "--amp -5 N"),
+    (["--law", "passive", "--amp", "5", "--freqs", "196,10500"], "Nyquist"),
+    (["--law", "passive", "--amp", "5", "--freqs", ","], "empty list"),
+    (["--law", "passive", "--amp", "5", "--freqs", "19x"], "comma-separated"),
+    (["--law", "passive", "--amp", "5", "--around-modes", "0"], "--around-modes 0"),
+    (["--law", "passive", "--amp", "5", "--freqs", "196", "--max-time", "0.05"], "--max-time"),
+    (["--law", "passive", "--amp", "5", "--freqs", "196", "--dask", "tcp://127.0.0.1:9"], "no dask scheduler"),
+])
+def test_cli_bad_input_exit_2_one_line(argv, words, capsys):
+    code, out, err = _frf(argv, capsys)
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("frictionrt: error:") and words in lines[0]
+
+
+def test_cli_writes_json_and_plot(tmp_path, capsys):
+    out, png = tmp_path / "frf.json", tmp_path / "frf.png"
+    code, stdout, _ = _frf(["--law", "passive", "--amp", "5", "--freqs", "199,196", "--down", "--jobs", "1",
+                            "--max-time", "1", "--json", "--out", str(out), "--plot", str(png)], capsys)
+    assert code == 0
+    doc = json.loads(out.read_text())
+    assert json.loads(stdout) == doc
+    r = doc["results"][0]
+    assert r["law"] == "passive" and r["direction"] == "down" and r["freq_hz"] == [199.0, 196.0]
+    for key in ("H_re", "H_im", "H_abs", "phase_rad", "a_amp", "F_amp", "thd", "F_N1_mean", "energy_j",
+                "settle_s", "settled"):
+        assert len(r[key]) == 2
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and not list(tmp_path.glob("*.tmp.*"))
+
+
+def test_cli_help_explains_each_option(capsys):
+    ap = _parser()
+    with pytest.raises(SystemExit):
+        ap.parse_args(["frf", "--help"])
+    text = capsys.readouterr().out
+    for option in ("--law", "--amp", "--freqs", "--around-modes", "--points", "--down", "--jobs", "--dask",
+                   "--json", "--plot", "--out", "[N]", "[Hz]"):
+        assert option in text
