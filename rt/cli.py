@@ -21,6 +21,7 @@ examples:
   frictionrt --set plant.interface.mu=0.3 modes --json
   frictionrt impulse --fn1 100 --plot logs/impulse.png
   frictionrt simulate --law lyapunov --freq 223.6 --amp 5 --duration 1 --out logs/lyap
+  frictionrt replay logs/lyap.mcap
   frictionrt budget
   frictionrt bench plant --json"""
 
@@ -71,7 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run the closed loop (sensors -> estimator -> law -> force tracking -> "
                                    "actuator -> plant) with a sine excitation force of --amp [N] at --freq [Hz] "
                                    "for --duration [s]; print the summary (acceleration at x = 0.45 m [m/s^2], "
-                                   "mean F_N1 [N], actuator energy [J], overruns) and save the log as .npz.")
+                                   "mean F_N1 [N], actuator energy [J], overruns); with --out, log every signal "
+                                   "to PATH.mcap and PATH.rrd while the loop runs.")
     s.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
                    help="control law (default: tracking.law)")
     s.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
@@ -81,7 +83,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s] (default 1)")
     s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
     s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
-    s.add_argument("--out", metavar="PATH", help="save the log here (.npz appended if missing)")
+    s.add_argument("--out", metavar="PATH", help="write the log to PATH.mcap and PATH.rrd (a .mcap or .rrd "
+                                                 "suffix is dropped); the folder must exist")
+    s.add_argument("--no-rrd", action="store_true", help="with --out: write the MCAP file only")
+    s.add_argument("--ring", type=float, default=1.0, metavar="S",
+                   help="paced runs with --out: blocks the log writer has not written when they are more "
+                        "than S seconds [s] behind the loop are dropped and counted (default 1)")
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
 
     q = sub.add_parser("compare", parents=[common], help="the three laws at one excitation: table and plot",
@@ -112,6 +119,17 @@ def build_parser() -> argparse.ArgumentParser:
                                    "observer, without friction and linearised with it at F_max (implicit, as run, "
                                    "and explicit, to show why it is implicit).")
     o.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+
+    r = sub.add_parser("replay", parents=[common], help="feed a run log's sensor stream through the controller",
+                       description="HIL-style replay of an MCAP run log: the recorded sensor readings (and, for "
+                                   "the oracle estimator, the recorded plant u_rel, v_rel), tick by tick, through "
+                                   "estimator, law, prefilter and force tracking with the configuration stored in "
+                                   "the file; every commanded signal is compared with the recorded one. Exit 1 "
+                                   "if they differ. A file with only /sensors (a measurement) is replayed without "
+                                   "comparison (the configuration of --config/--set applies if it stores none).")
+    r.add_argument("log", metavar="RUN.mcap", help="the log (frictionrt simulate --out)")
+    r.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    r.add_argument("--json", action="store_true", help="one JSON object instead of text")
 
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
                        description="Per-step wall time [us] of the compiled kernels: median, p99, p99.9, max.")
@@ -200,36 +218,43 @@ def _cmd_bench(cfg, args) -> int:
 
 
 def _cmd_simulate(cfg, args) -> int:
-    import numpy as np
     from tqdm import tqdm
 
-    from rt.config import dumps
     from rt.loop import build_loop, check_run_input, run, summary
+    from rt.writer import open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
         return _fail(f"--seed {args.seed}: must be a non-negative integer")
-    out = None
+    if not args.ring > 0:
+        return _fail(f"--ring {args.ring:g} s: must be > 0 s")
+    base = None
     if args.out:
-        out = Path(args.out if args.out.endswith(".npz") else args.out + ".npz")
-        if not out.parent.exists():
-            return _fail(f"--out {args.out}: folder {out.parent} does not exist")
+        base = Path(args.out)
+        if base.suffix in (".mcap", ".rrd"):
+            base = base.with_suffix("")
+        if not base.parent.exists():
+            return _fail(f"--out {args.out}: folder {base.parent} does not exist")
+    writer = None
     try:
         loop = build_loop(cfg, args.law, args.estimator)
         n = check_run_input(loop, args.freq, args.amp, args.duration)
+        if base is not None:
+            seed = cfg.rt.seed if args.seed is None else args.seed
+            meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
+            writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
-            r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update)
+            r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
+                    writer=writer)
     except ValueError as exc:
         return _fail(str(exc))
+    finally:
+        if writer is not None:
+            writer.finish()  # idempotent: closes the files also if the run never started
     if len(r.log) < 2:
         return _fail("interrupted before the loop ran: nothing to summarise")
     s = summary(r)
     s["interrupted"] = r.interrupted
-    if out is not None:
-        tmp = out.with_suffix(".tmp.npz")
-        np.savez_compressed(tmp, log=r.log, names=[n for n, _, _ in loop.signals],
-                            units=[u for _, u, _ in loop.signals], owners=[o for _, _, o in loop.signals],
-                            dt=cfg.dt_s, config=dumps(cfg), summary=json.dumps(s))
-        tmp.replace(out)  # never leave a half-written log
-        s["out"] = str(out)
+    if writer is not None:
+        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "dropped_blocks": writer.dropped_blocks}
     if args.json:
         print(json.dumps(s))
         return 130 if r.interrupted else 0
@@ -245,9 +270,37 @@ def _cmd_simulate(cfg, args) -> int:
     if "v_rel_nrmse" in s:
         print(f"estimation (last 20 %, against the plant's band-limited truth): NRMSE v_rel {s['v_rel_nrmse']:.3f}, "
               f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %")
-    if out is not None:
-        print(f"log: {out}")
+    if writer is not None:
+        print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}")
     return 130 if r.interrupted else 0
+
+
+def _cmd_replay(cfg, args) -> int:
+    from rt.replay import replay
+    try:
+        res = replay(args.log, paced=args.paced, fallback_cfg=cfg)
+    except ValueError as exc:
+        return _fail(str(exc))
+    code = 1 if res["bit_exact"] is False else (130 if res["interrupted"] else 0)
+    if args.json:
+        print(json.dumps(res))
+        return code
+    print(f"replay {res['file']}: law {res['law']}, estimator {res['estimator']}, {res['ticks']} ticks"
+          f"{' (paced, ' + str(res['overruns']) + ' overruns)' if res['paced'] else ''}, "
+          f"{res['realtime_factor']:.1f}x real time{', interrupted' if res['interrupted'] else ''}")
+    if res["missing_ticks"]:
+        print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
+    if res["bit_exact"] is None:
+        print("  no recorded controller outputs: nothing to compare; replayed outputs (min / mean / max):")
+        for name, o in res["outputs"].items():
+            print(f"  {name:>15} {o['min']:>12.5g} {o['mean']:>12.5g} {o['max']:>12.5g}")
+    else:
+        print(f"  {'bit-exact' if res['bit_exact'] else 'DIFFERS'}: max |diff| {res['max_abs_diff']:.3g} over "
+              f"{', '.join(res['signals_compared'])}")
+        if not res["bit_exact"]:
+            worst = ", ".join(f"{k} {v:.3g}" for k, v in res["max_abs_diff_by_signal"].items() if v)
+            print(f"  first mismatch at tick {res['first_mismatch_tick']}; max |diff| per signal: {worst}")
+    return code
 
 
 def _cmd_compare(cfg, args) -> int:
@@ -313,6 +366,7 @@ def _cmd_budget(cfg, args) -> int:
 
 
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
+            "replay": _cmd_replay,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
             "observer": _cmd_observer, "frf": cmd_frf}
 

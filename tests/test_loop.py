@@ -7,6 +7,8 @@ import pytest
 from rt.cli import main
 from rt.config import load
 from rt.loop import COMPONENTS, build_loop, run, summary
+from rt.mcap_log import read_mcap
+from rt.writer import BLOCK_TICKS
 
 BUDGET_US = 1e6 / 21000
 F3, AMP = 223.6, 5.0  # mode-3 resonance (preloaded, linearised) and a moderate force
@@ -106,8 +108,8 @@ def test_simulate_cli_json_and_log(tmp_path, capsys):
     for key in ("acc045_amplitude", "fn1_mean_n", "actuator_energy_j", "ticks", "overruns"):
         assert key in s
     assert s["ticks"] == 2100
-    data = np.load(str(out) + ".npz")
-    assert data["log"].shape == (2100, len(data["names"])) and "plant.interface" in str(data["config"])
+    data = read_mcap(str(out) + ".mcap")
+    assert data.log.shape == (2100, len(data.signals)) and "plant.interface" in data.metadata["config"]
 
 
 @pytest.mark.parametrize("args, words", [
@@ -162,6 +164,7 @@ def test_paced_run_interrupted_keeps_its_log(tmp_path):
     assert proc.returncode == 130, stderr
     s = json.loads(stdout)
     assert s["interrupted"] and 0 < s["ticks"] < 30 * 21000
-    data = np.load(str(out) + ".npz")
-    assert data["log"].shape[0] == s["ticks"] and np.all(np.isfinite(data["log"]))
-    assert not list(tmp_path.glob("*.tmp.npz"))
+    data = read_mcap(str(out) + ".mcap")  # finalised and indexed; paced: whole blocks may be dropped
+    assert data.log.shape[0] == s["ticks"] - BLOCK_TICKS * s["dropped_blocks"] and np.all(np.isfinite(data.log))
+    assert data.k[-1] == s["ticks"] - 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["paced.mcap", "paced.rrd"]  # no .part left

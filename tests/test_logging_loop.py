@@ -1,0 +1,221 @@
+"""The loop's log writer (rt.writer): simulate --out writes MCAP and rrd while the loop runs,
+the numpy chunk writer writes what McapLogWriter writes, paced runs drop and count, errors and
+interrupts leave valid files (the SIGINT test is tests/test_loop.py's paced interrupt test)."""
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from rt.cli import main
+from rt.config import load
+from rt.loop import build_loop, run
+from rt.mcap_log import McapLogWriter, read_mcap
+from rt.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
+from tests.test_logfiles import META, RATE, raw_messages, special_log
+
+F3, AMP = 223.6, 5.0
+
+
+@pytest.fixture(scope="module")
+def loop():
+    return build_loop(load(), "hysteresis")
+
+
+def simulate(tmp_path, name, *extra, capsys):
+    code = main(["simulate", "--law", "hysteresis", "--freq", str(F3), "--amp", str(AMP), "--duration", "0.2",
+                 "--seed", "3", "--out", str(tmp_path / name), "--json", *extra])
+    assert code == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def clock_columns(signals):
+    return [i for i, (n, _, _) in enumerate(signals) if n in ("tick_ns", "late_ns")]  # wall clock, not signals
+
+
+def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, capsys):
+    from rerun.chunk import RrdReader
+
+    s = simulate(tmp_path, "run", capsys=capsys)
+    assert s["mcap"] == str(tmp_path / "run.mcap") and s["rrd"] == str(tmp_path / "run.rrd")
+    assert s["dropped_blocks"] == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap", "run.rrd"]
+    rec = read_mcap(tmp_path / "run.mcap")
+    assert rec.signals == loop.signals and rec.rate_hz == RATE
+    assert rec.topics == ("/rt", "/sensors", "/observer", "/tracking", "/actuator", "/plant")
+    np.testing.assert_array_equal(rec.k, np.arange(4200))
+    # the same run in memory: every signal logged, bit for bit (but the wall-clock columns)
+    ref = run(loop, F3, AMP, 0.2, seed=3).log
+    keep = np.setdiff1d(np.arange(len(loop.signals)), clock_columns(loop.signals))
+    np.testing.assert_array_equal(rec.log[:, keep].view(np.uint64), ref[:, keep].view(np.uint64))
+    # log times straight from mcap's reader (CRCs validated): k * 1e9 // 21000, one message per topic and tick
+    with open(tmp_path / "run.mcap", "rb") as f:
+        times = [m.log_time for _, ch, m in make_reader(f, validate_crcs=True).iter_messages(topics=["/plant"])]
+    assert times == [k * 10**9 // RATE for k in range(4200)]
+    with open(tmp_path / "run.mcap", "rb") as f:
+        writer_rec = {m.name: m.metadata for m in make_reader(f).iter_metadata()}["frictionrt.writer"]
+    assert writer_rec["dropped_blocks"] == "0" and writer_rec["written_ticks"] == "4200"
+    # metadata: the resolved configuration (loadable, equal), versions, run parameters, command line
+    meta = rec.metadata
+    cfg_file = tmp_path / "cfg.toml"
+    cfg_file.write_text(meta["config"])
+    assert load(cfg_file) == loop.cfg
+    versions = json.loads(meta["versions"])
+    for p in ("numpy", "numba", "scipy", "control", "mcap", "rerun-sdk", "frictionrt"):
+        assert versions[p]
+    assert (meta["seed"], meta["law"], meta["estimator"]) == ("3", "hysteresis", "oracle")
+    assert float(meta["freq_hz"]) == F3 and float(meta["amp_n"]) == AMP and float(meta["duration_s"]) == 0.2
+    assert meta["start_utc"].endswith("+00:00") and isinstance(json.loads(meta["command"]), list)
+    # rrd: one entity per signal, the same values; a blueprint
+    entities = {c.entity_path for c in RrdReader(tmp_path / "run.rrd").stream().to_chunks() if not c.is_static}
+    assert {f"/{o}/{n}" for n, _, o in loop.signals} <= entities
+    assert len(RrdReader(tmp_path / "run.rrd").blueprints()) == 1
+    from tests.test_logfiles import rrd_column
+    k, t, v = rrd_column(tmp_path / "run.rrd", "/tracking/V_cmd")
+    np.testing.assert_array_equal(k, np.arange(4200))
+    np.testing.assert_array_equal(t, k * 10**9 // RATE)
+    np.testing.assert_array_equal(v, rec.log[:, rec.column("V_cmd")])
+
+
+def test_same_seed_gives_identical_mcap_logs(tmp_path, loop, capsys):
+    simulate(tmp_path, "a", "--no-rrd", capsys=capsys)
+    simulate(tmp_path, "b", "--no-rrd", capsys=capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mcap", "b.mcap"]
+    a, b = read_mcap(tmp_path / "a.mcap"), read_mcap(tmp_path / "b.mcap")
+    keep = np.setdiff1d(np.arange(len(a.signals)), clock_columns(a.signals))
+    assert np.array_equal(a.k, b.k)
+    assert np.array_equal(a.log[:, keep].view(np.uint64), b.log[:, keep].view(np.uint64))
+
+
+def test_block_writer_writes_what_mcap_log_writer_writes(tmp_path, loop):
+    # every float64 corner, ticks beyond 2**32 (sequence wraps), a gap, blocks across chunk borders
+    sig = loop.signals
+    log = special_log(3000, len(sig), seed=11)
+    k0 = 2**32 - 1000
+    parts = [(0, 700), (700, 2000), (2600, 3000)]  # rows 2000..2599 dropped
+    for cls, name in ((McapLogWriter, "slow.mcap"), (McapBlockWriter, "fast.mcap")):
+        with cls(tmp_path / name, sig, RATE, META) as w:
+            for a, b in parts:
+                w.write_block(k0 + a, log[a:b])
+    assert raw_messages(tmp_path / "fast.mcap") == raw_messages(tmp_path / "slow.mcap")
+    fast = read_mcap(tmp_path / "fast.mcap")
+    assert fast.metadata == META and fast.signals == sig
+    rows = np.r_[0:2000, 2600:3000]
+    np.testing.assert_array_equal(fast.k, k0 + rows)
+    np.testing.assert_array_equal(fast.log.view(np.uint64), log[rows].view(np.uint64))
+    with open(tmp_path / "fast.mcap", "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        # log-time-ordered, time-windowed reading goes through the chunk and message indexes
+        window = [m.sequence for _, _, m in reader.iter_messages(topics=["/tracking"])]
+    assert summary.statistics.message_count == len(rows) * 6 and summary.statistics.chunk_count == 2
+    assert window == [(k0 + r) % 2**32 for r in rows]
+    assert len(summary.chunk_indexes) == summary.statistics.chunk_count
+    # chunks do not depend on how the ticks were split into blocks
+    with McapBlockWriter(tmp_path / "one.mcap", sig, RATE, META) as w:
+        w.write_block(k0, log[:2000])
+        w.write_block(k0 + 2600, log[2600:])
+    assert (tmp_path / "one.mcap").read_bytes() == (tmp_path / "fast.mcap").read_bytes()
+
+
+def test_rerun_reads_the_block_writers_mcap_by_field_name(tmp_path, loop):
+    from rerun.chunk import McapReader
+
+    log = special_log(2500, len(loop.signals), seed=12)
+    with McapBlockWriter(tmp_path / "a.mcap", loop.signals, RATE, META) as w:
+        w.write_block(0, log)
+    reader = McapReader(tmp_path / "a.mcap", timeline_type="duration_ns", decoders=["ros2_reflection"],
+                        include_topic_regex=["^/tracking$"])
+    t, v = [], []
+    for c in reader.stream().to_chunks():
+        rb = c.to_record_batch()
+        t.append(rb.column("message_log_time").cast("int64").to_numpy())
+        v.append(rb.column("frictionrt.msg.Tracking:message").flatten().field("V_cmd").to_numpy())
+    t, v = np.concatenate(t), np.concatenate(v)
+    np.testing.assert_array_equal(t, np.arange(2500) * 10**9 // RATE)
+    np.testing.assert_array_equal(v.view(np.uint64), log[:, loop.column("V_cmd")].view(np.uint64))
+
+
+class SlowSink:
+    """A sink that takes `delay` s per block and records what it got."""
+
+    def __init__(self, delay=0.0):
+        self.delay, self.blocks, self.closed = delay, [], False
+
+    def write_block(self, k0, block):
+        time.sleep(self.delay)
+        self.blocks.append((k0, block.copy()))
+
+    def close(self):
+        self.closed = True
+
+
+def test_offline_writer_follows_and_drops_nothing_even_when_slow(loop):
+    sink = SlowSink(delay=0.005)
+    w = LogWriter([sink], ring_s=0.01)  # the ring applies to paced runs only
+    r = run(loop, F3, AMP, 0.25, writer=w)
+    assert w.dropped_blocks == 0 and sink.closed and w.error is None
+    assert [k0 for k0, _ in sink.blocks] == list(range(0, 5250, BLOCK_TICKS))
+    np.testing.assert_array_equal(np.vstack([b for _, b in sink.blocks]), r.log)
+
+
+def test_paced_slow_writer_drops_whole_blocks_and_counts_them(loop):
+    """A writer 3x slower than real time on a paced run: the loop never waits (its ticks all
+    run), blocks more than the ring span behind are skipped and counted, the rest is written."""
+    sink = SlowSink(delay=0.3)  # per 0.1 s block
+    w = LogWriter([sink], ring_s=0.2)
+    r = run(loop, F3, AMP, 1.0, paced=True, writer=w)
+    assert len(r.log) == 21000 and w.error is None and sink.closed
+    assert w.dropped_blocks >= 3
+    k = [k0 for k0, _ in sink.blocks]
+    assert all(k0 % BLOCK_TICKS == 0 for k0 in k) and k == sorted(k)
+    assert len(k) + w.dropped_blocks == 21000 // BLOCK_TICKS
+    for k0, b in sink.blocks:
+        np.testing.assert_array_equal(b, r.log[k0:k0 + len(b)])
+
+
+def test_writer_error_leaves_the_loop_running_and_is_reported(tmp_path, loop):
+    class Broken(SlowSink):
+        def write_block(self, k0, block):
+            raise OSError(28, "No space left on device")
+
+    sink = Broken()
+    mcap = McapBlockWriter(tmp_path / "a.mcap", loop.signals, RATE, META)
+    w = LogWriter([mcap, sink], mcap=mcap)
+    with pytest.raises(RuntimeError, match="log writer failed.*No space left"):
+        run(loop, F3, AMP, 0.2, writer=w)
+    assert sink.closed and sorted(p.name for p in tmp_path.iterdir()) == ["a.mcap"]
+    rec = read_mcap(tmp_path / "a.mcap")   # closed and valid: the first block went to the MCAP file
+    np.testing.assert_array_equal(rec.k, np.arange(BLOCK_TICKS))
+
+
+def test_writer_thread_is_not_a_daemon_and_finish_is_idempotent(tmp_path, loop):
+    mcap = McapBlockWriter(tmp_path / "a.mcap", loop.signals, RATE, META)
+    w = LogWriter([mcap], mcap=mcap)
+    w.finish()  # never started: closes the file
+    w.finish()
+    assert read_mcap(tmp_path / "a.mcap").log.shape == (0, len(loop.signals))
+    w2 = LogWriter([SlowSink()])
+    w2.start(np.zeros((10, 3)), np.zeros(4, np.int64), 0, False)
+    assert any(t.name == "frictionrt-writer" and not t.daemon for t in threading.enumerate())
+    w2.finish()
+    assert not any(t.name == "frictionrt-writer" for t in threading.enumerate())
+
+
+def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp_path, loop):
+    """Ctrl-C outside the loop's own handler (here: raised by the progress callback) propagates,
+    but only after the loop has stopped and the writer has closed valid files."""
+    from rt.writer import open_run_log
+
+    def progress(_):
+        raise KeyboardInterrupt
+
+    w = open_run_log(tmp_path / "run", loop.signals, RATE, META)
+    with pytest.raises(KeyboardInterrupt):
+        run(loop, F3, AMP, 30.0, progress=progress, writer=w)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap", "run.rrd"]
+    rec = read_mcap(tmp_path / "run.mcap")
+    assert 0 < len(rec.k) < 30 * RATE and np.array_equal(rec.k, np.arange(len(rec.k)))
+    assert not any(t.name in ("frictionrt-loop", "frictionrt-writer") for t in threading.enumerate())
