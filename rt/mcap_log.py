@@ -85,6 +85,26 @@ def tick_time_ns(k: np.ndarray, rate_hz: int) -> np.ndarray:
     return (np.asarray(k, dtype=np.int64) * 10**9) // rate_hz
 
 
+def check_metadata(path: Path, metadata: dict) -> None:
+    """Metadata keys and values must be strings (ValueError naming the file otherwise)."""
+    bad = [k for k, v in metadata.items() if not (isinstance(k, str) and isinstance(v, str))]
+    if bad:
+        raise ValueError(f"{path}: metadata keys and values must be strings: {bad}")
+
+
+def check_block(path: Path, k0: int, block: np.ndarray, n_sig: int, k_next: int) -> tuple[int, int]:
+    """A writer's block: float64 (n, n_sig), ticks k0 .. k0 + n - 1 starting at >= k_next (a gap
+    is allowed) and ending at <= MAX_TICK. Returns (k0, n); ValueError naming the file otherwise."""
+    k0 = int(k0)
+    if block.ndim != 2 or block.shape[1] != n_sig or block.dtype != np.float64:
+        raise ValueError(f"{path}: block must be float64 (n, {n_sig}), got {block.dtype} {block.shape}")
+    n = block.shape[0]
+    if k0 < k_next or k0 + n - 1 > MAX_TICK:
+        raise ValueError(f"{path}: block ticks {k0}..{k0 + n - 1} must start at >= {k_next} "
+                         f"and end at <= {MAX_TICK}")
+    return k0, n
+
+
 def check_rate(path: Path, rate_hz: float) -> int:
     """The tick rate as a whole number of Hz (ValueError naming the file otherwise)."""
     if not (math.isfinite(rate_hz) and rate_hz > 0 and float(rate_hz).is_integer()):
@@ -168,9 +188,7 @@ class McapLogWriter:
         self.rate_hz = check_rate(self.path, rate_hz)
         check_owners(self.path, self.signals)
         self.topics = topics_of(self.signals)
-        bad = [k for k, v in metadata.items() if not (isinstance(k, str) and isinstance(v, str))]
-        if bad:
-            raise ValueError(f"{self.path}: metadata keys and values must be strings: {bad}")
+        check_metadata(self.path, metadata)
         self._part = part_path(self.path)
         self._file = open(self._part, "wb")
         self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
@@ -190,14 +208,7 @@ class McapLogWriter:
         dropped block) is allowed."""
         if self._file.closed:
             raise ValueError(f"{self.path}: write_block after close")
-        k0 = int(k0)
-        n_sig = len(self.signals)
-        if block.ndim != 2 or block.shape[1] != n_sig or block.dtype != np.float64:
-            raise ValueError(f"{self.path}: block must be float64 (n, {n_sig}), got {block.dtype} {block.shape}")
-        n = block.shape[0]
-        if k0 < self._k_next or k0 + n - 1 > MAX_TICK:
-            raise ValueError(f"{self.path}: block ticks {k0}..{k0 + n - 1} must start at >= {self._k_next} "
-                             f"and end at <= {MAX_TICK}")
+        k0, n = check_block(self.path, k0, block, len(self.signals), self._k_next)
         if n == 0:
             return
         k = np.arange(k0, k0 + n, dtype=np.int64)

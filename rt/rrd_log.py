@@ -34,7 +34,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.mcap_log import MAX_TICK, OWNERS, check_owners, check_rate, part_path, tick_time_ns
+from rt.mcap_log import OWNERS, check_block, check_owners, check_rate, part_path, tick_time_ns
 
 SETPOINT_SIGNALS = ("F_set", "F_set_filtered", "F_N1", "F_strain", "F_cell")
 HYSTERESIS_WINDOW_S = 0.02   # [s] of the hysteresis view before the time cursor (4.5 periods at 224 Hz)
@@ -105,14 +105,7 @@ class RrdLogWriter:
         Ticks must increase from block to block; a gap (a dropped block) is allowed."""
         if not self._open:
             raise ValueError(f"{self.path}: write_block after close")
-        k0 = int(k0)
-        n_sig = len(self.signals)
-        if block.ndim != 2 or block.shape[1] != n_sig or block.dtype != np.float64:
-            raise ValueError(f"{self.path}: block must be float64 (n, {n_sig}), got {block.dtype} {block.shape}")
-        n = block.shape[0]
-        if k0 < self._k_next or k0 + n - 1 > MAX_TICK:
-            raise ValueError(f"{self.path}: block ticks {k0}..{k0 + n - 1} must start at >= {self._k_next} "
-                             f"and end at <= {MAX_TICK}")
+        k0, n = check_block(self.path, k0, block, len(self.signals), self._k_next)
         if n == 0:
             return
         k = np.arange(k0, k0 + n, dtype=np.int64)

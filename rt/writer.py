@@ -69,7 +69,8 @@ from mcap.opcode import Opcode
 from mcap.records import (Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
-from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, MAX_TICK, check_owners, check_rate, part_path,
+from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, check_block, check_metadata, check_owners,
+                         check_rate, part_path,
                          signals_record, tick_time_ns, topics_of)
 
 BLOCK_TICKS = 2100        # rows per block handed to the sinks (0.1 s simulated at 21 kHz)
@@ -96,9 +97,7 @@ class McapBlockWriter:
         self.rate_hz = check_rate(self.path, rate_hz)
         check_owners(self.path, self.signals)
         self.topics = topics_of(self.signals)
-        bad = [k for k, v in metadata.items() if not (isinstance(k, str) and isinstance(v, str))]
-        if bad:
-            raise ValueError(f"{self.path}: metadata keys and values must be strings: {bad}")
+        check_metadata(self.path, metadata)
         self._part = part_path(self.path)
         # one tick's records: per topic the message record; offsets of its variable fields
         self._rec_off, off = [], 0
@@ -152,14 +151,7 @@ class McapBlockWriter:
         Ticks must increase from block to block; a gap (a dropped block) is allowed."""
         if self._closed:
             raise ValueError(f"{self.path}: write_block after close")
-        k0 = int(k0)
-        n_sig = len(self.signals)
-        if block.ndim != 2 or block.shape[1] != n_sig or block.dtype != np.float64:
-            raise ValueError(f"{self.path}: block must be float64 (n, {n_sig}), got {block.dtype} {block.shape}")
-        n = block.shape[0]
-        if k0 < self._k_next or k0 + n - 1 > MAX_TICK:
-            raise ValueError(f"{self.path}: block ticks {k0}..{k0 + n - 1} must start at >= {self._k_next} "
-                             f"and end at <= {MAX_TICK}")
+        k0, n = check_block(self.path, k0, block, len(self.signals), self._k_next)
         i = 0
         while i < n:
             m = min(n - i, self.chunk_ticks - self._fill)
