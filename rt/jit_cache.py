@@ -2,8 +2,11 @@
 
 Numba invalidates a cached function only when its own file changes: ``plant.simulate._run``
 keeps the machine code of an old ``plant.newmark._plant_step`` after newmark.py is edited
-(it happened). The cache directory is therefore named after a hash of all .py files of the
-run-time packages, so any edit starts a fresh cache. ``configure`` must run before the first
+(it happened). The cache directory is therefore named after a hash of the kernel sources, so
+any edit to them starts a fresh cache. Kernel sources are every .py file of plant/,
+observer/ and tracking/, and those of rt/ that define an njit function, plus rt/config.py
+(whose constants kernels may capture); rt's command-line, logging and experiment modules
+are left out, so editing them does not cost a recompile. ``configure`` must run before the first
 ``numba.njit(cache=True)`` decorator executes; the packages' ``__init__`` call it. A user's
 own NUMBA_CACHE_DIR is respected (and then invalidation is theirs to manage).
 """
@@ -19,13 +22,22 @@ PACKAGES = ("rt", "plant", "observer", "tracking")
 _ROOT = Path(__file__).resolve().parents[1]
 
 
-def source_hash() -> str:
-    """SHA-256 (first 16 hex digits) over the run-time packages' Python sources."""
-    h = hashlib.sha256()
+def kernel_sources() -> list[Path]:
+    """The files whose edit must invalidate the cache (see the module docstring)."""
+    files = []
     for pkg in PACKAGES:
         for f in sorted((_ROOT / pkg).glob("*.py")):
-            h.update(f.name.encode())
-            h.update(f.read_bytes())
+            if pkg != "rt" or f.name == "config.py" or "njit" in f.read_text():
+                files.append(f)
+    return files
+
+
+def source_hash() -> str:
+    """SHA-256 (first 16 hex digits) over ``kernel_sources()``."""
+    h = hashlib.sha256()
+    for f in kernel_sources():
+        h.update(f"{f.parent.name}/{f.name}".encode())
+        h.update(f.read_bytes())
     h.update(numba.__version__.encode())
     return h.hexdigest()[:16]
 

@@ -73,9 +73,13 @@ def test_checked_step_wrapper(reduced):
 
 def test_numba_cache_is_keyed_on_the_kernel_sources():
     # numba only re-checks a cached function's own file; a source-hash directory makes an
-    # edit anywhere in the run-time packages start a fresh cache (rt/jit_cache.py)
+    # edit to any kernel source start a fresh cache (rt/jit_cache.py); CLI and logging
+    # modules are not kernel sources, so editing them keeps the compiled kernels
     from plant import newmark, simulate
     from rt import jit_cache
+    names = {f"{f.parent.name}/{f.name}" for f in jit_cache.kernel_sources()}
+    assert {"plant/newmark.py", "rt/loop.py", "rt/replay.py", "rt/config.py", "tracking/laws.py"} <= names
+    assert not names & {"rt/cli.py", "rt/mcap_log.py", "rt/stepsine.py", "rt/writer.py"}
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
     for f in (newmark._plant_step, simulate._run):
