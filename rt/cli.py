@@ -77,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
                    help="control law (default: tracking.law)")
     s.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
-                   help="oracle: the plant's band-limited u_rel, v_rel; observer: comes with the observer issue")
+                   help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md)")
     s.add_argument("--freq", type=float, required=True, metavar="HZ", help="excitation frequency [Hz]")
     s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
     s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s] (default 1)")
