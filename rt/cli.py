@@ -13,6 +13,8 @@ from pathlib import Path
 
 from rt.cli_frf import add_parser as add_frf_parser
 from rt.cli_frf import cmd_frf
+from rt.cli_log import add_parsers as add_log_parsers
+from rt.cli_log import cmd_inspect, cmd_recover
 from rt.config import ConfigError, dumps, load, to_dict
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
@@ -141,6 +143,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="contact pair counts (default 5 9 17 33)")
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     add_frf_parser(sub, parents=[common])
+    add_log_parsers(sub, parents=[common])
     return ap
 
 
@@ -368,7 +371,8 @@ def _cmd_budget(cfg, args) -> int:
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
             "replay": _cmd_replay,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
-            "observer": _cmd_observer, "frf": cmd_frf}
+            "observer": _cmd_observer, "frf": cmd_frf,
+            "recover": cmd_recover, "inspect": cmd_inspect}
 
 
 def main(argv: list[str] | None = None) -> int:

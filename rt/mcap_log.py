@@ -85,6 +85,13 @@ def tick_time_ns(k: np.ndarray, rate_hz: int) -> np.ndarray:
     return (np.asarray(k, dtype=np.int64) * 10**9) // rate_hz
 
 
+def tick_runs(k: np.ndarray) -> list[tuple[int, int]]:
+    """(first row, end row) of each run of consecutive ticks in the increasing ticks k (a log
+    with dropped blocks has several)."""
+    cuts = [0, *(np.flatnonzero(np.diff(k) != 1) + 1).tolist(), len(k)]
+    return list(zip(cuts[:-1], cuts[1:])) if len(k) else []
+
+
 def check_metadata(path: Path, metadata: dict) -> None:
     """Metadata keys and values must be strings (ValueError naming the file otherwise)."""
     bad = [k for k, v in metadata.items() if not (isinstance(k, str) and isinstance(v, str))]

@@ -34,7 +34,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.mcap_log import OWNERS, check_block, check_owners, check_rate, part_path, tick_time_ns
+from rt.mcap_log import OWNERS, check_block, check_owners, check_rate, part_path, tick_runs, tick_time_ns
 
 SETPOINT_SIGNALS = ("F_set", "F_set_filtered", "F_N1", "F_strain", "F_cell")
 HYSTERESIS_WINDOW_S = 0.02   # [s] of the hysteresis view before the time cursor (4.5 periods at 224 Hz)
@@ -139,10 +139,42 @@ class RrdLogWriter:
 
 
 def write_rrd(path: str | os.PathLike, signals, log: np.ndarray, rate_hz: float, *, k0: int = 0,
-              blueprint: bool = True, app_id: str = "frictionrt", metadata: dict[str, str] | None = None,
-              block_ticks: int = 21000) -> None:
-    """Write a whole log (float64 (ticks, n_sig), row i = tick k0 + i) to ``path`` as .rrd,
-    in blocks of ``block_ticks`` (see ``RrdLogWriter``)."""
+              k: np.ndarray | None = None, blueprint: bool = True, app_id: str = "frictionrt",
+              metadata: dict[str, str] | None = None, block_ticks: int = 21000) -> None:
+    """Write a whole log (float64 (ticks, n_sig), row i = tick k0 + i, or tick k[i] if the
+    increasing int64 ticks k are given: gaps allowed) to ``path`` as .rrd, in blocks of at most
+    ``block_ticks`` consecutive ticks (see ``RrdLogWriter``)."""
+    k = k0 + np.arange(len(log), dtype=np.int64) if k is None else np.asarray(k, dtype=np.int64)
     with RrdLogWriter(path, signals, rate_hz, metadata=metadata, blueprint=blueprint, app_id=app_id) as w:
-        for i in range(0, len(log), block_ticks):
-            w.write_block(k0 + i, log[i:i + block_ticks])
+        for a, b in tick_runs(k):
+            for i in range(a, b, block_ticks):
+                w.write_block(int(k[i]), log[i:min(b, i + block_ticks)])
+
+
+def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bool = False) -> dict:
+    """Convert an MCAP log or measurement (``rt.mcap_log.read_mcap``) to an .rrd recording with
+    the default blueprint, as ``simulate --out`` writes it: the columns of the topics present in
+    the file only (a measurement with /sensors alone gets /sensors entities and tab), ticks and
+    gaps as in the file, the "frictionrt" metadata record as the recording property.
+
+    ``dst`` is written under a temporary name in its folder and then renamed: an existing
+    ``dst`` is replaced only if ``overwrite``, never left half-written. ValueError naming the file
+    on any problem. Returns {input, output, ticks, first_tick, last_tick, topics, entities}."""
+    from rt.mcap_log import read_mcap
+    src, dst = Path(src), Path(dst)
+    if dst.exists() and not overwrite:
+        raise ValueError(f"{dst}: the output exists; give another name with -o or pass --force to replace it")
+    if not dst.parent.is_dir():
+        raise ValueError(f"{dst}: folder {dst.parent} does not exist")
+    rec = read_mcap(src)
+    cols = [c for c, (_, _, o) in enumerate(rec.signals) if f"/{o}" in rec.topics]
+    signals = [rec.signals[c] for c in cols]
+    tmp = dst.with_name(dst.name + ".inspect.tmp")   # its .part is never a file of the user's
+    try:
+        write_rrd(tmp, signals, rec.log[:, cols], rec.rate_hz, k=rec.k, metadata=rec.metadata or None)
+        os.replace(tmp, dst)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return {"input": str(src), "output": str(dst), "ticks": int(len(rec.k)),
+            "first_tick": int(rec.k[0]) if len(rec.k) else None, "last_tick": int(rec.k[-1]) if len(rec.k) else None,
+            "topics": list(rec.topics), "entities": [entity_path(n, o) for n, _, o in signals]}
