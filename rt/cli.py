@@ -13,6 +13,8 @@ from pathlib import Path
 
 from rt.cli_frf import add_parser as add_frf_parser
 from rt.cli_frf import cmd_frf
+from rt.cli_tune import add_parser as add_tune_parser
+from rt.cli_tune import cmd_tune
 from rt.cli_log import add_parsers as add_log_parsers
 from rt.cli_log import cmd_inspect, cmd_recover
 from rt.config import ConfigError, dumps, load, to_dict
@@ -143,6 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="contact pair counts (default 5 9 17 33)")
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     add_frf_parser(sub, parents=[common])
+    add_tune_parser(sub, parents=[common])
     add_log_parsers(sub, parents=[common])
     return ap
 
@@ -371,7 +374,7 @@ def _cmd_budget(cfg, args) -> int:
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
             "replay": _cmd_replay,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
-            "observer": _cmd_observer, "frf": cmd_frf,
+            "observer": _cmd_observer, "frf": cmd_frf, "tune": cmd_tune,
             "recover": cmd_recover, "inspect": cmd_inspect}
 
 

@@ -123,8 +123,6 @@ def cmd_frf(cfg: Config, args) -> int:
     (JSON: dt_s, the resolved configuration as TOML, one ``StepSineResult.to_dict()`` per sweep)."""
     from rt.cli import _fail  # at call time: rt.cli imports this module
     from rt.stepsine import Branch, Settle, plot_frfs, run_branches
-    if args.estimator == "observer":
-        return _fail("--estimator observer: the observer lands with its own issue; use --estimator oracle")
     for a in args.amp:
         if not (math.isfinite(a) and a > 0.0):
             return _fail(f"--amp {a:g} N: an FRF needs a finite force amplitude > 0 N")

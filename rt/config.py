@@ -378,6 +378,21 @@ def load(config_file: str | Path | None = None, sets: list[str] | tuple[str, ...
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise ConfigError(f"{p}: not valid TOML ({exc})") from None
         data = _merge(data, over)
+    return _resolve(data, sets)
+
+
+def with_sets(cfg: Config, sets: list[str] | tuple[str, ...]) -> Config:
+    """``cfg`` with ``--set`` style overrides applied (e.g. one candidate of a gain sweep),
+    validated; raises ConfigError as ``load`` does."""
+    return _resolve(to_dict(cfg), sets)
+
+
+def check_key(cfg: Config, key: str) -> None:
+    """Raise ConfigError (naming the allowed keys) if ``key`` is not a field that --set reaches."""
+    _apply_set(to_dict(cfg), f"{key}=0")
+
+
+def _resolve(data: dict, sets) -> Config:
     for s in sets:
         _apply_set(data, s)
     cfg = _build(Config, data, "")
