@@ -13,6 +13,8 @@ from pathlib import Path
 
 from rt.cli_frf import add_parser as add_frf_parser
 from rt.cli_frf import cmd_frf
+from rt.cli_reproduce import add_parser as add_reproduce_parser
+from rt.cli_reproduce import cmd_reproduce
 from rt.cli_tune import add_parser as add_tune_parser
 from rt.cli_tune import cmd_tune
 from rt.cli_log import add_parsers as add_log_parsers
@@ -145,6 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="contact pair counts (default 5 9 17 33)")
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     add_frf_parser(sub, parents=[common])
+    add_reproduce_parser(sub, parents=[common])
     add_tune_parser(sub, parents=[common])
     add_log_parsers(sub, parents=[common])
     return ap
@@ -375,7 +378,7 @@ COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse,
             "replay": _cmd_replay,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
             "observer": _cmd_observer, "frf": cmd_frf, "tune": cmd_tune,
-            "recover": cmd_recover, "inspect": cmd_inspect}
+            "recover": cmd_recover, "inspect": cmd_inspect, "reproduce": cmd_reproduce}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -554,7 +554,8 @@ class _DaskReport:
 
 
 def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_address: str | None = None, *,
-                 progress: bool = True, connect_timeout_s: float = 5.0) -> list[StepSineResult]:
+                 progress: bool = True, connect_timeout_s: float = 5.0, loops: Sequence[Loop] | None = None,
+                 desc: str = "step-sine") -> list[StepSineResult]:
     """Run the branches in parallel; results in the order of ``branches``, identical whichever
     backend (each branch is a pure function of its parameters, run on the same CPU model).
 
@@ -562,7 +563,9 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
     number of branches; 1 runs in this process). dask_address (e.g. "tcp://host:8786"): run on that dask
     cluster instead (joblib's dask backend; frictionrt must be installed on its workers; jobs is
     ignored, the cluster's workers decide). progress: a tqdm bar over the finished frequency
-    points (stderr). Raises ValueError for a bad branch (before anything runs) or jobs < 1,
+    points (stderr), labelled desc. loops: the branches' built loops, one per branch (None: built
+    here by ``build_loops``; a caller running several rounds of branches builds them once). Raises
+    ValueError for a bad branch (before anything runs), jobs < 1 or a loops list of another length,
     ConnectionError if no dask scheduler answers at dask_address within connect_timeout_s [s]."""
     import joblib
     from tqdm import tqdm
@@ -571,10 +574,12 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
         check_sweep(b.cfg, b.law, b.freqs_hz, b.amp_n, b.settle, b.estimator)
     if jobs is not None and jobs < 1:
         raise ValueError(f"jobs {jobs}: must be >= 1 (default: the number of cores, {joblib.cpu_count()})")
+    if loops is not None and len(loops) != len(branches):
+        raise ValueError(f"{len(loops)} loops for {len(branches)} branches: give one loop per branch")
     total = sum(len(b.freqs_hz) for b in branches)
     client = _connect(dask_address, connect_timeout_s) if dask_address is not None else None
-    with tqdm(total=total, unit="point", desc="step-sine", disable=not progress) as bar:
-        loops = build_loops(branches)
+    with tqdm(total=total, unit="point", desc=desc, disable=not progress) as bar:
+        loops = build_loops(branches) if loops is None else list(loops)
         if client is not None:
             with client:
                 results = _run_dask(branches, loops, client, bar)
