@@ -230,7 +230,7 @@ def _cmd_simulate(cfg, args) -> int:
     from tqdm import tqdm
 
     from rt.loop import build_loop, check_run_input, run, summary
-    from rt.writer import open_run_log, run_metadata
+    from rt.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
         return _fail(f"--seed {args.seed}: must be a non-negative integer")
     if not args.ring > 0:
@@ -261,14 +261,16 @@ def _cmd_simulate(cfg, args) -> int:
     if len(r.log) < 2:
         return _fail("interrupted before the loop ran: nothing to summarise")
     s = summary(r)
-    s["interrupted"] = r.interrupted
+    s["interrupted"] = r.interrupted or (writer is not None and writer.interrupted)
     if writer is not None:
-        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "dropped_blocks": writer.dropped_blocks}
+        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "dropped_blocks": writer.dropped_blocks,
+              "unwritten_ticks": writer.unwritten_ticks}
     if args.json:
         print(json.dumps(s))
-        return 130 if r.interrupted else 0
-    if r.interrupted:
-        print(f"interrupted (Ctrl-C) after {s['ticks']} ticks: the summary and the log cover those")
+        return 130 if s["interrupted"] else 0
+    if s["interrupted"]:
+        print(f"interrupted (Ctrl-C) after {s['ticks']} ticks: the summary covers those, the log all but "
+              f"{s.get('unwritten_ticks', 0)} (the writer stops {INTERRUPT_DRAIN_S} s after a Ctrl-C)")
     print(f"law {s['law']}, estimator {s['estimator']}, {s['amp_n']:g} N at {s['freq_hz']:g} Hz, {s['ticks']} ticks"
           f"{' (paced)' if s['paced'] else ''}")
     print(f"acceleration at x = 0.45 m (last 20 %): first harmonic {s['acc045_amplitude']:.4g} m/s^2; raw RMS "
@@ -281,7 +283,7 @@ def _cmd_simulate(cfg, args) -> int:
               f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %")
     if writer is not None:
         print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}")
-    return 130 if r.interrupted else 0
+    return 130 if s["interrupted"] else 0
 
 
 def _cmd_replay(cfg, args) -> int:
@@ -392,6 +394,9 @@ def main(argv: list[str] | None = None) -> int:
     except RuntimeError as exc:  # a run that failed numerically: say so, no traceback
         print(f"frictionrt: {args.command} failed: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C outside a loop (which absorbs it); writers closed their files
+        print(f"frictionrt: {args.command} interrupted (Ctrl-C)", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

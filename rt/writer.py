@@ -28,9 +28,17 @@ being overwritten and the loop never waits for it:
 **Crash safety.** Signals reach only the main thread, so a Ctrl-C never interrupts a block
 half-written: ``run`` turns it into the loop's stop request, then ``finish()`` makes the
 thread write the complete rows it has not written yet and close both files (``.part`` renamed
-onto the final name). The thread is not a daemon, so even an exception in the main thread
-cannot end the process before the files are closed. An error inside the writer (e.g. a full
-disk) stops the writing, closes what it can and is kept in ``error``; the loop runs on.
+onto the final name). After a Ctrl-C (the loop's stop flag is set, or the Ctrl-C arrives while
+``finish()`` waits) the thread writes its backlog for at most ``INTERRUPT_DRAIN_S`` more, then
+stops after the block in hand and closes the files, so the process exits promptly: an offline
+run with the .rrd can be seconds of writing ahead of its writer. The files then hold ticks
+0 .. written_ticks - 1 (contiguous, but for dropped blocks); the rows the loop ran beyond are
+counted in ``unwritten_ticks`` (and in the closing record). A paced writer keeps up, so it loses
+nothing. The thread is not a daemon, so even an exception in the main thread cannot end the
+process before the files are closed. An error inside the writer (e.g. a full disk) stops the
+writing, closes what it can and is kept in ``error``; the loop runs on. A killed process
+(``kill -9``) leaves ``NAME.mcap.part``: ``frictionrt recover`` (rt/recover.py) salvages its
+complete chunks.
 
 **Why ``McapBlockWriter`` and not ``rt.mcap_log.McapLogWriter``.** Both write the same MCAP
 content (topics, schemas, channels, messages with their times and sequence numbers, the
@@ -57,6 +65,7 @@ import os
 import struct
 import sys
 import threading
+import time
 import zlib
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -78,6 +87,7 @@ RING_S = 1.0              # paced runs: default bounded lag of the writer [s of 
 RRD_BATCH_TICKS = 21000   # .rrd written in batches of this many ticks (rerun's cost per call)
 POLL_S = 0.002            # the writer checks the loop's tick counter this often [s]
 WRITER_NICE = 10          # paced runs: the writer thread's nice value (Linux: per thread)
+INTERRUPT_DRAIN_S = 0.5   # after Ctrl-C the writer writes its backlog for at most this long [s wall], then closes
 ZSTD_LEVEL = -1          # zstd "fast" level: 35 % faster than level 1, files 2 % larger (float64 noise)
 VERSION_PACKAGES = ("numpy", "numba", "scipy", "control", "mcap", "rerun-sdk", "zstandard", "frictionrt")
 _MSG_HEAD = 1 + 8 + 2 + 4 + 8 + 8   # opcode, record length, channel id, sequence, log time, publish time
@@ -316,7 +326,8 @@ class LogWriter:
         loop are dropped and counted. None: never drop.
     rate_hz : tick rate [Hz] (to convert ring_s to ticks).
     mcap : the McapBlockWriter among the sinks, if any: receives the closing metadata record
-        ``frictionrt.writer`` (dropped blocks, block and ring size, ticks written).
+        ``frictionrt.writer`` (dropped blocks, block and ring size, ticks written, ticks left
+        unwritten after a Ctrl-C).
 
     ``rt.loop.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced)`` before the loop and
     ``w.finish()`` after it in every case; ``finish()`` is idempotent and also closes the sinks
@@ -335,8 +346,11 @@ class LogWriter:
         self.mcap = mcap
         self.dropped_blocks = 0
         self.written_ticks = 0
+        self.unwritten_ticks = 0   # rows the loop completed that a Ctrl-C left unwritten
+        self.interrupted = False   # a Ctrl-C reached finish() or cut the writing short (module docstring)
         self.error: BaseException | None = None
         self._done = threading.Event()
+        self._abort = threading.Event()
         self._thread: threading.Thread | None = None
         self._closed = False
 
@@ -350,12 +364,25 @@ class LogWriter:
 
     def finish(self) -> None:
         """The loop is done: write the complete rows not yet written (paced: within the ring),
-        close the sinks, join the thread. Errors are kept in ``error``."""
+        close the sinks, join the thread. After a Ctrl-C (the loop's stop flag, or one during
+        this call, which it absorbs) at most ``INTERRUPT_DRAIN_S`` more of writing. Errors are
+        kept in ``error``."""
+        from rt.loop import CLK_STOP
         if self._thread is None:
             self._close()
             return
         self._done.set()
-        self._thread.join()
+        deadline = time.monotonic() + INTERRUPT_DRAIN_S if self._clk[CLK_STOP] else None
+        while self._thread.is_alive():
+            try:
+                self._thread.join(POLL_S)
+            except KeyboardInterrupt:
+                self.interrupted = True
+                if deadline is None:
+                    deadline = time.monotonic() + INTERRUPT_DRAIN_S
+            if deadline is not None and time.monotonic() >= deadline:
+                self._abort.set()
+        self.interrupted |= self._abort.is_set()
 
     # --- the thread ------------------------------------------------------------------------
     def _main(self) -> None:
@@ -368,6 +395,7 @@ class LogWriter:
                 while self._step(int(self._clk[CLK_TICKS]), final):
                     pass
                 if final:
+                    self.unwritten_ticks = int(self._clk[CLK_TICKS]) - self._next
                     break
                 self._done.wait(POLL_S)
         except BaseException as exc:  # kept for the caller; the loop is never disturbed
@@ -376,7 +404,10 @@ class LogWriter:
             self._close()
 
     def _step(self, done: int, final: bool) -> bool:
-        """Drop what lags beyond the ring (paced), then write one block if there is one."""
+        """Drop what lags beyond the ring (paced), then write one block if there is one
+        (none once aborted)."""
+        if self._abort.is_set():
+            return False
         if self._paced and self.ring_ticks is not None:
             while done - self._next > self.ring_ticks:
                 self._next += self.block_ticks
@@ -401,6 +432,7 @@ class LogWriter:
                 self.mcap.add_metadata("frictionrt.writer", {
                     "dropped_blocks": str(self.dropped_blocks), "block_ticks": str(self.block_ticks),
                     "ring_ticks": str(self.ring_ticks), "written_ticks": str(self.written_ticks),
+                    "unwritten_ticks": str(self.unwritten_ticks),
                     "error": "" if self.error is None else repr(self.error)})
             except BaseException as exc:
                 self.error = self.error or exc
