@@ -147,5 +147,7 @@ def cmd_tune(cfg: Config, args) -> int:
         print("no candidate qualifies (all refused, or none within --max-power); best.toml not written")
     else:
         print(f"best: {out / 'best.toml'}")
+        for key in res.best_on_edge():
+            print(f"note: the best {key} is at the end of its grid; the optimum may lie beyond it (extend --grid {key})")
     print(f"files: {out}/table.csv, table.md, pareto.png, tune.json")
     return 0

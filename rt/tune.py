@@ -74,10 +74,19 @@ class TuneResult:
             out.append(row)
         return out
 
+    def best_on_edge(self) -> list[str]:
+        """The swept keys (with more than one value) whose best value is the grid's smallest or
+        largest: the optimum may lie beyond the grid, so extend it there."""
+        if self.best < 0:
+            return []
+        v = self.values
+        return [k for j, k in enumerate(self.keys)
+                if v[:, j].min() < v[:, j].max() and v[self.best, j] in (v[:, j].min(), v[:, j].max())]
+
     def to_dict(self) -> dict:
         return {"law": self.law, "modes": list(self.modes), "amps_n": list(self.amps_n), "keys": list(self.keys),
                 "candidates": self.rows(), "passive_peak": self.passive_peak.tolist(),
-                "best": None if self.best < 0 else self.rows()[self.best]}
+                "best": None if self.best < 0 else self.rows()[self.best], "best_on_edge": self.best_on_edge()}
 
 
 def _num(v: float) -> float | None:

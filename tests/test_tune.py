@@ -56,6 +56,7 @@ def test_a_larger_hysteresis_gain_reduces_the_peak_more_and_costs_more_power(sma
     assert r.power_w[1] > 3 * r.power_w[0] > 0
     assert np.isnan(r.reduction_db[2]) and "K_f" in r.errors[2] and not r.pareto[2]
     assert r.best == 1 and r.best_cfg.tracking.K_f == 1e8
+    assert r.best_on_edge() == ["tracking.K_f"]            # 1e8 is the largest value tried
 
 
 def test_cli_writes_table_plot_and_a_best_toml_that_loads(tmp_path, capsys):
