@@ -13,6 +13,9 @@ from pathlib import Path
 
 from rt.cli_frf import add_parser as add_frf_parser
 from rt.cli_frf import cmd_frf
+from rt.cli_replay_plant import cmd_replay_plant
+from rt.cli_validate import add_parser as add_validate_parser
+from rt.cli_validate import cmd_validate
 from rt.cli_reproduce import add_parser as add_reproduce_parser
 from rt.cli_reproduce import cmd_reproduce
 from rt.cli_tune import add_parser as add_tune_parser
@@ -132,9 +135,14 @@ def build_parser() -> argparse.ArgumentParser:
                                    "estimator, law, prefilter and force tracking with the configuration stored in "
                                    "the file; every commanded signal is compared with the recorded one. Exit 1 "
                                    "if they differ. A file with only /sensors (a measurement) is replayed without "
-                                   "comparison (the configuration of --config/--set applies if it stores none).")
+                                   "comparison (the configuration of --config/--set applies if it stores none). "
+                                   "--set overrides apply to the stored configuration. --plant: instead, the "
+                                   "recorded V_cmd [V] and F_exc [N] drive actuator and plant open-loop and "
+                                   "every /actuator and /plant signal is compared (docs/data-format.md).")
     r.add_argument("log", metavar="RUN.mcap", help="the log (frictionrt simulate --out)")
     r.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    r.add_argument("--plant", action="store_true", help="replay the recorded V_cmd [V] and F_exc [N] into actuator "
+                   "and plant and compare their outputs (open-loop check; e.g. with --set plant.interface.mu=0.3)")
     r.add_argument("--json", action="store_true", help="one JSON object instead of text")
 
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
@@ -147,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="contact pair counts (default 5 9 17 33)")
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     add_frf_parser(sub, parents=[common])
+    add_validate_parser(sub, parents=[common])
     add_reproduce_parser(sub, parents=[common])
     add_tune_parser(sub, parents=[common])
     add_log_parsers(sub, parents=[common])
@@ -229,6 +238,7 @@ def _cmd_bench(cfg, args) -> int:
 def _cmd_simulate(cfg, args) -> int:
     from tqdm import tqdm
 
+    from rt.data_format import run_test_record
     from rt.loop import build_loop, check_run_input, run, summary
     from rt.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
@@ -250,6 +260,7 @@ def _cmd_simulate(cfg, args) -> int:
             seed = cfg.rt.seed if args.seed is None else args.seed
             meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
+            writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
                     writer=writer)
@@ -288,8 +299,10 @@ def _cmd_simulate(cfg, args) -> int:
 
 def _cmd_replay(cfg, args) -> int:
     from rt.replay import replay
+    if args.plant:
+        return cmd_replay_plant(cfg, args)
     try:
-        res = replay(args.log, paced=args.paced, fallback_cfg=cfg)
+        res = replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
     except ValueError as exc:
         return _fail(str(exc))
     code = 1 if res["bit_exact"] is False else (130 if res["interrupted"] else 0)
@@ -377,7 +390,7 @@ def _cmd_budget(cfg, args) -> int:
 
 
 COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse, "simulate": _cmd_simulate,
-            "replay": _cmd_replay,
+            "replay": _cmd_replay, "validate": cmd_validate,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
             "observer": _cmd_observer, "frf": cmd_frf, "tune": cmd_tune,
             "recover": cmd_recover, "inspect": cmd_inspect, "reproduce": cmd_reproduce}

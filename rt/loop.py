@@ -137,6 +137,23 @@ def _copy(src, dst):
         dst[i] = src[i]
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _actuate(k, F_exc, V_cmd, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p, plant_wk, timing, ts):
+    """Stages 5 and 6 of tick k: the actuator over [t_k, t_k+1] on the command V_cmd [V], then
+    the plant over [t_k, t_k+1] with F_exc [N] held and F_N1 = (F_N1(t_k) + F_N1(t_k+1)) / 2
+    (ya[0] on entry is F_N1(t_k)). ya, yp receive the outputs at t_k+1; the next states go to
+    xa_n, xp_n. The loop and the plant replay (``rt.replay_plant``) both call this. Returns
+    (the plant's Newton iterations, -1 on a failed solve; the clock [ns] after the actuator
+    if timing, else 0). RT-safe."""
+    F_start = ya[0]
+    ua[0] = V_cmd
+    _actuator_step(k, xa, ua, act_p, xa_n, ya)
+    t5 = _now_ns(ts) if timing else 0
+    up[0] = F_exc
+    up[1] = 0.5 * (F_start + ya[0])
+    return _plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk), t5
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
 def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_ns, clk, ts,
                xs, xs_n, ys, us, sens_p, rng,
@@ -199,16 +216,11 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         uf[1] = ys[force_col]
         _force_tracking_step(k, xf, uf, ft_p, xf_n, yf)
         t4 = _now_ns(ts) if timing else 0
-        # 5 actuator over the tick
-        F_start = ya[0]
-        ua[0] = yf[0]
-        _actuator_step(k, xa, ua, act_p, xa_n, ya)
-        t5 = _now_ns(ts) if timing else 0
-        # 6 plant over the tick
+        # 5 actuator and 6 plant over the tick
         F_exc = exc_amp * math.sin(exc_omega * (k * dt))
-        up[0] = F_exc
-        up[1] = 0.5 * (F_start + ya[0])
-        if _plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk) < 0:
+        iters, t5 = _actuate(k, F_exc, yf[0], xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p, plant_wk,
+                             timing, ts)
+        if iters < 0:
             failed += 1
         t6 = _now_ns(ts) if timing else 0
         # 7 log and advance the states

@@ -107,8 +107,9 @@ def _replay_ticks(ks, sens, uv, out, force_col, col_vtip, col_cell, observe, pac
                 clk[CLK_DEADLINE] += missed * period_ns
 
 
-def _config_of(path: Path, meta: dict[str, str], fallback):
-    """The configuration stored in the log, or ``fallback`` if it has none."""
+def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
+    """The configuration stored in the log with the ``--set`` overrides ``sets`` applied, or
+    ``fallback`` if it stores none."""
     text = meta.get("config")
     if text is None:
         return fallback
@@ -116,18 +117,20 @@ def _config_of(path: Path, meta: dict[str, str], fallback):
         f = Path(d) / "config.toml"
         f.write_text(text)
         try:
-            return load(f)
+            return load(f, sets)
         except ConfigError as exc:
             raise ValueError(f"{path}: the stored configuration is invalid ({exc})") from None
 
 
-def replay(path, *, paced: bool = False, fallback_cfg=None) -> dict:
+def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
     """Replay the log at ``path`` (module docstring); the summary of ``replay_outputs``."""
-    return replay_outputs(path, paced=paced, fallback_cfg=fallback_cfg)[0]
+    return replay_outputs(path, paced=paced, fallback_cfg=fallback_cfg, sets=sets)[0]
 
 
-def replay_outputs(path, *, paced: bool = False, fallback_cfg=None) -> tuple[dict, np.ndarray, np.ndarray]:
-    """Replay the log at ``path`` (module docstring). Returns (summary, k, outputs): the ticks
+def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> tuple[dict, np.ndarray, np.ndarray]:
+    """Replay the log at ``path`` (module docstring) with its stored configuration and the
+    ``--set`` overrides ``sets`` (a changed controller parameter then shows as a mismatch).
+    Returns (summary, k, outputs): the ticks
     replayed and the replayed signals (ticks, ``COMMANDED``), and the JSON summary: ``ticks``,
     ``bit_exact`` (None without recorded controller outputs), ``max_abs_diff``,
     ``signals_compared``, and ``file``, ``law``, ``estimator``, ``paced``, ``missing_ticks``
@@ -145,7 +148,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None) -> tuple[dic
     except OSError as exc:
         raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
     meta = rec.metadata
-    cfg = _config_of(path, meta, fallback_cfg if fallback_cfg is not None else load())
+    cfg = _config_of(path, meta, fallback_cfg if fallback_cfg is not None else load(), sets)
     names = [n for n, _, _ in rec.signals]
     if "/sensors" not in rec.topics or any(n not in names for n in SENSORS):
         raise ValueError(f"{path}: no /sensors topic with {', '.join(SENSORS)}: nothing to replay")
