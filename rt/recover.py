@@ -173,7 +173,7 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
                          "complete run logs (frictionrt simulate --out) only")
     chunk_ticks = [_tick(b, rec.rate_hz) - _tick(a, rec.rate_hz) + 1 for a, b in s.chunk_times_ns]
     report = {
-        "input": str(src), "output": str(dst), "ticks": int(len(rec.k)),
+        "input": str(src), "output": str(dst), "ticks": len(rec.k),
         "first_tick": int(rec.k[0]), "last_tick": int(rec.k[-1]),
         "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - len(rec.k)), "chunks": s.chunks,
         "chunk_ticks": max(chunk_ticks), "finished": s.finished, "lost_bytes": s.lost_bytes,

@@ -166,6 +166,8 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
         raise ValueError(f"{dst}: the output exists; give another name with -o or pass --force to replace it")
     if not dst.parent.is_dir():
         raise ValueError(f"{dst}: folder {dst.parent} does not exist")
+    if not src.is_file():
+        raise ValueError(f"{src}: no such file")
     rec = read_mcap(src)
     cols = [c for c, (_, _, o) in enumerate(rec.signals) if f"/{o}" in rec.topics]
     signals = [rec.signals[c] for c in cols]
@@ -175,6 +177,6 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
         os.replace(tmp, dst)
     finally:
         tmp.unlink(missing_ok=True)
-    return {"input": str(src), "output": str(dst), "ticks": int(len(rec.k)),
+    return {"input": str(src), "output": str(dst), "ticks": len(rec.k),
             "first_tick": int(rec.k[0]) if len(rec.k) else None, "last_tick": int(rec.k[-1]) if len(rec.k) else None,
             "topics": list(rec.topics), "entities": [entity_path(n, o) for n, _, o in signals]}

@@ -1,0 +1,280 @@
+"""Crash safety with real runs: `simulate --out` killed with SIGKILL and then `frictionrt recover`
+(every complete chunk back, bit for bit, replayable), SIGINT (finalised MCAP and .rrd, prompt
+exit), and `frictionrt inspect` (a log or a measurement to .rrd with the default blueprint)."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap.records import Chunk
+from mcap.stream_reader import StreamReader
+
+from rt.cli import main
+from rt.config import load
+from rt.loop import build_loop, run
+from rt.mcap_log import CHUNK_BYTES, read_mcap, topics_of
+from rt.recover import scan
+from rt.writer import INTERRUPT_DRAIN_S
+from tests.test_logfiles import rrd_column
+from tests.test_logging_loop import clock_columns
+from tests.test_replay import _sensors_only_file
+
+RATE, FREQ, AMP, SEED = 21000, 200.0, 5.0, 7
+FULL_VIEWS = {"F_N1 setpoint vs measured", "friction hysteresis: F_t [N] up vs u_rel [um]", "damper",
+              "rt", "sensors", "observer", "tracking", "actuator", "plant"}
+
+
+def chunk_ticks(signals):
+    """Ticks per chunk of McapBlockWriter: whole ticks in CHUNK_BYTES (1 MiB) of message records,
+    each 31 B of record header (MCAP spec: opcode, length, channel, sequence, two times) + 4 B CDR
+    header + 8 B per field (1210 for simulate's 82 signals)."""
+    return CHUNK_BYTES // sum(31 + 4 + 8 * len(tp.fields) for tp in topics_of(signals))
+
+
+def start_simulate(base):
+    """simulate --duration 20 (420000 ticks: 10-20 s of wall time with both files) as a process."""
+    return subprocess.Popen([sys.executable, "-m", "rt.cli", "simulate", "--freq", str(FREQ), "--amp", str(AMP),
+                             "--duration", "20", "--seed", str(SEED), "--out", str(base), "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_chunks(proc, part, chunks):
+    """Until the .part file holds more than `chunks` chunks (~0.6 MB compressed + 0.12 MB of
+    message indexes each)."""
+    t_end = time.monotonic() + 120  # start-up includes a kernel compile if the cache is cold
+    while not (part.exists() and part.stat().st_size > chunks * 750_000):
+        assert proc.poll() is None, proc.communicate()[1]
+        assert time.monotonic() < t_end, "the run never wrote its first chunks"
+        time.sleep(0.02)
+
+
+def cli(capsys, *args):
+    code = main([*map(str, args)])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def chunk_records(path, n=None):
+    """The first n chunk records of an MCAP file (whole, not decompressed)."""
+    out = []
+    with open(path, "rb") as f:
+        try:
+            for rec in StreamReader(f, emit_chunks=True).records:
+                if isinstance(rec, Chunk):
+                    out.append(rec)
+                    if len(out) == n:
+                        break
+        except McapError:  # the cut end of a .part file (EndOfFile)
+            pass
+    return out
+
+
+def view_names(rrd):
+    """Display names of the views and containers in an .rrd file's blueprint."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(rrd)
+    (bp,) = reader.blueprints()
+    names = set()
+    for c in reader.stream(store=bp).to_chunks():
+        rb = c.to_record_batch()
+        for col in rb.schema.names:
+            if col.endswith(":display_name"):
+                names.update(v for row in rb.column(col).to_pylist() if row for v in row)
+    return names
+
+
+@pytest.fixture(scope="module")
+def killed(tmp_path_factory):
+    """A run killed with SIGKILL once its MCAP .part holds a few chunks."""
+    d = tmp_path_factory.mktemp("killed")
+    proc = start_simulate(d / "run")
+    wait_for_chunks(proc, d / "run.mcap.part", 3)
+    proc.kill()   # SIGKILL: no handler, no finally, no flush
+    proc.wait(timeout=30)
+    assert proc.returncode == -signal.SIGKILL
+    assert not (d / "run.mcap").exists() and (d / "run.mcap.part").exists()
+    return d / "run.mcap.part"
+
+
+@pytest.fixture(scope="module")
+def recovered(killed):
+    fixed = killed.with_name("fixed.mcap")
+    assert main(["recover", str(killed), "-o", str(fixed), "--json"]) == 0
+    return fixed
+
+
+def test_kill_9_then_recover_gives_every_complete_chunk_bit_exact(killed, tmp_path, capsys):
+    fixed = tmp_path / "fixed.mcap"
+    code, out, err = cli(capsys, "recover", killed, "-o", fixed, "--json")
+    assert code == 0, err
+    r = json.loads(out)
+    n = r["ticks"]
+    rec = read_mcap(fixed)
+    # whole chunks of whole ticks, contiguous from 0
+    assert r["chunks"] >= 3 and r["chunk_ticks"] == chunk_ticks(rec.signals) and n == r["chunks"] * r["chunk_ticks"]
+    assert (r["first_tick"], r["last_tick"], r["missing_ticks"], r["finished"]) == (0, n - 1, 0, False)
+    np.testing.assert_array_equal(rec.k, np.arange(n))
+    # the configuration survived the kill: it is written at open, before any data
+    meta = rec.metadata
+    assert meta["seed"] == str(SEED) and float(meta["freq_hz"]) == FREQ and load_cfg(meta, tmp_path) == load()
+    # same seed -> bit-identical: an in-process run of the recovered length
+    ref = run(build_loop(load(), meta["law"]), FREQ, AMP, n / RATE, seed=SEED).log
+    assert ref.shape == rec.log.shape
+    keep = np.setdiff1d(np.arange(len(rec.signals)), clock_columns(rec.signals))
+    np.testing.assert_array_equal(rec.log[:, keep].view(np.uint64), ref[:, keep].view(np.uint64))
+    # finalised and indexed, with the source's metadata records and a recover record
+    with open(fixed, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        names = [m.name for m in reader.iter_metadata()]
+    assert summary.statistics.message_count == 6 * n and len(summary.chunk_indexes) == r["chunks"]
+    src_names = [m.name for m in scan(killed).metadata]   # all written at open, before the data
+    assert src_names[:2] == ["frictionrt", "signals"] and names == [*src_names, "frictionrt.recover"]
+    # the chunks are those of the killed file, byte for byte
+    got, src = chunk_records(fixed), chunk_records(killed, r["chunks"])
+    assert [c.data for c in got] == [c.data for c in src]
+
+
+def load_cfg(meta, tmp_path):
+    f = tmp_path / "cfg.toml"
+    f.write_text(meta["config"])
+    return load(f)
+
+
+def test_the_recovered_log_replays_bit_exact(recovered, capsys):
+    code, out, err = cli(capsys, "replay", recovered, "--json")
+    r = json.loads(out)
+    assert code == 0, err
+    assert r["bit_exact"] is True and r["max_abs_diff"] == 0.0 and r["ticks"] == len(read_mcap(recovered).k)
+
+
+def test_a_chunk_cut_short_is_reported_and_the_chunks_before_it_recovered(killed, recovered, tmp_path, capsys):
+    c = chunk_records(killed, 3)
+    data = killed.read_bytes()
+    third = data.index(c[2].data)   # the third chunk's compressed bytes; cut in their middle
+    cut = tmp_path / "cut.mcap.part"
+    cut.write_bytes(data[:third + len(c[2].data) // 2])
+    code, out, _ = cli(capsys, "recover", cut, "-o", tmp_path / "cut.mcap", "--json")
+    r = json.loads(out)
+    m = chunk_ticks(read_mcap(tmp_path / "cut.mcap").signals)
+    assert code == 0 and r["ticks"] == 2 * m and r["last_tick"] == 2 * m - 1
+    assert r["lost_record"] == "chunk" and r["lost_chunk_ticks"] == [2 * m, 3 * m - 1]
+    assert r["lost_bytes"] > len(c[2].data) // 2
+    np.testing.assert_array_equal(read_mcap(tmp_path / "cut.mcap").log.view(np.uint64),
+                                  read_mcap(recovered).log[:2 * m].view(np.uint64))
+
+
+def test_recover_refuses_bad_input_with_one_line(killed, recovered, tmp_path, capsys):
+    head = killed.read_bytes()[:killed.read_bytes().index(chunk_records(killed, 1)[0].data)]
+    (tmp_path / "text.mcap").write_text("time,F_N1\n0,100\n")
+    (tmp_path / "empty.mcap").write_bytes(b"")
+    (tmp_path / "head.mcap.part").write_bytes(head)   # header, schemas, channels, metadata: no chunk yet
+    cases = [(killed, recovered, str(recovered), "output exists"),
+             (tmp_path / "text.mcap", tmp_path / "a.mcap", "text.mcap", "not an MCAP file"),
+             (tmp_path / "empty.mcap", tmp_path / "b.mcap", "empty.mcap", "not an MCAP file"),
+             (tmp_path / "head.mcap.part", tmp_path / "c.mcap", "head.mcap.part", "no complete chunk"),
+             (tmp_path / "missing.mcap", tmp_path / "d.mcap", "missing.mcap", "no such file")]
+    for src, dst, name, problem in cases:
+        before = sorted(os.listdir(tmp_path))
+        code, out, err = cli(capsys, "recover", src, "-o", dst)
+        assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, (src, err)
+        assert name in err and problem in err, err
+        assert sorted(os.listdir(tmp_path)) == before   # nothing written, nothing left behind
+
+
+def test_sigint_leaves_a_finalised_mcap_and_a_valid_rrd_and_exits_promptly(tmp_path):
+    from rerun.chunk import RrdReader
+
+    proc = start_simulate(tmp_path / "sig")
+    wait_for_chunks(proc, tmp_path / "sig.mcap.part", 3)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    t_exit = time.monotonic() - t0
+    assert proc.returncode == 130, stderr
+    # the writer stops INTERRUPT_DRAIN_S after the Ctrl-C; then the block in hand, closing both files
+    # and the summary: measured 0.7-2.4 s (load 1-6); before, it wrote its whole backlog (9 s)
+    assert t_exit < 8.0 + INTERRUPT_DRAIN_S
+    s = json.loads(stdout)
+    assert s["interrupted"] and 0 < s["ticks"] < 20 * RATE and s["dropped_blocks"] == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sig.mcap", "sig.rrd"]   # no .part left
+    n = s["ticks"] - s["unwritten_ticks"]
+    rec = read_mcap(tmp_path / "sig.mcap")
+    assert n >= 3 * chunk_ticks(rec.signals)
+    np.testing.assert_array_equal(rec.k, np.arange(n))
+    with open(tmp_path / "sig.mcap", "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        writer = {m.name: m.metadata for m in reader.iter_metadata()}["frictionrt.writer"]
+    assert summary.statistics.message_count == 6 * n
+    assert len(summary.chunk_indexes) == summary.statistics.chunk_count == -(-n // chunk_ticks(rec.signals))
+    assert writer["written_ticks"] == str(n) and writer["unwritten_ticks"] == str(s["unwritten_ticks"])
+    # the .rrd: readable, its blueprint, the same ticks and values as the MCAP file
+    assert len(RrdReader(tmp_path / "sig.rrd").blueprints()) == 1
+    k, t, v = rrd_column(tmp_path / "sig.rrd", "/tracking/F_set_filtered")
+    np.testing.assert_array_equal(k, np.arange(n))
+    np.testing.assert_array_equal(t, k * 10**9 // RATE)
+    np.testing.assert_array_equal(v, rec.log[:, rec.column("F_set_filtered")])
+
+
+def test_inspect_converts_a_run_log_with_the_default_blueprint(recovered, capsys):
+    from rerun.chunk import RrdReader
+
+    rrd = recovered.with_suffix(".rrd")
+    code, out, err = cli(capsys, "inspect", recovered, "--json")
+    assert code == 0, err
+    r = json.loads(out)
+    rec = read_mcap(recovered)
+    assert r["output"] == str(rrd) and r["ticks"] == len(rec.k) and len(r["topics"]) == 6
+    entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks() if not c.is_static}
+    assert entities == {f"/{o}/{n}" for n, _, o in rec.signals} | {"/hysteresis"}
+    assert view_names(rrd) == FULL_VIEWS
+    k, _, v = rrd_column(rrd, "/plant/v_rel")
+    np.testing.assert_array_equal(k, rec.k)
+    np.testing.assert_array_equal(v, rec.log[:, rec.column("v_rel")])
+    # an existing output is refused unless --force
+    mtime = rrd.stat().st_mtime_ns
+    code, out, err = cli(capsys, "inspect", recovered)
+    assert code == 2 and str(rrd) in err and "--force" in err and rrd.stat().st_mtime_ns == mtime
+    code, _, err = cli(capsys, "inspect", recovered, "--force")
+    assert code == 0 and rrd.stat().st_mtime_ns != mtime
+
+
+def test_inspect_converts_a_measurement_with_a_gap(recovered, tmp_path, capsys):
+    """Only /sensors, ticks 0..999 and 1500..2999 (a dropped stretch): the .rrd has the /sensors
+    entities at exactly those ticks, and only the setpoint and sensors views."""
+    from rerun.chunk import RrdReader
+
+    from rt.mcap_log import McapLog
+    rec = read_mcap(recovered)
+    rows = np.r_[0:1000, 1500:3000]
+    part = McapLog(rec.path, rec.signals, rec.log[rows], rec.k[rows], rec.rate_hz, rec.metadata, rec.topics)
+    meas = _sensors_only_file(tmp_path / "meas.mcap", part)
+    code, out, err = cli(capsys, "inspect", meas, "-o", tmp_path / "view.rrd", "--json")
+    assert code == 0, err
+    assert json.loads(out)["topics"] == ["/sensors"]
+    entities = {c.entity_path for c in RrdReader(tmp_path / "view.rrd").stream().to_chunks() if not c.is_static}
+    assert entities == {f"/sensors/{n}" for n, _, o in rec.signals if o == "sensors"}
+    assert view_names(tmp_path / "view.rrd") == {"F_N1 setpoint vs measured", "damper", "sensors"}
+    k, _, v = rrd_column(tmp_path / "view.rrd", "/sensors/F_cell")
+    np.testing.assert_array_equal(k, rows)
+    np.testing.assert_array_equal(v, rec.log[rows, rec.column("F_cell")])
+
+
+def test_inspect_refuses_bad_files_with_one_line(killed, tmp_path, capsys):
+    (tmp_path / "text.mcap").write_text("time,F_N1\n0,100\n")
+    for src, problem in [(tmp_path / "text.mcap", "not an MCAP file"), (killed, "frictionrt recover"),
+                         (tmp_path / "missing.mcap", "no such file")]:
+        code, out, err = cli(capsys, "inspect", src, "-o", tmp_path / "x.rrd")
+        assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, err
+        assert str(src) in err and problem in err, err
+    code, _, err = cli(capsys, "inspect", tmp_path / "text.mcap", "-o", tmp_path / "x.png")
+    assert code == 2 and ".rrd" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["text.mcap"]
