@@ -33,8 +33,8 @@ record and ``read_mcap`` returns it.
 Nothing is half-written: the writer writes ``NAME.mcap.part`` and renames it onto ``NAME.mcap``
 on close. An exception inside ``with McapLogWriter(...)`` (a crash of the run, Ctrl-C) still
 closes the file, so everything written up to then is a valid, readable MCAP file, and then
-propagates. Only a killed process leaves a ``.part`` file behind (``mcap recover`` salvages
-its complete chunks).
+propagates. Only a killed process leaves a ``.part`` file behind (``frictionrt recover``,
+rt/recover.py, salvages its complete chunks).
 
 ``read_mcap`` decodes each topic with one ``np.frombuffer`` over its concatenated payloads.
 """

@@ -183,16 +183,19 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
         "metadata": [m.name for m in s.metadata if m.name != "signals"],
     }
     out = dst.with_name(dst.name + ".recover.tmp")  # its .part is never src (NAME.mcap.part -> NAME.mcap)
-    with McapBlockWriter(out, rec.signals, rec.rate_hz, rec.metadata) as w:
-        for m in s.metadata:
-            if m.name not in ("frictionrt", "signals"):
-                w.add_metadata(m.name, m.metadata)
-        w.add_metadata("frictionrt.recover", {
-            "source": str(src), "ticks": str(report["ticks"]), "last_tick": str(report["last_tick"]),
-            "lost_bytes": str(report["lost_bytes"]), "report": json.dumps(report)})
-        for a, b in tick_runs(rec.k):
-            w.write_block(int(rec.k[a]), rec.log[a:b])
-    os.replace(out, dst)
+    try:
+        with McapBlockWriter(out, rec.signals, rec.rate_hz, rec.metadata) as w:
+            for m in s.metadata:
+                if m.name not in ("frictionrt", "signals"):
+                    w.add_metadata(m.name, m.metadata)
+            w.add_metadata("frictionrt.recover", {
+                "source": str(src), "ticks": str(report["ticks"]), "last_tick": str(report["last_tick"]),
+                "lost_bytes": str(report["lost_bytes"]), "report": json.dumps(report)})
+            for a, b in tick_runs(rec.k):
+                w.write_block(int(rec.k[a]), rec.log[a:b])
+        os.replace(out, dst)
+    finally:
+        out.unlink(missing_ok=True)   # only left if writing failed
     report["seconds"] = time.perf_counter() - t0
     return report
 
