@@ -36,7 +36,9 @@ closes the file, so everything written up to then is a valid, readable MCAP file
 propagates. Only a killed process leaves a ``.part`` file behind (``frictionrt recover``,
 rt/recover.py, salvages its complete chunks).
 
-``read_mcap`` decodes each topic with one ``np.frombuffer`` over its concatenated payloads.
+``read_mcap`` walks each chunk's records by their length prefixes and gathers the message
+headers and payloads with numpy (``_chunk_messages``; files without chunk indexes go through the
+mcap library's reader), then decodes each topic with one view over its payload rows.
 """
 from __future__ import annotations
 
@@ -283,25 +285,37 @@ def _check_framing(path: Path) -> None:
             raise ValueError(f"{path}: truncated MCAP file (no closing magic: the writer did not finish)")
 
 
-def _decode_topic(path: Path, tp: Topic, payloads: list[bytes]) -> np.ndarray:
-    """(n, m) float64 values of one topic's CDR payloads."""
-    size, n = tp.message_size, len(payloads)
-    buf = b"".join(payloads)
-    if len(buf) != n * size:
+def _decode_topic(path: Path, tp: Topic, payloads: list[list[bytes] | np.ndarray]) -> np.ndarray:
+    """(n, m) float64 values of one topic's CDR payloads, given in parts: each a list of
+    payloads (bytes) or a (messages, bytes) uint8 array of equally long ones."""
+    size = tp.message_size
+    rows = []
+    for part in payloads:
+        if isinstance(part, np.ndarray):
+            if part.shape[1] != size:
+                part = np.zeros((len(part), 0), np.uint8)  # the length check below names it
+            rows.append(part)
+            continue
+        buf = b"".join(part)
+        if len(buf) != len(part) * size:
+            rows.append(np.zeros((len(part), 0), np.uint8))
+            continue
+        rows.append(np.frombuffer(buf, dtype=np.uint8).reshape(len(part), size))
+    if any(r.shape[1] != size for r in rows):
         raise ValueError(f"{path}: {tp.name} messages are not all {size} bytes (schema has {len(tp.fields)} fields)")
-    rows = np.frombuffer(buf, dtype=np.uint8).reshape(n, size)
+    rows = np.concatenate(rows) if rows else np.zeros((0, size), np.uint8)
     if np.any(rows[:, :4] != np.frombuffer(CDR_LE, dtype=np.uint8)):
         raise ValueError(f"{path}: {tp.name} has messages that are not little-endian CDR")
     return np.ascontiguousarray(rows[:, 4:]).view("<f8").astype(np.float64, copy=False)
 
 
-def _ticks(path: Path, tp: Topic, times: list[int], seqs: list[int], rate_hz: int) -> np.ndarray:
-    """Ticks of one topic's messages from their log times, checked against the time rule."""
-    if max(times) > tick_time_ns(MAX_TICK, rate_hz):
+def _ticks(path: Path, tp: Topic, times: np.ndarray, seqs: np.ndarray, rate_hz: int) -> np.ndarray:
+    """Ticks of one topic's messages from their log times (uint64 [ns]), checked against the time rule."""
+    if times.max() > tick_time_ns(MAX_TICK, rate_hz):
         raise ValueError(f"{path}: {tp.name} has log times beyond the last representable tick")
-    t = np.array(times, dtype=np.int64)
+    t = times.astype(np.int64)
     k = -((-t * rate_hz) // 10**9)   # ceil(t rate / 1e9): t = floor(k 1e9 / rate)
-    if np.any(tick_time_ns(k, rate_hz) != t) or np.any((k & 0xFFFFFFFF) != np.array(seqs, dtype=np.int64)):
+    if np.any(tick_time_ns(k, rate_hz) != t) or np.any((k & 0xFFFFFFFF) != seqs.astype(np.int64)):
         raise ValueError(f"{path}: {tp.name} has log times or sequence numbers off the tick grid of {rate_hz} Hz")
     dk = np.diff(k)
     if np.any(dk == 0):
@@ -309,6 +323,80 @@ def _ticks(path: Path, tp: Topic, times: list[int], seqs: list[int], rate_hz: in
     if np.any(dk < 0):
         raise ValueError(f"{path}: {tp.name} ticks are not increasing (k = {int(k[1:][dk < 0][0])} after a later tick)")
     return k
+
+
+def _iter_messages(reader):
+    """The mcap library's message iteration (any valid MCAP), as ``_chunk_messages`` parts."""
+    for schema, channel, msg in reader.iter_messages(log_time_order=False):
+        yield (schema, channel), ([msg.data], np.array([msg.log_time], np.uint64),
+                                  np.array([msg.sequence], np.uint64))
+
+
+_RECORD = struct.Struct("<BQ")   # opcode, content length
+_CHUNK_HEAD = struct.Struct("<BQQQQI")  # opcode, length, start, end, uncompressed size, crc
+_MESSAGE = 0x05
+_MSG_HEAD = 22                    # channel u16, sequence u32, log_time u64, publish_time u64
+
+
+def _gather(buf: np.ndarray, offsets: np.ndarray, nbytes: int) -> np.ndarray:
+    """(len(offsets), nbytes) uint8 rows buf[o:o + nbytes]."""
+    return buf[offsets[:, None] + np.arange(nbytes)]
+
+
+def _chunk_messages(f, summary):
+    """Per chunk of a finished file (its summary's chunk indexes), per channel: ((schema,
+    channel), (payloads (n, size) uint8, log_times uint64, sequences uint64)).
+
+    The chunk's records are walked by their length prefixes only; the message headers and
+    payloads are then gathered with numpy, so a chunk of 7000 messages costs a few ms instead
+    of the mcap library's object per message (0.8 s per simulated second at 21 kHz, 6 topics).
+    The uncompressed CRC is checked as the library does (0 means none)."""
+    import zlib
+    for ci in summary.chunk_indexes:
+        f.seek(ci.chunk_start_offset)
+        head = f.read(_CHUNK_HEAD.size)
+        op, _, _, _, size, crc = _CHUNK_HEAD.unpack(head)
+        if op != 0x06:
+            raise McapError(f"no chunk record at offset {ci.chunk_start_offset}")
+        (n_comp,) = struct.unpack("<I", f.read(4))
+        compression = f.read(n_comp).decode()
+        (n_rec,) = struct.unpack("<Q", f.read(8))
+        raw = f.read(n_rec)
+        if len(raw) != n_rec:
+            raise EOFError(f"chunk at offset {ci.chunk_start_offset} is cut short")
+        records = zstandard.ZstdDecompressor().decompress(raw, max_output_size=size) if compression else raw
+        if len(records) != size or (crc != 0 and zlib.crc32(records) != crc):
+            raise McapError(f"chunk at offset {ci.chunk_start_offset}: uncompressed size or CRC mismatch")
+        offs, lens = [], []
+        pos, end, unpack = 0, len(records), _RECORD.unpack_from
+        while pos < end:
+            op, n = unpack(records, pos)
+            if op == _MESSAGE:
+                offs.append(pos + 9)
+                lens.append(n)
+            pos += 9 + n
+        if pos != end:
+            raise McapError(f"chunk at offset {ci.chunk_start_offset}: a record runs past the chunk's end")
+        if not offs:
+            continue
+        buf = np.frombuffer(records, np.uint8)
+        offs, lens = np.array(offs, np.int64), np.array(lens, np.int64)
+        if np.any(lens < _MSG_HEAD):
+            raise McapError(f"chunk at offset {ci.chunk_start_offset}: a message record shorter than its header")
+        head = _gather(buf, offs, _MSG_HEAD)
+        ch = head[:, 0:2].copy().view("<u2").ravel()
+        for cid in np.unique(ch):
+            sel = ch == cid
+            channel = summary.channels[int(cid)]
+            schema = summary.schemas.get(channel.schema_id)
+            h, o, n = head[sel], offs[sel], lens[sel] - _MSG_HEAD
+            seqs = h[:, 2:6].copy().view("<u4").ravel().astype(np.uint64)
+            times = h[:, 6:14].copy().view("<u8").ravel()
+            if np.all(n == n[0]):
+                payloads = _gather(buf, o + _MSG_HEAD, int(n[0]))
+            else:
+                payloads = [records[a:a + b] for a, b in zip(o + _MSG_HEAD, n)]
+            yield (schema, channel), (payloads, times, seqs)
 
 
 def read_mcap(path: str | os.PathLike) -> McapLog:
@@ -333,9 +421,13 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
             rate_hz = check_rate(path, float(rec["rate_hz"]))
             check_owners(path, signals)
             topics = {tp.name: tp for tp in topics_of(signals)}
+            summary = reader.get_summary()
+            fast = summary is not None and summary.chunk_indexes and \
+                all(ci.compression in ("zstd", "") for ci in summary.chunk_indexes)
+            parts = _chunk_messages(f, summary) if fast else _iter_messages(reader)
             data: dict[str, tuple[list, list, list]] = {}
             checked: set[int] = set()   # channel ids whose schema matched
-            for schema, channel, msg in reader.iter_messages(log_time_order=False):
+            for (schema, channel), (payloads, times, seqs) in parts:
                 tp = topics.get(channel.topic)
                 if tp is None:
                     continue
@@ -344,15 +436,15 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
                             or schema.name != tp.schema_name or schema.data != tp.schema_text:
                         raise ValueError(f"{path}: the schema of {tp.name} does not match the 'signals' record")
                     checked.add(channel.id)
-                payloads, times, seqs = data.setdefault(channel.topic, ([], [], []))
-                payloads.append(msg.data)
-                times.append(msg.log_time)
-                seqs.append(msg.sequence)
+                acc = data.setdefault(channel.topic, ([], [], []))
+                for lst, part in zip(acc, (payloads, times, seqs)):
+                    lst.append(part)
     except (McapError, zstandard.ZstdError, OSError, EOFError, KeyError, TypeError, struct.error,
             json.JSONDecodeError) as e:
         raise ValueError(f"{path}: unreadable MCAP log ({type(e).__name__}: {e})") from e
     present = [name for name in topics if name in data]
-    ks = {name: _ticks(path, topics[name], data[name][1], data[name][2], rate_hz) for name in present}
+    ks = {name: _ticks(path, topics[name], np.concatenate(data[name][1]), np.concatenate(data[name][2]), rate_hz)
+          for name in present}
     k = np.unique(np.concatenate(list(ks.values()))) if ks else np.zeros(0, dtype=np.int64)
     log = np.full((len(k), len(signals)), np.nan)
     for name in present:
