@@ -80,6 +80,18 @@ def _pair_positions(cfg: Config) -> np.ndarray:
     return i.x_start_m + i.pitch_m * np.arange(n + 1)
 
 
+def add_lumped(K: np.ndarray, M: np.ndarray, node_of, masses, rot_springs) -> None:
+    """Add lumped masses m [kg] at x (transverse and axial DOFs; rotary inertia neglected) and
+    rotational springs k = 1 / compliance [N m/rad] at x (compliance 0: none, the clamp fixes
+    the rotation instead) to a beam's assembled K, M in place."""
+    for x, m in masses:
+        for c in (U, W):
+            M[DOFS_PER_NODE * node_of(x) + c, DOFS_PER_NODE * node_of(x) + c] += m
+    for x, compliance in rot_springs:
+        if compliance > 0:
+            K[DOFS_PER_NODE * node_of(x) + THETA, DOFS_PER_NODE * node_of(x) + THETA] += 1.0 / compliance
+
+
 def build_structure(cfg: Config) -> Structure:
     """Mesh every beam, assemble its K and M, and build the interface kinematics."""
     p = cfg.plant
@@ -100,7 +112,11 @@ def build_structure(cfg: Config) -> Structure:
         def node_of(x):
             return int(np.argmin(np.abs(x_nodes - x)))
 
-        fixed = {DOFS_PER_NODE * node_of(x) + c for x in clamp_x for c in (U, W, THETA)}
+        add_lumped(K, M, node_of, [(pt.x_m, pt.mass_kg) for pt in p.points if pt.beam == b.name]
+                   + [(s.x_m, s.mass_kg) for s in screws if b.name == itf.upper],
+                   [(c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name])
+        fixed = {DOFS_PER_NODE * node_of(c.x_m) + d for c in p.clamps if c.beam == b.name
+                 for d in ((U, W) if c.rot_compliance_rad_per_Nm > 0 else (U, W, THETA))}
         free = np.array([d for d in range(K.shape[0]) if d not in fixed], dtype=np.int64)
         pos = {d: k for k, d in enumerate(free)}
         bset = {DOFS_PER_NODE * node_of(x) + c for x in full_nodes for c in (U, W, THETA)}

@@ -55,9 +55,12 @@ class Beam:
 
 @dataclass(frozen=True)
 class Clamp:
-    """All DOFs of `beam` fixed at x."""
+    """The displacements of `beam` fixed at x; its rotation fixed too, or held by a rotational
+    spring of compliance rot_compliance (1 / stiffness)."""
     beam: str
     x_m: float = param(0.0, "m")
+    rot_compliance_rad_per_Nm: float = param(0.0, "rad/(N m)", lo=0.0,
+                                             doc="rotational compliance of the fixture; 0: rigid (A)")
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,8 @@ class Screw:
     x_m: float = param(0.475, "m")
     F_N: float = param(6000.0, "N", lo=0.0, doc="clamping force (initial value if adaptive)")
     adaptive: bool = param(False, doc="true: F_N1, set by the piezo stack (a step input)")
+    mass_kg: float = param(0.0, "kg", lo=0.0, doc="lumped mass on the upper beam at x: screw head, "
+                           "washers, the stack's moving part (A: 0)")
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,8 @@ class Point:
     name: str
     beam: str = "main"
     x_m: float = param(0.45, "m")
+    mass_kg: float = param(0.0, "kg", lo=0.0, doc="lumped mass at the point: the accelerometer, "
+                           "the stinger's moving part (A: 0)")
 
 
 @dataclass(frozen=True)
