@@ -11,6 +11,7 @@ values outside it with a message that names the key, the value and the range.
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import tomllib
@@ -20,6 +21,7 @@ from typing import Any, get_args, get_origin, get_type_hints
 
 
 LAWS = ("passive", "hysteresis", "lyapunov")
+INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
 
 class ConfigError(ValueError):
@@ -262,23 +264,43 @@ def _field_types(cls) -> dict[str, Any]:
     return get_type_hints(cls)
 
 
+def _shown(text: str) -> str:
+    """A key or --set argument as a message shows it: as given, or quoted with escapes if it holds
+    characters that would break the one-line message (newlines, control characters)."""
+    return text if text.isprintable() else repr(text)
+
+
+def _shown_set(assignment: str) -> str:
+    """A --set KEY=VALUE as a message shows it (``_shown`` on key and value)."""
+    key, eq, value = assignment.partition("=")
+    value = _shown(value)
+    return f"{_shown(key)}{eq}{value if len(value) <= 60 else value[:50] + '...'}"
+
+
+def _short(value) -> str:
+    """repr of a user's value, cut to 60 characters (a message stays one short line)."""
+    r = repr(value)
+    return r if len(r) <= 60 else r[:50] + f"... ({len(r)} chars)"
+
+
 def _build(cls, data: dict, path: str):
     """Build dataclass `cls` from a plain dict, refusing unknown keys and wrong types."""
     if not isinstance(data, dict):
-        raise ConfigError(f"{path or 'configuration'}: expected a table, got {data!r}")
+        raise ConfigError(f"{path or 'configuration'}: expected a table, got {_short(data)}")
     types = _field_types(cls)
     unknown = set(data) - set(types)
     if unknown:
         key = sorted(unknown)[0]
-        raise ConfigError(f"{_join(path, key)}: unknown key; allowed keys here: {', '.join(types)}")
+        raise ConfigError(f"{_join(path, _shown(key))}: unknown key; allowed keys here: {', '.join(types)}")
     kwargs = {}
     for name, typ in types.items():
         if name in data:
             kwargs[name] = _convert(typ, data[name], _join(path, name))
-    try:
-        return cls(**kwargs)
-    except TypeError as exc:  # a required field (e.g. a beam's name) is missing
-        raise ConfigError(f"{path}: {exc}") from None
+    missing = [f.name for f in dataclasses.fields(cls)
+               if f.name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+    if missing:  # e.g. a beam without a name
+        raise ConfigError(f"{path}: missing key {missing[0]!r} (required)")
+    return cls(**kwargs)
 
 
 def _convert(typ, value, path: str):
@@ -288,29 +310,41 @@ def _convert(typ, value, path: str):
     if origin is tuple:
         (item,) = [a for a in get_args(typ) if a is not Ellipsis]
         if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{path}: expected an array of tables, got {value!r}")
-        return tuple(_convert(item, v, f"{path}[{i}]") for i, v in enumerate(value))
+            raise ConfigError(f"{path}: expected an array of tables, got {_short(value)}")
+        return tuple(_convert(item, v, f"{path}[{_element(v, i)}]") for i, v in enumerate(value))
     if typ is bool:
         if not isinstance(value, bool):
-            raise ConfigError(f"{path} = {value!r}: expected true or false")
+            raise ConfigError(f"{path} = {_short(value)}: expected true or false")
         return value
     if typ is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{path} = {value!r}: expected an integer")
+            raise ConfigError(f"{path} = {_short(value)}: expected an integer")
+        if not INT64[0] <= value <= INT64[1]:
+            raise ConfigError(f"{path} = {_short(value)}: outside the 64-bit integer range")
         return value
     if typ is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{path} = {value!r}: expected a number")
-        return float(value)
+            raise ConfigError(f"{path} = {_short(value)}: expected a number")
+        try:
+            return float(value)
+        except OverflowError:  # an integer beyond float64 (~1.8e308)
+            raise ConfigError(f"{path} = {_short(value)}: too large for a float64 number") from None
     if typ is str:
         if not isinstance(value, str):
-            raise ConfigError(f"{path} = {value!r}: expected a string")
+            raise ConfigError(f"{path} = {_short(value)}: expected a string")
         return value
     raise ConfigError(f"{path}: unsupported type {typ}")  # pragma: no cover - schema error
 
 
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
+
+
+def _element(v, i: int) -> str:
+    """How a message names list element i (a dict or a built item): by its name if it has a
+    printable one, else by its index."""
+    name = v.get("name") if isinstance(v, dict) else getattr(v, "name", None)
+    return name if isinstance(name, str) and name.isprintable() and name else str(i)
 
 
 def to_dict(obj) -> dict:
@@ -336,11 +370,13 @@ def _merge(base: dict, over: dict) -> dict:
 
 
 def _parse_value(text: str):
-    """A --set value: TOML literal if it parses (number, bool, quoted string), else a bare string."""
+    """A --set value: TOML literal if it parses as one value (number, bool, quoted string, array),
+    else a bare string."""
     try:
-        return tomllib.loads(f"v = {text}")["v"]
+        doc = tomllib.loads(f"v = {text}")
     except tomllib.TOMLDecodeError:
         return text
+    return doc["v"] if list(doc) == ["v"] else text
 
 
 def _apply_set(data: dict, assignment: str) -> None:
@@ -350,20 +386,24 @@ def _apply_set(data: dict, assignment: str) -> None:
     key, text = assignment.split("=", 1)
     parts = key.strip().split(".")
     node, path = data, ""
+    shown = _shown(key)
     for i, part in enumerate(parts):
         last = i == len(parts) - 1
-        path = _join(path, part)
         if isinstance(node, list):
             named = [x for x in node if isinstance(x, dict) and x.get("name") == part]
             if not named:
-                names = [x.get("name") for x in node]
-                raise ConfigError(f"--set {key}: no element named {part!r} in this list; names: {names}")
+                names = [x.get("name") for x in node if isinstance(x, dict)]
+                raise ConfigError(f"--set {shown}: no element named {part!r} in {path}; names: {names}")
             if last:
-                raise ConfigError(f"--set {key}: give a field of {part!r}, e.g. {key}.x_m=0.5")
+                raise ConfigError(f"--set {shown}: give a field of {part!r}, e.g. {shown}.x_m=0.5")
             node = named[0]
+            path = _join(path, part)
             continue
+        if not isinstance(node, dict):
+            raise ConfigError(f"--set {shown}: {path} is a single value ({_short(node)}), it has no field {part!r}")
+        path = _join(path, part)
         if part not in node:
-            raise ConfigError(f"--set {key}: unknown key {path!r}; allowed here: {', '.join(node)}")
+            raise ConfigError(f"--set {shown}: unknown key {path!r}; allowed here: {', '.join(node)}")
         if last:
             node[part] = _parse_value(text.strip())
         else:
@@ -375,17 +415,28 @@ def load(config_file: str | Path | None = None, sets: list[str] | tuple[str, ...
 
     Raises ConfigError with a message naming the file, key or value at fault.
     """
-    data = to_dict(Config())
-    if config_file is not None:
-        p = Path(config_file)
-        try:
-            over = tomllib.loads(p.read_text())
-        except FileNotFoundError:
-            raise ConfigError(f"{p}: configuration file not found") from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise ConfigError(f"{p}: not valid TOML ({exc})") from None
-        data = _merge(data, over)
-    return _resolve(data, sets)
+    if config_file is None:
+        return _resolve(to_dict(Config()), sets)
+    p = Path(config_file)
+    try:
+        text = p.read_bytes().decode()
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: configuration file not found") from None
+    except OSError as exc:  # a folder, no permission, ...
+        raise ConfigError(f"{p}: cannot read the configuration file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML (not UTF-8 text: {exc.reason} at byte {exc.start})") from None
+    return loads(text, sets, source=str(p))
+
+
+def loads(text: str, sets: list[str] | tuple[str, ...] = (), source: str = "configuration") -> Config:
+    """``load`` of TOML ``text`` (e.g. the configuration stored in a log); ``source`` names the
+    text in messages."""
+    try:
+        over = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML ({exc})") from None
+    return _resolve(_merge(to_dict(Config()), over), sets, source)
 
 
 def with_sets(cfg: Config, sets: list[str] | tuple[str, ...]) -> Config:
@@ -399,12 +450,39 @@ def check_key(cfg: Config, key: str) -> None:
     _apply_set(to_dict(cfg), f"{key}=0")
 
 
-def _resolve(data: dict, sets) -> Config:
+def _resolve(data: dict, sets, source: str | None = None) -> Config:
+    """``data`` with the ``sets`` applied, built and validated; a refusal names the input it is
+    due to (``_blame``)."""
+    base = copy.deepcopy(data)
     for s in sets:
         _apply_set(data, s)
+    try:
+        return _checked(data)
+    except ConfigError as exc:
+        raise ConfigError(f"{_blame(base, sets, source)}: {exc}") from None
+
+
+def _checked(data: dict) -> Config:
     cfg = _build(Config, data, "")
     validate(cfg)
     return cfg
+
+
+def _blame(base: dict, sets, source: str | None) -> str:
+    """The input a refused configuration is due to: ``source`` (the file) if ``base`` is refused
+    without the --set overrides, else the first --set refused on its own, else all of them."""
+    try:
+        _checked(copy.deepcopy(base))
+    except ConfigError:
+        return source or "configuration"
+    for s in sets:
+        data = copy.deepcopy(base)
+        try:
+            _apply_set(data, s)   # may address what an earlier --set made: skip it then
+            _checked(data)
+        except ConfigError:
+            return f"--set {_shown_set(s)}"
+    return "--set " + " --set ".join(_shown_set(s) for s in sets) + " together"
 
 
 # --- validation -----------------------------------------------------------------------------
@@ -425,7 +503,7 @@ def _check_fields(obj, path: str) -> None:
             _check_fields(v, key)
         elif isinstance(v, tuple):
             for i, item in enumerate(v):
-                _check_fields(item, f"{key}[{getattr(item, 'name', i)}]")
+                _check_fields(item, f"{key}[{_element(item, i)}]")
         elif isinstance(v, (int, float)) and not isinstance(v, bool):
             meta = f.metadata
             lo, hi = meta.get("lo"), meta.get("hi")
@@ -464,18 +542,19 @@ def validate(cfg: Config) -> None:
     points = _names(p.points, "points", "plant.points")
     screws = _names(p.screws, "screws", "plant.screws")
 
-    def on_beam(key, beam_name, x):
+    def on_beam(where, beam_name, x):
         if beam_name not in beams:
-            raise ConfigError(f"{key}: unknown beam {beam_name!r}; beams: {', '.join(beams)}")
+            raise ConfigError(f"{where}.beam = {beam_name!r}: unknown beam; beams: {', '.join(beams)}")
+        key = f"{where}.x_m"
         b = beams[beam_name]
         if not (b.x0_m - 1e-12 <= x <= b.x0_m + b.length_m + 1e-12):
             raise ConfigError(f"{key} = {x:g} m lies outside beam {beam_name!r} "
                               f"[{b.x0_m:g}, {b.x0_m + b.length_m:g}] m")
 
-    for c in p.clamps:
-        on_beam(f"plant.clamps[{c.beam}].x_m", c.beam, c.x_m)
-    for pt in p.points:
-        on_beam(f"plant.points[{pt.name}].x_m", pt.beam, pt.x_m)
+    for j, c in enumerate(p.clamps):
+        on_beam(f"plant.clamps[{j}]", c.beam, c.x_m)
+    for j, pt in enumerate(p.points):
+        on_beam(f"plant.points[{_element(pt, j)}]", pt.beam, pt.x_m)
     for key in ("excitation_point", "frf_point"):
         if getattr(p, key) not in points:
             raise ConfigError(f"plant.{key} = {getattr(p, key)!r}: no such point; points: {', '.join(points)}")
@@ -486,20 +565,23 @@ def validate(cfg: Config) -> None:
             raise ConfigError(f"plant.interface.{role} = {getattr(i, role)!r}: no such beam; "
                               f"beams: {', '.join(beams)}")
     if i.lower == i.upper:
-        raise ConfigError("plant.interface: lower and upper must be different beams")
+        raise ConfigError(f"plant.interface.upper = {i.upper!r}: lower and upper must be different beams")
     lo_b, up_b = beams[i.lower], beams[i.upper]
     if i.x_end_m < i.x_start_m:
         raise ConfigError(f"plant.interface.x_end_m = {i.x_end_m:g} m < x_start_m = {i.x_start_m:g} m")
     for key in ("x_start_m", "x_end_m"):
         for b in (lo_b, up_b):
-            on_beam(f"plant.interface.{key}", b.name, getattr(i, key))
+            x = getattr(i, key)
+            if not (b.x0_m - 1e-12 <= x <= b.x0_m + b.length_m + 1e-12):
+                raise ConfigError(f"plant.interface.{key} = {x:g} m lies outside beam {b.name!r} "
+                                  f"[{b.x0_m:g}, {b.x0_m + b.length_m:g}] m")
     n = (i.x_end_m - i.x_start_m) / i.pitch_m
-    if abs(n - round(n)) > 1e-6:
+    if not math.isfinite(n) or abs(n - round(n)) > 1e-6:
         raise ConfigError(f"plant.interface.pitch_m = {i.pitch_m:g} m does not divide the interface "
                           f"length {i.x_end_m - i.x_start_m:g} m into whole pitches")
     gap = (up_b.z0_m - up_b.height_m / 2) - (lo_b.z0_m + lo_b.height_m / 2)
     if abs(gap) > 1e-9:
-        raise ConfigError(f"plant.beams[{up_b.name}].z0_m = {up_b.z0_m:g} m: the bottom of {up_b.name!r} "
+        raise ConfigError(f"plant.beams[{_shown(up_b.name)}].z0_m = {up_b.z0_m:g} m: the bottom of {up_b.name!r} "
                           f"must touch the top of {lo_b.name!r} (set z0_m = "
                           f"{lo_b.z0_m + (lo_b.height_m + up_b.height_m) / 2:g} m)")
     adaptive = [s for s in p.screws if s.adaptive]
@@ -507,11 +589,11 @@ def validate(cfg: Config) -> None:
         raise ConfigError(f"plant.screws: exactly one screw must be adaptive (F_N1), found {len(adaptive)}")
     for s in screws.values():
         if not (i.x_start_m - 1e-12 <= s.x_m <= i.x_end_m + 1e-12):
-            raise ConfigError(f"plant.screws[{s.name}].x_m = {s.x_m:g} m lies outside the damper interface "
+            raise ConfigError(f"plant.screws[{_shown(s.name)}].x_m = {s.x_m:g} m lies outside the damper interface "
                               f"[{i.x_start_m:g}, {i.x_end_m:g}] m")
     fn1 = adaptive[0].F_N
     if not (t.F_min_N <= fn1 <= t.F_max_N):
-        raise ConfigError(f"plant.screws[{adaptive[0].name}].F_N = {fn1:g} N lies outside "
+        raise ConfigError(f"plant.screws[{_shown(adaptive[0].name)}].F_N = {fn1:g} N lies outside "
                           f"[tracking.F_min_N, tracking.F_max_N] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
     if cfg.plant.element_length_m > i.pitch_m + 1e-12:
         raise ConfigError(f"plant.element_length_m = {p.element_length_m:g} m must not exceed "

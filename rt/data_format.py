@@ -32,7 +32,7 @@ import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from rt.mcap_log import CDR_LE, OWNERS, _check_framing, field_names, tick_time_ns
+from rt.mcap_log import CDR_LE, MAX_TICK, OWNERS, _check_framing, field_names, tick_time_ns
 
 
 class Entry(NamedTuple):
@@ -439,6 +439,10 @@ def _check_topic(name: str, tp: _Topic, fields: list[tuple[str, str]], rate: int
     rows = np.frombuffer(buf, np.uint8).reshape(n, size)
     if np.any(rows[:, :4] != np.frombuffer(CDR_LE, np.uint8)):
         problems.append(Problem(name, "wrong type", "messages are not little-endian CDR (header 00 01 00 00)"))
+        return None
+    if max(tp.times) > tick_time_ns(MAX_TICK, rate):   # t rate would overflow int64
+        problems.append(Problem(name, "invalid", f"log times beyond the last representable tick (k = {MAX_TICK} at "
+                                f"{rate} Hz, {int(tick_time_ns(MAX_TICK, rate))} ns)"))
         return None
     t = np.array(tp.times, dtype=np.int64)
     k = -((-t * rate) // 10**9)

@@ -440,7 +440,7 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
                 for lst, part in zip(acc, (payloads, times, seqs)):
                     lst.append(part)
     except (McapError, zstandard.ZstdError, OSError, EOFError, KeyError, TypeError, struct.error,
-            json.JSONDecodeError) as e:
+            json.JSONDecodeError, UnicodeDecodeError) as e:   # the last: a name or string field not UTF-8
         raise ValueError(f"{path}: unreadable MCAP log ({type(e).__name__}: {e})") from e
     present = [name for name in topics if name in data]
     ks = {name: _ticks(path, topics[name], np.concatenate(data[name][1]), np.concatenate(data[name][2]), rate_hz)

@@ -22,7 +22,6 @@ without comparison: the controller's outputs are reported (``bit_exact`` None).
 """
 from __future__ import annotations
 
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -33,7 +32,7 @@ import numpy as np
 from observer.step import OBSERVER_OUTPUTS, _observer_step
 from rt.biquad import _biquad_step
 from rt.clock import _now_ns
-from rt.config import ConfigError, load
+from rt.config import ConfigError, load, loads
 from rt.loop import (CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, ESTIMATORS, _copy, _put, build_loop,
                      initial_loop_state)
 from rt.mcap_log import read_mcap
@@ -113,13 +112,10 @@ def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
     text = meta.get("config")
     if text is None:
         return fallback
-    with tempfile.TemporaryDirectory() as d:
-        f = Path(d) / "config.toml"
-        f.write_text(text)
-        try:
-            return load(f, sets)
-        except ConfigError as exc:
-            raise ValueError(f"{path}: the stored configuration is invalid ({exc})") from None
+    try:
+        return loads(text, sets, source="the stored configuration")
+    except ConfigError as exc:  # names the stored configuration or the --set at fault
+        raise ValueError(f"{path}: {exc}") from None
 
 
 def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:

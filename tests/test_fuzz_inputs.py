@@ -1,0 +1,591 @@
+"""Bad input, fuzzed (issue 8): property-based tests (hypothesis) feed generated bad inputs
+through every entry point that reads user data and require a clean end.
+
+Entry points and what is generated (docs/reliability.md, "Bad input, fuzzed"):
+
+    --config FILE   random bytes, truncated valid TOML, every scalar field with a wrong type,
+                    NaN/inf, a value below/above its range, a huge number; unknown keys; list
+                    elements missing, nameless or duplicated
+    --set KEY=VALUE random keys and values, every scalar field with a bad value, list elements
+                    addressed wrongly
+    log files       the MCAP log of a real 0.05 s run truncated, bit-flipped, overwritten in
+                    part, empty; crafted MCAP files (mcap's Writer): a foreign schema, missing
+                    topics, NaN samples, non-monotonic, duplicated and off-grid times, a bad
+                    "signals" record, ...; each fed to replay, inspect, recover and validate
+
+A clean end is exit code 2 with exactly one stderr line "frictionrt: error: ..." naming the input
+(the file, or the --set key) and the problem; or, where the input may be valid by chance (random
+bytes that are valid TOML, a bit flip in an unchecked byte), a normal run (exit 0 or 1, one JSON
+object on stdout, nothing on stderr). Never a traceback, never a hang (hypothesis deadline plus a
+SIGALRM watchdog), never a partly written output (the output folder is checked after each run).
+UFF/CSV FRF files are not read by frictionrt yet (issue 7): not fuzzed here.
+
+The runs are deterministic (``derandomize=True``). HYPOTHESIS_PROFILE=long multiplies the example
+counts by FRICTIONRT_FUZZ_SCALE (default 20) and draws new random examples on every run.
+"""
+from __future__ import annotations
+
+import collections
+import dataclasses
+import datetime
+import json
+import math
+import os
+import shutil
+import signal
+import time
+import tomllib
+from contextlib import contextmanager
+from pathlib import Path
+from typing import get_type_hints
+
+import numpy as np
+import pytest
+import tomli_w
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from rt.cli import main
+from rt.config import LAWS, Config, dumps, load, to_dict
+from rt.mcap_log import CDR_LE, read_mcap, signals_record, topics_of
+
+# --- settings ---------------------------------------------------------------------------------
+
+LONG = os.environ.get("HYPOTHESIS_PROFILE") == "long"
+SCALE = int(os.environ.get("FRICTIONRT_FUZZ_SCALE", "20")) if LONG else 1
+EXAMPLES = {"config_bytes": 150, "config_truncated": 150, "config_field": 400, "config_structure": 36,
+            "set_random": 250, "set_field": 300, "set_list": 100,
+            "file_mutated": 200, "file_crafted": 120}
+FAST_S, SLOW_S = 10.0, 40.0   # per-example deadline [s]: config/--set, files (a readable log
+#                               rebuilds the controller for replay: 3-5 s on the shared 2 cores)
+COUNT: collections.Counter = collections.Counter()   # examples run per entry point
+SECONDS: dict[str, list[float]] = collections.defaultdict(list)   # run time per file command [s]
+OUTCOME: collections.Counter = collections.Counter()   # (file command, exit code)
+
+
+def fuzz(name: str, deadline_s: float):
+    """hypothesis settings of one fuzz test: EXAMPLES[name] * SCALE examples, fixed seed unless long."""
+    return settings(max_examples=EXAMPLES[name] * SCALE, deadline=datetime.timedelta(seconds=deadline_s),
+                    derandomize=not LONG, database=None, print_blob=True,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
+                                           HealthCheck.data_too_large])
+
+
+class Hang(BaseException):
+    """Raised by the watchdog in the main thread: the command did not return in time."""
+
+
+@contextmanager
+def watchdog(seconds: float):
+    def on_alarm(signum, frame):
+        raise Hang(f"no answer within {seconds:g} s")
+    old = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def run_cli(capfd, argv: list[str], seconds: float) -> tuple[int, str, str, bool]:
+    """frictionrt in-process: (exit code, stdout, stderr, exited through argparse)."""
+    capfd.readouterr()
+    with watchdog(2 * seconds):
+        try:
+            rc, by_argparse = main(argv), False
+        except SystemExit as exc:  # argparse: malformed options
+            rc, by_argparse = exc.code, True
+    out, err = capfd.readouterr()
+    return rc, out, err, by_argparse
+
+
+def check_end(res, allowed: tuple[int, ...], names: tuple[str, ...] = ()) -> str:
+    """A clean end: rc in ``allowed``; exit 2 with one stderr line naming every string of ``names``;
+    exit 0/1 with nothing on stderr. Returns the error line ('' for a normal run)."""
+    rc, out, err, by_argparse = res
+    assert "Traceback" not in err, err
+    assert rc in allowed, (rc, out[-500:], err)
+    if rc != 2:
+        assert err == "", err
+        return ""
+    lines = err.splitlines()
+    if by_argparse:   # usage lines, then "frictionrt COMMAND: error: ..."
+        assert lines and ": error: " in lines[-1], err
+        return lines[-1]
+    assert len(lines) == 1 and lines[0].startswith("frictionrt: error: "), err
+    for name in names:
+        assert name in lines[0], (name, lines[0])
+    return lines[0]
+
+
+def listing(folder: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_size for p in folder.iterdir()}
+
+
+# --- configuration schema ---------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Leaf:
+    """One scalar field of the configuration."""
+    where: tuple              # path in the TOML dict (list elements by index)
+    key: str | None           # --set key (list elements by name), None if not addressable
+    shown: str                # how error messages name it, e.g. plant.beams[main].E
+    typ: type
+    meta: dict
+
+
+def leaves() -> list[Leaf]:
+    out = []
+
+    def walk(obj, where, key, shown):
+        hints = get_type_hints(type(obj))
+        for f in dataclasses.fields(obj):
+            v = getattr(obj, f.name)
+            w, k, s = where + (f.name,), key + (f.name,), f"{shown}.{f.name}" if shown else f.name
+            if dataclasses.is_dataclass(v):
+                walk(v, w, k, s)
+            elif isinstance(v, tuple):
+                for i, item in enumerate(v):
+                    name = getattr(item, "name", None)
+                    walk(item, w + (i,), k + (name,), f"{s}[{i if name is None else name}]")
+            else:
+                out.append(Leaf(w, None if None in k else ".".join(k), s, hints[f.name], dict(f.metadata)))
+    walk(Config(), (), (), "")
+    return out
+
+
+LEAVES = leaves()
+DEFAULT = to_dict(Config())
+BEAMS = {b["name"] for b in DEFAULT["plant"]["beams"]}
+POINTS = {p["name"] for p in DEFAULT["plant"]["points"]}
+CHOICES = {"law": set(LAWS), "excitation_point": POINTS, "frf_point": POINTS, "lower": BEAMS, "upper": {"damper"},
+           "beam": BEAMS}   # str fields whose value must name something
+NAMED_LISTS = ("beams", "screws", "points")
+TEXT = st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00")
+
+
+def wrong_types(typ) -> list:
+    return {float: ["text", True, [1.0], {"a": 1.0}, datetime.date(2020, 1, 1)],
+            int: [1.5, "7", True, [1], float("nan")],
+            bool: [1, "true", 0.0, [True]],
+            str: [1, True, 2.5, ["main"], {"a": "b"}]}[typ]
+
+
+def bad_value(leaf: Leaf) -> st.SearchStrategy:
+    """Values that must be refused for ``leaf``: wrong type, non-finite, out of range, huge."""
+    opts = [st.sampled_from(wrong_types(leaf.typ))]
+    lo, hi = leaf.meta.get("lo"), leaf.meta.get("hi")
+    if leaf.typ is float:
+        opts.append(st.sampled_from([math.nan, math.inf, -math.inf, 10**400, -10**400, 1e400]))
+        if lo is not None:
+            opts.append(st.floats(max_value=lo, exclude_max=leaf.meta["lo_inclusive"], allow_nan=False,
+                                  allow_infinity=False))
+        if hi is not None:
+            opts.append(st.floats(min_value=hi, exclude_min=True, allow_nan=False, allow_infinity=False))
+    if leaf.typ is int:
+        opts.append(st.sampled_from([2**63, -2**63 - 1, 10**400]))
+        if lo is not None:
+            opts.append(st.integers(max_value=int(lo) - 1, min_value=-2**70))
+        if hi is not None:
+            opts.append(st.integers(min_value=int(hi) + 1, max_value=2**70))
+    field = leaf.where[-1]
+    if leaf.typ is str and field in CHOICES:
+        opts.append(st.text(TEXT, max_size=20).filter(lambda s: s not in CHOICES[field]))
+    return st.one_of(opts)
+
+
+def toml_literal(v) -> str:
+    """``v`` as the VALUE of --set KEY=VALUE (a TOML literal)."""
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {toml_literal(x)}" for k, x in v.items()) + "}"
+    return tomli_w.dumps({"v": v}).split("=", 1)[1].strip()
+
+
+def set_in(data: dict, where: tuple, value) -> dict:
+    data = json.loads(json.dumps(data))   # deep copy of the default dict (plain JSON types)
+    node = data
+    for part in where[:-1]:
+        node = node[part]
+    node[where[-1]] = value
+    return data
+
+
+# --- configuration files ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cfg_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("fuzz_cfg")
+
+
+@pytest.fixture(scope="module")
+def warm():
+    """Import what ``simulate`` imports once, outside the per-example deadline."""
+    import rt.loop  # noqa: F401
+    import rt.writer  # noqa: F401
+    import tqdm  # noqa: F401
+
+
+def config_run(capfd, path: Path, command: list[str]):
+    return run_cli(capfd, ["--config", str(path), *command], FAST_S)
+
+
+@fuzz("config_bytes", FAST_S)
+@given(raw=st.binary(max_size=300))
+def test_config_random_bytes(raw, cfg_dir, capfd):
+    COUNT["--config"] += 1
+    f = cfg_dir / "random.toml"
+    f.write_bytes(raw)
+    res = config_run(capfd, f, ["config", "--json"])
+    check_end(res, (0, 2), names=(str(f),))
+    if res[0] == 0:   # valid only if it is TOML that the configuration accepts
+        load(f)
+
+
+@fuzz("config_truncated", FAST_S)
+@given(cut=st.integers(0, len(dumps(Config())) - 1), tail=st.sampled_from(["", "=", "[", "[[", "\"", "x", "]\n"]))
+def test_config_truncated_toml(cut, tail, cfg_dir, capfd):
+    COUNT["--config"] += 1
+    f = cfg_dir / "truncated.toml"
+    f.write_text(dumps(Config())[:cut] + tail)
+    res = config_run(capfd, f, ["config", "--json"])
+    check_end(res, (0, 2), names=(str(f),))
+    if res[0] == 0:
+        load(f)
+
+
+@fuzz("config_field", FAST_S)
+@given(data=st.data())
+def test_config_bad_field_or_unknown_key(data, cfg_dir, capfd, warm):
+    """One scalar field set to a bad value, or an unknown key in some table: refused before the
+    run, nothing written to --out's folder."""
+    COUNT["--config"] += 1
+    out = cfg_dir / "out"
+    out.mkdir(exist_ok=True)
+    if data.draw(st.booleans(), label="unknown key"):
+        tables = {lf.where[:-1] for lf in LEAVES} | {()}
+        where = data.draw(st.sampled_from(sorted(tables, key=str)), label="table")
+        allowed = set(_node(where))
+        key = data.draw(st.text(TEXT, min_size=1, max_size=12).filter(lambda k: k not in allowed), label="key")
+        doc = set_in(DEFAULT, where + (key,), 1.0)
+        shown = key if key.isprintable() else repr(key)   # escaped: the message stays one line
+    else:
+        leaf = data.draw(st.sampled_from(LEAVES), label="field")
+        doc = set_in(DEFAULT, leaf.where, data.draw(bad_value(leaf), label="value"))
+        shown = shown_as(leaf)
+    f = cfg_dir / "field.toml"
+    f.write_text(tomli_w.dumps(doc))
+    res = config_run(capfd, f, ["simulate", "--freq", "200", "--amp", "1", "--duration", "0.001", "--no-rrd",
+                                "--json", "--out", str(out / "run")])
+    check_end(res, (2,), names=(str(f), shown))
+    assert listing(out) == {}
+
+
+def shown_as(leaf: Leaf) -> str:
+    """How a message names ``leaf`` when its value is bad: a list element whose name itself is
+    bad is named by its index."""
+    if leaf.where[-1] != "name":
+        return leaf.shown
+    return ".".join(map(str, leaf.where[:-2])) + f"[{leaf.where[-2]}].name"
+
+
+def _node(where: tuple):
+    node = DEFAULT
+    for part in where:
+        node = node[part]
+    return node
+
+
+@fuzz("config_structure", FAST_S)
+@given(lst=st.sampled_from(NAMED_LISTS), op=st.sampled_from(["drop", "nameless", "duplicate", "empty"]),
+       i=st.integers(0, 2))
+def test_config_list_elements(lst, op, i, cfg_dir, capfd):
+    """Named lists (beams, screws, points): an element dropped that others refer to, an element
+    without a name, a duplicated name, an empty list."""
+    COUNT["--config"] += 1
+    items = json.loads(json.dumps(DEFAULT["plant"][lst]))
+    i %= len(items)
+    needed = {"beams": BEAMS, "screws": {"adaptive"}, "points": {"exc", "frf"}}[lst]
+    if op == "drop":
+        items = [x for x in items if x["name"] != sorted(needed)[i % len(needed)]]
+    elif op == "nameless":
+        del items[i]["name"]
+    elif op == "duplicate":
+        items.append(dict(items[i], **({"adaptive": False} if lst == "screws" else {})))
+    else:
+        items = []
+    f = cfg_dir / "lists.toml"
+    f.write_text(tomli_w.dumps({"plant": {lst: items}}))
+    res = config_run(capfd, f, ["config", "--json"])
+    check_end(res, (2,), names=(str(f), f"plant.{lst}" if op in ("nameless", "duplicate") else "plant."))
+
+
+# --- --set ----------------------------------------------------------------------------------------
+
+SET_KEYS = [lf.key for lf in LEAVES if lf.key is not None]
+
+
+@fuzz("set_random", FAST_S)
+@given(key=st.one_of(st.text(TEXT, max_size=30),
+                     st.tuples(st.sampled_from(SET_KEYS), st.text(TEXT, max_size=8)).map(lambda t: t[0] + t[1]),
+                     st.tuples(st.sampled_from(SET_KEYS), st.integers(0, 40)).map(lambda t: t[0][:t[1]])),
+       value=st.text(TEXT, max_size=30), eq=st.booleans())
+def test_set_random(key, value, eq, capfd):
+    COUNT["--set"] += 1
+    res = run_cli(capfd, [f"--set={key}={value}" if eq else f"--set={key}{value}", "config", "--json"], FAST_S)
+    line = check_end(res, (0, 2))
+    if line and not res[3]:
+        assert "--set" in line, line
+
+
+@fuzz("set_field", FAST_S)
+@given(data=st.data())
+def test_set_bad_field(data, capfd):
+    COUNT["--set"] += 1
+    leaf = data.draw(st.sampled_from([lf for lf in LEAVES if lf.key is not None]), label="field")
+    text = toml_literal(data.draw(bad_value(leaf), label="value"))
+    res = run_cli(capfd, [f"--set={leaf.key}={text}", "config", "--json"], FAST_S)
+    check_end(res, (2,), names=(f"--set {leaf.key}=", shown_as(leaf)))
+
+
+@fuzz("set_list", FAST_S)
+@given(lst=st.sampled_from(NAMED_LISTS), name=st.one_of(st.sampled_from(["main", "adaptive", "exc", "0", "1"]),
+                                                         st.text(TEXT, max_size=8)),
+       rest=st.sampled_from(["", ".x_m", ".name", ".x_m.extra", ".F_N.0", ".nothing"]))
+def test_set_list_addressing(lst, name, rest, capfd):
+    """List elements are addressed by name: wrong names, a whole element, a field of a number."""
+    COUNT["--set"] += 1
+    key = f"plant.{lst}.{name}{rest}"
+    res = run_cli(capfd, [f"--set={key}=1", "config", "--json"], FAST_S)
+    line = check_end(res, (0, 2))
+    if res[0] == 0:   # the only valid form: an existing element's numeric field
+        element = next(x for x in DEFAULT["plant"][lst] if x["name"] == name)
+        assert rest[1:] in element and rest.count(".") == 1
+    else:
+        assert "--set" in line, line
+
+
+# --- log files ------------------------------------------------------------------------------------
+
+COMMANDS = ("replay", "inspect", "recover", "validate")
+
+
+class RealLog:
+    """A real run's log: its bytes, its content (McapLog) and its metadata records."""
+
+    def __init__(self, raw: bytes, rec, records: list):
+        self.raw, self.rec, self.records = raw, rec, records
+
+    def __repr__(self) -> str:   # hypothesis prints the fixtures of a failing example
+        return f"RealLog({len(self.raw)} B)"
+
+
+@pytest.fixture(scope="module")
+def real_log(tmp_path_factory):
+    """The MCAP log of a real run (simulate --out, 0.05 s)."""
+    d = tmp_path_factory.mktemp("fuzz_src")
+    assert main(["simulate", "--freq", "200", "--amp", "5", "--duration", "0.05", "--out", str(d / "run"),
+                 "--no-rrd", "--json"]) == 0
+    path = d / "run.mcap"
+    with open(path, "rb") as f:
+        records = [(m.name, dict(m.metadata)) for m in make_reader(f).iter_metadata()]
+    return RealLog(path.read_bytes(), read_mcap(path), records)
+
+
+@pytest.fixture(scope="module")
+def dirs(tmp_path_factory):
+    return tmp_path_factory.mktemp("fuzz_in"), tmp_path_factory.mktemp("fuzz_out")
+
+
+def file_argv(cmd: str, src: Path, out: Path) -> list[str]:
+    return {"replay": ["replay", str(src), "--json"],
+            "inspect": ["inspect", str(src), "-o", str(out / "x.rrd"), "--json"],
+            "recover": ["recover", str(src), "-o", str(out / "x.mcap"), "--json"],
+            "validate": ["validate", str(src), "--json"]}[cmd]
+
+
+def feed(capfd, cmd: str, src: Path, out: Path, allowed: tuple[int, ...]) -> int:
+    """Run ``cmd`` on ``src``: a clean end, the input untouched, the output folder holding the
+    finished output after a success and nothing after a failure."""
+    before = src.read_bytes()
+    t0 = time.perf_counter()
+    res = run_cli(capfd, file_argv(cmd, src, out), SLOW_S)
+    SECONDS[cmd].append(time.perf_counter() - t0)
+    OUTCOME[cmd, res[0]] += 1
+    check_end(res, allowed, names=(str(src),))
+    assert src.read_bytes() == before and listing(src.parent) == {src.name: len(before)}
+    produced = listing(out)
+    if res[0] == 2:
+        assert produced == {}, produced
+    else:
+        json.loads(res[1])   # one JSON object (--json)
+        assert set(produced) == ({"x.rrd"} if cmd == "inspect" else {"x.mcap"} if cmd == "recover" else set())
+        for p in out.iterdir():
+            p.unlink()
+    return res[0]
+
+
+def normal_codes(cmd: str) -> tuple[int, ...]:
+    """Exit codes of a normal run: replay 1 = a mismatch, validate 1 = problems found."""
+    return (0, 1, 2) if cmd in ("replay", "validate") else (0, 2)
+
+
+@fuzz("file_mutated", SLOW_S)
+@given(data=st.data(), cmd=st.sampled_from(COMMANDS),
+       kind=st.sampled_from(["truncate", "bitflip", "bitflip", "overwrite", "empty", "garbage"]))
+def test_log_file_mutated(data, cmd, kind, real_log, dirs, capfd):
+    raw = real_log.raw
+    n = len(raw)
+    region = st.one_of(st.integers(0, n - 1), st.integers(0, min(n, 16384) - 1), st.integers(max(0, n - 4096), n - 1))
+    b = bytearray(raw)
+    if kind == "truncate":
+        b = b[:data.draw(region, label="cut")]
+    elif kind == "bitflip":
+        for _ in range(data.draw(st.integers(1, 8), label="flips")):
+            b[data.draw(region, label="at")] ^= 1 << data.draw(st.integers(0, 7), label="bit")
+    elif kind == "overwrite":
+        at = data.draw(region, label="at")
+        junk = data.draw(st.binary(min_size=1, max_size=64), label="junk")
+        b[at:at + len(junk)] = junk
+    elif kind == "empty":
+        b = bytearray()
+    else:
+        b = bytearray(raw[:8] * data.draw(st.booleans(), label="magic")) + data.draw(st.binary(max_size=400))
+    COUNT[f"file:{cmd}"] += 1
+    src_dir, out = dirs
+    shutil.rmtree(src_dir)
+    src_dir.mkdir()
+    src = src_dir / "run.mcap"
+    src.write_bytes(bytes(b))
+    # a cut or empty file fails except for recover (its purpose); flipped bits may be harmless
+    strict = kind in ("truncate", "empty") and cmd != "recover"
+    feed(capfd, cmd, src, out, (2,) if strict else normal_codes(cmd))
+
+
+def _messages(rec, ticks: int):
+    """(topic, log_time, sequence, payload) of the first ``ticks`` ticks, tick by tick."""
+    out = []
+    tps = topics_of(rec.signals)
+    for i in range(ticks):
+        k = int(rec.k[i])
+        t = (k * 10**9) // rec.rate_hz
+        for tp in tps:
+            out.append((tp.name, t, k, CDR_LE + rec.log[i, tp.columns].astype("<f8").tobytes()))
+    return out
+
+
+def write_mcap(path: Path, schemas: dict, records: list, msgs: list) -> None:
+    """An MCAP file: schemas {topic: (schema name, schema encoding, text, message encoding)},
+    metadata records [(name, {str: str})], messages [(topic, log_time, sequence, payload)]."""
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start(library="fuzz")
+        ids = {topic: w.register_channel(topic, menc, w.register_schema(name, enc, text))
+               for topic, (name, enc, text, menc) in schemas.items()}
+        for name, md in records:
+            w.add_metadata(name, md)
+        for topic, t, seq, data in msgs:
+            w.add_message(ids[topic], t, data, t, seq)
+        w.finish()
+
+
+CRAFTED = ("foreign", "missing_topics", "nan", "non_monotonic", "duplicate", "off_grid", "wrong_size", "not_cdr",
+           "bad_signals", "schema_mismatch", "no_messages", "huge_time")
+
+
+@fuzz("file_crafted", SLOW_S)
+@given(data=st.data(), cmd=st.sampled_from(COMMANDS), kind=st.sampled_from(CRAFTED))
+def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
+    """Well-formed MCAP files with bad content, written with mcap's own Writer."""
+    rec, records = real_log.rec, real_log.records
+    ticks = data.draw(st.integers(2, 60), label="ticks")
+    tps = {tp.name: tp for tp in topics_of(rec.signals)}
+    schemas = {name: (tp.schema_name, "ros2msg", tp.schema_text, "cdr") for name, tp in tps.items()}
+    msgs = _messages(rec, ticks)
+    pick = st.integers(0, len(msgs) - 1)
+    allowed = (2,)
+    if kind == "foreign":   # somebody else's MCAP: JSON messages, no "signals" record
+        schemas = {"/imu": ("Imu", "jsonschema", b'{"type": "object"}', "json")}
+        msgs = [("/imu", t, s, json.dumps({"ax": 1.0}).encode()) for _, t, s, _ in msgs]
+        records = data.draw(st.sampled_from([[], [("frictionrt", {"law": "passive"})]]), label="records")
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "missing_topics":
+        gone = data.draw(st.sets(st.sampled_from(sorted(tps)), min_size=1, max_size=len(tps) - 1), label="gone")
+        msgs = [m for m in msgs if m[0] not in gone]
+        allowed = {"replay": (0, 2), "inspect": (0,), "recover": (2,), "validate": (0, 1)}[cmd]
+    elif kind == "nan":
+        sens = [i for i, m in enumerate(msgs) if m[0] == "/sensors"]
+        for i in data.draw(st.lists(st.sampled_from(sens), min_size=1, max_size=5), label="rows"):
+            topic, t, s, payload = msgs[i]
+            col = data.draw(st.integers(0, (len(payload) - 4) // 8 - 1), label="col")
+            msgs[i] = (topic, t, s, payload[:4 + 8 * col] + np.float64("nan").tobytes() + payload[12 + 8 * col:])
+        allowed = {"replay": (2,), "inspect": (0,), "recover": (0,), "validate": (1,)}[cmd]
+    elif kind == "non_monotonic":
+        i, j = sorted(data.draw(st.lists(st.integers(0, ticks - 1), min_size=2, max_size=2, unique=True), label="ij"))
+        per = len(tps)
+        msgs[i * per:(i + 1) * per], msgs[j * per:(j + 1) * per] = msgs[j * per:(j + 1) * per], msgs[i * per:(i + 1) * per]
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "duplicate":
+        i = data.draw(pick, label="message")
+        msgs.insert(i + 1, msgs[i])
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "off_grid":
+        i = data.draw(pick, label="message")
+        topic, t, s, payload = msgs[i]
+        msgs[i] = (topic, t + data.draw(st.sampled_from([1, 10**9, -1 if t else 3]), label="shift"), s, payload)
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "wrong_size":
+        i = data.draw(pick, label="message")
+        topic, t, s, payload = msgs[i]
+        msgs[i] = (topic, t, s, payload[:data.draw(st.integers(0, len(payload) - 1), label="size")])
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "not_cdr":
+        i = data.draw(pick, label="message")
+        topic, t, s, payload = msgs[i]
+        msgs[i] = (topic, t, s, b"\x00\x00\x00\x00" + payload[4:])
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "bad_signals":
+        good = signals_record(rec.signals, rec.rate_hz)
+        rows = json.loads(good["signals"])
+        bad = data.draw(st.sampled_from([
+            {"signals": "[not json"}, {"signals": "{}"}, {"signals": "[1, 2]"}, {"signals": json.dumps(rows[1:])},
+            {"signals": json.dumps([dict(r, owner="elsewhere") for r in rows])},
+            {"signals": json.dumps([{k: v for k, v in r.items() if k != "unit"} for r in rows])},
+            {"rate_hz": "abc"}, {"rate_hz": "0"}, {"rate_hz": "-21000"}, {"rate_hz": "nan"}, {"rate_hz": "1e400"},
+            {"rate_hz": "21000.5"}, {"rate_hz": "7"}, {"rate_hz": ""}]), label="record")
+        records = [(name, dict(md, **bad) if name == "signals" else md) for name, md in records]
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "schema_mismatch":
+        topic = data.draw(st.sampled_from(sorted(schemas)), label="topic")
+        name, enc, text, menc = schemas[topic]
+        schemas[topic] = data.draw(st.sampled_from([
+            (name, enc, text.split(b"\n", 1)[1], menc), (name, "jsonschema", text, menc), (name, enc, text, "json"),
+            ("other/msg/X", enc, text, menc), (name, enc, text.replace(b"float64", b"float32"), menc)]), label="schema")
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "no_messages":
+        msgs = []
+        allowed = {"replay": (2,), "inspect": (0,), "recover": (2,), "validate": (1,)}[cmd]
+    else:   # huge_time: a log time beyond the last tick that int64 nanoseconds represent
+        i = data.draw(pick, label="message")
+        topic, _, s, payload = msgs[i]
+        msgs[i] = (topic, data.draw(st.integers(2**63, 2**64 - 1), label="t"), s, payload)
+        allowed = (1, 2) if cmd == "validate" else (2,)
+    COUNT[f"file:{cmd}"] += 1
+    src_dir, out = dirs
+    shutil.rmtree(src_dir)
+    src_dir.mkdir()
+    src = src_dir / "crafted.mcap"
+    write_mcap(src, schemas, records, msgs)
+    feed(capfd, cmd, src, out, allowed)
+
+
+def test_total_examples():
+    """At least 1000 generated bad inputs when the whole file ran (counts in docs/reliability.md)."""
+    print("\nexamples", dict(COUNT), "\nfile commands (runs, total s, max s)",
+          {cmd: (len(t), round(sum(t), 1), round(max(t), 2)) for cmd, t in SECONDS.items()},
+          "\nfile command exit codes", dict(OUTCOME))
+    if not {"--config", "--set"} <= set(COUNT) or not any(k.startswith("file:") for k in COUNT):
+        pytest.skip("only part of the fuzz tests ran")
+    assert sum(COUNT.values()) >= 1000, COUNT
