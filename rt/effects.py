@@ -1,0 +1,159 @@
+"""The effects library of the discrepancy workflow (docs/discrepancy.md): physical effects a real
+test rig has and the nominal model may lack, each with its parameter and a documented signature
+(what it does to the measurements), as a registry ``EFFECTS`` {name: Effect}.
+
+An implemented effect maps (configuration, strength) to the configuration with the effect added,
+``effect.apply(cfg, s) -> Config``; strength 0 (or the nominal value, for ``current_limit``) is the
+nominal model. The virtual rig (rt.rig) hides an effect in a measurement campaign this way, and the
+diagnosis (rt.diagnose) fits the strength of each implemented candidate jointly with the nominal
+parameters. Effects that need new plant or actuator kernel code are listed with
+``implemented = False``: ``frictionrt rig --list`` shows them, ``rig --effect`` and ``diagnose``
+refuse or skip them. Adding one: docs/discrepancy.md, "How to add an effect".
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import NamedTuple
+
+from rt.config import Config, with_sets
+
+
+class Parameter(NamedTuple):
+    """The effect's strength parameter: name (unit in it), unit, default ("moderate") strength, and
+    the bounds the diagnosis fits it within."""
+    name: str
+    unit: str
+    default: float
+    lo: float
+    hi: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    name: str
+    description: str           # the physical model
+    signature: str             # what it does to the measurements (the diagnosis looks for this)
+    parameter: Parameter
+    channel: str               # "structure" (impulse tests) or "actuator" (voltage ramps)
+    nominal: float             # the strength at which the model is the nominal one
+    _apply: Callable[[Config, float], Config] | None = None
+
+    @property
+    def implemented(self) -> bool:
+        return self._apply is not None
+
+    def apply(self, cfg: Config, strength: float) -> Config:
+        """``cfg`` with the effect at ``strength`` [parameter.unit] added (validated).
+        ValueError if the effect is not implemented or the strength is outside its bounds."""
+        if self._apply is None:
+            raise ValueError(f"effect {self.name!r} is not implemented yet (it needs new kernel code: "
+                             "docs/discrepancy.md)")
+        p = self.parameter
+        if not p.lo <= strength <= p.hi:
+            raise ValueError(f"effect {self.name}: strength {strength:g} {p.unit} outside [{p.lo:g}, {p.hi:g}]")
+        return self._apply(cfg, float(strength))
+
+    def to_json(self) -> dict:
+        p = self.parameter
+        return {"name": self.name, "implemented": self.implemented, "channel": self.channel,
+                "parameter": p.name, "unit": p.unit, "default_strength": p.default, "bounds": [p.lo, p.hi],
+                "nominal": self.nominal, "description": self.description, "signature": self.signature}
+
+
+# --- configuration-level effects ------------------------------------------------------------------
+
+ACCELEROMETER_FIELDS = {"a_frf_meas": "frf", "a_tip_meas": "tip"}
+"""The accelerometers of the measurement format and the plant points they sit on."""
+
+
+def _accelerometer_mass(cfg: Config, m: float) -> Config:
+    return with_sets(cfg, [f"plant.points.{pt}.mass_kg={m!r}" for pt in ACCELEROMETER_FIELDS.values()])
+
+
+def _clamp_compliance(cfg: Config, c: float) -> Config:
+    # clamps have no name, so --set cannot address them: replace the field on every clamp
+    clamps = tuple(dataclasses.replace(cl, rot_compliance_rad_per_Nm=c) for cl in cfg.plant.clamps)
+    return with_sets(dataclasses.replace(cfg, plant=dataclasses.replace(cfg.plant, clamps=clamps)), [])
+
+
+def _moving_mass(cfg: Config, m: float) -> Config:
+    names = [s.name for s in cfg.plant.screws if s.adaptive]
+    return with_sets(cfg, [f"plant.screws.{n}.mass_kg={m!r}" for n in names])
+
+
+def _current_limit(cfg: Config, i_max: float) -> Config:
+    return with_sets(cfg, [f"actuator.current_limit_A={i_max!r}"])
+
+
+_EFFECTS = (
+    Effect("accelerometer_mass",
+           "mass loading: a point mass m at each accelerometer (the frf and tip points), the sensor's "
+           "housing, base and cable; M += m at the point's w DOF",
+           "every mode's frequency drops, by m phi(x)^2 of the mode at the two sensor points: most where a "
+           "sensor sits near an antinode (modes 2 and 4 at these points), not uniformly as a lower E would; "
+           "the same at every F_N1; damping ratios almost unchanged",
+           Parameter("mass_kg", "kg", 0.02, 0.0, 0.2), "structure", 0.0, _accelerometer_mass),
+    Effect("clamp_compliance",
+           "a rotational spring of compliance c at the fixture (plant.clamps): M_clamp = w'(0) / c instead of "
+           "a rigid clamp",
+           "frequencies drop most for the modes with a large root bending moment (modes 1-4, 6), little for "
+           "mode 5 and 7; the same at every F_N1",
+           Parameter("rot_compliance_rad_per_Nm", "rad/(N m)", 3e-5, 0.0, 5e-4), "structure", 0.0,
+           _clamp_compliance),
+    Effect("moving_mass",
+           "actuator moving mass: the piezo stack's moving part, screw head and washers as a point mass m on the "
+           "upper (damper) beam at the adaptive screw",
+           "frequencies of the modes that move the damper beam at the adaptive screw drop (modes 1 and 4 most); "
+           "the structure's pattern differs from the accelerometers' mass loading",
+           Parameter("mass_kg", "kg", 0.05, 0.0, 0.5), "structure", 0.0, _moving_mass),
+    Effect("current_limit",
+           "amplifier current limit I_max lower than the nominal 1 A: the stack voltage slews at I_max / C "
+           "(C = actuator.capacitance_F) when a command asks for more",
+           "fast voltage ramps: the measured current plateaus at +-I_max, V_a and the bolt force lag the "
+           "command with a constant slope; slow ramps and the impulse tests are unchanged",
+           Parameter("current_limit_A", "A", 0.3, 0.02, 1.0), "actuator", 1.0, _current_limit),
+    # --- need new kernel code (next step) -------------------------------------------------------
+    Effect("piezo_hysteresis",
+           "rate-independent hysteresis of the stack's voltage-to-elongation map (Bouc-Wen or "
+           "Prandtl-Ishlinskii operator in front of d V_a)",
+           "bolt force vs voltage on a slow ramp is a loop (up and down branches apart by a few % of the "
+           "swing), independent of the ramp rate; structure unchanged",
+           Parameter("loop_width_rel", "-", 0.1, 0.0, 0.3), "actuator", 0.0),
+    Effect("preload_creep",
+           "creep of the screw thread's preload: F_N1 relaxes logarithmically after a change, "
+           "F_N1(t) = F_N1(t0) (1 - c log10(1 + (t - t0)/tau))",
+           "measured bolt force drifts slowly at constant voltage; joint-mode frequencies drift within a test",
+           Parameter("creep_per_decade", "-", 0.02, 0.0, 0.1), "actuator", 0.0),
+    Effect("micro_slip",
+           "micro-slip: a distributed Iwan element (or a pressure-dependent tangential stiffness) per contact "
+           "pair instead of one Jenkins element",
+           "joint-mode (3, 4) damping grows and frequency falls with amplitude already below macro-slip; "
+           "stronger at low F_N1",
+           Parameter("iwan_spread", "-", 0.5, 0.0, 1.0), "structure", 0.0),
+    Effect("shaker_interaction",
+           "shaker-structure interaction: stinger stiffness and armature mass/damping between the shaker and "
+           "the beam",
+           "force drop-out at the resonances in step-sine tests, an extra stinger mode; impulse tests unchanged",
+           Parameter("armature_mass_kg", "kg", 0.1, 0.0, 1.0), "structure", 0.0),
+    Effect("stribeck",
+           "velocity-dependent friction (Stribeck): mu(v) = mu_k + (mu_s - mu_k) exp(-(v / v_s)^2) at the "
+           "contact pairs",
+           "amplitude-dependent damping of the joint modes at sliding amplitudes, stick-slip transitions "
+           "sharper; at F_N1 low and large excitation only",
+           Parameter("static_excess_rel", "-", 0.3, 0.0, 1.0), "structure", 0.0),
+)
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in _EFFECTS}
+
+
+def implemented() -> list[Effect]:
+    """The effects that can be applied (configuration-level) this version."""
+    return [e for e in _EFFECTS if e.implemented]
+
+
+def get(name: str) -> Effect:
+    """The effect called ``name``; ValueError naming the known ones otherwise."""
+    if name not in EFFECTS:
+        raise ValueError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)} (frictionrt rig --list)")
+    return EFFECTS[name]
