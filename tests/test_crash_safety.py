@@ -4,8 +4,6 @@ exit), and `frictionrt inspect` (a log or a measurement to .rrd with the default
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
 
 import numpy as np
@@ -21,6 +19,7 @@ from rt.loop import build_loop, run
 from rt.mcap_log import CHUNK_BYTES, read_mcap, topics_of
 from rt.recover import scan
 from rt.writer import INTERRUPT_DRAIN_S
+from tests.cli_process import start_cli, wait_for_chunks
 from tests.test_logfiles import rrd_column
 from tests.test_logging_loop import clock_columns
 from tests.test_replay import _sensors_only_file
@@ -39,19 +38,8 @@ def chunk_ticks(signals):
 
 def start_simulate(base):
     """simulate --duration 20 (420000 ticks: 10-20 s of wall time with both files) as a process."""
-    return subprocess.Popen([sys.executable, "-m", "rt.cli", "simulate", "--freq", str(FREQ), "--amp", str(AMP),
-                             "--duration", "20", "--seed", str(SEED), "--out", str(base), "--json"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-
-
-def wait_for_chunks(proc, part, chunks):
-    """Until the .part file holds more than `chunks` chunks (~0.6 MB compressed + 0.12 MB of
-    message indexes each)."""
-    t_end = time.monotonic() + 120  # start-up includes a kernel compile if the cache is cold
-    while not (part.exists() and part.stat().st_size > chunks * 750_000):
-        assert proc.poll() is None, proc.communicate()[1]
-        assert time.monotonic() < t_end, "the run never wrote its first chunks"
-        time.sleep(0.02)
+    return start_cli("simulate", "--freq", FREQ, "--amp", AMP, "--duration", 20, "--seed", SEED, "--out", base,
+                     "--json")
 
 
 def cli(capsys, *args):

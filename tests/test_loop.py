@@ -151,14 +151,11 @@ def test_paced_run_interrupted_keeps_its_log(tmp_path):
     """Ctrl-C (SIGINT) during a paced run: the loop stops within a tick, the ticks run so far
     are summarised and saved (exit code 130), nothing is lost or half written."""
     import signal
-    import subprocess
-    import sys
-    import time
+
+    from tests.cli_process import start_cli, wait_for_chunks
     out = tmp_path / "paced"
-    proc = subprocess.Popen([sys.executable, "-m", "rt.cli", "simulate", "--paced", "--freq", "200", "--amp", "5",
-                             "--duration", "30", "--out", str(out), "--json"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(8.0)  # start-up (imports, design, compile or cache) plus a few seconds of pacing
+    proc = start_cli("simulate", "--paced", "--freq", 200, "--amp", 5, "--duration", 30, "--out", out, "--json")
+    wait_for_chunks(proc, tmp_path / "paced.mcap.part", 3)  # the loop runs, however long start-up took
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130, stderr
