@@ -20,6 +20,7 @@ from rt.cli_reproduce import add_parser as add_reproduce_parser
 from rt.cli_reproduce import cmd_reproduce
 from rt.cli_tune import add_parser as add_tune_parser
 from rt.cli_tune import cmd_tune
+from rt import cli_diagnose, cli_rig
 from rt.cli_log import add_parsers as add_log_parsers
 from rt.cli_log import cmd_inspect, cmd_recover
 from rt.config import ConfigError, dumps, load, to_dict
@@ -158,6 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_validate_parser(sub, parents=[common])
     add_reproduce_parser(sub, parents=[common])
     add_tune_parser(sub, parents=[common])
+    cli_rig.add_parser(sub, parents=[common])
+    cli_diagnose.add_parser(sub, parents=[common])
     add_log_parsers(sub, parents=[common])
     return ap
 
@@ -393,7 +396,8 @@ COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse,
             "replay": _cmd_replay, "validate": cmd_validate,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
             "observer": _cmd_observer, "frf": cmd_frf, "tune": cmd_tune,
-            "recover": cmd_recover, "inspect": cmd_inspect, "reproduce": cmd_reproduce}
+            "recover": cmd_recover, "inspect": cmd_inspect, "reproduce": cmd_reproduce,
+            "rig": cli_rig.cmd_rig, "diagnose": cli_diagnose.cmd_diagnose}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -72,7 +72,9 @@ def _accelerometer_mass(cfg: Config, m: float) -> Config:
 
 
 def _clamp_compliance(cfg: Config, c: float) -> Config:
-    # clamps have no name, so --set cannot address them: replace the field on every clamp
+    # clamps have no name, so --set cannot address them: replace the field on every clamp;
+    # below 1e-12 rad/(N m) (stiffer than 1e12 N m/rad) the clamp is rigid (and the FE solve well conditioned)
+    c = c if c >= 1e-12 else 0.0
     clamps = tuple(dataclasses.replace(cl, rot_compliance_rad_per_Nm=c) for cl in cfg.plant.clamps)
     return with_sets(dataclasses.replace(cfg, plant=dataclasses.replace(cfg.plant, clamps=clamps)), [])
 
