@@ -3,7 +3,7 @@ of rt.effects at its moderate (default) strength and at twice it, and for no eff
 (seed SEED) is diagnosed; printed as a markdown table (hidden effect, strength, named effect,
 fitted strength, dBIC over calibration alone, structure FRF gap and actuator NRMSE before -> after).
 
-    .venv/bin/python benchmarks/discrepancy.py [SEED] [--record-s 1.0]
+    .venv/bin/python -m benchmarks.discrepancy [SEED] [--record-s 1.0]   (-m: benchmarks/plant.py would shadow the plant package)
 """
 import argparse
 import tempfile
