@@ -240,7 +240,8 @@ def _read(path: Path) -> tuple[dict, dict[str, _Topic]]:
                 tp.times.append(msg.log_time)
                 tp.seqs.append(msg.sequence)
                 tp.data.append(msg.data)
-    except (McapError, zstandard.ZstdError, OSError, EOFError, struct.error, ValueError) as e:
+    except (McapError, zstandard.ZstdError, OSError, EOFError, struct.error, ValueError, KeyError, TypeError) as e:
+        # KeyError, TypeError: mcap's reader on a corrupt summary (e.g. a message of an unlisted channel)
         raise ValueError(f"{path}: unreadable MCAP file ({type(e).__name__}: {e})") from None
     return meta, topics
 

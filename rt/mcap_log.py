@@ -414,11 +414,18 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
                 raise ValueError(f"{path}: no 'signals' metadata record: not a frictionrt log")
             rec = meta["signals"]
             rows = json.loads(rec["signals"])
+            if not isinstance(rows, list) or not rows:
+                raise ValueError(f"{path}: the 'signals' record lists no signals (it must be a JSON list of "
+                                 "{name, field, unit, owner, column})")
             signals = tuple((r["name"], r["unit"], r["owner"]) for r in rows)
             if [r["column"] for r in rows] != list(range(len(rows))) or \
                     [r["field"] for r in rows] != list(field_names(signals)):
                 raise ValueError(f"{path}: the 'signals' record's columns or field names are inconsistent")
-            rate_hz = check_rate(path, float(rec["rate_hz"]))
+            try:
+                rate_hz = check_rate(path, float(rec["rate_hz"]))
+            except ValueError:
+                raise ValueError(f"{path}: the 'signals' record's rate_hz {rec['rate_hz']!r} is not a positive "
+                                 "whole number of Hz") from None
             check_owners(path, signals)
             topics = {tp.name: tp for tp in topics_of(signals)}
             summary = reader.get_summary()
