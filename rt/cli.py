@@ -99,6 +99,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--ring", type=float, default=1.0, metavar="S",
                    help="paced runs with --out: blocks the log writer has not written when they are more "
                         "than S seconds [s] behind the loop are dropped and counted (default 1)")
+    s.add_argument("--fault", action="append", default=[], metavar="KIND[/SENSOR][=VALUE]@TIME[:DURATION]",
+                   help="inject a fault at TIME [s] for DURATION [s] (default: to the end); repeatable. KIND: "
+                        "sensor_dropout, sensor_stuck, sensor_gain, sensor_bias (SENSOR a_tip (default), a_frf, "
+                        "F_strain, F_cell), actuator_loss, force_saturation, observer_mismatch, cpu_stall (--paced); "
+                        "VALUE and what the supervisor makes of it: docs/reliability.md")
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
 
     q = sub.add_parser("compare", parents=[common], help="the three laws at one excitation: table and plot",
@@ -242,6 +247,7 @@ def _cmd_simulate(cfg, args) -> int:
     from tqdm import tqdm
 
     from rt.data_format import run_test_record
+    from rt.faults import schedule, to_json
     from rt.loop import build_loop, check_run_input, run, summary
     from rt.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
@@ -257,16 +263,23 @@ def _cmd_simulate(cfg, args) -> int:
             return _fail(f"--out {args.out}: folder {base.parent} does not exist")
     writer = None
     try:
+        faults = schedule(args.fault, cfg)
+        if not args.paced and any("cpu_stall" in f for f in args.fault):
+            return _fail("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced")
         loop = build_loop(cfg, args.law, args.estimator)
         n = check_run_input(loop, args.freq, args.amp, args.duration)
+        late = [t for t, f in zip(args.fault, faults) if f[2] >= n]
+        if late:
+            return _fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")
         if base is not None:
             seed = cfg.rt.seed if args.seed is None else args.seed
             meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
+            meta["faults"] = json.dumps(to_json(faults))
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
             writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
-                    writer=writer)
+                    writer=writer, faults=faults)
     except ValueError as exc:
         return _fail(str(exc))
     finally:
@@ -295,6 +308,12 @@ def _cmd_simulate(cfg, args) -> int:
     if "v_rel_nrmse" in s:
         print(f"estimation (last 20 %, against the plant's band-limited truth): NRMSE v_rel {s['v_rel_nrmse']:.3f}, "
               f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %")
+    for f in s["faults"]:
+        print(f"fault {f['kind']}{'/' + f['sensor'] if f['sensor'] else ''} at tick {f['tick']}: "
+              + (f"{f['name']} (code {f['code']}) detected at tick {f['detected_tick']}, passive at tick "
+                 f"{f['passive_tick']}" if f["detected_tick"] is not None else "not detected"))
+    if s["trips"] and not s["faults"]:
+        print("supervisor: " + ", ".join(f"{t['name']} (code {t['code']}) at tick {t['tick']}" for t in s["trips"]))
     if writer is not None:
         print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}")
     return 130 if s["interrupted"] else 0

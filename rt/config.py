@@ -232,6 +232,48 @@ class Observer:
                                   doc="measurement noise: rms of the integrated tip velocity (Kalman)")
 
 
+RECOVERY = ("latch", "auto")
+
+
+@dataclass(frozen=True)
+class Supervisor:
+    """Run-time supervisor (rt/supervisor.py, docs/reliability.md): checks every tick, commands
+    passive F_min on a fault. Defaults: several times the largest value of a normal run (the
+    three laws, oracle and observer, 5 and 20 N at 196, 223.6, 370, 430 Hz; docs/reliability.md).
+    Sensor ranges are the ADC's: a reading at a full-scale code (sensors.acc_range,
+    sensors.force_range_N, or 0 N) is out of range."""
+    enable: bool = param(True, doc="false: monitor only (faults logged, the law's F_set kept)")
+    stuck_window_s: float = param(0.01, "s", lo=0.0, lo_inclusive=False,
+                                  doc="a reading unchanged this long while its partner (the other accelerometer, "
+                                      "the other force sensor) changed is stuck (normal: <= 10 ticks = 0.5 ms)")
+    force_disagree_N: float = param(50.0, "N", lo=0.0, lo_inclusive=False,
+                                    doc="|F_strain - F_cell| above this ... (normal: > 50 N for at most 18 ticks, "
+                                        "the strain gauge's 1 kHz lag under the Lyapunov law)")
+    force_disagree_s: float = param(0.002, "s", lo=0.0, lo_inclusive=False,
+                                    doc="... for longer than this: the force sensors disagree")
+    innovation_bound_m_s: float = param(0.5, "m/s", lo=0.0, lo_inclusive=False,
+                                        doc="observer: |innovation| above this is divergence (normal max 0.06 m/s)")
+    state_bound: float = param(2.0, "m kg^0.5/s", lo=0.0, lo_inclusive=False,
+                               doc="observer: Euclidean norm of the modal state z = [q; q'] above this is "
+                                   "divergence (normal max 0.25)")
+    tracking_error_N: float = param(150.0, "N", lo=0.0, lo_inclusive=False,
+                                    doc="|F_set_filtered - F_meas| above this ... (normal max 99 N, > 50 N for 6 ticks)")
+    tracking_error_s: float = param(0.002, "s", lo=0.0, lo_inclusive=False,
+                                    doc="... for longer than this is a tracking fault")
+    saturation_error_N: float = param(25.0, "N", lo=0.0,
+                                      doc="amplifier at a rail with the force error pushing further by more "
+                                          "than this ... (normal: > 20 N for 1 tick)")
+    saturation_s: float = param(0.002, "s", lo=0.0, lo_inclusive=False,
+                                doc="... for longer than this is a saturation fault")
+    overrun_count: int = param(50, "-", lo=1, hi=64,
+                               doc="paced: this many overrunning ticks ...")
+    overrun_window_s: float = param(0.01, "s", lo=0.0, lo_inclusive=False,
+                                    doc="... within this window are an overrun burst")
+    recovery: str = param("latch", doc="latch: passive until the run ends; auto: active again after clean_window_s")
+    clean_window_s: float = param(0.05, "s", lo=0.0, lo_inclusive=False,
+                                  doc="auto recovery: this long without a failing check")
+
+
 @dataclass(frozen=True)
 class Impulse:
     """Simulated hammer test (SPEC section 6, Fig. 5)."""
@@ -250,6 +292,7 @@ class Config:
     actuator: Actuator = field(default_factory=Actuator)
     sensors: Sensors = field(default_factory=Sensors)
     observer: Observer = field(default_factory=Observer)
+    supervisor: Supervisor = field(default_factory=Supervisor)
     impulse: Impulse = field(default_factory=Impulse)
 
     @property
@@ -532,6 +575,8 @@ def validate(cfg: Config) -> None:
     t = cfg.tracking
     if t.law not in LAWS:
         raise ConfigError(f"tracking.law = {t.law!r}: must be one of {', '.join(LAWS)}")
+    if cfg.supervisor.recovery not in RECOVERY:
+        raise ConfigError(f"supervisor.recovery = {cfg.supervisor.recovery!r}: must be one of {', '.join(RECOVERY)}")
     a = cfg.actuator
     if a.V_min >= a.V_max:
         raise ConfigError(f"actuator.V_min = {a.V_min:g} V must be below actuator.V_max = {a.V_max:g} V")

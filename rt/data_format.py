@@ -48,6 +48,10 @@ SIGNALS = (
     Entry("F_exc", "N", "rt", "[t_k, t_k+1)", "excitation force at test.excitation_x_m, +z (up), held over the tick"),
     Entry("tick_ns", "ns", "rt", "tick k", "execution time of the loop's tick (simulation only)"),
     Entry("late_ns", "ns", "rt", "tick k", "lateness of the tick's start against its deadline (paced runs; 0 offline)"),
+    Entry("fault_code", "-", "rt", "tick k", "supervisor: code of the first failing check of the tick, 0 none "
+          "(docs/reliability.md)"),
+    Entry("fault_latched", "-", "rt", "tick k", "supervisor: code of the latched fault, 0 while active"),
+    Entry("passive", "-", "rt", "tick k", "supervisor: 1 while it commands passive F_min instead of the law's F_set"),
     Entry("a_tip_meas", "m/s^2", "sensors", "t_k", "accelerometer at test.sensor_positions_m.a_tip_meas (tip), "
           "after anti-alias filter, noise and ADC"),
     Entry("a_frf_meas", "m/s^2", "sensors", "t_k", "accelerometer at test.sensor_positions_m.a_frf_meas (FRF point), "

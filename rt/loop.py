@@ -9,6 +9,7 @@ One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order
                  or observer: the Kalman-designed nonlinear observer on the measured tip
                  velocity and the force cell's F_N (observer.step)
     3 law        F* (passive, hysteresis-optimal with RT1, Lyapunov)
+    3s supervisor checks the tick (rt.supervisor); on a fault F* := F_min in this tick
     4 tracking   V_cmd = feedforward + PID on the law's force sensor
     5 actuator   DAC -> 30 kHz low-pass -> amplifier -> piezo stack over [t_k, t_k+1]
     6 plant      over [t_k, t_k+1]: F_exc(t_k) held, F_N1 = mean of its values at t_k, t_k+1
@@ -18,6 +19,11 @@ Two ways to run, one function: as fast as possible (offline, deterministic), or 
 wall clock: absolute deadlines next += period, busy-wait on CLOCK_MONOTONIC, overruns counted
 and skipped by whole periods, each tick's execution time and lateness logged. Ticks run in
 chunks so that Python can show progress between them; the deadline carries over.
+
+Stages 2-4 with the supervisor are one function, ``_controller_tick``, which the replay
+(``rt.replay``) runs on logged readings. Injected faults (``rt.faults``) act on the readings
+after the ADC (stage 1), the observer's input, the amplifier's input (stage 5) and as a busy
+delay (cpu_stall).
 """
 from __future__ import annotations
 
@@ -41,7 +47,7 @@ from plant.newmark import _plant_step
 from rt.clock import _now_ns
 from rt.config import Config
 from rt.noise import new_rng
-from rt.sensors import SENSOR_OUTPUTS, SensorParams, _sensors_step, build_sensors
+from rt.sensors import SENSOR_OUTPUTS, SensorParams, _sensors_read, _tip_velocity, build_sensors
 from rt.sensors import initial_state as sensors_initial_state
 from rt.sensors import output_index as sensor_output_index
 from tracking.force_tracking import (FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign,
@@ -49,12 +55,18 @@ from tracking.force_tracking import (FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, Forc
 from tracking.force_tracking import initial_state as tracking_initial_state
 from tracking.laws import LAWS_OUTPUTS, LAWS_SLOTS, _laws_step, build_laws
 from tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
+from rt.supervisor import (F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, S_OVERRAN, S_PASSIVE, SUPERVISOR_OUTPUTS,
+                           SupervisorParams, _inject_actuator, _inject_observer,
+                           _inject_sensors, _stall_ns, _sanitise, _supervise, _supervise_after, build_supervisor,
+                           no_faults)
+from rt.supervisor import initial_state as supervisor_initial_state
 
-COMPONENTS = ("sensors", "estimator", "law", "tracking", "actuator", "plant", "log")
+COMPONENTS = ("sensors", "estimator", "law", "supervisor", "tracking", "actuator", "plant", "log")
 ESTIMATORS = ("oracle", "observer")
 # state shared by the chunks of one run and the Python thread watching it (int64): next deadline
 # [ns], overruns, ticks run, stop request (set by the watcher: the loop ends after its tick)
 CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS, CLK_STOP = 0, 1, 2, 3
+COL_V_TIP, COL_F_CELL = sensor_output_index()["v_tip_meas"], sensor_output_index()["F_cell"]  # the observer's inputs
 
 
 @dataclass(frozen=True)
@@ -73,6 +85,7 @@ class Loop:
     force_sensor: str
     signals: tuple[tuple[str, str, str], ...]   # (name, unit, owner) per log column
     estimator: str = "oracle"                   # one of ESTIMATORS
+    supervisor: SupervisorParams | None = None  # built by build_loop
 
     def column(self, name: str) -> int:
         return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
@@ -86,6 +99,7 @@ def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
     sig += [(n, u, "tracking") for n, u in LAWS_OUTPUTS]
     sig += [(n, u, "tracking") for n, u in PREFILTER_OUTPUTS]
     sig += [(n, u, "tracking") for n, u in FORCE_TRACKING_OUTPUTS]
+    sig += [(n, u, "rt") for n, u in SUPERVISOR_OUTPUTS]
     sig += [(n, u, "actuator") for n, u in ACTUATOR_OUTPUTS]
     sig += [(n, u, "plant") for n, u in plant.output_labels()]
     sig += [("tick_ns", "ns", "rt"), ("late_ns", "ns", "rt")]
@@ -111,7 +125,8 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
     else:
         observer = _no_observer()
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
-                build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator)
+                build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator,
+                build_supervisor(cfg, estimator == "observer"))
 
 
 def _no_observer() -> ObserverParams:
@@ -154,21 +169,77 @@ def _actuate(k, F_exc, V_cmd, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p
     return _plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk), t5
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False)
+def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing, ts,
+                     xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
+                     xl, xl_n, yl, ul, law_p,
+                     sv, ysv, sv_p,
+                     xq, xq_n, yq, uq, pre_p,
+                     xf, xf_n, yf, uf, ft_p):
+    """Stages 2-4 of tick k with the supervisor, on the readings ys (``SENSOR_OUTPUTS``) and the
+    plant's u_rel [m], v_rel [m/s] (read by the oracle only): the loop and the replay both run
+    this. yc receives the readings the controller uses (non-finite ones replaced by the last
+    finite, ``rt.supervisor._sanitise``); ye, yl, yq, yf, ysv the stages' outputs; next states
+    into x*_n; the supervisor state sv is advanced in place. Returns the clock [ns] after the
+    estimator, the law, the supervisor and the tracking if timing, else zeros. RT-safe."""
+    # 2 estimator (oracle: the plant's u_rel, v_rel band-limited)
+    _sanitise(sv, ys, yc)
+    if observe:
+        ue[0] = yc[COL_V_TIP]
+        ue[1] = yc[COL_F_CELL]
+        _inject_observer(k, faults, ue)
+        _observer_step(k, xe, ue, obs_p, xe_n, ye)
+    else:
+        uo[0] = u_rel
+        uo[1] = v_rel
+        _biquad_step(k, xo, uo, oracle_p, xo_n, yo)
+        ye[0] = yo[0]
+        ye[1] = yo[1]
+        ye[2] = 0.0
+        ye[3] = 0.0
+    ul[0] = ye[0]
+    ul[1] = ye[1]
+    t2 = _now_ns(ts) if timing else 0
+    # 3 law
+    _laws_step(k, xl, ul, law_p, xl_n, yl)
+    t3 = _now_ns(ts) if timing else 0
+    # 3s supervisor: the setpoint the tracking gets (F_min when passive)
+    F_set = _supervise(k, sv, ys, ye, xe_n, yl[0], sv_p)
+    passive = sv[S_PASSIVE] != 0.0
+    t3s = _now_ns(ts) if timing else 0
+    # 4 force tracking on the law's sensor, setpoint through the prefilter; passive: the PID's
+    # integral reset and held at 0 (no windup against a broken actuator or sensor)
+    uq[0] = F_set
+    _biquad_step(k, xq, uq, pre_p, xq_n, yq)
+    uf[0] = yq[0]
+    uf[1] = yc[force_col]
+    if passive:
+        xf[0] = 0.0
+    _force_tracking_step(k, xf, uf, ft_p, xf_n, yf)
+    if passive:
+        xf_n[0] = 0.0
+    _supervise_after(k, sv, yq[0] - uf[1], yf, sv_p, ysv)
+    t4 = _now_ns(ts) if timing else 0
+    return t2, t3, t3s, t4
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
 def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_ns, clk, ts,
-               xs, xs_n, ys, us, sens_p, rng,
+               xs, xs_n, ys, ys_prev, yc, us, sens_p, rng,
                observe, xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
                xl, xl_n, yl, ul, law_p,
+               sv, ysv, sv_p, faults,
                xq, xq_n, yq, uq, pre_p,
                xf, xf_n, yf, uf, ft_p,
                xa, xa_n, ya, ua, act_p,
                xp, xp_n, yp, up, plant_p, plant_wk,
-               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_vtip, col_cell_meas,
+               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell,
                log, comp_ns):
     """Run ticks k0 <= k < k1 (see the module docstring); states are advanced in place.
 
     observe selects the estimator: False the oracle (states xo), True the observer (states xe;
-    inputs: the measured tip velocity and force-cell reading).
+    inputs: the measured tip velocity and force-cell reading). sv, sv_p: the supervisor's state
+    and constants; faults: the fault schedule (``rt.supervisor``, (0, 5) for none).
     log[k - k0] receives the tick's signals (``loop_signals`` order); comp_ns[k - k0] the
     per-component times [ns] if timing; ts is the clock's (2,) int64 scratch. Returns the number
     of failed plant solves.
@@ -183,43 +254,31 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
                 pass
         t_start = _now_ns(ts)
         late = t_start - clk[CLK_DEADLINE] if paced else 0
-        # 1 sensors: plant accelerations and the force sensors' analog outputs at t_k
+        # 1 sensors: plant accelerations and the force sensors' analog outputs at t_k; injected
+        # faults act on the ADC readings, before the controller's tip integrator
         us[0] = yp[col_a_tip]
         us[1] = yp[col_a_frf]
         us[2] = ya[col_strain]
         us[3] = ya[col_cell]
-        _sensors_step(k, xs, us, sens_p, xs_n, ys, rng)
+        _copy(ys, ys_prev)
+        _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
+        _inject_sensors(k, faults, ys, ys_prev, sens_p)
+        _tip_velocity(xs, sens_p, xs_n, ys)
+        stall = _stall_ns(k, faults)
+        if stall > 0:
+            t_stall = _now_ns(ts) + stall
+            while _now_ns(ts) < t_stall:
+                pass
         t1 = _now_ns(ts) if timing else 0
-        # 2 estimator (oracle)
-        uo[0] = yp[col_urel]
-        uo[1] = yp[col_vrel]
-        if observe:
-            ue[0] = ys[col_vtip]
-            ue[1] = ys[col_cell_meas]
-            _observer_step(k, xe, ue, obs_p, xe_n, ye)
-        else:
-            _biquad_step(k, xo, uo, oracle_p, xo_n, yo)
-            ye[0] = yo[0]
-            ye[1] = yo[1]
-            ye[2] = 0.0
-            ye[3] = 0.0
-        ul[0] = ye[0]
-        ul[1] = ye[1]
-        t2 = _now_ns(ts) if timing else 0
-        # 3 law
-        _laws_step(k, xl, ul, law_p, xl_n, yl)
-        t3 = _now_ns(ts) if timing else 0
-        # 4 force tracking on the law's sensor, setpoint through the prefilter
-        uq[0] = yl[0]
-        _biquad_step(k, xq, uq, pre_p, xq_n, yq)
-        uf[0] = yq[0]
-        uf[1] = ys[force_col]
-        _force_tracking_step(k, xf, uf, ft_p, xf_n, yf)
-        t4 = _now_ns(ts) if timing else 0
-        # 5 actuator and 6 plant over the tick
+        # 2 estimator, 3 law, 3s supervisor, 4 force tracking
+        t2, t3, t3s, t4 = _controller_tick(k, ys, yc, yp[col_urel], yp[col_vrel], force_col, observe, faults,
+                                           timing, ts, xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
+                                           xl, xl_n, yl, ul, law_p, sv, ysv, sv_p,
+                                           xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
+        # 5 actuator (faults act on its input) and 6 plant over the tick
         F_exc = exc_amp * math.sin(exc_omega * (k * dt))
-        iters, t5 = _actuate(k, F_exc, yf[0], xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p, plant_wk,
-                             timing, ts)
+        iters, t5 = _actuate(k, F_exc, _inject_actuator(k, faults, yf[0]), xa, xa_n, ya, ua, act_p,
+                             xp, xp_n, yp, up, plant_p, plant_wk, timing, ts)
         if iters < 0:
             failed += 1
         t6 = _now_ns(ts) if timing else 0
@@ -230,6 +289,7 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         c = _put(log, row, c, yl)
         c = _put(log, row, c, yq)
         c = _put(log, row, c, yf)
+        c = _put(log, row, c, ysv)
         c = _put(log, row, c, ya)
         c = _put(log, row, c, yp)
         _copy(xs_n, xs)
@@ -249,25 +309,28 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
             comp_ns[row, 0] = t1 - t_start
             comp_ns[row, 1] = t2 - t1
             comp_ns[row, 2] = t3 - t2
-            comp_ns[row, 3] = t4 - t3
-            comp_ns[row, 4] = t5 - t4
-            comp_ns[row, 5] = t6 - t5
-            comp_ns[row, 6] = t_end - t6
+            comp_ns[row, 3] = t3s - t3
+            comp_ns[row, 4] = t4 - t3s
+            comp_ns[row, 5] = t5 - t4
+            comp_ns[row, 6] = t6 - t5
+            comp_ns[row, 7] = t_end - t6
         clk[CLK_TICKS] += 1
+        sv[S_OVERRAN] = 0.0
         if paced:
             clk[CLK_DEADLINE] += period_ns
             if t_end > clk[CLK_DEADLINE]:  # overrun: skip ahead by whole periods
                 missed = (t_end - clk[CLK_DEADLINE]) // period_ns + 1
                 clk[CLK_OVERRUNS] += missed
                 clk[CLK_DEADLINE] += missed * period_ns
+                sv[S_OVERRAN] = 1.0  # the supervisor's overrun check reads it next tick
     return failed
 
 
 @dataclass
 class LoopState:
     """Every state of the loop between two ticks: each component's state slots x*, the outputs
-    of the previous tick that the next one reads (y*), the noise generator's state and the
-    plant's contact-solver cache."""
+    of the previous tick that the next one reads (y*), the supervisor's state, the noise
+    generator's state and the plant's contact-solver cache."""
     xs: np.ndarray
     ys: np.ndarray
     xo: np.ndarray
@@ -277,6 +340,7 @@ class LoopState:
     xq: np.ndarray
     xf: np.ndarray
     yf: np.ndarray
+    sv: np.ndarray  # the supervisor's state (rt.supervisor.SUPERVISOR_SLOTS)
     xa: np.ndarray
     ya: np.ndarray
     xp: np.ndarray
@@ -300,10 +364,14 @@ def initial_loop_state(loop: Loop, seed: int) -> LoopState:
     ya[0] = loop.actuator.F0 + loop.actuator.k_screw * xa[3]
     ai = actuator_output_index()
     ya[ai["F_strain_a"]] = ya[ai["F_cell_a"]] = ya[0]
-    return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=ya[0]), ys=np.zeros(len(SENSOR_OUTPUTS)),
+    ys = np.zeros(len(SENSOR_OUTPUTS))
+    si = sensor_output_index()
+    ys[si["F_strain"]] = ys[si["F_cell"]] = ya[0]  # the readings at rest (noise-free)
+    return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=ya[0]), ys=ys,
                      xo=rest_state(loop.oracle, (0.0, 0.0)), xe=np.zeros(loop.observer.M.shape[0]), xl=np.zeros(len(LAWS_SLOTS)),
                      yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
-                     xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)), xa=xa, ya=ya,
+                     xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)),
+                     sv=supervisor_initial_state(ys), xa=xa, ya=ya,
                      xp=plant.initial_state(cfg.actuator.F0_N), yp=np.zeros(len(plant.output_labels())),
                      rng=new_rng(seed), plant_work=plant.new_work())
 
@@ -321,6 +389,7 @@ class Run:
     wall_ns: int
     interrupted: bool = False  # stopped by Ctrl-C: the log holds the ticks run until then
     final: LoopState | None = None  # every state after the last tick run (a next run's start)
+    faults: np.ndarray | None = None  # the injected fault schedule (rt.faults)
 
     def signal(self, name: str) -> np.ndarray:
         return self.log[:, self.loop.column(name)]
@@ -351,13 +420,16 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float)
 
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
         timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
-        start: LoopState | None = None, writer=None) -> Run:
+        start: LoopState | None = None, writer=None, faults: np.ndarray | None = None) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
 
     The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
     of a previous run: a step-sine continues from the previous frequency's state; that start
     is not modified). Ticks continue from the start's tick k (t = k dt), so a run split in two
     at the same frequency equals one run, bit for bit.
+
+    ``faults``: a fault schedule (``rt.faults.schedule``; ticks absolute, so a split run takes
+    the same schedule), none by default.
 
     ``writer`` (an ``rt.writer.LogWriter``) drains the log to files while the loop runs: its
     ``start(log, clk, k0, paced)`` is called before the first tick, its ``finish()`` (write the
@@ -381,6 +453,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     clk = np.zeros(4, dtype=np.int64)
     si = sensor_output_index()
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
+    faults = no_faults() if faults is None else np.ascontiguousarray(faults, dtype=np.float64)
     args_fixed = (dt, amp_n, 2 * math.pi * freq_hz, force_col, timing, paced, period_ns, clk,
                   np.zeros(2, dtype=np.int64))
     failed = [0]
@@ -399,18 +472,20 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         while k < n_ticks and not clk[CLK_STOP]:
             k1 = min(n_ticks, k + step)
             failed[0] += _run_ticks(st.k + k, st.k + k1, *args_fixed,
-                                    st.xs, np.empty_like(st.xs), st.ys, np.zeros(4), loop.sensors, st.rng,
+                                    st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys),
+                                    np.zeros(4), loop.sensors, st.rng,
                                     loop.estimator == "observer", st.xo, np.empty_like(st.xo),
                                     np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle, st.xe,
                                     np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2),
                                     loop.observer,
                                     st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params,
+                                    st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor, faults,
                                     st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
                                     st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params,
                                     st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator,
                                     st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work,
                                     oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"],
-                                    ai["F_strain_a"], ai["F_cell_a"], si["v_tip_meas"], si["F_cell"],
+                                    ai["F_strain_a"], ai["F_cell_a"],
                                     log[k:k1], comp_ns[k:k1] if timing else comp_ns)
             k = k1
 
@@ -453,10 +528,21 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     if failed[0]:
         raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
                            "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
-    if not np.all(np.isfinite(log)):
+    if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - n_run, n_run)):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
-               interrupted, st)
+               interrupted, st, faults)
+
+
+def _dropout_mask(loop: Loop, faults: np.ndarray, k0: int, n: int) -> np.ndarray:
+    """True where an injected sensor_dropout makes a logged reading NaN (rows k0 .. k0 + n - 1)."""
+    mask = np.zeros((n, len(loop.signals)), dtype=bool)
+    for f in faults:
+        if int(f[F_KIND]) == K_DROPOUT:
+            lo, hi = max(int(f[F_START]) - k0, 0), min(int(min(f[F_END], 2**62)) - k0, n)
+            if lo < hi:
+                mask[lo:hi, 1 + int(f[F_TARGET])] = True  # column 0 is F_exc, then SENSOR_OUTPUTS
+    return mask
 
 
 def first_harmonic_amplitude(x: np.ndarray, freq_hz: float, dt: float) -> float:
@@ -488,7 +574,20 @@ def summary(r: Run) -> dict:
         "tick_median_us": float(np.median(r.signal("tick_ns")) / 1e3),
         "tick_max_us": float(np.max(r.signal("tick_ns")) / 1e3),
         "wall_s": r.wall_ns / 1e9,
-    } | (_estimation_errors(r) if r.loop.estimator != "oracle" else {})
+    } | _supervisor_summary(r) | (_estimation_errors(r) if r.loop.estimator != "oracle" else {})
+
+
+def _supervisor_summary(r: Run) -> dict:
+    """``trips``: every latched fault (code, name, tick, recovered_tick); ``faults``: per injected
+    fault its kind, sensor, tick, and the code, detected_tick, passive_tick the supervisor logged
+    (``rt.faults.outcome``). Ticks are absolute."""
+    from rt.faults import outcome, trips
+    k = r.final.k - len(r.log) + np.arange(len(r.log))
+    p = r.loop.supervisor
+    grace = 2 * max(p.stuck_ticks, p.err_ticks, p.sat_ticks, p.ovr_ticks) + 100
+    faults = r.faults if r.faults is not None else np.zeros((0, 5))
+    return {"trips": trips(k, r.signal("fault_latched")),
+            "faults": outcome(k, r.signal("fault_code"), r.signal("passive"), faults, grace)}
 
 
 def _estimation_errors(r: Run) -> dict:

@@ -35,7 +35,7 @@ from plant.actuator import ACTUATOR_OUTPUTS
 from rt.loop import _actuate, _copy, _put, build_loop, initial_loop_state
 from rt.config import load
 from rt.mcap_log import read_mcap
-from rt.replay import _config_of
+from rt.replay import _config_of, _seed_of
 
 INPUTS = ("F_exc", "V_cmd")
 SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")  # "outputs" in the JSON
@@ -111,7 +111,7 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
         loop = build_loop(cfg, law, "oracle")  # the estimator plays no part here: no observer design
     except ValueError as exc:
         raise ValueError(f"{path}: the configuration cannot be built ({exc})") from None
-    st = initial_loop_state(loop, int(meta.get("seed", cfg.rt.seed)))
+    st = initial_loop_state(loop, _seed_of(path, meta, cfg))
     out_names = [nm for nm, _ in ACTUATOR_OUTPUTS] + [nm for nm, _ in loop.plant.output_labels()]
     out = np.empty((n, len(out_names)))
     F_exc = np.ascontiguousarray(u[:, 0])

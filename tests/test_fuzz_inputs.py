@@ -369,7 +369,7 @@ def test_set_list_addressing(lst, name, rest, capfd):
 
 # --- log files ------------------------------------------------------------------------------------
 
-COMMANDS = ("replay", "inspect", "recover", "validate")
+COMMANDS = ("replay", "replay_plant", "inspect", "recover", "validate")
 
 
 class RealLog:
@@ -400,7 +400,7 @@ def dirs(tmp_path_factory):
 
 
 def file_argv(cmd: str, src: Path, out: Path) -> list[str]:
-    return {"replay": ["replay", str(src), "--json"],
+    return {"replay": ["replay", str(src), "--json"], "replay_plant": ["replay", str(src), "--plant", "--json"],
             "inspect": ["inspect", str(src), "-o", str(out / "x.rrd"), "--json"],
             "recover": ["recover", str(src), "-o", str(out / "x.mcap"), "--json"],
             "validate": ["validate", str(src), "--json"]}[cmd]
@@ -429,7 +429,7 @@ def feed(capfd, cmd: str, src: Path, out: Path, allowed: tuple[int, ...]) -> int
 
 def normal_codes(cmd: str) -> tuple[int, ...]:
     """Exit codes of a normal run: replay 1 = a mismatch, validate 1 = problems found."""
-    return (0, 1, 2) if cmd in ("replay", "validate") else (0, 2)
+    return (0, 2) if cmd in ("inspect", "recover") else (0, 1, 2)
 
 
 @fuzz("file_mutated", SLOW_S)
@@ -492,7 +492,7 @@ def write_mcap(path: Path, schemas: dict, records: list, msgs: list) -> None:
 
 
 CRAFTED = ("foreign", "missing_topics", "nan", "non_monotonic", "duplicate", "off_grid", "wrong_size", "not_cdr",
-           "bad_signals", "schema_mismatch", "no_messages", "huge_time")
+           "bad_signals", "schema_mismatch", "no_messages", "huge_time", "bad_run_record")
 
 
 @fuzz("file_crafted", SLOW_S)
@@ -514,14 +514,14 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
     elif kind == "missing_topics":
         gone = data.draw(st.sets(st.sampled_from(sorted(tps)), min_size=1, max_size=len(tps) - 1), label="gone")
         msgs = [m for m in msgs if m[0] not in gone]
-        allowed = {"replay": (0, 2), "inspect": (0,), "recover": (2,), "validate": (0, 1)}[cmd]
+        allowed = {"replay": (0, 2), "inspect": (0,), "recover": (2,), "validate": (0, 1)}.get(cmd, (0, 1, 2))
     elif kind == "nan":
         sens = [i for i, m in enumerate(msgs) if m[0] == "/sensors"]
         for i in data.draw(st.lists(st.sampled_from(sens), min_size=1, max_size=5), label="rows"):
             topic, t, s, payload = msgs[i]
             col = data.draw(st.integers(0, (len(payload) - 4) // 8 - 1), label="col")
             msgs[i] = (topic, t, s, payload[:4 + 8 * col] + np.float64("nan").tobytes() + payload[12 + 8 * col:])
-        allowed = {"replay": (2,), "inspect": (0,), "recover": (0,), "validate": (1,)}[cmd]
+        allowed = {"replay": (2,), "inspect": (0,), "recover": (0,), "validate": (1,)}.get(cmd, (0, 1))
     elif kind == "non_monotonic":
         i, j = sorted(data.draw(st.lists(st.integers(0, ticks - 1), min_size=2, max_size=2, unique=True), label="ij"))
         per = len(tps)
@@ -564,9 +564,16 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
             (name, enc, text.split(b"\n", 1)[1], menc), (name, "jsonschema", text, menc), (name, enc, text, "json"),
             ("other/msg/X", enc, text, menc), (name, enc, text.replace(b"float64", b"float32"), menc)]), label="schema")
         allowed = (1, 2) if cmd == "validate" else (2,)
+    elif kind == "bad_run_record":   # the "frictionrt" record: configuration, law, estimator, seed
+        bad = data.draw(st.sampled_from([
+            {"config": "[rt\nrate_hz = "}, {"config": "[tracking]\nK_f = -1.0\n"}, {"config": "nonsense = 1\n"},
+            {"law": "bang-bang"}, {"estimator": "psychic"}, {"seed": "abc"}, {"seed": "-1"}, {"seed": "1e400"},
+            {"seed": "99999999999999999999999"}]), label="record")
+        records = [(name, dict(md, **bad) if name == "frictionrt" else md) for name, md in records]
+        allowed = {"replay": (2,), "inspect": (0,), "recover": (0,)}.get(cmd, (0, 1, 2))
     elif kind == "no_messages":
         msgs = []
-        allowed = {"replay": (2,), "inspect": (0,), "recover": (2,), "validate": (1,)}[cmd]
+        allowed = {"inspect": (0,), "validate": (1,)}.get(cmd, (2,))
     else:   # huge_time: a log time beyond the last tick that int64 nanoseconds represent
         i = data.draw(pick, label="message")
         topic, _, s, payload = msgs[i]
