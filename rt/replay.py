@@ -11,17 +11,21 @@ what the controller read at that tick in the loop (``rt.loop._run_ticks``, stage
     oracle      the plant's u_rel, v_rel of row k - 1 of /plant (the plant outputs of the
                 previous tick are what the oracle reads at tick k; before the first tick the
                 rest state's, zero); only when the estimator was the oracle
-    estimator -> law -> prefilter -> force tracking: the loop's own compiled kernels, wired as
-                in ``_run_ticks`` (``_replay_ticks``)
+    estimator -> law -> supervisor -> prefilter -> force tracking: the loop's own controller
+                tick (``rt.loop._controller_tick``, ``_replay_ticks``), with the run's fault
+                schedule (metadata "faults": the observer-stage faults act here; the sensor
+                faults are in the recorded readings) and its overruns (paced runs: tick_ns +
+                late_ns of the tick before)
 
 and compares every commanded signal (the estimator's outputs, F_set, u0, F_set_filtered, V_cmd,
-saturated) with the recorded one. For the project's own logs the replay is bit-exact.
+saturated, and the supervisor's fault_code, fault_latched, passive) with the recorded one. For the project's own logs the replay is bit-exact.
 
 A file with the sensor topic only (a measurement) and the observer as estimator is replayed
 without comparison: the controller's outputs are reported (``bit_exact`` None).
 """
 from __future__ import annotations
 
+import json
 import threading
 import time
 from pathlib import Path
@@ -29,32 +33,37 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from observer.step import OBSERVER_OUTPUTS, _observer_step
-from rt.biquad import _biquad_step
+from observer.step import OBSERVER_OUTPUTS
 from rt.clock import _now_ns
 from rt.config import ConfigError, load, loads
-from rt.loop import (CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, ESTIMATORS, _copy, _put, build_loop,
-                     initial_loop_state)
+from rt.faults import from_json
+from rt.loop import (CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, ESTIMATORS, _controller_tick, _copy, _put,
+                     build_loop, initial_loop_state)
 from rt.mcap_log import read_mcap
 from rt.sensors import SENSOR_OUTPUTS
-from tracking.force_tracking import FORCE_TRACKING_OUTPUTS, _force_tracking_step
-from tracking.laws import LAWS_OUTPUTS, _laws_step
+from rt.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
+from tracking.force_tracking import FORCE_TRACKING_OUTPUTS
+from tracking.laws import LAWS_OUTPUTS
 from tracking.prefilter import PREFILTER_OUTPUTS
 
-COMMANDED = tuple(n for n, _ in OBSERVER_OUTPUTS + LAWS_OUTPUTS + PREFILTER_OUTPUTS + FORCE_TRACKING_OUTPUTS)
+COMMANDED = tuple(n for n, _ in OBSERVER_OUTPUTS + LAWS_OUTPUTS + PREFILTER_OUTPUTS + FORCE_TRACKING_OUTPUTS
+                  + SUPERVISOR_OUTPUTS)
 SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
-def _replay_ticks(ks, sens, uv, out, force_col, col_vtip, col_cell, observe, paced, period_ns, clk, ts,
+def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, paced, period_ns, clk, ts, yc,
                   xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
                   xl, xl_n, yl, ul, law_p,
+                  sv, ysv, sv_p,
                   xq, xq_n, yq, uq, pre_p,
                   xf, xf_n, yf, uf, ft_p):
-    """Controller stages 2-4 of ``rt.loop._run_ticks`` for the ticks ks: sens[i] the sensor
-    readings (``SENSOR_OUTPUTS`` order) and uv[i] the plant's (u_rel, v_rel) the oracle reads at
-    tick ks[i]; out[i] receives the estimator's, the law's, the prefilter's and the force
-    tracking's outputs (``COMMANDED`` order). Paced: absolute deadlines as in the loop."""
+    """The loop's controller tick (``rt.loop._controller_tick``: estimator, law, supervisor,
+    force tracking) for the ticks ks: sens[i] the sensor readings (``SENSOR_OUTPUTS`` order),
+    uv[i] the plant's (u_rel, v_rel) the oracle reads at tick ks[i], overran[i] whether the
+    tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the
+    law's, the prefilter's, the force tracking's and the supervisor's outputs (``COMMANDED``
+    order). Paced: absolute deadlines as in the loop."""
     for i in range(ks.shape[0]):
         if clk[CLK_STOP]:
             break
@@ -62,33 +71,15 @@ def _replay_ticks(ks, sens, uv, out, force_col, col_vtip, col_cell, observe, pac
         if paced:
             while _now_ns(ts) < clk[CLK_DEADLINE]:
                 pass
-        # 2 estimator
-        if observe:
-            ue[0] = sens[i, col_vtip]
-            ue[1] = sens[i, col_cell]
-            _observer_step(k, xe, ue, obs_p, xe_n, ye)
-        else:
-            uo[0] = uv[i, 0]
-            uo[1] = uv[i, 1]
-            _biquad_step(k, xo, uo, oracle_p, xo_n, yo)
-            ye[0] = yo[0]
-            ye[1] = yo[1]
-            ye[2] = 0.0
-            ye[3] = 0.0
-        ul[0] = ye[0]
-        ul[1] = ye[1]
-        # 3 law
-        _laws_step(k, xl, ul, law_p, xl_n, yl)
-        # 4 force tracking on the law's sensor, setpoint through the prefilter
-        uq[0] = yl[0]
-        _biquad_step(k, xq, uq, pre_p, xq_n, yq)
-        uf[0] = yq[0]
-        uf[1] = sens[i, force_col]
-        _force_tracking_step(k, xf, uf, ft_p, xf_n, yf)
+        sv[S_OVERRAN] = overran[i]
+        _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts,
+                         xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p, xl, xl_n, yl, ul, law_p,
+                         sv, ysv, sv_p, xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
         c = _put(out, i, 0, ye)
         c = _put(out, i, c, yl)
         c = _put(out, i, c, yq)
         c = _put(out, i, c, yf)
+        c = _put(out, i, c, ysv)
         if observe:
             _copy(xe_n, xe)
         else:
@@ -118,19 +109,15 @@ def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
         raise ValueError(f"{path}: {exc}") from None
 
 
-def _seed_of(path: Path, meta: dict[str, str], cfg) -> int:
-    """The sensor-noise seed stored in the log (``rt.seed`` if none): a non-negative 64-bit
-    integer, ValueError naming the file otherwise."""
-    text = meta.get("seed")
-    if text is None:
-        return cfg.rt.seed
-    try:
-        seed = int(text)
-    except ValueError:
-        seed = -1
-    if not 0 <= seed <= 2**63 - 1:
-        raise ValueError(f"{path}: the stored seed {text[:40]!r} is not a non-negative 64-bit integer")
-    return seed
+def _overran(rec, names: list[str], meta: dict[str, str], period_ns: int) -> np.ndarray:
+    """Per replayed tick: 1.0 if the recorded tick before it overran (paced runs: its tick_ns +
+    late_ns > period, as the loop decides it), else 0.0; all 0 for offline runs and files without
+    the timing signals."""
+    out = np.zeros(len(rec.k))
+    if meta.get("paced") == "true" and "tick_ns" in names and "late_ns" in names:
+        t = rec.log[:, names.index("tick_ns")] + rec.log[:, names.index("late_ns")]
+        out[1:] = (t[:-1] > period_ns).astype(float)
+    return out
 
 
 def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
@@ -177,7 +164,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     if not np.all(np.isfinite(sens)):
         bad = int(rec.k[~np.all(np.isfinite(sens), axis=1)][0])
         raise ValueError(f"{path}: /sensors has missing or non-finite readings (first at tick {bad})")
-    st = initial_loop_state(loop, _seed_of(path, meta, cfg))
+    st = initial_loop_state(loop, int(meta.get("seed", cfg.rt.seed)))
     n = len(rec.k)
     uv = np.zeros((n, 2))
     if estimator == "oracle":
@@ -192,20 +179,23 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     out = np.full((n, len(COMMANDED)), np.nan)
     clk = np.zeros(4, dtype=np.int64)
     period_ns = round(cfg.dt_s * 1e9)
+    overran = _overran(rec, names, meta, period_ns)
+    faults = from_json(json.loads(meta.get("faults", "[]")))
     errors: list[BaseException] = []
 
     states = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
               st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer,
               st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params,
+              st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor,
               st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
               st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
-    fixed = (force_col, si["v_tip_meas"], si["F_cell"], estimator == "observer", paced, period_ns, clk,
-             np.zeros(2, np.int64))
-    _replay_ticks(rec.k[:0], sens[:0], uv[:0], out[:0], *fixed, *states)  # compile or load: not timed
+    fixed = (force_col, estimator == "observer", faults, paced, period_ns, clk, np.zeros(2, np.int64),
+             np.empty(len(SENSORS)))
+    _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed, *states)  # compile or load: not timed
 
     def worker():
         try:
-            _replay_ticks(rec.k, sens, uv, out, *fixed, *states)
+            _replay_ticks(rec.k, sens, uv, overran, out, *fixed, *states)
         except BaseException as exc:
             errors.append(exc)
 

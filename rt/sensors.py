@@ -36,7 +36,8 @@ ADC: two's-complement (accelerometers, codes -2^(b-1) .. 2^(b-1) - 1, LSB = 2 ac
 and straight binary (forces, codes 0 .. 2^b - 1, LSB = force_range_N / 2^b) converters with
 round-to-nearest (mid-tread: zero is a code): value = clip(rint(v / LSB), n_lo, n_hi) LSB.
 Full scale clips at the end codes, so the largest reading is acc_range - LSB (force_range_N - LSB)
-and the smallest -acc_range (0). NaN stays NaN (a broken plant must stay visible).
+and the smallest -acc_range (0). NaN stays NaN (a broken plant must stay visible); the tip
+integrator takes a non-finite reading as 0 m/s^2 (``_tip_velocity``).
 
 Noise: zero-mean Gaussian of the configured rms, added before the ADC, drawn from the seeded
 generator of ``rt.noise``: four normals per tick, always in the order (acc tip, acc frf) from
@@ -166,7 +167,31 @@ def _adc(v, inv_lsb, lsb, n_lo, n_hi):
 
 @numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy")
 def _sensors_step(k, x, u, p, x_next, y, rng):
-    """Sensor readings at t_k from the plant/actuator samples at t_k.
+    """Sensor readings at t_k from the plant/actuator samples at t_k: ``_sensors_read`` (the
+    ADC readings) then ``_tip_velocity`` (the controller's integrator). The loop calls the two
+    itself, with fault injection between them (``rt.supervisor``). Arguments as
+    ``_sensors_read``. RT-safe."""
+    _sensors_read(k, x, u, p, x_next, y, rng)
+    _tip_velocity(x, p, x_next, y)
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy")
+def _tip_velocity(x, p, x_next, y):
+    """The leaky integrator of the measured tip acceleration y[0] -> y[2] = v_tip_meas [m/s]
+    (slots v_tip, a_tip_meas_in of x_next written). A non-finite reading (a dropout) counts as
+    0 m/s^2 (no information; holding the last sample would integrate it over the whole gap), so
+    the integrator's state stays finite. RT-safe."""
+    u0 = x[7]
+    a = y[0] if math.isfinite(y[0]) else 0.0
+    v = p.F1[0, 0] * x[6] + p.F1[0, 1] * u0 + p.F1[0, 2] * (a - u0)
+    x_next[6] = v
+    x_next[7] = a
+    y[2] = v
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy")
+def _sensors_read(k, x, u, p, x_next, y, rng):
+    """The ADC readings at t_k from the plant/actuator samples at t_k (all but v_tip_meas).
 
     Parameters
     ----------
@@ -176,13 +201,13 @@ def _sensors_step(k, x, u, p, x_next, y, rng):
         F_cell_a [N] (the actuator's analog force-sensor outputs; used as they are), or
         (3,) a_tip, a_frf, F_N1 [N] (force sensors filtered here on the F_N1 samples)
     p : SensorParams
-    x_next : (11,) state at t_k (written)
-    y : (5,) ``SENSOR_OUTPUTS`` (written): a_tip_meas, a_frf_meas [m/s^2], v_tip_meas [m/s],
-        F_strain, F_cell [N]
+    x_next : (11,) state at t_k (written; slots v_tip, a_tip_meas_in by ``_tip_velocity``)
+    y : (5,) ``SENSOR_OUTPUTS`` (written): a_tip_meas, a_frf_meas [m/s^2], F_strain, F_cell [N];
+        y[2] = v_tip_meas [m/s] is ``_tip_velocity``'s
     rng : (4,) uint64 generator state (``rt.noise.new_rng``), advanced by four normals
 
     Each filter: z_k = Phi z_{k-1} + G0 u_{k-1} + G1 (u_k - u_{k-1}) (exact first-order hold);
-    readings = ADC(filter output + sigma N(0, 1)); v_tip from the measured tip acceleration.
+    readings = ADC(filter output + sigma N(0, 1)).
     With u of length 4 the force filter slots take F_strain_a, F_cell_a and F_N1_in is kept.
     RT-safe (no allocation; the only side effect is advancing rng).
     """
@@ -207,9 +232,6 @@ def _sensors_step(k, x, u, p, x_next, y, rng):
     n_strain, n_cell = _normal_pair(rng)
     a_tip_m = _adc(yt + p.acc_sigma * n_tip, acc_inv, acc_lsb, acc_lo, acc_hi)
     a_frf_m = _adc(yf + p.acc_sigma * n_frf, acc_inv, acc_lsb, acc_lo, acc_hi)
-    # --- leaky integrator of the measured tip acceleration
-    u0 = x[7]
-    v = F1[0, 0] * x[6] + F1[0, 1] * u0 + F1[0, 2] * (a_tip_m - u0)
     # --- bolt force sensors
     if u.shape[0] >= 4:  # analog outputs from the actuator's exact integration
         Fs = u[2]
@@ -230,14 +252,11 @@ def _sensors_step(k, x, u, p, x_next, y, rng):
     x_next[3] = rf
     x_next[4] = a_tip
     x_next[5] = a_frf
-    x_next[6] = v
-    x_next[7] = a_tip_m
     x_next[8] = Fs
     x_next[9] = Fc
     x_next[10] = F_in
     y[0] = a_tip_m
     y[1] = a_frf_m
-    y[2] = v
     y[3] = F_s_m
     y[4] = F_c_m
 
