@@ -109,6 +109,21 @@ def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
         raise ValueError(f"{path}: {exc}") from None
 
 
+def _seed_of(path: Path, meta: dict[str, str], cfg) -> int:
+    """The sensor-noise seed stored in the log (``rt.seed`` if none): a non-negative 64-bit
+    integer, ValueError naming the file otherwise."""
+    text = meta.get("seed")
+    if text is None:
+        return cfg.rt.seed
+    try:
+        seed = int(text)
+    except ValueError:
+        seed = -1
+    if not 0 <= seed <= 2**63 - 1:
+        raise ValueError(f"{path}: the stored seed {text[:40]!r} is not a non-negative 64-bit integer")
+    return seed
+
+
 def _overran(rec, names: list[str], meta: dict[str, str], period_ns: int) -> np.ndarray:
     """Per replayed tick: 1.0 if the recorded tick before it overran (paced runs: its tick_ns +
     late_ns > period, as the loop decides it), else 0.0; all 0 for offline runs and files without
@@ -164,7 +179,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     if not np.all(np.isfinite(sens)):
         bad = int(rec.k[~np.all(np.isfinite(sens), axis=1)][0])
         raise ValueError(f"{path}: /sensors has missing or non-finite readings (first at tick {bad})")
-    st = initial_loop_state(loop, int(meta.get("seed", cfg.rt.seed)))
+    st = initial_loop_state(loop, _seed_of(path, meta, cfg))
     n = len(rec.k)
     uv = np.zeros((n, 2))
     if estimator == "oracle":
