@@ -169,19 +169,20 @@ def _actuate(k, F_exc, V_cmd, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p
     return _plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk), t5
 
 
-@numba.njit(cache=True, nogil=True, _nrt=False)
-def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing, ts,
-                     xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
-                     xl, xl_n, yl, ul, law_p,
-                     sv, ysv, sv_p,
-                     xq, xq_n, yq, uq, pre_p,
-                     xf, xf_n, yf, uf, ft_p):
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing, ts, est, law, sup, trk):
     """Stages 2-4 of tick k with the supervisor, on the readings ys (``SENSOR_OUTPUTS``) and the
     plant's u_rel [m], v_rel [m/s] (read by the oracle only): the loop and the replay both run
-    this. yc receives the readings the controller uses (non-finite ones replaced by the last
+    this. The stages' arrays come in four tuples (a call of more than ~30 arguments cannot be
+    inlined): est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p), law = (xl, xl_n, yl,
+    ul, law_p), sup = (sv, ysv, sv_p), trk = (xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p). yc receives the readings the controller uses (non-finite ones replaced by the last
     finite, ``rt.supervisor._sanitise``); ye, yl, yq, yf, ysv the stages' outputs; next states
     into x*_n; the supervisor state sv is advanced in place. Returns the clock [ns] after the
     estimator, the law, the supervisor and the tracking if timing, else zeros. RT-safe."""
+    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
+    xl, xl_n, yl, ul, law_p = law
+    sv, ysv, sv_p = sup
+    xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
     # 2 estimator (oracle: the plant's u_rel, v_rel band-limited)
     _sanitise(sv, ys, yc)
     if observe:
@@ -245,6 +246,10 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
     of failed plant solves.
     """
     failed = 0
+    est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p)
+    law = (xl, xl_n, yl, ul, law_p)
+    sup = (sv, ysv, sv_p)
+    trk = (xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
     for k in range(k0, k1):
         if clk[CLK_STOP]:
             break
@@ -272,9 +277,7 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         t1 = _now_ns(ts) if timing else 0
         # 2 estimator, 3 law, 3s supervisor, 4 force tracking
         t2, t3, t3s, t4 = _controller_tick(k, ys, yc, yp[col_urel], yp[col_vrel], force_col, observe, faults,
-                                           timing, ts, xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
-                                           xl, xl_n, yl, ul, law_p, sv, ysv, sv_p,
-                                           xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
+                                           timing, ts, est, law, sup, trk)
         # 5 actuator (faults act on its input) and 6 plant over the tick
         F_exc = exc_amp * math.sin(exc_omega * (k * dt))
         iters, t5 = _actuate(k, F_exc, _inject_actuator(k, faults, yf[0]), xa, xa_n, ya, ua, act_p,

@@ -64,6 +64,10 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, paced,
     tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the
     law's, the prefilter's, the force tracking's and the supervisor's outputs (``COMMANDED``
     order). Paced: absolute deadlines as in the loop."""
+    est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p)
+    law = (xl, xl_n, yl, ul, law_p)
+    sup = (sv, ysv, sv_p)
+    trk = (xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
     for i in range(ks.shape[0]):
         if clk[CLK_STOP]:
             break
@@ -72,9 +76,7 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, paced,
             while _now_ns(ts) < clk[CLK_DEADLINE]:
                 pass
         sv[S_OVERRAN] = overran[i]
-        _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts,
-                         xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p, xl, xl_n, yl, ul, law_p,
-                         sv, ysv, sv_p, xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
+        _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
         c = _put(out, i, 0, ye)
         c = _put(out, i, c, yl)
         c = _put(out, i, c, yq)

@@ -135,7 +135,7 @@ def no_faults() -> np.ndarray:
 
 # --- run time: the supervisor ------------------------------------------------------------------
 
-@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+@numba.njit(cache=True, nogil=True, _nrt=False)
 def _sanitise(s, ys, yc):
     """yc[i] = ys[i] if finite, else the last finite reading of sensor i (kept in s). RT-safe."""
     for i in range(N_READ):
@@ -208,7 +208,7 @@ def _check(k, s, ys, ye, z, F_set, p):
     return code
 
 
-@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+@numba.njit(cache=True, nogil=True, _nrt=False)
 def _latch(k, s, code, p):
     """Latch a fault (go passive) or count clean ticks towards auto recovery. RT-safe."""
     s[S_CODE] = code
@@ -238,7 +238,7 @@ def _supervise(k, s, ys, ye, z, F_set, p):
     return F_set
 
 
-@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+@numba.njit(cache=True, nogil=True, _nrt=False)
 def _supervise_after(k, s, e, yf, p, y):
     """After the force tracking: record the error e [N] and saturation for the next tick's
     checks, replace a non-finite V_cmd by V_passive (latching command_nonfinite), fill the
