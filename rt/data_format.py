@@ -32,7 +32,7 @@ import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from rt.mcap_log import CDR_LE, MAX_TICK, OWNERS, _check_framing, field_names, tick_time_ns
+from rt.mcap_log import CDR_LE, MAX_TICK, OWNERS, _check_framing, field_names, schema_name, tick_time_ns
 
 
 class Entry(NamedTuple):
@@ -414,6 +414,8 @@ def _check_topic(name: str, tp: _Topic, fields: list[tuple[str, str]], rate: int
         problems.append(Problem(name, "wrong type", "schema encoding must be ros2msg and message encoding cdr, got "
                                 f"{getattr(s, 'encoding', None)!r} / {ch.message_encoding!r}"))
         return None
+    if s.name != schema_name(name[1:]):
+        problems.append(Problem(name, "wrong type", f"schema name {s.name!r}, must be {schema_name(name[1:])!r}"))
     parsed = _parse_schema(s.data)
     if parsed is None:
         problems.append(Problem(name, "wrong type", "the schema is not one 'TYPE FIELD' per line"))

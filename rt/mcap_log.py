@@ -121,6 +121,11 @@ def check_rate(path: Path, rate_hz: float) -> int:
     return int(rate_hz)
 
 
+def schema_name(owner: str) -> str:
+    """The ros2msg schema name of an owner's topic, e.g. frictionrt/msg/Plant."""
+    return f"frictionrt/msg/{owner.capitalize()}"
+
+
 @dataclass(frozen=True)
 class Topic:
     """One owner's topic: its log columns and ros2msg schema."""
@@ -134,7 +139,7 @@ class Topic:
 
     @property
     def schema_name(self) -> str:
-        return f"frictionrt/msg/{self.owner.capitalize()}"
+        return schema_name(self.owner)
 
     @property
     def schema_text(self) -> bytes:
