@@ -22,7 +22,8 @@ previous one's state; one sweep per law and amplitude, run in parallel."""
 EXAMPLES = """examples:
   frictionrt frf --law passive lyapunov --amp 5 --around-modes 3 --plot logs/frf_mode3.png
   frictionrt frf --law hysteresis --amp 5 20 --freqs 190,195,200,205 --down --json
-  frictionrt frf --law passive --amp 5 --around-modes 2,3,4,5 --dask tcp://10.0.0.5:8786 --out logs/frf.json"""
+  frictionrt frf --law passive --amp 5 --around-modes 2,3,4,5 --dask tcp://10.0.0.5:8786 --out logs/frf.json
+  frictionrt frf --law passive --amp 5 --freqs 185,205 --sweep-rate 0.5 --down --plot logs/sweep_down.png"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -56,6 +57,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="half width of each mode's band, relative to its centre (default 0.15)")
     p.add_argument("--down", action="store_true",
                    help="sweep from the highest frequency down (default: up); a nonlinear FRF can differ")
+    p.add_argument("--sweep-rate", type=float, default=None, metavar="HZ_PER_S",
+                   help="instead of step-sine points: a slow continuous sweep (phase-continuous, force amplitude "
+                        "held) over the grid's range at this rate [Hz/s] (> 0; the paper sweeps at <= 0.1 Hz/s; "
+                        "--down sweeps down), one point per ~0.1 s dwell, after a 4 s lead-in")
     p.add_argument("--tol", type=float, default=0.01, metavar="REL",
                    help="settled when H's predicted remaining change is below this (relative, default 0.01)")
     p.add_argument("--max-time", type=float, default=8.0, metavar="S",
@@ -135,14 +140,24 @@ def cmd_frf(cfg: Config, args) -> int:
             if path.suffix.lower() != suffix or not path.parent.exists():
                 return _fail(f"{option} {value}: give a {suffix} file in an existing folder")
             paths[option] = path
+    rate = args.sweep_rate
+    if rate is not None and not (math.isfinite(rate) and rate > 0.0):
+        return _fail(f"--sweep-rate {rate:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; --down for a down-sweep)")
     try:
         freqs = _frequencies(cfg, args)
         settle = Settle(rel_tol=args.tol, max_s=args.max_time)
-        settle.check(freqs, cfg.dt_s)
+        if rate is None:
+            settle.check(freqs, cfg.dt_s)
     except ValueError as exc:
         msg = str(exc).replace("settle.rel_tol", "--tol").replace("settle.max_s", "--max-time")
         return _fail(msg)
-    branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle) for law in args.law for a in args.amp]
+    if rate is not None:
+        if len(freqs) < 2:
+            return _fail("--sweep-rate: the frequency range is a single frequency; give two or more --freqs")
+        freqs = [freqs[0], freqs[-1]]   # the range, in sweep order
+        rate = -rate if args.down else rate
+    branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle, sweep_rate_hz_s=rate)
+                for law in args.law for a in args.amp]
     try:
         results = run_branches(branches, jobs=args.jobs, dask_address=args.dask, progress=not args.json)
     except ConnectionError as exc:

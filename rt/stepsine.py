@@ -51,10 +51,22 @@ Defaults (``Settle``) and why:
   the limit keeps a single block (e.g. in a frequency step's transient) from kicking the
   structure with more than twice the force.
 
-Sweeps (``step_sine``, ``sweep``) run the points in the given order, each from the previous
-point's final state (``rt.loop.run(..., start=...)``: ticks and every state continue). The
-excitation is F_cmd sin(2 pi f k dt) at the absolute tick k, so its phase jumps at a frequency
-step, as in a step-sine without phase continuity; the detector waits the transient out.
+Sweeps (``sweep``; ``run_branch`` checks the input and builds the loop) run the points in the
+given order, each from the previous point's final state (``rt.loop.run(..., start=...)``: ticks
+and every state continue). The excitation is F_cmd sin(2 pi f k dt) at the absolute tick k, so
+its phase jumps at a frequency step, as in a step-sine without phase continuity; the detector
+waits the transient out.
+
+Slow continuous sweep (``slow_sweep``, the paper's <= 0.1 Hz/s sweeps): a staircase of
+constant-frequency dwells whose steps are chosen so that the phase stays exactly continuous
+((f' - f) t_b is a whole number at each step time t_b, ``phase_continuous_step``); each dwell is
+one FRF point. Measured against the step-sine (passive, 5 N, mode 3, bandwidth ~5 Hz): up-sweep
+peak 7.56 at 194.6 Hz (0.5 Hz/s) and 7.49 at 194.9 Hz (2 Hz/s); the step-sine continuing upwards
+on a 1 Hz grid peaks at 7.77 at 193 Hz (the sweep lags: -3.6 %, 1.9 Hz late at 2 Hz/s); a
+down-sweep follows the friction-softened branch to 11.4 at 189 Hz (the jump phenomenon of
+a softening system). Through the stuck structure's 0.46 Hz wide mode-3 peak (F_N1 = 600 N) a
+2 Hz/s sweep reads 92 instead of 161 (m/s^2)/N, 0.6 Hz late: the classical sweep distortion for
+a rate above (bandwidth)^2; 0.1 % off the peak.
 
 Parallel: a (configuration, law, amplitude, frequency list) branch (``Branch``) is a pure function
 of its parameters; ``run_branches`` runs branches in joblib (loky) processes or on a dask cluster,
@@ -275,6 +287,18 @@ class Point:
     F_cmd_blocks: np.ndarray = field(repr=False)   # (n_blocks,) commanded force per block [N]
 
 
+def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopState | None, seed: int | None,
+               window: str):
+    """Run n ticks at freq_hz [Hz] and force command F_cmd [N] from state; returns the run, the
+    tick of its first row and the first harmonics X_a [m/s^2], X_F [N] of a_frf and F_exc."""
+    dt = loop.cfg.dt_s
+    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed)
+    k0 = r.final.k - len(r.log)
+    X_a = harmonics(r.signal("a_frf"), freq_hz, dt, 1, k0=k0, window=window).X[0]
+    X_F = harmonics(r.signal("F_exc"), freq_hz, dt, 1, k0=k0, window=window).X[0]
+    return r, k0, X_a, X_F
+
+
 def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState | None = None,
                  settle: Settle = Settle(), seed: int | None = None) -> tuple[Point, LoopState]:
     """Run the loop at freq_hz [Hz] with the measured force amplitude held at amp_n [N] until
@@ -292,12 +316,9 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     settled, residual = False, float("inf")
     while True:
         E_before = 0.0 if state is None else float(state.ya[iE])
-        r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed)
+        r, k0, X_a, X_F = _run_block(loop, freq_hz, F_cmd, n, state, seed, settle.window)
         state = r.final
-        k0 = state.k - len(r.log)
         a, F = r.signal("a_frf"), r.signal("F_exc")
-        X_a = harmonics(a, freq_hz, dt, 1, k0=k0, window=settle.window).X[0]
-        X_F = harmonics(F, freq_hz, dt, 1, k0=k0, window=settle.window).X[0]
         H.append(X_a / X_F)
         F_meas.append(abs(X_F))
         F_cmds.append(F_cmd)
@@ -400,8 +421,8 @@ def sweep(loop: Loop, freqs_hz: Sequence[float], amp_n: float, *, start: LoopSta
           settle: Settle = Settle(), seed: int | None = None,
           progress: Callable[[int], object] | None = None) -> StepSineResult:
     """Step-sine FRF of a built loop at the force amplitude amp_n [N], the points in the order of
-    freqs_hz [Hz], each continuing from the previous one's final state (``step_sine`` checks the
-    input and builds the loop; this is its second half).
+    freqs_hz [Hz], each continuing from the previous one's final state (``run_branch`` checks the
+    input and builds the loop).
 
     start: the first point's start state (None: at rest, noise seeded with seed, default
     rt.seed). progress(1) is called after each point."""
@@ -424,18 +445,74 @@ def sweep(loop: Loop, freqs_hz: Sequence[float], amp_n: float, *, start: LoopSta
                           k_end=col("k_end", np.int64))
 
 
-def step_sine(cfg: Config, law: str, freqs_hz: Sequence[float], amp_n: float, *, estimator: str = "oracle",
-              start: LoopState | None = None, settle: Settle = Settle(), seed: int | None = None,
-              progress: Callable[[int], object] | None = None) -> StepSineResult:
-    """Step-sine FRF of the closed loop with law at the force amplitude amp_n [N], the points in
-    the order of freqs_hz [Hz], each continuing from the previous one's final state.
+def phase_continuous_step(f_hz: float, k_b: int, dt: float, rate_hz_s: float, block_s: float) -> tuple[float, int]:
+    """The next frequency [Hz] and its dwell [ticks] of a slow sweep at the boundary tick k_b.
 
-    start: the first point's start state (None: at rest, noise seeded with seed, default
-    rt.seed). progress(1) is called after each point. Raises ValueError for a bad law,
-    estimator, amplitude or frequency (see ``check_sweep``); RuntimeError if the plant fails."""
-    check_sweep(cfg, law, freqs_hz, amp_n, settle, estimator)
-    return sweep(build_loop(cfg, law, estimator), freqs_hz, amp_n, start=start, settle=settle, seed=seed,
-                 progress=progress)
+    The loop's excitation is F sin(2 pi f k dt) at the absolute tick k, so a step from f to f' at
+    k_b keeps the phase exactly continuous iff (f' - f) k_b dt is a whole number n (mod 2 pi):
+    f' = f + sign(rate) n / t_b, t_b = k_b dt, with n = max(1, round(|rate| block_s t_b)), held for
+    n / (|rate| t_b) s, so that the mean rate is rate_hz_s [Hz/s] and the dwell is about block_s
+    once t_b >= 1 / (|rate| block_s) (before that: fewer, larger steps of 1 / t_b, longer dwells)."""
+    t_b = k_b * dt
+    n = max(1, round(abs(rate_hz_s) * block_s * t_b))
+    step = math.copysign(n / t_b, rate_hz_s)
+    return f_hz + step, max(1, round(n / (abs(rate_hz_s) * t_b) / dt))
+
+
+def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rate_hz_s: float, *,
+               block_s: float = 0.1, step_max_hz: float = 0.25, start: LoopState | None = None,
+               settle: Settle = Settle(), seed: int | None = None,
+               progress: Callable[[int], object] | None = None) -> StepSineResult:
+    """A slow continuous sweep (the paper's <= 0.1 Hz/s sweeps) from f_start_hz to f_end_hz [Hz]
+    at |rate_hz_s| [Hz/s], force amplitude held at amp_n [N]; one FRF point per dwell.
+
+    The excitation's phase is exactly continuous (``phase_continuous_step``): a staircase of
+    constant-frequency dwells whose steps shrink as time runs, never larger than step_max_hz. A
+    lead-in dwell at f_start_hz lasts until t = 1 / step_max_hz (4 s by default, counted from the
+    run's start; also the structure's settling at the first frequency) and is not a point. Each
+    dwell is measured as a step-sine block is (first harmonics, Hann weighting, THD) and updates
+    the force command as the amplitude controller does. A sweep point is quasi-stationary by
+    construction: settled is True, H_scatter and residual NaN. Returns a ``StepSineResult``
+    (direction "up" or "down")."""
+    dt = loop.cfg.dt_s
+    for name, v in (("rate", rate_hz_s), ("block_s", block_s), ("step_max_hz", step_max_hz)):
+        if not (math.isfinite(v) and v != 0.0 and (name == "rate" or v > 0.0)):
+            raise ValueError(f"slow sweep: {name} {v!r} must be a finite non-zero number (block and step > 0)")
+    if (f_end_hz - f_start_hz) * rate_hz_s <= 0.0:
+        raise ValueError(f"slow sweep from {f_start_hz:g} to {f_end_hz:g} Hz: the rate {rate_hz_s:g} Hz/s has "
+                         "the wrong sign or the range is empty")
+    check_sweep(loop.cfg, loop.law, [f_start_hz, f_end_hz], amp_n, Settle(max_s=1e9), loop.estimator)
+    iE = actuator_output_index()["E"]
+    state, f, F_cmd = start, float(f_start_hz), float(amp_n)
+    k0 = 0 if start is None else start.k
+    lead = max(round(1.0 / (step_max_hz * dt)) - k0, round(1.0 / (f * dt)))
+    r, *_ = _run_block(loop, f, F_cmd, lead, state, seed, settle.window)
+    state = r.final
+    rows = []
+    while True:
+        f, n = phase_continuous_step(f, state.k, dt, rate_hz_s, block_s)
+        if (f - f_end_hz) * rate_hz_s > 0.0:
+            break
+        n = max(n, math.ceil(1.0 / (f * dt)))   # at least one period to fit
+        E_before = float(state.ya[iE])
+        r, kb, X_a, X_F = _run_block(loop, f, F_cmd, n, state, seed, settle.window)
+        state = r.final
+        ha = harmonics(r.signal("a_frf"), f, dt, settle.n_harm, k0=kb, window=settle.window)
+        rows.append(dict(freq_hz=f, H=X_a / X_F, a_amp=abs(X_a), F_amp=abs(X_F), F_cmd=F_cmd, thd=ha.thd,
+                         F_N1_mean=float(np.mean(r.signal("F_N1"))), energy_j=float(state.ya[iE]) - E_before,
+                         settle_s=n * dt, k_start=kb, k_end=state.k))
+        F_cmd = update_amplitude(F_cmd, abs(X_F), amp_n, settle.amp_gain, settle.amp_step_max)
+        if progress is not None:
+            progress(1)
+    col = lambda name, dtype=float: np.array([row[name] for row in rows], dtype=dtype)
+    m = len(rows)
+    return StepSineResult(law=loop.law, estimator=loop.estimator, amp_n=float(amp_n),
+                          direction="up" if rate_hz_s > 0 else "down", settle=settle, freq_hz=col("freq_hz"),
+                          H=col("H", complex), a_amp=col("a_amp"), F_amp=col("F_amp"), F_cmd=col("F_cmd"),
+                          thd=col("thd"), F_N1_mean=col("F_N1_mean"), energy_j=col("energy_j"),
+                          settle_s=col("settle_s"), settled=np.ones(m, bool), n_blocks=np.ones(m, np.int64),
+                          H_scatter=np.full(m, np.nan), residual=np.full(m, np.nan),
+                          k_start=col("k_start", np.int64), k_end=col("k_end", np.int64))
 
 
 # --- frequency grids --------------------------------------------------------------------------
@@ -507,7 +584,8 @@ def resonance_grid(centres_hz: Sequence[float], half_width_rel: float = 0.15, n_
 
 @dataclass(frozen=True)
 class Branch:
-    """One step-sine sweep: everything its result depends on (a pure function of these)."""
+    """One sweep: everything its result depends on (a pure function of these). A step-sine over
+    freqs_hz, or with sweep_rate_hz_s a slow continuous sweep from freqs_hz[0] to freqs_hz[-1]."""
     cfg: Config
     law: str
     amp_n: float
@@ -515,14 +593,25 @@ class Branch:
     estimator: str = "oracle"
     settle: Settle = Settle()
     seed: int | None = None  # None: cfg.rt.seed
+    sweep_rate_hz_s: float | None = None   # [Hz/s], signed by the direction of freqs_hz
+    sweep_block_s: float = 0.1             # nominal dwell per point of a slow sweep [s]
+
+    def n_points(self) -> int:
+        """Frequency points it will measure (a slow sweep's: about |range| / (|rate| block))."""
+        if self.sweep_rate_hz_s is None:
+            return len(self.freqs_hz)
+        return max(1, round(abs(self.freqs_hz[-1] - self.freqs_hz[0]) / (abs(self.sweep_rate_hz_s) * self.sweep_block_s)))
 
 
 def run_branch(branch: Branch, loop: Loop | None = None,
                progress: Callable[[int], object] | None = None) -> StepSineResult:
-    """``step_sine`` of one branch, from rest; loop: the branch's built loop (None: built here)."""
+    """One branch, from rest; loop: the branch's built loop (None: built here)."""
     if loop is None:
-        return step_sine(branch.cfg, branch.law, branch.freqs_hz, branch.amp_n, estimator=branch.estimator,
-                         settle=branch.settle, seed=branch.seed, progress=progress)
+        check_sweep(branch.cfg, branch.law, branch.freqs_hz, branch.amp_n, branch.settle, branch.estimator)
+        loop = build_loop(branch.cfg, branch.law, branch.estimator)
+    if branch.sweep_rate_hz_s is not None:
+        return slow_sweep(loop, branch.freqs_hz[0], branch.freqs_hz[-1], branch.amp_n, branch.sweep_rate_hz_s,
+                          block_s=branch.sweep_block_s, settle=branch.settle, seed=branch.seed, progress=progress)
     return sweep(loop, branch.freqs_hz, branch.amp_n, settle=branch.settle, seed=branch.seed, progress=progress)
 
 
@@ -576,7 +665,7 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
         raise ValueError(f"jobs {jobs}: must be >= 1 (default: the number of cores, {joblib.cpu_count()})")
     if loops is not None and len(loops) != len(branches):
         raise ValueError(f"{len(loops)} loops for {len(branches)} branches: give one loop per branch")
-    total = sum(len(b.freqs_hz) for b in branches)
+    total = sum(b.n_points() for b in branches)
     client = _connect(dask_address, connect_timeout_s) if dask_address is not None else None
     with tqdm(total=total, unit="point", desc=desc, disable=not progress) as bar:
         loops = build_loops(branches) if loops is None else list(loops)
