@@ -153,7 +153,7 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
     if not dst.parent.is_dir():
         raise ValueError(f"{dst}: folder {dst.parent} does not exist")
     if not src.is_file():
-        raise ValueError(f"{src}: no such file")
+        raise ValueError(f"{src}: {'not a file' if src.exists() else 'no such file'}")
     s = scan(src)
     if s.chunks == 0:
         raise ValueError(f"{src}: no complete chunk in the file ({s.size} B; {s.stop or 'no data'}): nothing to "

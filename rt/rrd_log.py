@@ -167,7 +167,7 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
     if not dst.parent.is_dir():
         raise ValueError(f"{dst}: folder {dst.parent} does not exist")
     if not src.is_file():
-        raise ValueError(f"{src}: no such file")
+        raise ValueError(f"{src}: {'not a file' if src.exists() else 'no such file'}")
     rec = read_mcap(src)
     cols = [c for c, (_, _, o) in enumerate(rec.signals) if f"/{o}" in rec.topics]
     signals = [rec.signals[c] for c in cols]

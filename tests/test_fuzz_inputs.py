@@ -588,6 +588,21 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
     feed(capfd, cmd, src, out, allowed)
 
 
+@pytest.mark.parametrize("cmd", COMMANDS + ("config",))
+@pytest.mark.parametrize("what, problem", [("folder", "not a file"), ("missing", "no such file")])
+def test_input_that_is_not_a_file(cmd, what, problem, dirs, capfd):
+    """A folder or a missing path where a file is expected: one line naming it."""
+    src_dir, out = dirs
+    src = src_dir / "folder.mcap" if what == "folder" else src_dir / "missing.mcap"
+    if what == "folder":
+        src.mkdir(exist_ok=True)
+    argv = ["--config", str(src), "config"] if cmd == "config" else file_argv(cmd, src, out)
+    line = check_end(run_cli(capfd, argv, FAST_S), (2,), names=(str(src),))
+    if cmd == "config":
+        problem = "Is a directory" if what == "folder" else "not found"
+    assert problem in line, line
+
+
 def test_total_examples():
     """At least 1000 generated bad inputs when the whole file ran (counts in docs/reliability.md)."""
     print("\nexamples", dict(COUNT), "\nfile commands (runs, total s, max s)",
