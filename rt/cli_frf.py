@@ -72,6 +72,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the results as one JSON object (no progress bar)")
     p.add_argument("--plot", metavar="PATH.png", help="write |H| [dB] and phase [deg] against f [Hz] here (PNG)")
     p.add_argument("--out", metavar="PATH.json", help="write the results as JSON here")
+    p.add_argument("--rrd", metavar="PATH.rrd", help="write the FRFs as a rerun recording here (|H| [dB], phase, "
+                   "force amplitude against frequency; open with: rerun PATH.rrd)")
     return p
 
 
@@ -134,7 +136,8 @@ def cmd_frf(cfg: Config, args) -> int:
     if args.jobs is not None and args.jobs < 1:
         return _fail(f"--jobs {args.jobs}: must be >= 1")
     paths = {}
-    for option, value, suffix in (("--plot", args.plot, ".png"), ("--out", args.out, ".json")):
+    for option, value, suffix in (("--plot", args.plot, ".png"), ("--out", args.out, ".json"),
+                                  ("--rrd", args.rrd, ".rrd")):
         if value:
             path = Path(value)
             if path.suffix.lower() != suffix or not path.parent.exists():
@@ -173,6 +176,9 @@ def cmd_frf(cfg: Config, args) -> int:
         tmp = paths["--plot"].with_suffix(".tmp.png")
         plot_frfs(results, str(tmp))
         tmp.replace(paths["--plot"])
+    if "--rrd" in paths:
+        from rt.rrd_log import write_frf_rrd
+        write_frf_rrd(paths["--rrd"], results, {"config": dumps(cfg)})
     unsettled = sum(int((~r.settled).sum()) for r in results)
     if unsettled:
         print(f"frictionrt frf: {unsettled} of {sum(len(r.freq_hz) for r in results)} points did not settle "

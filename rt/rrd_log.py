@@ -20,6 +20,9 @@ strain-gauge and force-cell readings F_strain, F_cell, whichever are logged) abo
 hysteresis (the last HYSTERESIS_WINDOW_S before the time cursor), and one time-series tab per
 owner.
 
+``write_frf_rrd`` writes step-sine and sweep FRFs (``frictionrt frf --rrd``) as their own recording:
+|H| [dB], phase and force amplitude per law, amplitude and direction against a frequency timeline.
+
 The file is written as ``NAME.rrd.part`` and renamed onto ``NAME.rrd`` on close; an exception
 inside ``with RrdLogWriter(...)`` still closes (and renames) the file.
 """
@@ -180,3 +183,40 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
     return {"input": str(src), "output": str(dst), "ticks": len(rec.k),
             "first_tick": int(rec.k[0]) if len(rec.k) else None, "last_tick": int(rec.k[-1]) if len(rec.k) else None,
             "topics": list(rec.topics), "entities": [entity_path(n, o) for n, _, o in signals]}
+
+
+FRF_TIMELINE = "freq_mHz"   # rerun plots series against a timeline: the frequency in whole mHz
+
+
+def frf_entity(law: str, amp_n: float, direction: str) -> str:
+    """/frf/<law>_<amp>N_<direction>, e.g. /frf/lyapunov_5N_up."""
+    return "/frf/" + rr.escape_entity_path_part(f"{law}_{amp_n:g}N_{direction}")
+
+
+def write_frf_rrd(path: str | os.PathLike, results, metadata: dict[str, str] | None = None) -> None:
+    """Step-sine or sweep FRFs (``rt.stepsine.StepSineResult``) as an .rrd with its blueprint:
+    per result, /frf/<law>_<amp>N_<dir>/magnitude_dB (20 log10 |H| [dB re 1 (m/s^2)/N]) and
+    /phase_deg on the timeline "freq_mHz" (the frequency in whole mHz, so rerun's time-series
+    views plot them against frequency), and /force_N (the measured force amplitude, to see the
+    amplitude control hold). Written as ``path.part``, renamed when complete."""
+    path = Path(path)
+    part = part_path(path)
+    rec = rr.RecordingStream("frictionrt-frf", recording_id=uuid.uuid4())
+    entities = [frf_entity(r.law, r.amp_n, r.direction) for r in results]
+    views = [rrb.TimeSeriesView(origin="/frf", contents=[f"{e}/{leaf}" for e in entities], name=title)
+             for leaf, title in (("magnitude_dB", "|H| [dB re 1 (m/s^2)/N] vs f [mHz]"),
+                                 ("phase_deg", "phase [deg] vs f [mHz]"), ("force_N", "force amplitude [N]"))]
+    rec.save(part, default_blueprint=rrb.Blueprint(rrb.Vertical(*views)))
+    try:
+        if metadata:
+            rec.send_property("frictionrt", rr.AnyValues(**metadata))
+        for r, e in zip(results, entities):
+            order = np.argsort(r.freq_hz)
+            index = [rr.TimeColumn(FRF_TIMELINE, sequence=np.round(1e3 * r.freq_hz[order]).astype(np.int64))]
+            for leaf, y in (("magnitude_dB", 20.0 * np.log10(r.H_abs[order])),
+                            ("phase_deg", np.degrees(r.phase_rad[order])), ("force_N", r.F_amp[order])):
+                rec.send_columns(f"{e}/{leaf}", indexes=index, columns=rr.Scalars.columns(scalars=y), strict=True)
+        rec.flush()
+    finally:
+        rec.disconnect()
+    os.replace(part, path)

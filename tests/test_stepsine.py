@@ -282,10 +282,12 @@ def test_cli_bad_input_exit_2_one_line(argv, words, capsys):
     assert len(lines) == 1 and lines[0].startswith("frictionrt: error:") and words in lines[0]
 
 
-def test_cli_writes_json_and_plot(tmp_path, capsys):
-    out, png = tmp_path / "frf.json", tmp_path / "frf.png"
+def test_cli_writes_json_plot_and_rrd(tmp_path, capsys):
+    from rerun.chunk import RrdReader
+    out, png, rrd = tmp_path / "frf.json", tmp_path / "frf.png", tmp_path / "frf.rrd"
     code, stdout, _ = _frf(["--law", "passive", "--amp", "5", "--freqs", "199,196", "--down", "--jobs", "1",
-                            "--max-time", "1", "--json", "--out", str(out), "--plot", str(png)], capsys)
+                            "--max-time", "1", "--json", "--out", str(out), "--plot", str(png), "--rrd", str(rrd)],
+                           capsys)
     assert code == 0
     doc = json.loads(out.read_text())
     assert json.loads(stdout) == doc
@@ -295,6 +297,17 @@ def test_cli_writes_json_and_plot(tmp_path, capsys):
                 "settle_s", "settled"):
         assert len(r[key]) == 2
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and not list(tmp_path.glob("*.tmp.*"))
+    # the rrd: |H| in dB against the frequency timeline [mHz], the blueprint embedded, no .part left
+    reader = RrdReader(rrd)
+    assert len(reader.blueprints()) == 1 and sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["frf.json", "frf.png", "frf.rrd"])
+    rows = {}
+    for c in reader.stream().to_chunks():
+        if c.entity_path == "/frf/passive_5N_down/magnitude_dB":
+            rb = c.to_record_batch()
+            rows.update(zip(rb.column("freq_mHz").to_numpy(), rb.column("Scalars:scalars").flatten().to_numpy()))
+    assert sorted(rows) == [196000, 199000]
+    assert rows[199000] == pytest.approx(20 * np.log10(r["H_abs"][0]), abs=1e-9)
 
 
 def test_cli_help_explains_each_option(capsys):
@@ -303,5 +316,5 @@ def test_cli_help_explains_each_option(capsys):
         ap.parse_args(["frf", "--help"])
     text = capsys.readouterr().out
     for option in ("--law", "--amp", "--freqs", "--around-modes", "--points", "--down", "--jobs", "--dask",
-                   "--json", "--plot", "--out", "[N]", "[Hz]"):
+                   "--json", "--plot", "--out", "--rrd", "--sweep-rate", "[N]", "[Hz]"):
         assert option in text
