@@ -109,9 +109,24 @@ def to_json(faults: np.ndarray) -> list[dict]:
 
 
 def from_json(rows: list[dict]) -> np.ndarray:
+    """The schedule of ``to_json`` rows. ValueError for rows that are not such (a corrupt or
+    edited log): an unknown kind, a target that is no sensor (the kernels index with it), ticks
+    not 0 <= k_start < k_end, a value that is not finite."""
+    if not isinstance(rows, list):
+        raise ValueError(f"expected a list of faults, got {type(rows).__name__}")
+    n_sensors = len(output_index())
     out = np.zeros((len(rows), 5))
     for i, r in enumerate(rows):
-        out[i] = (FAULT_KINDS.index(r["kind"]), r["target"], r["k_start"], r["k_end"], r["value"])
+        try:
+            row = (FAULT_KINDS.index(r["kind"]), r["target"], r["k_start"], r["k_end"], float(r["value"]))
+        except (TypeError, KeyError, ValueError):
+            raise ValueError(f"fault {i}: expected {{kind, target, k_start, k_end, value}} with a known kind, "
+                             f"got {str(r)[:80]}") from None
+        kind, target, k0, k1, value = row
+        if not (all(type(v) is int for v in (target, k0, k1)) and 0 <= target < n_sensors and 0 <= k0 < k1
+                and np.isfinite(value)):
+            raise ValueError(f"fault {i}: target, ticks or value out of range: {str(r)[:80]}")
+        out[i] = row
     return out
 
 

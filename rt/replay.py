@@ -197,7 +197,10 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     clk = np.zeros(4, dtype=np.int64)
     period_ns = round(cfg.dt_s * 1e9)
     overran = _overran(rec, names, meta, period_ns)
-    faults = from_json(json.loads(meta.get("faults", "[]")))
+    try:
+        faults = from_json(json.loads(meta.get("faults", "[]")))
+    except ValueError as exc:  # JSONDecodeError included
+        raise ValueError(f"{path}: the stored faults are unreadable ({exc})") from None
     errors: list[BaseException] = []
 
     states = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
@@ -237,7 +240,8 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
            "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n), "interrupted": interrupted,
            "wall_s": wall, "realtime_factor": (m / rec.rate_hz) / wall if wall > 0 else float("inf"),
            "overruns": int(clk[CLK_OVERRUNS]) if paced else 0}
-    recorded = "/observer" in rec.topics and "/tracking" in rec.topics and all(c in names for c in COMMANDED)
+    owner = {nm: o for nm, _, o in rec.signals}
+    recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
     if recorded:
         ref = rec.log[:m][:, [names.index(c) for c in COMMANDED]]
         same = out.view(np.uint64) == ref.view(np.uint64)

@@ -568,7 +568,10 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
         bad = data.draw(st.sampled_from([
             {"config": "[rt\nrate_hz = "}, {"config": "[tracking]\nK_f = -1.0\n"}, {"config": "nonsense = 1\n"},
             {"law": "bang-bang"}, {"estimator": "psychic"}, {"seed": "abc"}, {"seed": "-1"}, {"seed": "1e400"},
-            {"seed": "99999999999999999999999"}]), label="record")
+            {"seed": "99999999999999999999999"}, {"faults": "nope"}, {"faults": "{}"}, {"faults": '[{"kind": "x"}]'},
+            {"faults": json.dumps([{"kind": "sensor_dropout", "target": 99, "k_start": 0, "k_end": 5, "value": 0.0}])},
+            {"faults": json.dumps([{"kind": "sensor_gain", "target": 0, "k_start": 9, "k_end": 2, "value": 1.0}])}]),
+            label="record")
         records = [(name, dict(md, **bad) if name == "frictionrt" else md) for name, md in records]
         allowed = {"replay": (2,), "inspect": (0,), "recover": (0,)}.get(cmd, (0, 1, 2))
     elif kind == "no_messages":
