@@ -28,13 +28,13 @@ from __future__ import annotations
 import collections
 import dataclasses
 import datetime
+import importlib
 import json
 import math
 import os
 import shutil
 import signal
 import time
-import tomllib
 from contextlib import contextmanager
 from pathlib import Path
 from typing import get_type_hints
@@ -223,9 +223,8 @@ def cfg_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def warm():
     """Import what ``simulate`` imports once, outside the per-example deadline."""
-    import rt.loop  # noqa: F401
-    import rt.writer  # noqa: F401
-    import tqdm  # noqa: F401
+    for name in ("rt.loop", "rt.writer", "tqdm"):
+        importlib.import_module(name)
 
 
 def config_run(capfd, path: Path, command: list[str]):
