@@ -137,6 +137,20 @@ def _overran(rec, names: list[str], meta: dict[str, str], period_ns: int) -> np.
     return out
 
 
+def open_log(path: Path, fallback_cfg=None, sets=()):
+    """(``McapLog``, configuration) of the log at path: the stored configuration with the
+    ``--set`` overrides ``sets`` applied, or ``fallback_cfg`` (default: the defaults with
+    ``sets``) for a file that stores none. ValueError naming the file for a missing or unreadable
+    file or a refused configuration."""
+    if not path.is_file():
+        raise ValueError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
+    try:
+        rec = read_mcap(path)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    return rec, _config_of(path, rec.metadata, fallback_cfg if fallback_cfg is not None else load(None, sets), sets)
+
+
 def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
     """Replay the log at ``path`` (module docstring); the summary of ``replay_outputs``."""
     return replay_outputs(path, paced=paced, fallback_cfg=fallback_cfg, sets=sets)[0]
@@ -156,14 +170,8 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     ValueError naming the file for a missing, unreadable or unsuitable file.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
-    try:
-        rec = read_mcap(path)
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    rec, cfg = open_log(path, fallback_cfg, sets)
     meta = rec.metadata
-    cfg = _config_of(path, meta, fallback_cfg if fallback_cfg is not None else load(), sets)
     names = [n for n, _, _ in rec.signals]
     if "/sensors" not in rec.topics or any(n not in names for n in SENSORS):
         raise ValueError(f"{path}: no /sensors topic with {', '.join(SENSORS)}: nothing to replay")

@@ -33,9 +33,7 @@ import numpy as np
 
 from plant.actuator import ACTUATOR_OUTPUTS
 from rt.loop import _actuate, _copy, _put, build_loop, initial_loop_state
-from rt.config import load
-from rt.mcap_log import read_mcap
-from rt.replay import _config_of, _seed_of
+from rt.replay import _seed_of, open_log
 
 INPUTS = ("F_exc", "V_cmd")
 SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")  # "outputs" in the JSON
@@ -81,14 +79,8 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
     file for a missing, unreadable or unsuitable file.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
-    try:
-        rec = read_mcap(path)
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    rec, cfg = open_log(path, fallback_cfg, sets)
     meta = rec.metadata
-    cfg = _config_of(path, meta, fallback_cfg if fallback_cfg is not None else load(None, sets), sets)
     names = [n for n, _, _ in rec.signals]
     for name, topic in zip(INPUTS, ("/rt", "/tracking")):
         if name not in names or topic not in rec.topics:
