@@ -32,7 +32,8 @@ import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from rt.mcap_log import CDR_LE, MAX_TICK, OWNERS, _check_framing, field_names, schema_name, tick_time_ns
+from rt.mcap_log import (CDR_LE, MAX_TICK, OWNERS, _check_framing, _chunk_messages, _iter_messages, field_names,
+                         schema_name, tick_time_ns)
 
 
 class Entry(NamedTuple):
@@ -237,17 +238,38 @@ def _read(path: Path) -> tuple[dict, dict[str, _Topic]]:
         with open(path, "rb") as f:
             reader = make_reader(f, validate_crcs=True)
             meta = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
-            for schema, channel, msg in reader.iter_messages(log_time_order=False):
+            summary = reader.get_summary()
+            fast = summary is not None and summary.chunk_indexes and \
+                all(ci.compression in ("zstd", "") for ci in summary.chunk_indexes)
+            for (schema, channel), (payloads, times, seqs) in (_chunk_messages(f, summary) if fast
+                                                              else _iter_messages(reader)):
                 tp = topics.get(channel.topic)
                 if tp is None:
                     tp = topics[channel.topic] = _Topic(schema, channel, [], [], [])
-                tp.times.append(msg.log_time)
-                tp.seqs.append(msg.sequence)
-                tp.data.append(msg.data)
+                tp.times.append(times)
+                tp.seqs.append(seqs)
+                tp.data.extend(payloads if isinstance(payloads, list) else [payloads])
     except (McapError, zstandard.ZstdError, OSError, EOFError, struct.error, ValueError, KeyError, TypeError) as e:
         # KeyError, TypeError: mcap's reader on a corrupt summary (e.g. a message of an unlisted channel)
         raise ValueError(f"{path}: unreadable MCAP file ({type(e).__name__}: {e})") from None
+    for tp in topics.values():   # one array of times and sequences; payloads as bytes or rows
+        tp.times, tp.seqs = np.concatenate(tp.times), np.concatenate(tp.seqs)
+        tp.data = _payload_rows(tp.data)
     return meta, topics
+
+
+def _payload_rows(parts: list) -> np.ndarray | list[bytes]:
+    """A topic's payloads from its parts (arrays of equally long rows, or single payloads): one
+    (n, size) uint8 array if all rows have one size, else a list of bytes."""
+    if all(isinstance(p, np.ndarray) for p in parts) and len({p.shape[1] for p in parts}) == 1:
+        return np.concatenate(parts)
+    out: list[bytes] = []
+    for p in parts:
+        if isinstance(p, np.ndarray):
+            out.extend(row.tobytes() for row in p)
+        else:
+            out.append(bytes(p))
+    return out
 
 
 def _signals_of(meta: dict, problems: list[Problem]) -> tuple[tuple, int | None]:
@@ -379,11 +401,11 @@ def _check_run(meta: dict, rate: int | None, plant_present: bool, problems: list
             if key not in rec:
                 problems.append(Problem(f"metadata frictionrt.{key}", "missing", "required in a simulation log"))
     if "config" in rec:
-        from rt.replay import _config_of
+        from rt.config import ConfigError, loads   # not via rt.replay: that imports the compiled loop (2 s)
         try:
-            cfg = _config_of(Path("metadata frictionrt.config"), rec, None)
-        except ValueError as exc:
-            problems.append(Problem("metadata frictionrt.config", "invalid", str(exc)))
+            cfg = loads(rec["config"], (), source="the stored configuration")
+        except ConfigError as exc:
+            problems.append(Problem("metadata frictionrt.config", "invalid", f"metadata frictionrt.config: {exc}"))
             return
         if rate is not None and cfg.rt.rate_hz != rate:
             problems.append(Problem("metadata signals.rate_hz", "wrong rate",
@@ -438,12 +460,16 @@ def _check_topic(name: str, tp: _Topic, fields: list[tuple[str, str]], rate: int
         return None
     size = len(CDR_LE) + 8 * len(fields)
     n = len(tp.data)
-    buf = b"".join(tp.data)
-    if len(buf) != n * size or any(len(d) != size for d in tp.data):
+    if isinstance(tp.data, np.ndarray):
+        rows = tp.data if tp.data.shape[1] == size else None
+    else:
+        buf = b"".join(tp.data)
+        ok_sizes = len(buf) == n * size and all(len(d) == size for d in tp.data)
+        rows = np.frombuffer(buf, np.uint8).reshape(n, size) if ok_sizes else None
+    if rows is None:
         problems.append(Problem(name, "wrong type", f"messages must be {size} bytes (CDR header + {len(fields)} "
                                 "float64)"))
         return None
-    rows = np.frombuffer(buf, np.uint8).reshape(n, size)
     if np.any(rows[:, :4] != np.frombuffer(CDR_LE, np.uint8)):
         problems.append(Problem(name, "wrong type", "messages are not little-endian CDR (header 00 01 00 00)"))
         return None
