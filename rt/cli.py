@@ -97,8 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                  "suffix is dropped); the folder must exist")
     s.add_argument("--no-rrd", action="store_true", help="with --out: write the MCAP file only")
     s.add_argument("--ring", type=float, default=1.0, metavar="S",
-                   help="paced runs with --out: blocks the log writer has not written when they are more "
-                        "than S seconds [s] behind the loop are dropped and counted (default 1)")
+                   help="with --out: the log is a ring of S seconds [s] (whole 0.1 s blocks) that the writer "
+                        "drains; offline the loop waits for it, paced it overwrites and the writer drops and "
+                        "counts those blocks (default 1)")
     s.add_argument("--fault", action="append", default=[], metavar="KIND[/SENSOR][=VALUE]@TIME[:DURATION]",
                    help="inject a fault at TIME [s] for DURATION [s] (default: to the end); repeatable. KIND: "
                         "sensor_dropout, sensor_stuck, sensor_gain, sensor_bias (SENSOR a_tip (default), a_frf, "
@@ -267,7 +268,7 @@ def _cmd_simulate(cfg, args) -> int:
         if not args.paced and any("cpu_stall" in f for f in args.fault):
             return _fail("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced")
         loop = build_loop(cfg, args.law, args.estimator)
-        n = check_run_input(loop, args.freq, args.amp, args.duration)
+        n = check_run_input(loop, args.freq, args.amp, args.duration, ring=base is not None)  # --out: a ring
         late = [t for t, f in zip(args.fault, faults) if f[2] >= n]
         if late:
             return _fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")

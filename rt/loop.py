@@ -13,7 +13,8 @@ One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order
     4 tracking   V_cmd = feedforward + PID on the law's force sensor
     5 actuator   DAC -> 30 kHz low-pass -> amplifier -> piezo stack over [t_k, t_k+1]
     6 plant      over [t_k, t_k+1]: F_exc(t_k) held, F_N1 = mean of its values at t_k, t_k+1
-    7 log        every signal of the tick into row k of the preallocated log
+    7 log        every signal of the tick into row k of the preallocated log (with a log writer: a
+                 ring of R rows, row (k - k_start) mod R; ``run``, rt/writer.py)
 
 Two ways to run, one function: as fast as possible (offline, deterministic), or paced to the
 wall clock: absolute deadlines next += period, busy-wait on CLOCK_MONOTONIC, overruns counted
@@ -63,9 +64,13 @@ from rt.supervisor import initial_state as supervisor_initial_state
 
 COMPONENTS = ("sensors", "estimator", "law", "supervisor", "tracking", "actuator", "plant", "log")
 ESTIMATORS = ("oracle", "observer")
-# state shared by the chunks of one run and the Python thread watching it (int64): next deadline
-# [ns], overruns, ticks run, stop request (set by the watcher: the loop ends after its tick)
-CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS, CLK_STOP = 0, 1, 2, 3
+# state shared by the chunks of one run and the Python threads watching it (int64): next deadline
+# [ns], overruns, ticks run, stop request (set by the watcher: the loop ends after its tick),
+# written: ticks below this absolute tick are out of the ring (set by the writer; offline the loop
+# waits for it before overwriting a row)
+CLK_DEADLINE, CLK_OVERRUNS, CLK_TICKS, CLK_STOP, CLK_WRITTEN = 0, 1, 2, 3, 4
+CLK_SIZE = 5
+NO_WAIT = 2**62  # CLK_WRITTEN when no writer drains the log: the loop never waits
 COL_V_TIP, COL_F_CELL = sensor_output_index()["v_tip_meas"], sensor_output_index()["F_cell"]  # the observer's inputs
 
 
@@ -241,9 +246,12 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
     observe selects the estimator: False the oracle (states xo), True the observer (states xe;
     inputs: the measured tip velocity and force-cell reading). sv, sv_p: the supervisor's state
     and constants; faults: the fault schedule (``rt.supervisor``, (0, 5) for none).
-    log[k - k0] receives the tick's signals (``loop_signals`` order); comp_ns[k - k0] the
-    per-component times [ns] if timing; ts is the clock's (2,) int64 scratch. Returns the number
-    of failed plant solves.
+    log[(k - k0) mod len(log)] receives the tick's signals (``loop_signals`` order): a log of
+    k1 - k0 rows is filled in order, a shorter one is a ring (``run``); comp_ns the same row's
+    per-component times [ns] if timing; ts is the clock's (2,) int64 scratch. Offline (not
+    paced) a ring row is never overwritten before the writer has taken it: before tick k the
+    loop spins (nogil) while k - clk[CLK_WRITTEN] >= len(log) (``NO_WAIT`` without a writer),
+    and ends early on a stop request. Returns the number of failed plant solves.
     """
     failed = 0
     est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p)
@@ -253,7 +261,12 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
     for k in range(k0, k1):
         if clk[CLK_STOP]:
             break
-        row = k - k0
+        row = (k - k0) % log.shape[0]
+        if not paced:  # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
+            while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
+                pass
+            if clk[CLK_STOP]:
+                break
         if paced:
             while _now_ns(ts) < clk[CLK_DEADLINE]:
                 pass
@@ -385,14 +398,20 @@ class Run:
     loop: Loop
     freq_hz: float
     amp_n: float
-    log: np.ndarray            # (ticks, len(loop.signals))
-    comp_ns: np.ndarray | None  # (ticks, len(COMPONENTS)) if timed
+    log: np.ndarray            # (rows, len(loop.signals)): every tick, or a ring run's last rows (``run``)
+    comp_ns: np.ndarray | None  # (rows, len(COMPONENTS)) if timed, the same ticks
     overruns: int
     paced: bool
     wall_ns: int
     interrupted: bool = False  # stopped by Ctrl-C: the log holds the ticks run until then
     final: LoopState | None = None  # every state after the last tick run (a next run's start)
     faults: np.ndarray | None = None  # the injected fault schedule (rt.faults)
+    ticks: int | None = None  # ticks run (None: len(log), every tick held)
+    digest: object = None  # a ring run's whole-run figures (rt.digest.RunDigest), if its writer kept them
+
+    def __post_init__(self):
+        if self.ticks is None:
+            self.ticks = len(self.log)
 
     def signal(self, name: str) -> np.ndarray:
         return self.log[:, self.loop.column(name)]
@@ -401,9 +420,10 @@ class Run:
 MAX_LOG_BYTES = 4 * 2**30  # a run's log must fit in memory with room to spare
 
 
-def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float) -> int:
+def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, ring: bool = False) -> int:
     """Number of ticks of a run; ValueError (naming the option and the limit) for an excitation
-    at or above Nyquist, a negative amplitude or duration, or a log that would not fit in memory."""
+    at or above Nyquist, a negative amplitude or duration, or (without a ring: ``run``) a log
+    that would not fit in memory."""
     dt = loop.cfg.dt_s
     nyq = 0.5 / dt
     if not (math.isfinite(freq_hz) and 0.0 <= freq_hz < nyq):
@@ -414,7 +434,7 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float)
         raise ValueError(f"--duration {duration_s:g} s: must be > 0 s")
     n_ticks = int(round(duration_s / dt))
     n_sig = len(loop.signals)
-    if n_ticks * n_sig * 8 > MAX_LOG_BYTES:
+    if not ring and n_ticks * n_sig * 8 > MAX_LOG_BYTES:
         raise ValueError(f"--duration {duration_s:g} s: the log would need "
                          f"{n_ticks * n_sig * 8 / 2**30:.1f} GiB (> {MAX_LOG_BYTES / 2**30:.0f} GiB); "
                          f"run at most {MAX_LOG_BYTES / (n_sig * 8) * dt:.0f} s")
@@ -423,7 +443,8 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float)
 
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
         timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
-        start: LoopState | None = None, writer=None, faults: np.ndarray | None = None) -> Run:
+        start: LoopState | None = None, writer=None, faults: np.ndarray | None = None,
+        ring_ticks: int | None = None) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
 
     The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
@@ -438,22 +459,35 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     ``start(log, clk, k0, paced)`` is called before the first tick, its ``finish()`` (write the
     rest, close the files) after the last one, also on an error or Ctrl-C.
 
+    The log: without a writer and ``ring_ticks``, one row per tick of the run. With a writer
+    (its ``ring_ticks`` rows) or ``ring_ticks``, a ring of R rows: tick k goes to row
+    (k - k_start) mod R, offline the loop waits for the writer rather than overwrite a row it
+    has not taken (none: nobody drains, the loop overwrites), paced it never waits (the writer
+    drops what was overwritten). ``Run.log`` then holds the last min(ticks, R) ticks in tick
+    order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
+
     Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
-    log that would not fit in memory; RuntimeError if a plant step failed.
+    log without a ring that would not fit in memory; RuntimeError if a plant step failed.
     """
     cfg = loop.cfg
     dt = cfg.dt_s
-    n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s)
+    if writer is not None:
+        ring_ticks = writer.ring_ticks
+    if ring_ticks is not None and ring_ticks < 1:
+        raise ValueError(f"ring_ticks {ring_ticks}: must be >= 1")
+    n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s, ring=ring_ticks is not None)
+    n_rows = n_ticks if ring_ticks is None else min(n_ticks, int(ring_ticks))
     n_sig = len(loop.signals)
     seed = cfg.rt.seed if seed is None else seed
     plant = loop.plant
     oi = plant.output_index()
     ai = actuator_output_index()
     st = initial_loop_state(loop, seed) if start is None else start.copy()
-    log = np.empty((n_ticks, n_sig))
-    comp_ns = np.zeros((n_ticks, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
+    log = np.empty((n_rows, n_sig))
+    comp_ns = np.zeros((n_rows, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
     period_ns = int(round(dt * 1e9))
-    clk = np.zeros(4, dtype=np.int64)
+    clk = np.zeros(CLK_SIZE, dtype=np.int64)
+    clk[CLK_WRITTEN] = st.k if writer is not None and not paced else NO_WAIT
     si = sensor_output_index()
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     faults = no_faults() if faults is None else np.ascontiguousarray(faults, dtype=np.float64)
@@ -469,11 +503,13 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             errors.append(exc)
 
     def _chunks():
-        # paced: one compiled call for the whole run (Python between chunks would overrun)
-        step = n_ticks if paced else chunk
-        k = 0  # row of the log; tick st.k + k
+        # paced: one compiled call for the whole run (Python between chunks would overrun);
+        # a ring: chunks of whole rings, so that tick k lands in row (k - st.k) mod n_rows
+        step = n_ticks if paced else (chunk if n_rows == n_ticks else max(1, chunk // n_rows) * n_rows)
+        k = 0  # ticks run; tick st.k + k
         while k < n_ticks and not clk[CLK_STOP]:
             k1 = min(n_ticks, k + step)
+            rows = slice(k, k1) if n_rows == n_ticks else slice(None)
             failed[0] += _run_ticks(st.k + k, st.k + k1, *args_fixed,
                                     st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys),
                                     np.zeros(4), loop.sensors, st.rng,
@@ -489,7 +525,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                                     st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work,
                                     oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"],
                                     ai["F_strain_a"], ai["F_cell_a"],
-                                    log[k:k1], comp_ns[k:k1] if timing else comp_ns)
+                                    log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 
     # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
@@ -497,8 +533,11 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     t_wall = _now_ns(np.zeros(2, dtype=np.int64))
     clk[CLK_DEADLINE] = t_wall + period_ns
     thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
+    digest = None
     if writer is not None:
-        writer.start(log, clk, st.k, paced)
+        from rt.digest import RunDigest
+        digest = RunDigest(loop.signals)
+        writer.start(log, clk, st.k, paced, digest)
     thread.start()
     shown = 0
     interrupted = False
@@ -523,18 +562,27 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         raise errors[0]
     n_run = int(clk[CLK_TICKS])
     st.k += n_run
-    log = log[:n_run]
-    comp_ns = comp_ns[:n_run] if timing else comp_ns
+    log = _in_tick_order(log, n_run)
+    comp_ns = _in_tick_order(comp_ns, n_run) if timing else comp_ns
     wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
     if writer is not None and writer.error is not None:
         raise RuntimeError(f"the log writer failed: {writer.error!r}") from writer.error
     if failed[0]:
         raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
                            "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
-    if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - n_run, n_run)):
+    if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - len(log), len(log))):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
-               interrupted, st, faults)
+               interrupted, st, faults, n_run, digest if len(log) < n_run else None)
+
+
+def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:
+    """The last min(n_run, len(ring)) ticks of a log whose tick i (from the run's start) is in
+    row i mod len(ring), oldest first (a view when they are in order already)."""
+    if n_run <= len(ring):
+        return ring[:n_run]
+    i0 = n_run % len(ring)
+    return ring if i0 == 0 else np.concatenate((ring[i0:], ring[:i0]))
 
 
 def _dropout_mask(loop: Loop, faults: np.ndarray, k0: int, n: int) -> np.ndarray:
@@ -560,22 +608,30 @@ def first_harmonic_amplitude(x: np.ndarray, freq_hz: float, dt: float) -> float:
     return float(np.hypot(c[0], c[1]))
 
 
-def summary(r: Run) -> dict:
-    """The figures `frictionrt simulate` prints (SI units)."""
-    dt = r.loop.cfg.dt_s
+def _tail(r: Run) -> slice:
+    """The log's rows of the last 20 % of the run's ticks (at least 2), at most the rows held."""
     n = len(r.log)
-    tail = slice(n - max(int(0.2 * n), 2), n)
+    return slice(max(n - max(int(0.2 * r.ticks), 2), 0), n)
+
+
+def summary(r: Run) -> dict:
+    """The figures `frictionrt simulate` prints (SI units). A ring run whose log holds only its
+    last ticks takes the whole-run figures (mean F_N1, tick median and maximum, trips, faults)
+    from its digest (``rt.digest``), the last-20 % figures from the rows held (docs/loop.md)."""
+    dt = r.loop.cfg.dt_s
+    tail = _tail(r)
     a = r.signal("a_frf")
+    d = r.digest
     return {
-        "law": r.loop.law, "estimator": r.loop.estimator, "freq_hz": r.freq_hz, "amp_n": r.amp_n, "ticks": n,
+        "law": r.loop.law, "estimator": r.loop.estimator, "freq_hz": r.freq_hz, "amp_n": r.amp_n, "ticks": r.ticks,
         "acc045_amplitude": first_harmonic_amplitude(a[tail], r.freq_hz, dt),
         "acc045_rms": float(np.sqrt(np.mean(a[tail] ** 2))),
         "acc045_peak": float(np.max(np.abs(a[tail]))),
-        "fn1_mean_n": float(np.mean(r.signal("F_N1"))),
+        "fn1_mean_n": float(np.mean(r.signal("F_N1"))) if d is None else d.fn1_mean(),
         "actuator_energy_j": float(r.signal("E")[-1]),
         "overruns": r.overruns, "paced": r.paced,
-        "tick_median_us": float(np.median(r.signal("tick_ns")) / 1e3),
-        "tick_max_us": float(np.max(r.signal("tick_ns")) / 1e3),
+        "tick_median_us": float(np.median(r.signal("tick_ns")) if d is None else d.tick_median()) / 1e3,
+        "tick_max_us": float(np.max(r.signal("tick_ns")) if d is None else d.tick_max()) / 1e3,
         "wall_s": r.wall_ns / 1e9,
     } | _supervisor_summary(r) | (_estimation_errors(r) if r.loop.estimator != "oracle" else {})
 
@@ -585,24 +641,28 @@ def _supervisor_summary(r: Run) -> dict:
     fault its kind, sensor, tick, and the code, detected_tick, passive_tick the supervisor logged
     (``rt.faults.outcome``). Ticks are absolute."""
     from rt.faults import outcome, trips
-    k = r.final.k - len(r.log) + np.arange(len(r.log))
     p = r.loop.supervisor
     grace = 2 * max(p.stuck_ticks, p.err_ticks, p.sat_ticks, p.ovr_ticks) + 100
     faults = r.faults if r.faults is not None else np.zeros((0, 5))
-    return {"trips": trips(k, r.signal("fault_latched")),
-            "faults": outcome(k, r.signal("fault_code"), r.signal("passive"), faults, grace)}
+    if r.digest is None:
+        k = r.final.k - len(r.log) + np.arange(len(r.log))
+        latched, code, passive = r.signal("fault_latched"), r.signal("fault_code"), r.signal("passive")
+    else:  # the step signals at their changes (and the faults' starts): the same trips and outcome
+        k = r.digest.change_ticks(faults[:, F_START])
+        latched, code, passive = (r.digest.values_at(n, k) for n in ("fault_latched", "fault_code", "passive"))
+    return {"trips": trips(k, latched), "faults": outcome(k, code, passive, faults, grace)}
 
 
 def _estimation_errors(r: Run) -> dict:
     """NRMSE of the estimates against the band-limited plant truth (observer.accuracy), and
     the relative error of the law's RT1 amplitude u0 against the RT1 filter's steady state on
-    the truth, the mean of (pi/2)|u_rel| (tracking.rt1), both over the last 20 %."""
+    the truth, the mean of (pi/2)|u_rel| (tracking.rt1), both over the last 20 % (over the
+    rows held: a ring run's last ticks)."""
     cfg = r.loop.cfg
     dt, f_c = cfg.dt_s, cfg.observer.oracle_bandwidth_hz
     v_true = band_limited_truth(r.signal("v_rel"), dt, f_c)
     u_true = band_limited_truth(r.signal("u_rel"), dt, f_c)
-    n = len(r.log)
-    tail = slice(n - max(int(0.2 * n), 2), n)
+    tail = _tail(r)
     u0_true = float(np.mean(0.5 * np.pi * np.abs(u_true[tail])))
     u0_hat = float(np.mean(r.signal("u0")[tail]))
     return {"v_rel_nrmse": nrmse(r.signal("v_rel_hat"), v_true), "u_rel_nrmse": nrmse(r.signal("u_rel_hat"), u_true),

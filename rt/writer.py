@@ -1,29 +1,35 @@
 """The log writer of a run: a thread that drains the loop's log in blocks to MCAP and .rrd.
 
-The loop (``rt.loop.run``) writes row k - k0 of its log array for tick k and then increments
-``clk[CLK_TICKS]``; rows below that counter are complete and never change again. The writer
-thread (``LogWriter``, started by ``run(..., writer=...)``) polls the counter every
-``POLL_S`` and hands complete rows to its sinks in blocks of ``block_ticks`` (default 2100
-ticks = 0.1 s simulated): an MCAP file (``McapBlockWriter``) and, unless left out, an .rrd
-recording (``rt.rrd_log.RrdLogWriter``, fed in batches of ``RRD_BATCH_TICKS`` because each
-rerun call has a fixed cost per entity). It never touches the loop's state, and the loop never
-reads anything the writer does (STYLE.md section 3).
+The loop (``rt.loop.run``) writes tick k into row (k - k0) mod R of its log and then
+increments ``clk[CLK_TICKS]``; ticks below k0 + that counter are complete. The writer thread
+(``LogWriter``, started by ``run(..., writer=...)``) polls the counter every ``POLL_S``, copies
+complete rows out in blocks of ``block_ticks`` (default 2100 ticks = 0.1 s simulated), folds
+each block into the run's digest (``rt.digest``: the summary's whole-run figures) and hands it
+to its sinks: an MCAP file (``McapBlockWriter``) and, unless left out, an .rrd recording
+(``rt.rrd_log.RrdLogWriter``, fed in batches of ``RRD_BATCH_TICKS`` because each rerun call has
+a fixed cost per entity). It never touches the loop's state, and the loop never reads anything
+the writer writes but the count below (STYLE.md section 3).
 
-**No ring, a bounded lag.** STYLE.md describes a preallocated ring that the writer drains and a
-real-time loop overwrites. The loop here preallocates its log for the whole run
-(``run`` needs the whole log afterwards for its summary), so the writer can never lose data by
-being overwritten and the loop never waits for it:
+**The ring.** A run with a writer preallocates R = ``ring_ticks`` rows (``ring_s`` rounded to
+whole blocks, default ``RING_S`` = 1 s = 21000 rows, 14 MB at 85 signals), not one row per
+tick, so its memory does not grow with its length. After copying a block out of the ring the
+writer sets ``clk[CLK_WRITTEN]`` to the tick after it (the rows before may be overwritten):
 
-- offline (``paced=False``): nothing is ever dropped; the writer follows the loop and, when the
-  loop is done, writes the rest before ``finish()`` returns.
-- paced: the writer must not hold back a real-time loop either, and a writer that falls behind
-  further and further would, in a real ring, be overwritten. So the ring is emulated as a
-  bounded lag: a block whose rows are more than ``ring_ticks`` behind the loop's newest tick and
-  not yet written is skipped and counted (``dropped_blocks``), exactly the blocks a ring of
-  ``ring_ticks`` rows would have overwritten. Dropped blocks are whole blocks; the MCAP file
-  then has a gap in its ticks, and its closing metadata record ``frictionrt.writer`` holds the
-  count (``run`` callers print it). The thread lowers its own priority (nice ``WRITER_NICE``)
-  so that, sharing a core, the scheduler prefers the loop.
+- offline (``paced=False``): nothing is ever dropped. Before tick k the compiled loop spins
+  (nogil, re-reading the count around a clock call) while k - ``clk[CLK_WRITTEN]`` >= R, so an
+  offline run proceeds at the writer's pace once it is R ticks ahead; when the loop is done the
+  writer writes the rest before ``finish()`` returns. A writer that stops (an error, the end of
+  its thread) sets the count to ``rt.loop.NO_WAIT`` so that the loop never waits for it again.
+- paced: a real-time loop never waits. Row i is overwritten once the loop has begun tick
+  i + R; a block whose first row is (the loop's count - i >= R, or R + 1 once the loop has
+  ended) is skipped and counted (``dropped_blocks``), checked before copying and again after the
+  copy (a block overwritten while being copied is dropped too). Dropped blocks are whole
+  blocks; the MCAP file then has a gap in its ticks, and its closing metadata record
+  ``frictionrt.writer`` holds the count (``run`` callers print it). The thread lowers its own
+  priority (nice ``WRITER_NICE``) so that, sharing a core, the scheduler prefers the loop.
+
+The block handed to the sinks is a copy, so a sink may keep it (``Batched``) while the loop
+overwrites the ring. ``ring_s=None``: no ring, the log holds the whole run (nothing dropped).
 
 **Crash safety.** Signals reach only the main thread, so a Ctrl-C never interrupts a block
 half-written: ``run`` turns it into the loop's stop request, then ``finish()`` makes the
@@ -31,7 +37,7 @@ thread write the complete rows it has not written yet and close both files (``.p
 onto the final name). After a Ctrl-C (the loop's stop flag is set, or the Ctrl-C arrives while
 ``finish()`` waits) the thread writes its backlog for at most ``INTERRUPT_DRAIN_S`` more, then
 stops after the block in hand and closes the files, so the process exits promptly: an offline
-run with the .rrd can be seconds of writing ahead of its writer. The files then hold ticks
+run is at most its ring ahead of its writer. The files then hold ticks
 0 .. written_ticks - 1 (contiguous, but for dropped blocks); the rows the loop ran beyond are
 counted in ``unwritten_ticks`` (and in the closing record). A paced writer keeps up, so it loses
 nothing. The thread is not a daemon, so even an exception in the main thread cannot end the
@@ -83,7 +89,7 @@ from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, check_block, check_metadata
                          signals_record, tick_time_ns, topics_of)
 
 BLOCK_TICKS = 2100        # rows per block handed to the sinks (0.1 s simulated at 21 kHz)
-RING_S = 1.0              # paced runs: default bounded lag of the writer [s of simulated time]
+RING_S = 1.0              # default ring of a run with a writer [s of simulated time]
 RRD_BATCH_TICKS = 21000   # .rrd written in batches of this many ticks (rerun's cost per call)
 POLL_S = 0.002            # the writer checks the loop's tick counter this often [s]
 WRITER_NICE = 10          # paced runs: the writer thread's nice value (Linux: per thread)
@@ -322,8 +328,9 @@ class LogWriter:
     sinks : objects with ``write_block(k0, block)`` and ``close()`` (closed by ``finish()``,
         in this order).
     block_ticks : rows per block.
-    ring_s : paced runs only: the bounded lag [s of simulated time]; blocks further behind the
-        loop are dropped and counted. None: never drop.
+    ring_s : the ring's span [s of simulated time], rounded to whole blocks (at least one):
+        ``ring_ticks`` rows, the log ``run`` allocates. None: no ring (the log holds the whole
+        run and nothing is ever dropped).
     rate_hz : tick rate [Hz] (to convert ring_s to ticks).
     mcap : the McapBlockWriter among the sinks, if any: receives the closing metadata record
         ``frictionrt.writer`` (dropped blocks, block and ring size, ticks written, ticks left
@@ -342,7 +349,8 @@ class LogWriter:
             raise ValueError(f"ring {ring_s} s: must be > 0")
         self.sinks = list(sinks)
         self.block_ticks = int(block_ticks)
-        self.ring_ticks = None if ring_s is None else max(self.block_ticks, round(ring_s * rate_hz))
+        self.ring_ticks = None if ring_s is None else \
+            self.block_ticks * max(1, round(ring_s * rate_hz / self.block_ticks))
         self.mcap = mcap
         self.dropped_blocks = 0
         self.written_ticks = 0
@@ -354,10 +362,13 @@ class LogWriter:
         self._thread: threading.Thread | None = None
         self._closed = False
 
-    def start(self, log: np.ndarray, clk: np.ndarray, k0: int, paced: bool) -> None:
-        """Start draining ``log`` (row i = tick k0 + i; rows < clk[CLK_TICKS] complete)."""
+    def start(self, log: np.ndarray, clk: np.ndarray, k0: int, paced: bool, digest=None) -> None:
+        """Start draining ``log`` (tick k0 + i in row i mod len(log); ticks below k0 +
+        clk[CLK_TICKS] complete); each block taken out is also folded into ``digest``
+        (``rt.digest.RunDigest``) if given."""
         self._log, self._clk, self._k0 = log, clk, int(k0)
         self._paced = paced
+        self._digest = digest
         self._next = 0   # next row to write (or drop)
         self._thread = threading.Thread(target=self._main, name="frictionrt-writer", daemon=False)
         self._thread.start()
@@ -401,22 +412,35 @@ class LogWriter:
         except BaseException as exc:  # kept for the caller; the loop is never disturbed
             self.error = exc
         finally:
+            from rt.loop import CLK_WRITTEN, NO_WAIT
+            self._clk[CLK_WRITTEN] = NO_WAIT   # an offline loop must not wait for a writer that stopped
             self._close()
 
     def _step(self, done: int, final: bool) -> bool:
-        """Drop what lags beyond the ring (paced), then write one block if there is one
-        (none once aborted)."""
+        """Drop the blocks the loop has overwritten (paced), then take one block out of the
+        ring, fold it into the digest and write it, if there is one (none once aborted)."""
+        from rt.loop import CLK_TICKS, CLK_WRITTEN
         if self._abort.is_set():
             return False
-        if self._paced and self.ring_ticks is not None:
-            while done - self._next > self.ring_ticks:
-                self._next += self.block_ticks
-                self.dropped_blocks += 1
+        ring = len(self._log)
+        # row i is overwritten once the loop has begun tick i + ring: a running loop is in tick
+        # `done`, a finished one (final) is not
+        lost = ring + 1 if final else ring
+        while self._paced and done - self._next >= lost:
+            self._next += self.block_ticks
+            self.dropped_blocks += 1
         n = min(self.block_ticks, done - self._next)
         if n <= 0 or (n < self.block_ticks and not final):
             return False
-        block = self._log[self._next:self._next + n]
+        block = self._log[(self._next + np.arange(n)) % ring]   # a copy: the loop may overwrite the ring
+        if self._paced and int(self._clk[CLK_TICKS]) - self._next >= lost:  # overwritten while copied
+            self._next += self.block_ticks
+            self.dropped_blocks += 1
+            return True
         k0 = self._k0 + self._next
+        self._clk[CLK_WRITTEN] = k0 + n   # offline, the loop may overwrite these rows now
+        if self._digest is not None:
+            self._digest.add(k0, block)
         for s in self.sinks:
             s.write_block(k0, block)
         self._next += n

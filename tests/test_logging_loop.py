@@ -110,7 +110,9 @@ def test_block_writer_writes_what_mcap_log_writer_writes(tmp_path, loop):
         summary = reader.get_summary()
         # log-time-ordered, time-windowed reading goes through the chunk and message indexes
         window = [m.sequence for _, _, m in reader.iter_messages(topics=["/tracking"])]
-    assert summary.statistics.message_count == len(rows) * 6 and summary.statistics.chunk_count == 2
+    # chunks hold a fixed number of ticks (w is the McapBlockWriter: ~1 MiB of records per chunk)
+    n_chunks = -(-len(rows) // w.chunk_ticks)
+    assert summary.statistics.message_count == len(rows) * 6 and summary.statistics.chunk_count == n_chunks >= 2
     assert window == [(k0 + r) % 2**32 for r in rows]
     assert len(summary.chunk_indexes) == summary.statistics.chunk_count
     # chunks do not depend on how the ticks were split into blocks
@@ -153,12 +155,19 @@ class SlowSink:
 
 
 def test_offline_writer_follows_and_drops_nothing_even_when_slow(loop):
+    """A ring of one block (ring_s 0.01 s rounds up to 2100 ticks) and a slow sink: the offline
+    loop waits for the writer, so every tick reaches the sink, as the run without a ring logs it."""
     sink = SlowSink(delay=0.005)
-    w = LogWriter([sink], ring_s=0.01)  # the ring applies to paced runs only
+    w = LogWriter([sink], ring_s=0.01)
     r = run(loop, F3, AMP, 0.25, writer=w)
+    assert w.ring_ticks == BLOCK_TICKS and r.ticks == 5250 and r.log.shape == (BLOCK_TICKS, len(loop.signals))
     assert w.dropped_blocks == 0 and sink.closed and w.error is None
     assert [k0 for k0, _ in sink.blocks] == list(range(0, 5250, BLOCK_TICKS))
-    np.testing.assert_array_equal(np.vstack([b for _, b in sink.blocks]), r.log)
+    got = np.vstack([b for _, b in sink.blocks])
+    np.testing.assert_array_equal(got[-BLOCK_TICKS:], r.log)   # the ring holds the last ticks in order
+    ref = run(loop, F3, AMP, 0.25).log
+    keep = np.setdiff1d(np.arange(len(loop.signals)), clock_columns(loop.signals))
+    np.testing.assert_array_equal(got[:, keep].view(np.uint64), ref[:, keep].view(np.uint64))
 
 
 def test_paced_slow_writer_drops_whole_blocks_and_counts_them(loop):
@@ -167,13 +176,51 @@ def test_paced_slow_writer_drops_whole_blocks_and_counts_them(loop):
     sink = SlowSink(delay=0.3)  # per 0.1 s block
     w = LogWriter([sink], ring_s=0.2)
     r = run(loop, F3, AMP, 1.0, paced=True, writer=w)
-    assert len(r.log) == 21000 and w.error is None and sink.closed
+    assert r.ticks == 21000 and r.log.shape == (4200, len(loop.signals)) and w.error is None and sink.closed
     assert w.dropped_blocks >= 3
     k = [k0 for k0, _ in sink.blocks]
     assert all(k0 % BLOCK_TICKS == 0 for k0 in k) and k == sorted(k)
     assert len(k) + w.dropped_blocks == 21000 // BLOCK_TICKS
+    # no block holds an overwritten row: F_exc depends on the tick alone, so every row's F_exc
+    # equals the offline run's at its tick (a row of tick k + 4200 would not)
+    f_exc = run(loop, F3, AMP, 1.0).signal("F_exc")
     for k0, b in sink.blocks:
-        np.testing.assert_array_equal(b, r.log[k0:k0 + len(b)])
+        np.testing.assert_array_equal(b[:, 0], f_exc[k0:k0 + len(b)])
+        if k0 >= 21000 - 4200:  # still in the ring at the end
+            np.testing.assert_array_equal(b, r.log[k0 - (21000 - 4200):][:len(b)])
+
+
+def test_ring_run_allocates_the_ring_and_writes_every_tick(tmp_path, loop):
+    """5 s offline with a 0.2 s ring: the loop's log is 4200 rows (not 105000), the MCAP file
+    holds every tick and equals the file of the same run without a ring (but the wall clock),
+    and the summary's whole-run figures come out as without a ring."""
+    from rt.faults import schedule
+    from rt.loop import summary
+    from rt.writer import open_run_log
+
+    faults = schedule(["sensor_bias/F_strain@1.0"], loop.cfg)   # latched at 1.002 s: force_disagree
+    runs = {}
+    for name, ring_s in (("ring", 0.2), ("full", None)):
+        w = open_run_log(tmp_path / name, loop.signals, RATE, META, rrd=False, ring_s=ring_s)
+        runs[name] = run(loop, F3, AMP, 5.0, writer=w, faults=faults)
+        assert w.dropped_blocks == 0 and w.written_ticks == 105000 and w.unwritten_ticks == 0
+    ring, full = runs["ring"], runs["full"]
+    assert ring.log.shape == (4200, len(loop.signals)) and ring.ticks == 105000   # 4200 x 85 x 8 B = 2.9 MB
+    assert full.log.shape == (105000, len(loop.signals)) and full.digest is None
+    keep = np.setdiff1d(np.arange(len(loop.signals)), clock_columns(loop.signals))
+    np.testing.assert_array_equal(ring.log[:, keep].view(np.uint64), full.log[-4200:, keep].view(np.uint64))
+    a, b = read_mcap(tmp_path / "ring.mcap"), read_mcap(tmp_path / "full.mcap")
+    np.testing.assert_array_equal(a.k, np.arange(105000))
+    np.testing.assert_array_equal(a.k, b.k)
+    np.testing.assert_array_equal(a.log[:, keep].view(np.uint64), b.log[:, keep].view(np.uint64))
+    # whole-run figures: from the digest for the ring run, from the log without
+    s, t = summary(ring), summary(full)
+    assert s["ticks"] == t["ticks"] == 105000
+    assert s["trips"] == t["trips"] and s["faults"] == t["faults"] and s["trips"][0]["tick"] == 21042
+    assert s["fn1_mean_n"] == pytest.approx(t["fn1_mean_n"], rel=1e-12)   # summed per block: last bits
+    assert s["actuator_energy_j"] == t["actuator_energy_j"]
+    tick = a.log[:, a.column("tick_ns")]   # every tick's time is in the file
+    assert s["tick_median_us"] == float(np.median(tick)) / 1e3 and s["tick_max_us"] == float(np.max(tick)) / 1e3
 
 
 def test_writer_error_leaves_the_loop_running_and_is_reported(tmp_path, loop):
@@ -198,7 +245,7 @@ def test_writer_thread_is_not_a_daemon_and_finish_is_idempotent(tmp_path, loop):
     w.finish()
     assert read_mcap(tmp_path / "a.mcap").log.shape == (0, len(loop.signals))
     w2 = LogWriter([SlowSink()])
-    w2.start(np.zeros((10, 3)), np.zeros(4, np.int64), 0, False)
+    w2.start(np.zeros((10, 3)), np.zeros(5, np.int64), 0, False)
     assert any(t.name == "frictionrt-writer" and not t.daemon for t in threading.enumerate())
     w2.finish()
     assert not any(t.name == "frictionrt-writer" for t in threading.enumerate())
