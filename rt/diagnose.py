@@ -36,28 +36,34 @@ from typing import NamedTuple
 
 import numpy as np
 from mcap.reader import make_reader
-from scipy.optimize import least_squares, lsq_linear
+from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
-from plant.impulse import accelerance_frf, identify
-from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from plant.model import build_plant
 from rt.config import Config, with_sets
-from rt.effects import Effect, implemented
+from rt.diagnose_structure import (
+    SENSORS,
+    StructureFit,
+    fit_structure,
+    model_frequencies,
+    prepare,
+    run_shape,
+    struct_cfg,
+    windowed_frf,
+)
+from rt.effects import Effect, get, implemented
 from rt.mcap_log import read_mcap
-from rt.rig import hold_voltage, measure_actuator, measure_impulse, quiet, scaled
+from rt.rig import measure_actuator, quiet, scaled
 
-MODES = (2, 3, 4, 5)             # bending modes identified in the impulse tests (mode 6 at ~1 kHz: unreliable)
 BAND_HZ = (50.0, 1200.0)         # FRF gap band [Hz]
-SIGMA_F = 1e-3                   # frequency residual scale (relative)
-SIGMA_ZETA = 0.05                # damping residual scale (relative)
 NAME_THRESHOLD = 10.0            # BIC margin over calibration alone to name an effect
-REFINE = 2                       # exact chord steps after the linearised fit
+NESTED_TOL = 0.01                # a candidate fitted within this x |default - nominal| of its nominal strength
+                                 # is the nominal model: not named, however its BIC
+MIN_RSS_REDUCTION = 0.25         # and a named effect must remove this share of its channels' residual
+                                 # sum of squares (structure: FRF, actuator: V_a, i, F_cell): the model's
+                                 # cost is rough at the 2-4 % level (contact events), which BIC's
+                                 # independent-residual count would take as evidence
 REST_S = 2e-3                    # actuator records start with this long at rest (noise estimate)
-
-STRUCT_CAL = {"E": (0.02, 0.9, 1.1), "mu": (0.1, 0.6, 1.4), "k_t": (0.1, 0.6, 1.4)}
-"""Structure calibration scales fitted with each candidate on the frequencies: (finite-difference
-step, lower, upper bound) around 1."""
-DAMPING_CAL = (0.2, 0.3, 3.0)
-"""modal_damping scale, fitted once on the damping ratios (no candidate of the library changes them)."""
 ACT_CAL = {"c_v": (0.8, 1.2)}
 
 
@@ -108,41 +114,18 @@ def load_campaign(folder: str | Path) -> list[Test]:
     return tests
 
 
-# --- features -------------------------------------------------------------------------------------
+# --- features (rt.diagnose_structure) ------------------------------------------------------------
 
 def _fn1(t: Test) -> float:
     return float(np.mean(t.data["F_cell"]))
 
 
 def frf(t: Test, a: np.ndarray):
-    """(freq [Hz], H) of accelerance a / F_exc with the window of plant.impulse (tau = T / 4)."""
-    tau = len(a) * t.dt / 4.0
-    return accelerance_frf(t.data["F_exc"], a, t.dt, tau)
-
-
-def modal_features(t: Test, a: np.ndarray, approx_hz: np.ndarray):
-    """(f_n [Hz], zeta [-]) of ``MODES`` identified from F_exc and a."""
-    freq, H = frf(t, a)
-    return identify(freq, H, approx_hz, len(a) * t.dt / 4.0)
-
-
-class StructureRun(NamedTuple):
-    f: np.ndarray         # (tests, modes) [Hz]
-    zeta: np.ndarray      # (tests, modes)
-    a: list               # model a_frf per test
-
-
-def run_structure(cfg: Config, tests: list[Test], approx: list[np.ndarray]) -> StructureRun:
-    """The model of ``cfg`` (noise off) on each impulse test's measured F_exc and bolt force."""
-    model = build_plant(quiet(cfg))
-    f, z, a = [], [], []
-    for t, ap in zip(tests, approx):
-        ch = measure_impulse(model, t.data["F_exc"], hold_voltage(cfg, _fn1(t)), seed=0)
-        fn, zeta = modal_features(t, ch["a_frf_meas"], ap)
-        f.append(fn)
-        z.append(zeta)
-        a.append(ch["a_frf_meas"])
-    return StructureRun(np.array(f), np.array(z), a)
+    """(freq [Hz], H) of accelerance a / F_exc, the force windowed around the hammer pulse, the
+    response exponentially (tau = T / 4): rt.diagnose_structure.windowed_frf."""
+    from rt.diagnose_structure import force_window
+    freq, H, _ = windowed_frf(force_window(t.data["F_exc"], t.dt), a, t.dt)
+    return freq, H
 
 
 def run_actuator_tests(cfg: Config, tests: list[Test]) -> list[dict]:
@@ -164,10 +147,10 @@ def nrmse(meas: np.ndarray, model: np.ndarray) -> float:
     return float(np.linalg.norm(meas - model) / np.linalg.norm(meas - np.mean(meas)))
 
 
-def gaps(imp: list[Test], act: list[Test], srun: StructureRun, aruns: list[dict]) -> dict:
+def gaps(imp: list[Test], act: list[Test], a_frf: list, aruns: list[dict]) -> dict:
     """Gap metrics per test and their summaries (mean FRF dB over impulse tests, mean NRMSE)."""
     out = {}
-    for t, a in zip(imp, srun.a):
+    for t, a in zip(imp, a_frf):
         out[t.name] = {"frf_db": round(frf_gap_db(t, a), 4), "nrmse_a_frf": round(nrmse(t.data["a_frf_meas"], a), 5)}
     for t, r in zip(act, aruns):
         out[t.name] = {"nrmse_F_cell": round(nrmse(t.data["F_cell"], r["F_cell"]), 5),
@@ -175,25 +158,6 @@ def gaps(imp: list[Test], act: list[Test], srun: StructureRun, aruns: list[dict]
     out["structure_frf_db"] = round(float(np.mean([out[t.name]["frf_db"] for t in imp])), 4)
     out["actuator_nrmse"] = round(float(np.mean([out[t.name]["nrmse_F_cell"] for t in act])), 5) if act else None
     return out
-
-
-# --- structure fit --------------------------------------------------------------------------------
-
-def _struct_residual(meas_f, meas_z, run: StructureRun, mask) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted frequency and damping residuals of the modes identified in the measurement and the
-    nominal model (mask); a mode the model run could not identify counts 0 (not NaN)."""
-    rf = ((meas_f - run.f) / meas_f / SIGMA_F)[mask]
-    rz = ((meas_z - run.zeta) / meas_z / SIGMA_ZETA)[mask]
-    return np.nan_to_num(rf), np.nan_to_num(rz)
-
-
-def _struct_cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
-    cfg = scaled(nominal, {k: theta[k] for k in (*STRUCT_CAL, "modal_damping") if k in theta})
-    if "c_v" in theta:
-        cfg = scaled(cfg, {"c_v": theta["c_v"]})
-    if effect is not None and effect.name in theta:
-        cfg = effect.apply(cfg, float(theta[effect.name]))
-    return cfg
 
 
 # --- actuator fit ---------------------------------------------------------------------------------
@@ -246,98 +210,94 @@ def bic(channels: dict[str, np.ndarray], p: int) -> float:
 
 def diagnose(folder: str | Path, nominal: Config | None = None, progress=None) -> dict:
     """Run the workflow on a campaign folder; the result dict (docs/discrepancy.md) with the fitted
-    configuration under "_config" and the plotting data under "_plots"."""
-    say = progress or (lambda msg: None)
+    configuration under "_config" and the plotting data under "_plots". BLAS runs single-threaded
+    meanwhile (the fit's matrices are small: threads only contend, 20x slower on a loaded machine)."""
+    with threadpool_limits(1):
+        return _diagnose(folder, nominal, progress or (lambda msg: None))
+
+
+def _cost(fit: StructureFit) -> float:
+    return float(sum(v @ v for v in fit.channels.values()))
+
+
+def _diagnose(folder, nominal: Config | None, say) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_campaign(folder)
     imp = [t for t in tests if t.kind == "impulse"]
     act = [t for t in tests if t.kind == "actuator"]
-    # --- measured features; approximate frequencies from the nominal linearised model
-    m0 = build_plant(nominal)
-    approx = [np.array([stuck_frequencies_hz(m0, preloaded_pairs(m0, _fn1(t)))[m - 1] for m in MODES]) for t in imp]
-    meas = [modal_features(t, t.data["a_frf_meas"], ap) for t, ap in zip(imp, approx)]
-    meas_f = np.array([m[0] for m in meas])
-    meas_z = np.array([m[1] for m in meas])
-    approx = [np.where(np.isfinite(f), f, ap) for f, ap in zip(meas_f, approx)]
+    say("measured FRFs")
+    data = prepare(imp, nominal)
     say("nominal model")
-    theta0 = {k: 1.0 for k in STRUCT_CAL}
-    run0 = run_structure(nominal, imp, approx)
-    mask = np.isfinite(meas_f) & np.isfinite(meas_z) & np.isfinite(run0.f) & np.isfinite(run0.zeta)
+    run0 = run_shape(nominal, data)
     arun0 = run_actuator_tests(nominal, act)
-    gap_before = gaps(imp, act, run0, arun0)
-    # --- structure Jacobian (finite differences), calibration and candidate columns
+    gap_before = gaps(imp, act, run0.a, arun0)
     struct_eff = [e for e in implemented() if e.channel == "structure"]
     act_eff = [e for e in implemented() if e.channel == "actuator"]
-    cols = {}
-    steps = {k: v[0] for k, v in STRUCT_CAL.items()} | {e.name: e.parameter.default * 0.5 for e in struct_eff}
-    rf0, rz0 = _struct_residual(meas_f, meas_z, run0, mask)
-    say("sensitivity modal_damping")
-    run = run_structure(_struct_cfg(nominal, theta0 | {"modal_damping": 1.0 + DAMPING_CAL[0]}, None), imp, approx)
-    zcol = (rz0 - _struct_residual(meas_f, meas_z, run, mask)[1]) / DAMPING_CAL[0]
-    zeta_scale = 1.0 + float(lsq_linear(zcol[:, None], rz0, bounds=(DAMPING_CAL[1] - 1.0, DAMPING_CAL[2] - 1.0)).x[0])
-    theta0 = theta0 | {"modal_damping": zeta_scale}
-    for name, h in steps.items():
-        say(f"sensitivity {name}")
-        eff = next((e for e in struct_eff if e.name == name), None)
-        th = dict(theta0) | ({name: theta0[name] + h} if eff is None else {name: h})
-        run = run_structure(_struct_cfg(nominal, th, eff), imp, approx)
-        cols[name] = (rf0 - _struct_residual(meas_f, meas_z, run, mask)[0]) / h   # d(model)/d(theta)
-    candidates = [None] + struct_eff + act_eff
-    struct_fits = {}
-
-    def fit_structure(eff):
-        """Calibration (+ a structural candidate): linearised bounded fit on the frequencies, then
-        REFINE exact chord steps."""
-        snames = list(STRUCT_CAL) + ([eff.name] if eff else [])
-        lo = [STRUCT_CAL[k][1] - 1.0 for k in STRUCT_CAL] + ([eff.parameter.lo] if eff else [])
-        hi = [STRUCT_CAL[k][2] - 1.0 for k in STRUCT_CAL] + ([eff.parameter.hi] if eff else [])
-        J = np.column_stack([cols[k] for k in snames])
-        x = np.zeros(len(snames))
-        r = rf0
-        for _ in range(1 + REFINE):
-            x = x + lsq_linear(J, r, bounds=(np.array(lo) - x, np.array(hi) - x)).x
-            th = {k: (1.0 + v if k in STRUCT_CAL else v) for k, v in zip(snames, x)} | {"modal_damping": zeta_scale}
-            run = run_structure(_struct_cfg(nominal, th, eff), imp, approx)
-            r, rz = _struct_residual(meas_f, meas_z, run, mask)
-        return th, r, rz, run
-
+    say("fit calibration only")
+    struct_fits = {None: fit_structure(nominal, data, None)}
+    for eff in struct_eff:
+        say(f"fit {eff.name}")
+        struct_fits[eff] = fit_structure(nominal, data, eff, calibrated=struct_fits[None])
+    # calibration alone is nested in every candidate: where a candidate's calibration scales fit
+    # better without the effect, calibration alone stopped short of its optimum; continue from there
+    cal = struct_fits[None]
+    for e in struct_eff:
+        th = {k: v for k, v in struct_fits[e].theta.items() if k != e.name}
+        run = run_shape(struct_cfg(nominal, th, None), data)
+        if sum(v @ v for v in run.r.values()) < _cost(cal):
+            cal = StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, None), cal.J)
+    if cal is not struct_fits[None]:
+        say("fit calibration only, continued")
+        struct_fits[None] = fit_structure(nominal, data, None, start=cal.theta)
     results, act_fits = [], {}
-    for eff in candidates:
-        say(f"fit {eff.name if eff else 'calibration only'}")
-        s_eff = eff if eff in struct_eff else None
-        if s_eff not in struct_fits:
-            struct_fits[s_eff] = fit_structure(s_eff)
-        th, rf, rz, run = struct_fits[s_eff]
+    for eff in [None] + struct_eff + act_eff:
+        s_fit = struct_fits[eff if eff in struct_eff else None]
         a_eff = eff if eff in act_eff else None
         if a_eff not in act_fits:
+            say(f"fit actuator {a_eff.name if a_eff else 'calibration only'}")
             act_fits[a_eff] = fit_actuator(nominal, act, a_eff) if act else ({}, {})
         ath, ares = act_fits[a_eff]
-        theta = th | ath
-        channels = {"frequency": rf} | {f"actuator {k}": v for k, v in ares.items()}
-        p = len(theta)
-        cfg = _struct_cfg(nominal, theta, eff)
+        theta = s_fit.theta | ath
+        channels = dict(s_fit.channels) | {f"actuator {k}": v for k, v in ares.items()}
+        cfg = scaled(s_fit.cfg, {"c_v": ath["c_v"]}) if "c_v" in ath else s_fit.cfg
+        if a_eff is not None:
+            cfg = a_eff.apply(cfg, ath[a_eff.name])
         results.append({"effect": eff.name if eff else None, "theta": theta, "channels": channels,
-                        "score": bic(channels, p), "run": run, "cfg": cfg})
+                        "score": bic(channels, len(theta)), "run": s_fit.run, "cfg": cfg})
     base = results[0]
     ranked = sorted(results[1:], key=lambda r: r["score"])
-    winner = ranked[0] if ranked and base["score"] - ranked[0]["score"] > NAME_THRESHOLD else None
+    for r in ranked:
+        group = "FRF" if get(r["effect"]).channel == "structure" else "actuator"
+        rss = [sum(float(v @ v) for k, v in x["channels"].items() if k.startswith(group)) for x in (r, base)]
+        r["rss_reduction"] = 1.0 - rss[0] / rss[1] if rss[1] > 0 else 0.0
+    eligible = [r for r, e in ((r, get(r["effect"])) for r in ranked)
+                if abs(r["theta"][e.name] - e.nominal) >= NESTED_TOL * abs(e.parameter.default - e.nominal)
+                and r["rss_reduction"] >= MIN_RSS_REDUCTION]
+    winner = eligible[0] if eligible and base["score"] - eligible[0]["score"] > NAME_THRESHOLD else None
     final = winner or base
     say("gap after")
     arun1 = run_actuator_tests(final["cfg"], act)
-    gap_after = gaps(imp, act, final["run"], arun1)
-    gap_cal = gaps(imp, act, base["run"], run_actuator_tests(base["cfg"], act))
+    gap_after = gaps(imp, act, final["run"].a, arun1)
+    gap_cal = gaps(imp, act, base["run"].a, run_actuator_tests(base["cfg"], act))
 
     def feat_gap(res):
         return round(float(np.sqrt(np.mean(np.concatenate(list(res["channels"].values())) ** 2))), 4)
 
     ranking = [{"effect": r["effect"], "score": round(r["score"], 2), "delta_bic": round(base["score"] - r["score"], 2),
+                "rss_reduction": round(r["rss_reduction"], 4),
                 "gap_after": feat_gap(r), "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}}
                for r in ranked]
-    localise = {t.name: {"F_N1_N": round(_fn1(t), 1),
-                         "modes": {str(m): {"f_meas_hz": _r(meas_f[i, j]), "f_model_hz": _r(run0.f[i, j]),
-                                            "shift_rel": _r((meas_f[i, j] - run0.f[i, j]) / run0.f[i, j], 6),
-                                            "zeta_meas": _r(meas_z[i, j], 6), "zeta_model": _r(run0.zeta[i, j], 6)}
-                                   for j, m in enumerate(MODES)}} for i, t in enumerate(imp)}
+    m0 = build_plant(quiet(nominal))
+    localise = {}
+    for t, d in zip(imp, data):
+        f_model = model_frequencies(m0, d.F_N1)
+        localise[t.name] = {"F_N1_N": round(d.F_N1, 1), "stuck": d.stuck,
+                            "frf_db_nominal": gap_before[t.name]["frf_db"],
+                            "modes": {str(m): {"f_model_hz": _r(f_model[j])} | {
+                                f"f_{s}_hz": _r(d.f_modes[s][j]) for s in SENSORS} | {
+                                "shift_rel": _r(np.nanmean([d.f_modes[s][j] for s in SENSORS]) / f_model[j] - 1.0, 6)
+                                if np.any(np.isfinite([d.f_modes[s][j] for s in SENSORS])) else None}
+                                for j, m in enumerate(range(1, len(f_model) + 1))}}
     for t, r in zip(act, arun0):
         localise[t.name] = {"i_peak_meas_A": _r(np.max(np.abs(t.data["i"])), 4),
                             "i_peak_model_A": _r(np.max(np.abs(r["i"])), 4),
@@ -347,7 +307,7 @@ def diagnose(folder: str | Path, nominal: Config | None = None, progress=None) -
                             "F_per_V_model": _r(_gain(r["V_a"], r["F_cell"]), 4)}
     fitted = {k: float(f"{v:.6g}") for k, v in final["theta"].items()}
     return {"named_effect": winner["effect"] if winner else None,
-            "runner_up": (ranked[1]["effect"] if winner and len(ranked) > 1 else ranked[0]["effect"]) if ranked else None,
+            "runner_up": next((r["effect"] for r in ranked if r is not winner), None),
             "ranking": ranking, "calibration_only": {"score": round(base["score"], 2), "gap_after": feat_gap(base),
                                                      "fitted": {k: float(f"{v:.5g}") for k, v in base["theta"].items()}},
             "threshold_delta_bic": NAME_THRESHOLD, "gap_before": gap_before, "gap_calibrated": gap_cal,
@@ -387,7 +347,8 @@ def summary(result: dict) -> str:
     lines = [f"named effect: {result['named_effect'] or 'no missing effect found'}"
              + (f" (runner-up {result['runner_up']})" if result["named_effect"] else "")]
     for r in result["ranking"]:
-        lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  fitted {json.dumps(r['fitted'])}")
+        lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  RSS -{100 * r['rss_reduction']:5.1f} %  "
+                     f"fitted {json.dumps(r['fitted'])}")
     lines.append(f"structure FRF gap [dB]: {gb['structure_frf_db']:.3f} -> {ga['structure_frf_db']:.3f}")
     if gb["actuator_nrmse"] is not None:
         lines.append(f"actuator F_cell NRMSE: {gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}")

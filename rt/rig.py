@@ -106,7 +106,7 @@ def measure_impulse(model: PlantModel, F_exc: np.ndarray, V_cmd: float, seed: in
     V_a, i are the actuator's outputs at rest. Returns {signal name: array (n,)}, without F_exc."""
     cfg = model.cfg
     n = len(F_exc)
-    pa = build_actuator(cfg)
+    pa, ps = _chain(cfg)
     _, Ya = run_actuator(pa, np.full(n, V_cmd), initial_state(pa, V=V_cmd))
     ia = output_index()
     F_N1 = float(Ya[0, ia["F_N1"]])
@@ -118,10 +118,24 @@ def measure_impulse(model: PlantModel, F_exc: np.ndarray, V_cmd: float, seed: in
     U[1:, 1] = Y[:-1, io[f"abar_{_point(cfg, 'frf')}"]]
     U[:, 2] = Ya[:, ia["F_strain_a"]]
     U[:, 3] = Ya[:, ia["F_cell_a"]]
-    _, Ys = run_sensors(build_sensors(cfg), U, new_rng(seed))
+    _, Ys = run_sensors(ps, U, new_rng(seed))
     out = dict(zip(SENSOR_FIELDS, Ys.T))
     out.update(V_cmd=np.full(n, V_cmd), V_a=Ya[:, ia["V_a"]], i=Ya[:, ia["i"]])
     return out
+
+
+_CHAINS: dict = {}
+
+
+def _chain(cfg: Config):
+    """(build_actuator(cfg), build_sensors(cfg)), memoised on what they read (cfg.actuator,
+    cfg.sensors, cfg.rt): the diagnosis runs the chain for many plant parameters with one actuator."""
+    key = (cfg.actuator, cfg.sensors, cfg.rt)
+    if key not in _CHAINS:
+        if len(_CHAINS) >= 16:
+            _CHAINS.clear()
+        _CHAINS[key] = (build_actuator(cfg), build_sensors(cfg))
+    return _CHAINS[key]
 
 
 def measure_actuator(cfg: Config, V_cmd: np.ndarray, seed: int) -> dict[str, np.ndarray]:
