@@ -13,7 +13,14 @@ from pathlib import Path
 import numpy as np
 
 from rt.config import dumps
-from rt.diagnose import BAND_HZ, NAME_THRESHOLD, frf, public
+from rt.diagnose import (
+    BAND_HZ,
+    MIN_RSS_REDUCTION,
+    NAME_THRESHOLD,
+    NESTED_TOL,
+    frf,
+    public,
+)
 
 
 def _plots(res: dict, folder: Path) -> list[str]:
@@ -63,14 +70,18 @@ def report_md(res: dict, pngs: list[str]) -> str:
     lines = ["# Discrepancy report", "",
              f"**Named effect: {named or 'no missing effect found'}**"
              + (f" (runner-up: {res['runner_up']})" if named else ""),
-             "", f"Named only if its BIC is below calibration alone by more than {NAME_THRESHOLD:g}.", "",
-             "| candidate | dBIC vs calibration | BIC | feature gap after (rms of weighted residuals) | fitted |",
-             "| --- | --- | --- | --- | --- |"]
+             "", (f"Named only if its BIC is below calibration alone by more than {NAME_THRESHOLD:g}, it removes at "
+                  f"least {100 * MIN_RSS_REDUCTION:g} % of its channels' residual sum of squares and its fitted "
+                  f"strength is at least {100 * NESTED_TOL:g} % of its default away from nominal "
+                  "(docs/discrepancy.md)."), "",
+             ("| candidate | dBIC vs calibration | RSS reduction | BIC | feature gap after (rms of weighted "
+              "residuals) | fitted |"), "| --- | --- | --- | --- | --- | --- |"]
     for r in res["ranking"]:
-        lines.append(f"| {r['effect']} | {r['delta_bic']:.1f} | {r['score']:.1f} | {r['gap_after']:.3f} | "
-                     f"{json.dumps(r['fitted'])} |")
+        lines.append(f"| {r['effect']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | {r['score']:.1f} | "
+                     f"{r['gap_after']:.3f} | {json.dumps(r['fitted'])} |")
     c = res["calibration_only"]
-    lines += [f"| calibration only | 0 | {c['score']:.1f} | {c['gap_after']:.3f} | {json.dumps(c['fitted'])} |", "",
+    lines += [f"| calibration only | 0 | 0 % | {c['score']:.1f} | {c['gap_after']:.3f} | {json.dumps(c['fitted'])} |",
+              "",
               "## Gap", "", "| test | metric | nominal (before) | calibrated only | updated (after) |",
               "| --- | --- | --- | --- | --- |"]
     for name, row in gb.items():

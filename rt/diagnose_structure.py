@@ -78,7 +78,7 @@ class ImpulseFRF(NamedTuple):
 def force_window(F: np.ndarray, dt: float) -> np.ndarray:
     """F [N] with everything outside the hammer pulse (+- PULSE_MARGIN_S) set to 0."""
     big = np.flatnonzero(F > 0.1 * np.max(F))
-    m = int(round(PULSE_MARGIN_S / dt))
+    m = round(PULSE_MARGIN_S / dt)
     out = np.zeros_like(F)
     lo, hi = max(0, big[0] - m), min(len(F), big[-1] + m + 1)
     out[lo:hi] = F[lo:hi]
