@@ -3,26 +3,22 @@ disagree, which effect of the library (rt.effects) is missing, and how much of t
 
 Method, on a campaign of the measurement format (impulse tests at several F_N1, actuator ramps):
 
-1. Features. Impulse tests: the accelerance H = a_frf / F_exc (exponential window, plant.impulse)
-   and per mode m of ``MODES`` its natural frequency f_m and damping ratio zeta_m (plant.impulse.
-   identify), at each F_N1 (the measured bolt force). Actuator tests: the time series V_a, i and
-   F_cell. The model side is the same chain (rt.rig.measure_impulse / measure_actuator, noise off)
-   driven by the measured F_exc, resp. the recorded V_cmd.
-2. Calibration and candidates. Parameters: calibration scales of E, modal damping, mu, k_t
-   (structure) and c_v (actuator), plus the strength of one candidate effect. Structure: the
-   feature vector is linearised around the nominal model by finite differences (one model run per
-   parameter), the weighted residuals
-       r = [(f_meas - f_model) / f_meas / SIGMA_F,  (zeta_meas - zeta_model) / zeta_meas / SIGMA_ZETA]
-   are minimised by bounded linear least squares (scipy.optimize.lsq_linear) for calibration alone
-   and for calibration + each structural candidate, then refined by ``REFINE`` chord steps with the
-   exact model (same Jacobian, exact residual). Actuator: bounded nonlinear least squares
+1. Structure (rt.diagnose_structure): calibration scales E, k_t, mu, modal damping alone and
+   with each structural candidate, fitted to the log-magnitude FRFs of both accelerometers over
+   4-1600 Hz at every F_N1 (weighted by their noise), the model being the rig's own chain
+   (rt.rig.measure_impulse, noise off) driven by the windowed measured hammer force; started from
+   the identified frequencies of modes 1-8 against the stuck plant's eigenvalues.
+2. Actuator: c_v (and an actuator candidate) by bounded nonlinear least squares
    (scipy.optimize.least_squares) on the exact chain, residuals per signal divided by the signal's
    noise rms estimated on the record's first 2 ms at rest.
-3. Ranking by BIC = sum over channels c of n_c ln(RSS_c / n_c) + p ln n (channels: frequencies,
-   damping ratios, V_a, i, F_cell; p the fitted parameters, n all residuals), i.e. the Gaussian
+3. Ranking by BIC = sum over channels c of n_c ln(RSS_c / n_c) + p ln n (channels: FRF a_frf,
+   FRF a_tip, V_a, i, F_cell; p the fitted parameters, n all residuals), i.e. the Gaussian
    likelihood with one variance per channel. The best candidate is named only if its BIC is below
    calibration alone by more than ``NAME_THRESHOLD`` (= 10, "very strong" on Kass & Raftery's
-   scale); the runner-up is reported.
+   scale), it removes at least ``MIN_RSS_REDUCTION`` of its channels' residual sum of squares and
+   its strength is fitted at least ``NESTED_TOL`` of its default away from nominal (the model's
+   cost is rough at the 2-4 % level through contact events, which BIC would count as evidence);
+   the runner-up is reported.
 4. The updated model (calibrated, with the named effect) is written as a TOML (rt.config.dumps),
    the gap before (nominal) and after is measured on the raw data: FRF log-magnitude RMS [dB] over
    ``BAND_HZ`` per impulse test, time-series NRMSE of a_frf (impulse) and F_cell (actuator).
