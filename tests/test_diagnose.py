@@ -4,14 +4,17 @@ the files validate and do not reveal the effect. Seed 5 was not used while devel
 (development used seeds 3, 11 and 17; seed 5 was run once, after)."""
 import json
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 
 from rt.cli import main
+from rt.config import Config, with_sets
 from rt.data_format import validate
-from rt.diagnose import diagnose
+from rt.diagnose import diagnose, load_campaign
+from rt.diagnose_structure import SENSORS, prepare, run_shape
 from rt.effects import implemented
-from rt.rig import make_campaign
+from rt.rig import make_campaign, scaled, scatter_sets
 
 SEED = 5
 
@@ -36,6 +39,21 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(campaigns, effect):
     assert abs(fitted / effect.parameter.default - 1.0) < 0.30, fitted
     key = "structure_frf_db" if effect.channel == "structure" else "actuator_nrmse"
     assert res["gap_before"][key] >= 3.0 * res["gap_after"][key], (res["gap_before"][key], res["gap_after"][key])
+
+
+def test_true_parameters_fit_the_frfs_at_noise_level(campaigns):
+    """The structure fit's residuals, (ln|H_meas| - ln|H_model|) / sigma_k, are O(1) for the campaign's
+    true (scattered) parameters: the noise model and the model chain are right, also in the 40 and
+    100 N tests that slip (identified as such: their mode 3 lies ~6 % below the stuck model's)."""
+    nominal = with_sets(Config(), [])
+    true = scaled(nominal, scatter_sets(np.random.default_rng(SEED)))   # make_campaign's first draws
+    data = prepare([t for t in load_campaign(campaigns("none")) if t.kind == "impulse"], nominal)
+    assert [round(d.F_N1) for d in data] == [40, 100, 300] and [d.stuck for d in data] == [False, False, True]
+    assert all(d.sel[s].sum() > 1400 for d in data for s in SENSORS)       # of 1597 bins in 4-1600 Hz
+    rms = {s: float(np.sqrt(np.mean(r ** 2))) for s, r in run_shape(true, data).r.items()}
+    rms_nominal = {s: float(np.sqrt(np.mean(r ** 2))) for s, r in run_shape(nominal, data).r.items()}
+    assert all(v < 1.0 for v in rms.values()), rms
+    assert all(v > 5.0 for v in rms_nominal.values()), rms_nominal   # scatter alone: far outside the noise
 
 
 def test_no_effect_names_nothing(campaigns):
