@@ -8,8 +8,11 @@ import sys
 
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
 V_cmd), calibrates E, mu, k_t, modal damping and c_v, fits each implemented effect of the library
-jointly with the calibration, ranks them by BIC and names the best only if it beats calibration
-alone by more than 10 (else "no missing effect found"). Method: docs/discrepancy.md."""
+jointly with the calibration (structure: on the log-magnitude FRFs of both accelerometers at every
+F_N1; actuator: on V_a, i, F_cell), ranks them by BIC and names the best only if it beats
+calibration alone by more than 10, removes at least 25 % of its channels' residual sum of squares
+and is fitted away from its nominal strength (else "no missing effect found"). About 15-20 s per
+campaign. Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
