@@ -23,6 +23,18 @@ structure's vibration does not act back on the stack (the screw head is taken as
 F_N1 is not limited at 0: a full-range slew rings the stack (zeta = 0.05) ~50 N beyond its
 end values, e.g. down to -17 N after 150 -> 0 V, where the real screw would lift off.
 
+Piezo hysteresis (actuator.hysteresis_width_rel > 0; off by default). The stack's free
+elongation is d (V_a - h), h [V] a Bouc-Wen state (n = 1, gamma = 0, i.e. Dahl's form, which
+Low & Guo 1995 and Goldfarb & Celanovic 1997 use for stacks):
+
+    h' = A V_a' - beta |V_a'| h,   so that quasi-statically F_N1 = F0 + c_v (V_a - h),
+
+rate independent (dh/dV_a depends on the direction only); h saturates at +-A / beta,
+beta = 2 / (V_max - V_min) (``HYST_BETA_RANGE``), and A is set by the loop width
+(``hysteresis_constants``). One substep's change is exact for a monotone V_a (``_hysteresis``);
+h enters the stack as an input held first-order over the substep (the m update's Gm0, Gm1).
+Structure and impulse tests at constant V_a are unchanged (h = 0 from rest).
+
 The bolt force sensors' analog parts (w_s = 2 pi sensors.strain_bandwidth_hz, w_c = 2 pi
 sensors.cell_bandwidth_hz) are integrated here, with the stack, because F_N1(t) is only known
 inside this continuous integration: filtering the 21 kHz samples of F_N1 afterwards (as
@@ -85,10 +97,10 @@ from rt.config import Config
 N_SUB = 8
 N_FINE = 8
 
-ACTUATOR_SLOTS = ("v_f", "r", "V_a", "x", "x_dot", "F_strain_a", "F_cell_a", "E")
+ACTUATOR_SLOTS = ("v_f", "r", "V_a", "x", "x_dot", "F_strain_a", "F_cell_a", "E", "h")
 """State slots: filter output v_f [V], filter rate r = (dv_f/dt)/w_lp [V], amplifier output
 V_a [V], screw elongation x [m] and its rate x' [m/s], analog strain-gauge and force-cell
-outputs [N], delivered energy E [J]."""
+outputs [N], delivered energy E [J], piezo hysteresis state h [V] (0 without hysteresis)."""
 
 ACTUATOR_OUTPUTS = (("F_N1", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V"),
                     ("i", "A"), ("P", "W"), ("E", "J"), ("F_strain_a", "N"), ("F_cell_a", "N"))
@@ -134,6 +146,8 @@ class ActuatorParams(NamedTuple):
     F0: float         # F_N1 at x = 0 [N]
     k_screw: float    # [N/m]
     x_per_V: float    # static elongation per volt c_v / k_screw [m/V]
+    hyst_A: float     # Bouc-Wen gain A of h' = A V_a' - beta |V_a'| h [-]; 0: no hysteresis
+    hyst_beta: float  # Bouc-Wen beta [1/V] (``hysteresis_constants``)
 
 
 # --- design time -----------------------------------------------------------------------------
@@ -167,6 +181,28 @@ def discretise(A: np.ndarray, B: np.ndarray, h: float, scale: np.ndarray | None 
     G0 = E[:n, n:n + m] * s[:, None]
     G1 = E[:n, n + m:] * s[:, None] / h
     return Phi, G0, G1
+
+
+HYST_BETA_RANGE = 2.0
+"""Bouc-Wen shape: beta (V_max - V_min); h saturates at A / beta over a voltage scale of half
+the range (module docstring, "Piezo hysteresis")."""
+
+
+def hysteresis_constants(cfg: Config) -> tuple[float, float]:
+    """(A [-], beta [1/V]) of the Bouc-Wen hysteresis for actuator.hysteresis_width_rel = w.
+
+    On a quasi-static triangle V_min -> V_max -> V_min from h = 0 the branches are
+    h_up(V) = (A/beta)(1 - e^{-beta (V - V_min)}) and
+    h_dn(V) = (h_up(V_max) + A/beta) e^{-beta (V_max - V)} - A/beta, so at mid range, with
+    u = e^{-beta Vr / 2} (Vr = V_max - V_min), the force loop's width is
+    c_v (h_up - h_dn) = c_v (A/beta) (1 - u)^2 (2 + u)  :=  w c_v Vr,
+    i.e. A = w beta Vr / ((1 - u)^2 (2 + u)) (= 2.114 w at beta Vr = 2)."""
+    a = cfg.actuator
+    Vr = a.V_max - a.V_min
+    beta = HYST_BETA_RANGE / Vr
+    u = math.exp(-0.5 * HYST_BETA_RANGE)
+    A = a.hysteresis_width_rel * HYST_BETA_RANGE / ((1.0 - u) ** 2 * (2.0 + u))
+    return A, beta
 
 
 def stack_constants(cfg: Config) -> dict:
@@ -241,12 +277,14 @@ def build_actuator(cfg: Config, n_sub: int | None = None, n_fine: int | None = N
         return M
 
     lsb = (a.V_max - a.V_min) / (2 ** a.dac_bits - 1)
+    hyst_A, hyst_beta = hysteresis_constants(cfg)
     p = ActuatorParams(
         V_min=float(a.V_min), V_max=float(a.V_max), lsb=float(lsb), inv_lsb=float(1.0 / lsb),
         w_a=float(2.0 * math.pi * a.amp_bandwidth_hz), L=float(a.current_limit_A / a.capacitance_F),
         C=float(a.capacitance_F), n_sub=int(n_sub), h=float(h), M=block(h),
         n_fine=int(n_fine), h_f=float(h_f), M_f=block(h_f),
-        F0=float(a.F0_N), k_screw=float(a.k_screw), x_per_V=float(x_per_V))
+        F0=float(a.F0_N), k_screw=float(a.k_screw), x_per_V=float(x_per_V),
+        hyst_A=float(hyst_A), hyst_beta=float(hyst_beta))
     for arr in p:
         if isinstance(arr, np.ndarray):
             arr.setflags(write=False)
@@ -265,7 +303,8 @@ def output_index() -> dict[str, int]:
 
 def initial_state(p: ActuatorParams, V: float | None = None, F_N1: float | None = None) -> np.ndarray:
     """Rest state at amplifier voltage V [V] (or at the voltage giving F_N1 [N] statically,
-    F_N1 = F0 + c_v V; default V_min), energy 0. V must lie in [V_min, V_max]."""
+    F_N1 = F0 + c_v V; default V_min), energy 0, hysteresis state h = 0 (a stack at rest after
+    demagnetising, on its virgin curve). V must lie in [V_min, V_max]."""
     if V is None:
         V = p.V_min if F_N1 is None else (F_N1 - p.F0) / (p.k_screw * p.x_per_V)
     if not (p.V_min <= V <= p.V_max):
@@ -298,6 +337,17 @@ def _energy(Va0, Va1, half_C):
     if Va0 * Va1 >= 0.0:
         return half_C * abs(Va1 * Va1 - Va0 * Va0)
     return half_C * (Va0 * Va0 + Va1 * Va1)
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy", inline="always")
+def _hysteresis(h0, dV, A, beta):
+    """Bouc-Wen state [V] after a monotone change dV [V] of V_a from h0: the exact solution of
+    dh/dV_a = A - beta sign(dV) h,  h1 = h_s + (h0 - h_s) e^{-beta |dV|},  h_s = sign(dV) A / beta
+    (rate independent: it depends on the path of V_a only). RT-safe."""
+    if dV == 0.0:
+        return h0
+    hs = A / beta if dV > 0.0 else -A / beta
+    return h0 - (hs - h0) * math.expm1(-beta * abs(dV))
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy")
@@ -344,11 +394,11 @@ def _actuator_step(k, x, u, p, x_next, y):
     Parameters
     ----------
     k : int64 tick (the chain is time-invariant; kept for the uniform step signature)
-    x : (8,) state at t_k, slots ``ACTUATOR_SLOTS`` = v_f [V], r [V], V_a [V], x [m], x' [m/s],
-        F_strain_a [N], F_cell_a [N], E [J] (read only)
+    x : (9,) state at t_k, slots ``ACTUATOR_SLOTS`` = v_f [V], r [V], V_a [V], x [m], x' [m/s],
+        F_strain_a [N], F_cell_a [N], E [J], h [V] (read only)
     u : (1,) u[0] = V_cmd [V], the controller's DAC command, held over the step
     p : ActuatorParams
-    x_next : (8,) state at t_{k+1} (written)
+    x_next : (9,) state at t_{k+1} (written)
     y : (9,) outputs ``ACTUATOR_OUTPUTS`` (written): F_N1 [N], V_dac [V], v_f [V], V_a [V],
         i [A], P [W], E [J], F_strain_a [N], F_cell_a [N]
 
@@ -359,6 +409,8 @@ def _actuator_step(k, x, u, p, x_next, y):
         held     V_a0 on a rail, s0 and v_f1 pushing outwards         -> V_a1 = V_a0
                  (both: m1 = Pm m0 + Gm0 V_a0 + Gm1 (V_a1 - V_a0), m = [x, x', z_s, z_c])
         else     n_fine substeps of h / n_fine (``_actuator_fine``)
+    Hysteresis (p.hyst_A > 0): h1 = ``_hysteresis``(h0, V_a1 - V_a0) and the stack's input
+    V_a - h, so m1 -= Gm0 h0 + Gm1 (h1 - h0) (superposition; h taken linear over the substep).
     E += C/2 |V_a1^2 - V_a0^2|;  F_N1 = F0 + k_screw x;  i = C (V_a1 - V_a0) / h and
     P = i (V_a0 + V_a1) / 2 over the last substep.
     RT-safe (no allocation, no Python objects).
@@ -381,7 +433,8 @@ def _actuator_step(k, x, u, p, x_next, y):
     half_C = 0.5 * C
 
     Vd = _dac(u[0], V_min, V_max, p.lsb, p.inv_lsb)
-    vf, r, Va, xm, vm, E = x[0], x[1], x[2], x[3], x[4], x[7]
+    vf, r, Va, xm, vm, E, hb = x[0], x[1], x[2], x[3], x[4], x[7], x[8]
+    hA, hbeta = p.hyst_A, p.hyst_beta
     zs = x[5] - F0
     zc = x[6] - F0
     Va_prev = Va
@@ -392,6 +445,7 @@ def _actuator_step(k, x, u, p, x_next, y):
         s0 = w_a * (vf - Va)
         s1 = w_a * (vf1 - Va1)
         ramp = True
+        fine = False
         if -L <= s0 <= L and -L <= s1 <= L and V_min <= Va1 <= V_max:  # linear
             ramp = False
         elif s0 > L and Va + slew <= V_max and w_a * (vf1 - Va - slew) > L:  # slewing up
@@ -401,23 +455,31 @@ def _actuator_step(k, x, u, p, x_next, y):
         elif (Va == V_max and s0 > 0.0 and vf1 > V_max) or (Va == V_min and s0 < 0.0 and vf1 < V_min):
             Va1 = Va  # held at a rail
         else:  # the regime changes within the substep
+            fine = True
+        if fine:
             vf1, r1, Va1, x1, v1, zs1, zc1, dE = _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p)
             E += dE
-            Va_prev = Va
-            vf, r, Va, xm, vm, zs, zc = vf1, r1, Va1, x1, v1, zs1, zc1
-            continue
-        if ramp:
-            dV = Va1 - Va
-            x1 = p00 * xm + p01 * vm + g0 * Va + q0 * dV
-            v1 = p10 * xm + p11 * vm + g1 * Va + q1 * dV
-            zs1 = p20 * xm + p21 * vm + p22 * zs + g2 * Va + q2 * dV
-            zc1 = p30 * xm + p31 * vm + p33 * zc + g3 * Va + q3 * dV
         else:
-            x1 = a30 * vf + a31 * r + a32 * Va + a33 * xm + a34 * vm + b3 * Vd
-            v1 = a40 * vf + a41 * r + a42 * Va + a43 * xm + a44 * vm + b4 * Vd
-            zs1 = a50 * vf + a51 * r + a52 * Va + a53 * xm + a54 * vm + a55 * zs + b5 * Vd
-            zc1 = a60 * vf + a61 * r + a62 * Va + a63 * xm + a64 * vm + a66 * zc + b6 * Vd
-        E += _energy(Va, Va1, half_C)
+            if ramp:
+                dV = Va1 - Va
+                x1 = p00 * xm + p01 * vm + g0 * Va + q0 * dV
+                v1 = p10 * xm + p11 * vm + g1 * Va + q1 * dV
+                zs1 = p20 * xm + p21 * vm + p22 * zs + g2 * Va + q2 * dV
+                zc1 = p30 * xm + p31 * vm + p33 * zc + g3 * Va + q3 * dV
+            else:
+                x1 = a30 * vf + a31 * r + a32 * Va + a33 * xm + a34 * vm + b3 * Vd
+                v1 = a40 * vf + a41 * r + a42 * Va + a43 * xm + a44 * vm + b4 * Vd
+                zs1 = a50 * vf + a51 * r + a52 * Va + a53 * xm + a54 * vm + a55 * zs + b5 * Vd
+                zc1 = a60 * vf + a61 * r + a62 * Va + a63 * xm + a64 * vm + a66 * zc + b6 * Vd
+            E += _energy(Va, Va1, half_C)
+        if hA > 0.0:  # hysteresis: the stack input is V_a - h, h a first-order hold over the substep
+            h1 = _hysteresis(hb, Va1 - Va, hA, hbeta)
+            dh = h1 - hb
+            x1 -= g0 * hb + q0 * dh
+            v1 -= g1 * hb + q1 * dh
+            zs1 -= g2 * hb + q2 * dh
+            zc1 -= g3 * hb + q3 * dh
+            hb = h1
         Va_prev = Va
         vf, r, Va, xm, vm, zs, zc = vf1, r1, Va1, x1, v1, zs1, zc1
     x_next[0] = vf
@@ -428,6 +490,7 @@ def _actuator_step(k, x, u, p, x_next, y):
     x_next[5] = F0 + zs
     x_next[6] = F0 + zc
     x_next[7] = E
+    x_next[8] = hb
     i = C * (Va - Va_prev) / h
     y[0] = F0 + p.k_screw * xm
     y[1] = Vd
@@ -459,7 +522,7 @@ def actuator_step(k: int, x: np.ndarray, u: np.ndarray, p: ActuatorParams, x_nex
 
 @numba.njit(cache=True, nogil=True)
 def _actuator_run(x0, V_cmd, p, X, Y):
-    """Step the chain over the commands V_cmd (n,) [V] from x0: X (n + 1, 8) states, Y (n, 9)
+    """Step the chain over the commands V_cmd (n,) [V] from x0: X (n + 1, 9) states, Y (n, 9)
     outputs (filled)."""
     X[0] = x0
     for k in range(V_cmd.shape[0]):
@@ -469,7 +532,7 @@ def _actuator_run(x0, V_cmd, p, X, Y):
 def run_actuator(p: ActuatorParams, V_cmd: np.ndarray, x0: np.ndarray | None = None):
     """Offline run over a command sequence V_cmd [V] (one per controller step).
 
-    Returns (X (n + 1, 8) states at t_0..t_n, Y (n, 9) outputs at t_1..t_n)."""
+    Returns (X (n + 1, 9) states at t_0..t_n, Y (n, 9) outputs at t_1..t_n)."""
     V_cmd = np.ascontiguousarray(V_cmd, dtype=np.float64)
     x0 = initial_state(p) if x0 is None else np.ascontiguousarray(x0, dtype=np.float64)
     X = np.empty((len(V_cmd) + 1, len(ACTUATOR_SLOTS)))

@@ -185,6 +185,11 @@ class Actuator:
     k_screw: float = param(2.0e7, "N/m", lo=0.0, lo_inclusive=False, doc="screw stiffness in series (A)")
     moving_mass_kg: float = param(0.020, "kg", lo=0.0, lo_inclusive=False, doc="stack moving mass (A)")
     zeta_stack: float = param(0.05, "-", lo=0.0, hi=1.0, doc="damping ratio of the stack resonance (A)")
+    hysteresis_width_rel: float = param(0.0, "-", lo=0.0, hi=0.3,
+                                        doc="piezo hysteresis (Bouc-Wen, plant/actuator.py): width of the "
+                                            "bolt force-voltage loop at mid range of a slow full-range "
+                                            "triangle over the full-range force c_v (V_max - V_min); "
+                                            "0 = off, typical stacks 0.1-0.15")
     substeps: int = param(8, "-", lo=1, hi=256, doc="actuator substeps per controller step")
     fine_substeps: int = param(8, "-", lo=1, hi=256,
                                doc="finer substeps of a substep in which the amplifier changes regime")

@@ -84,6 +84,10 @@ def _moving_mass(cfg: Config, m: float) -> Config:
     return with_sets(cfg, [f"plant.screws.{n}.mass_kg={m!r}" for n in names])
 
 
+def _piezo_hysteresis(cfg: Config, w: float) -> Config:
+    return with_sets(cfg, [f"actuator.hysteresis_width_rel={w!r}"])
+
+
 def _current_limit(cfg: Config, i_max: float) -> Config:
     return with_sets(cfg, [f"actuator.current_limit_A={i_max!r}"])
 
@@ -118,13 +122,16 @@ _EFFECTS = (
            "fast voltage ramps: the measured current plateaus at +-I_max, V_a and the bolt force lag the "
            "command with a constant slope; slow ramps and the impulse tests are unchanged",
            Parameter("current_limit_A", "A", 0.3, 0.02, 1.0), "actuator", 1.0, _current_limit),
-    # --- need new kernel code (next step) -------------------------------------------------------
     Effect("piezo_hysteresis",
-           "rate-independent hysteresis of the stack's voltage-to-elongation map (Bouc-Wen or "
-           "Prandtl-Ishlinskii operator in front of d V_a)",
-           "bolt force vs voltage on a slow ramp is a loop (up and down branches apart by a few % of the "
-           "swing), independent of the ramp rate; structure unchanged",
-           Parameter("loop_width_rel", "-", 0.1, 0.0, 0.3), "actuator", 0.0),
+           "rate-independent hysteresis of the stack: free elongation d (V_a - h) with the Bouc-Wen state "
+           "h' = A V_a' - beta |V_a'| h (n = 1, gamma = 0), beta = 2 / (V_max - V_min), A set by the loop "
+           "width w: quasi-statically F_N1 = F0 + c_v (V_a - h) (plant/actuator.py)",
+           "bolt force vs V_a on the ramps is a loop: the down branch lies above the up branch by w c_v "
+           "(V_max - V_min) at mid range (0.1: 56 N of the 560 N swing), the up branch is concave, and the "
+           "force after 150 -> 0 V stays 12 N above F0 (h = -12 V); the same on every ramp rate; V_a, i "
+           "and the impulse tests unchanged",
+           Parameter("hysteresis_width_rel", "-", 0.1, 0.0, 0.3), "actuator", 0.0, _piezo_hysteresis),
+    # --- need new kernel code (next step) -------------------------------------------------------
     Effect("preload_creep",
            "creep of the screw thread's preload: F_N1 relaxes logarithmically after a change, "
            "F_N1(t) = F_N1(t0) (1 - c log10(1 + (t - t0)/tau))",
