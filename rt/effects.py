@@ -128,7 +128,7 @@ _EFFECTS = (
            "width w: quasi-statically F_N1 = F0 + c_v (V_a - h) (plant/actuator.py)",
            "bolt force vs V_a on the ramps is a loop: the down branch lies above the up branch by w c_v "
            "(V_max - V_min) at mid range (0.1: 56 N of the 560 N swing), the up branch is concave, and the "
-           "force after 150 -> 0 V stays 12 N above F0 (h = -12 V); the same on every ramp rate; V_a, i "
+           "force after 150 -> 0 V stays 44 N above F0 (-c_v h, h = -11.9 V); the same on every ramp rate; V_a, i "
            "and the impulse tests unchanged",
            Parameter("hysteresis_width_rel", "-", 0.1, 0.0, 0.3), "actuator", 0.0, _piezo_hysteresis),
     # --- need new kernel code (next step) -------------------------------------------------------
