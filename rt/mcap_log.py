@@ -177,6 +177,17 @@ def signals_record(signals, rate_hz: int) -> dict[str, str]:
             "time": "log_time = publish_time = (k * 10**9) // rate_hz [ns]; sequence = k mod 2**32"}
 
 
+def check_conversion(src: Path, dst: Path, exists_hint: str | None) -> None:
+    """ValueError naming the file unless src is a file and dst can be written: its folder exists
+    and it does not exist yet (exists_hint: what to do instead; None: an existing dst may be
+    replaced)."""
+    if exists_hint is not None and dst.exists():
+        raise ValueError(f"{dst}: the output exists; {exists_hint}")
+    if not dst.parent.is_dir():
+        raise ValueError(f"{dst}: folder {dst.parent} does not exist")
+    if not src.is_file():
+        raise ValueError(f"{src}: {'not a file' if src.exists() else 'no such file'}")
+
 def part_path(path: Path) -> Path:
     """Where a log is written until it is complete: NAME.mcap -> NAME.mcap.part."""
     return path.with_name(path.name + ".part")

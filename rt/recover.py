@@ -46,7 +46,7 @@ from mcap.opcode import Opcode
 from mcap.records import Chunk, DataEnd, Footer, Metadata, MetadataIndex
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
 
-from rt.mcap_log import MAGIC, read_mcap, tick_runs, topics_of
+from rt.mcap_log import MAGIC, check_conversion, read_mcap, tick_runs, topics_of
 from rt.writer import McapBlockWriter
 
 CHUNK_HEAD = struct.Struct("<BQQQ")  # opcode, record length, message start time, message end time [ns]
@@ -148,12 +148,7 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
     frictionrt log, topics missing."""
     t0 = time.perf_counter()
     src, dst = Path(src), Path(dst)
-    if dst.exists():
-        raise ValueError(f"{dst}: the output exists; give a new file name (recover never overwrites)")
-    if not dst.parent.is_dir():
-        raise ValueError(f"{dst}: folder {dst.parent} does not exist")
-    if not src.is_file():
-        raise ValueError(f"{src}: {'not a file' if src.exists() else 'no such file'}")
+    check_conversion(src, dst, "give a new file name (recover never overwrites)")
     s = scan(src)
     if s.chunks == 0:
         raise ValueError(f"{src}: no complete chunk in the file ({s.size} B; {s.stop or 'no data'}): nothing to "

@@ -163,14 +163,9 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
     ``dst`` is written under a temporary name in its folder and then renamed: an existing
     ``dst`` is replaced only if ``overwrite``, never left half-written. ValueError naming the file
     on any problem. Returns {input, output, ticks, first_tick, last_tick, topics, entities}."""
-    from rt.mcap_log import read_mcap
+    from rt.mcap_log import check_conversion, read_mcap
     src, dst = Path(src), Path(dst)
-    if dst.exists() and not overwrite:
-        raise ValueError(f"{dst}: the output exists; give another name with -o or pass --force to replace it")
-    if not dst.parent.is_dir():
-        raise ValueError(f"{dst}: folder {dst.parent} does not exist")
-    if not src.is_file():
-        raise ValueError(f"{src}: {'not a file' if src.exists() else 'no such file'}")
+    check_conversion(src, dst, None if overwrite else "give another name with -o or pass --force to replace it")
     rec = read_mcap(src)
     cols = [c for c, (_, _, o) in enumerate(rec.signals) if f"/{o}" in rec.topics]
     signals = [rec.signals[c] for c in cols]
