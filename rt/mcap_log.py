@@ -188,6 +188,16 @@ def check_conversion(src: Path, dst: Path, exists_hint: str | None) -> None:
     if not src.is_file():
         raise ValueError(f"{src}: {'not a file' if src.exists() else 'no such file'}")
 
+def checked_layout(path, signals, rate_hz: float, metadata: dict[str, str]):
+    """What a log writer needs, checked (ValueError naming the file): (path, signals as tuples,
+    rate [Hz] as int, topics)."""
+    path = Path(path)
+    signals = tuple(tuple(s) for s in signals)
+    rate = check_rate(path, rate_hz)
+    check_owners(path, signals)
+    check_metadata(path, metadata)
+    return path, signals, rate, topics_of(signals)
+
 def part_path(path: Path) -> Path:
     """Where a log is written until it is complete: NAME.mcap -> NAME.mcap.part."""
     return path.with_name(path.name + ".part")
@@ -208,12 +218,7 @@ class McapLogWriter:
     """
 
     def __init__(self, path: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str]):
-        self.path = Path(path)
-        self.signals = tuple(tuple(s) for s in signals)
-        self.rate_hz = check_rate(self.path, rate_hz)
-        check_owners(self.path, self.signals)
-        self.topics = topics_of(self.signals)
-        check_metadata(self.path, metadata)
+        self.path, self.signals, self.rate_hz, self.topics = checked_layout(path, signals, rate_hz, metadata)
         self._part = part_path(self.path)
         self._file = open(self._part, "wb")
         self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)

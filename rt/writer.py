@@ -84,9 +84,8 @@ from mcap.opcode import Opcode
 from mcap.records import (Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
-from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, check_block, check_metadata, check_owners,
-                         check_rate, part_path,
-                         signals_record, tick_time_ns, topics_of)
+from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, check_block, checked_layout, part_path, signals_record,
+                         tick_time_ns)
 
 BLOCK_TICKS = 2100        # rows per block handed to the sinks (0.1 s simulated at 21 kHz)
 RING_S = 1.0              # default ring of a run with a writer [s of simulated time]
@@ -108,12 +107,7 @@ class McapBlockWriter:
     ``add_metadata(name, record)`` adds a metadata record at any time before close."""
 
     def __init__(self, path: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str]):
-        self.path = Path(path)
-        self.signals = tuple(tuple(s) for s in signals)
-        self.rate_hz = check_rate(self.path, rate_hz)
-        check_owners(self.path, self.signals)
-        self.topics = topics_of(self.signals)
-        check_metadata(self.path, metadata)
+        self.path, self.signals, self.rate_hz, self.topics = checked_layout(path, signals, rate_hz, metadata)
         self._part = part_path(self.path)
         # one tick's records: per topic the message record; offsets of its variable fields
         self._rec_off, off = [], 0
