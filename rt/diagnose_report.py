@@ -1,5 +1,6 @@
 """Report folder of ``frictionrt diagnose --out``: diagnose.json (the JSON of the workflow),
-model.toml (the updated model, loadable by --config), report.md, and overlay PNGs: per impulse
+model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (the overlays
+for rerun: rt.diagnose_rrd), and overlay PNGs: per impulse
 test |H| measured / nominal model (before) / updated model (after), per actuator test the bolt
 force F_cell over time. Written into a temporary folder beside REPORT_DIR, then renamed."""
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from rt.config import dumps
+from rt.diagnose_rrd import write_diagnosis_rrd
 from rt.diagnose import (
     BAND_HZ,
     MIN_RSS_REDUCTION,
@@ -107,7 +109,9 @@ def write_report(res: dict, out: str | os.PathLike) -> Path:
         (tmp / "diagnose.json").write_text(json.dumps(public(res), indent=1) + "\n")
         (tmp / "model.toml").write_text(dumps(res["_config"]))
         pngs = _plots(res, tmp)
-        (tmp / "report.md").write_text(report_md(res, pngs))
+        md = report_md(res, pngs)
+        (tmp / "report.md").write_text(md)
+        write_diagnosis_rrd(res, md, tmp / "diagnosis.rrd")
         tmp.chmod(0o755)
         os.replace(tmp, out)
     except BaseException:

@@ -188,30 +188,50 @@ def frf_entity(law: str, amp_n: float, direction: str) -> str:
     return "/frf/" + rr.escape_entity_path_part(f"{law}_{amp_n:g}N_{direction}")
 
 
+def write_series_rrd(path: str | os.PathLike, app_id: str, series, views, *, metadata: dict[str, str] | None = None,
+                     static: dict | None = None) -> None:
+    """A recording of whole curves, sent column-wise: ``series`` = [(entity, rr.TimeColumn, y)],
+    ``views`` the blueprint's tabs or containers (embedded), ``static`` {entity: archetype} logged
+    once (e.g. an rr.TextDocument), ``metadata`` the "frictionrt" property strings. Written as
+    ``path.part``, renamed when complete."""
+    path = Path(path)
+    part = part_path(path)
+    rec = rr.RecordingStream(app_id, recording_id=uuid.uuid4())
+    rec.save(part, default_blueprint=rrb.Blueprint(*views))
+    try:
+        if metadata:
+            rec.send_property("frictionrt", rr.AnyValues(**metadata))
+        for entity, archetype in (static or {}).items():
+            rec.log(entity, archetype, static=True)
+        for entity, index, y in series:
+            rec.send_columns(entity, indexes=[index], columns=rr.Scalars.columns(scalars=np.asarray(y, float)),
+                             strict=True)
+        rec.flush()
+    finally:
+        rec.disconnect()
+    os.replace(part, path)
+
+
+def freq_index(freq_hz: np.ndarray) -> rr.TimeColumn:
+    """The timeline "freq_mHz" at the frequencies ``freq_hz`` [Hz] (increasing)."""
+    return rr.TimeColumn(FRF_TIMELINE, sequence=np.round(1e3 * np.asarray(freq_hz)).astype(np.int64))
+
+
 def write_frf_rrd(path: str | os.PathLike, results, metadata: dict[str, str] | None = None) -> None:
     """Step-sine or sweep FRFs (``rt.stepsine.StepSineResult``) as an .rrd with its blueprint:
     per result, /frf/<law>_<amp>N_<dir>/magnitude_dB (20 log10 |H| [dB re 1 (m/s^2)/N]) and
     /phase_deg on the timeline "freq_mHz" (the frequency in whole mHz, so rerun's time-series
     views plot them against frequency), and /force_N (the measured force amplitude, to see the
     amplitude control hold). Written as ``path.part``, renamed when complete."""
-    path = Path(path)
-    part = part_path(path)
-    rec = rr.RecordingStream("frictionrt-frf", recording_id=uuid.uuid4())
     entities = [frf_entity(r.law, r.amp_n, r.direction) for r in results]
     views = [rrb.TimeSeriesView(origin="/frf", contents=[f"{e}/{leaf}" for e in entities], name=title)
              for leaf, title in (("magnitude_dB", "|H| [dB re 1 (m/s^2)/N] vs f [mHz]"),
                                  ("phase_deg", "phase [deg] vs f [mHz]"), ("force_N", "force amplitude [N]"))]
-    rec.save(part, default_blueprint=rrb.Blueprint(rrb.Vertical(*views)))
-    try:
-        if metadata:
-            rec.send_property("frictionrt", rr.AnyValues(**metadata))
-        for r, e in zip(results, entities):
-            order = np.argsort(r.freq_hz)
-            index = [rr.TimeColumn(FRF_TIMELINE, sequence=np.round(1e3 * r.freq_hz[order]).astype(np.int64))]
-            for leaf, y in (("magnitude_dB", 20.0 * np.log10(r.H_abs[order])),
-                            ("phase_deg", np.degrees(r.phase_rad[order])), ("force_N", r.F_amp[order])):
-                rec.send_columns(f"{e}/{leaf}", indexes=index, columns=rr.Scalars.columns(scalars=y), strict=True)
-        rec.flush()
-    finally:
-        rec.disconnect()
-    os.replace(part, path)
+    series = []
+    for r, e in zip(results, entities):
+        order = np.argsort(r.freq_hz)
+        index = freq_index(r.freq_hz[order])
+        series += [(f"{e}/{leaf}", index, y) for leaf, y in (
+            ("magnitude_dB", 20.0 * np.log10(r.H_abs[order])), ("phase_deg", np.degrees(r.phase_rad[order])),
+            ("force_N", r.F_amp[order]))]
+    write_series_rrd(path, "frictionrt-frf", series, [rrb.Vertical(*views)], metadata=metadata)

@@ -56,10 +56,29 @@ def test_true_parameters_fit_the_frfs_at_noise_level(campaigns):
     assert all(v > 5.0 for v in rms_nominal.values()), rms_nominal   # scatter alone: far outside the noise
 
 
-def test_no_effect_names_nothing(campaigns):
-    res = diagnose(campaigns("none"))
+def test_no_effect_names_nothing_and_the_report_folder_is_complete(campaigns, tmp_path, capsys):
+    from rerun.chunk import RrdReader
+
+    out = tmp_path / "report"
+    assert main(["diagnose", str(campaigns("none")), "--json", "--out", str(out)]) == 0
+    res = json.loads(capsys.readouterr().out)
     assert res["named_effect"] is None, res["ranking"]
     assert res["ranking"][0]["delta_bic"] <= 10.0
+    assert json.loads((out / "diagnose.json").read_text()) == res
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["diagnose.json", "model.toml", "report.md", "diagnosis.rrd"]
+        + [f"frf_impulse_0{j}.png" for j in (1, 2, 3)] + [f"actuator_actuator_0{j}.png" for j in (1, 2, 3)])
+    # the rrd: per impulse test the gap measured - model [dB] on the frequency timeline; its rms over the
+    # bins is the report's FRF gap (same windows, same band); one blueprint; the report as a document
+    reader = RrdReader(out / "diagnosis.rrd")
+    assert len(reader.blueprints()) == 1
+    gap = {}
+    for c in reader.stream().to_chunks():
+        if c.entity_path.startswith("/frf_gap/impulse_01/"):
+            gap[c.entity_path.rsplit("/", 1)[1]] = c.to_record_batch().column("Scalars:scalars").flatten().to_numpy()
+    for k, key in (("before", "gap_before"), ("after", "gap_after")):
+        assert np.sqrt(np.mean(gap[k] ** 2)) == pytest.approx(res[key]["impulse_01"]["frf_db"], abs=1e-4)
+    assert any(c.entity_path == "/report" and c.is_static for c in reader.stream().to_chunks())
 
 
 def _records(path):
