@@ -3,48 +3,78 @@ of rt.effects at its moderate (default) strength and at half of it (half its dep
 nominal value: current_limit 1 A -> 0.65 A), and for no effect, a rig campaign (seed SEED) is
 diagnosed; printed as a markdown table (hidden effect, strength, named effect, fitted strength and
 its error, dBIC and RSS reduction of the best candidate, runner-up, structure FRF gap and actuator
-NRMSE before -> after, seconds).
+NRMSE before -> after, seconds), then the confusion matrix: hidden effect (rows) against named
+effect (columns), counts over seeds and strengths.
 
-    .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0]   (-m: benchmarks/plant.py would shadow the plant package)
+    .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0] [--effects A,B] [--jobs N]
+    (-m: benchmarks/plant.py would shadow the plant package)
 """
 import argparse
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
+
+from joblib import Parallel, delayed
 
 from rt.diagnose import diagnose
 from rt.effects import get, implemented
 from rt.rig import make_campaign
 
 
+def case(seed: int, name: str, s: float | None, record_s: float) -> tuple[dict, float]:
+    """(diagnose result, seconds) of one hidden case."""
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as d:
+        make_campaign(Path(d) / "c", name, s, seed=seed, record_s=record_s)
+        r = diagnose(Path(d) / "c")
+    r.pop("_config"), r.pop("_plots")
+    return r, time.perf_counter() - t0
+
+
+def row(seed: int, name: str, s: float | None, r: dict, secs: float) -> str:
+    top = r["ranking"][0]
+    named = r["named_effect"]
+    fitted = ""
+    if named:
+        v = r["fitted_parameters"][named]
+        fitted = f"{v:.4g}" + (f" ({100 * (v - s) / (s - get(name).nominal):+.1f} %)" if named == name else "")
+    gb, ga = r["gap_before"], r["gap_after"]
+    act = (f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}" if gb.get("actuator_nrmse") is not None else "")
+    return (f"| {seed} | {name} | {'' if s is None else f'{s:g}'} | {named or '-'} | {fitted} | "
+            f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {r['runner_up']} | "
+            f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | {act} | {secs:.0f} |")
+
+
+def matrix(hidden: list[str], named: Counter) -> str:
+    cols = [n for n in hidden if n != "none"] + ["none"]
+    lines = ["| hidden \\ named | " + " | ".join(cols) + " |", "| --- |" + " --- |" * len(cols)]
+    for h in hidden:
+        lines.append(f"| {h} | " + " | ".join(str(named[h, c]) if named[h, c] else "" for c in cols) + " |")
+    return "\n".join(lines)
+
+
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("seeds", type=int, nargs="*", default=[11])
     ap.add_argument("--record-s", type=float, default=1.0)
+    ap.add_argument("--effects", help="comma-separated effect names (default: every implemented effect)")
+    ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed in parallel processes")
     args = ap.parse_args()
+    effects = [get(n) for n in args.effects.split(",")] if args.effects else implemented()
     cases = [("none", None)] + [(e.name, e.nominal + f * (e.parameter.default - e.nominal))
-                                for e in implemented() for f in (1.0, 0.5)]
+                                for e in effects for f in (1.0, 0.5)]
     print("| seed | hidden effect | strength | named | fitted (error) | best: dBIC, RSS reduction | runner-up | "
           "FRF gap [dB] before -> after | actuator NRMSE before -> after | s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for seed in args.seeds:
-        for name, s in cases:
-            t0 = time.perf_counter()
-            with tempfile.TemporaryDirectory() as d:
-                make_campaign(Path(d) / "c", name, s, seed=seed, record_s=args.record_s)
-                r = diagnose(Path(d) / "c")
-            top = r["ranking"][0]
-            named = r["named_effect"]
-            fitted = ""
-            if named:
-                v = r["fitted_parameters"][named]
-                fitted = f"{v:.4g}" + (f" ({100 * (v - s) / (s - get(name).nominal):+.1f} %)" if named == name else "")
-            gb, ga = r["gap_before"], r["gap_after"]
-            print(f"| {seed} | {name} | {'' if s is None else f'{s:g}'} | {named or '-'} | {fitted} | "
-                  f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {r['runner_up']} | "
-                  f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | "
-                  f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f} | {time.perf_counter() - t0:.0f} |",
-                  flush=True)
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
+    todo = [(seed, name, s) for seed in args.seeds for name, s in cases]
+    named = Counter()
+    runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s) for c in todo)
+    for (seed, name, s), (r, secs) in zip(todo, runs):
+        print(row(seed, name, s, r, secs), flush=True)
+        named[name, r["named_effect"] or "none"] += 1
+    print()
+    print(matrix(["none"] + [e.name for e in effects], named))
 
 
 if __name__ == "__main__":
