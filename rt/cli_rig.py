@@ -10,13 +10,17 @@ DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measu
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
 records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms (structure at rest), with a few
 percent of scatter in E, mu, k_t, modal damping and c_v drawn from --seed, and sensor noise. One
-effect of the library (--list) is hidden in the true structure; nothing in the files names it."""
+effect of the library (--list) is hidden in the true structure; nothing in the files names it.
+With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
+of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
+of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
   frictionrt rig --effect accelerometer_mass -o logs/campaign_acc
   frictionrt rig --effect current_limit --strength 0.2 --seed 4 -o logs/campaign_il
-  frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean"""
+  frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean
+  frictionrt rig --effect clamp_compliance --frf-files -o logs/frf_clamp && frictionrt diagnose logs/frf_clamp"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -31,6 +35,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise "
                    "(default 0)")
     p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s] (default 1)")
+    p.add_argument("--frf-files", action="store_true", help="write FRF files (CSV/UFF + JSON sidecars: linear, "
+                   "contact stuck, at each F_N1) instead of the time-series campaign (rt/rig_frf.py)")
     p.add_argument("-o", "--out", metavar="DIR", help="new campaign folder (must not exist or be empty)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
@@ -67,8 +73,13 @@ def cmd_rig(cfg, args) -> int:
     if not (math.isfinite(args.record_s) and 0.2 <= args.record_s <= 10.0):
         return _fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
     from rt.rig import make_campaign
+    from rt.rig_frf import make_frf_campaign
     try:
-        files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s)
+        if args.frf_files:
+            files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg)
+        else:
+            files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
+                                  record_s=args.record_s)
     except ValueError as exc:
         return _fail(f"rig -o: {exc}")
     if args.json:

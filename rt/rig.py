@@ -30,6 +30,7 @@ import json
 import os
 import shutil
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -195,20 +196,11 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
     ``strength`` [the effect's unit] defaults to its moderate strength. Returns the files written.
     ValueError for an unknown or unimplemented effect, a strength out of bounds, or an existing
     non-empty ``out_dir``."""
-    out = Path(out_dir)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ValueError(f"{out}: exists and is not an empty folder; choose a new -o DIR")
-    nominal = cfg if cfg is not None else with_sets(Config(), [])
     rng = np.random.default_rng(seed)
-    true = scaled(nominal, scatter_sets(rng))
-    if effect != "none":
-        eff = get(effect)
-        true = eff.apply(true, eff.parameter.default if strength is None else strength)
+    true = true_structure(cfg, effect, strength, rng)
     dt = true.dt_s
     model = build_plant(true)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with new_folder(out_dir) as tmp:
         names = []
         n = int(round(record_s / dt))
         for j, fn1 in enumerate(levels_n):
@@ -234,6 +226,33 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
                 true, "actuator", len(V) * dt, None,
                 f"voltage ramps 0 -> {V_RAMP_V:g} -> 0 V over {ramp * 1e3:g} ms each, structure at rest"))
             names.append(name)
+    return [Path(out_dir) / n for n in names]
+
+
+def true_structure(cfg: Config | None, effect: str, strength: float | None, rng: np.random.Generator) -> Config:
+    """The campaign's true structure: ``cfg`` (default: the defaults) with one draw of the scatter
+    from ``rng`` and the effect (a name of rt.effects or "none") at ``strength`` (default: its
+    moderate strength)."""
+    nominal = cfg if cfg is not None else with_sets(Config(), [])
+    true = scaled(nominal, scatter_sets(rng))
+    if effect != "none":
+        eff = get(effect)
+        true = eff.apply(true, eff.parameter.default if strength is None else strength)
+    return true
+
+
+@contextmanager
+def new_folder(out_dir: str | os.PathLike):
+    """Yields a temporary folder beside ``out_dir`` to fill; renamed to ``out_dir`` on success,
+    removed on an exception (never half a campaign). ValueError if ``out_dir`` exists and is not
+    an empty folder."""
+    out = Path(out_dir)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ValueError(f"{out}: exists and is not an empty folder; choose a new -o DIR")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield tmp
         tmp.chmod(0o755)
         if out.exists():
             out.rmdir()
@@ -241,7 +260,6 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return [out / n for n in names]
 
 
 def _add_noise(cols: dict, rng: np.random.Generator) -> None:
