@@ -12,12 +12,16 @@ jointly with the calibration (structure: on the log-magnitude FRFs of both accel
 F_N1; actuator: on V_a, i, F_cell), ranks them by BIC and names the best only if it beats
 calibration alone by more than 10, removes at least 25 % of its channels' residual sum of squares
 and is fitted away from its nominal strength (else "no missing effect found"). About 15-20 s per
-campaign. Method: docs/discrepancy.md."""
+campaign. A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
+docs/data-format.md "FRF files") is fitted with the linear stuck-contact model of the --config
+structure: E, k_t, modal damping and each structural effect on the log-magnitude FRFs (mu cannot
+act there), about 10 s. Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
   frictionrt diagnose logs/campaign_acc --json --out logs/diag_acc
-  frictionrt --config logs/diag_acc/model.toml impulse     # the updated model in other commands"""
+  frictionrt --config logs/diag_acc/model.toml impulse     # the updated model in other commands
+  frictionrt --config configs/lap_joint.toml diagnose lab/frf_tests --out lab/diag   # FRF files, any structure"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -25,7 +29,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                               "of a measurement campaign", description=DESCRIPTION, epilog=EXAMPLES,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("folder", metavar="DIR", help="campaign folder of *.mcap measurements (impulse and actuator "
-                   "tests, e.g. from frictionrt rig)")
+                   "tests, e.g. from frictionrt rig), or a folder of FRF files with sidecars (frictionrt rig "
+                   "--frf-files)")
     p.add_argument("--json", action="store_true", help="print one JSON object (named_effect, ranking, gap_before, "
                    "gap_after, fitted_parameters, ...)")
     p.add_argument("--out", metavar="REPORT_DIR", help="write report.md, diagnose.json, model.toml (the updated "
@@ -36,11 +41,13 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 def cmd_diagnose(cfg, args) -> int:
     from rt.cli import _fail
     from rt.diagnose import diagnose, public, summary
+    from rt.diagnose_frf import diagnose_frf, is_frf_folder
     from pathlib import Path
     if args.out and Path(args.out).exists():
         return _fail(f"diagnose --out {args.out}: exists; choose a new folder")
     try:
-        res = diagnose(args.folder, cfg, progress=None if args.json else lambda m: print(f"  {m}", file=sys.stderr))
+        run = diagnose_frf if is_frf_folder(args.folder) else diagnose
+        res = run(args.folder, cfg, progress=None if args.json else lambda m: print(f"  {m}", file=sys.stderr))
     except ValueError as exc:
         return _fail(f"diagnose: {exc}")
     if args.out:

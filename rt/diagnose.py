@@ -270,6 +270,36 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
             cfg = a_eff.apply(cfg, ath[a_eff.name])
         results.append({"effect": eff.name if eff else None, "theta": theta, "channels": channels,
                         "score": bic(channels, len(theta)), "run": s_fit.run, "cfg": cfg})
+    base, ranked, winner = rank(results)
+    final = winner or base
+    say("gap after")
+    arun1 = run_actuator_tests(final["cfg"], act)
+    gap_after = gaps(imp, act, final["run"].a, arun1)
+    gap_cal = gaps(imp, act, base["run"].a, run_actuator_tests(base["cfg"], act))
+    m0 = build_plant(quiet(nominal))
+    localise = {}
+    for t, d in zip(imp, data):
+        f_model = model_frequencies(m0, d.F_N1)
+        localise[t.name] = {"F_N1_N": round(d.F_N1, 1), "stuck": d.stuck,
+                            "frf_db_nominal": gap_before[t.name]["frf_db"],
+                            "modes": modes_table(f_model, d.f_modes)}
+    for t, r in zip(act, arun0):
+        localise[t.name] = {"i_peak_meas_A": _r(np.max(np.abs(t.data["i"])), 4),
+                            "i_peak_model_A": _r(np.max(np.abs(r["i"])), 4),
+                            "slew_meas_V_per_us": _r(_slew(t.data["V_a"], t.dt), 4),
+                            "slew_model_V_per_us": _r(_slew(r["V_a"], t.dt), 4),
+                            "F_per_V_meas": _r(_gain(t.data["V_a"], t.data["F_cell"]), 4),
+                            "F_per_V_model": _r(_gain(r["V_a"], r["F_cell"]), 4)}
+    return ranking_result(base, ranked, winner, {"gap_before": gap_before, "gap_calibrated": gap_cal,
+                                                 "gap_after": gap_after}, localise) | {
+        "_plots": {"imp": imp, "act": act, "before": (run0, arun0), "after": (final["run"], arun1)}}
+
+
+def rank(results: list[dict]) -> tuple[dict, list[dict], dict | None]:
+    """(calibration alone, the candidates by BIC, the named one or None) of the fits ``results``
+    (calibration alone first; each {"effect", "theta", "channels", "score"}): each candidate gets
+    its "rss_reduction" of its channel group; named only under the three conditions (module
+    docstring, step 3)."""
     base = results[0]
     ranked = sorted(results[1:], key=lambda r: r["score"])
     for r in ranked:
@@ -280,47 +310,59 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
                 if abs(r["theta"][e.name] - e.nominal) >= NESTED_TOL * abs(e.parameter.default - e.nominal)
                 and r["rss_reduction"] >= MIN_RSS_REDUCTION]
     winner = eligible[0] if eligible and base["score"] - eligible[0]["score"] > NAME_THRESHOLD else None
+    return base, ranked, winner
+
+
+def feat_gap(res: dict) -> float:
+    """rms of a fit's weighted residuals over all its channels."""
+    return round(float(np.sqrt(np.mean(np.concatenate(list(res["channels"].values())) ** 2))), 4)
+
+
+def ranking_result(base: dict, ranked: list[dict], winner: dict | None, gap: dict, localisation: dict) -> dict:
+    """The result (docs/discrepancy.md) of the ranking, with the gap metrics ``gap`` (gap_before,
+    gap_calibrated, gap_after) and the ``localisation``; the updated configuration under "_config"."""
     final = winner or base
-    say("gap after")
-    arun1 = run_actuator_tests(final["cfg"], act)
-    gap_after = gaps(imp, act, final["run"].a, arun1)
-    gap_cal = gaps(imp, act, base["run"].a, run_actuator_tests(base["cfg"], act))
-
-    def feat_gap(res):
-        return round(float(np.sqrt(np.mean(np.concatenate(list(res["channels"].values())) ** 2))), 4)
-
     ranking = [{"effect": r["effect"], "score": round(r["score"], 2), "delta_bic": round(base["score"] - r["score"], 2),
                 "rss_reduction": round(r["rss_reduction"], 4),
                 "gap_after": feat_gap(r), "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}}
                for r in ranked]
-    m0 = build_plant(quiet(nominal))
-    localise = {}
-    for t, d in zip(imp, data):
-        f_model = model_frequencies(m0, d.F_N1)
-        localise[t.name] = {"F_N1_N": round(d.F_N1, 1), "stuck": d.stuck,
-                            "frf_db_nominal": gap_before[t.name]["frf_db"],
-                            "modes": {str(m): {"f_model_hz": _r(f_model[j])} | {
-                                f"f_{s}_hz": _r(d.f_modes[s][j]) for s in SENSORS} | {
-                                "shift_rel": _r(np.nanmean([d.f_modes[s][j] for s in SENSORS]) / f_model[j] - 1.0, 6)
-                                if np.any(np.isfinite([d.f_modes[s][j] for s in SENSORS])) else None}
-                                for j, m in enumerate(range(1, len(f_model) + 1))}}
-    for t, r in zip(act, arun0):
-        localise[t.name] = {"i_peak_meas_A": _r(np.max(np.abs(t.data["i"])), 4),
-                            "i_peak_model_A": _r(np.max(np.abs(r["i"])), 4),
-                            "slew_meas_V_per_us": _r(_slew(t.data["V_a"], t.dt), 4),
-                            "slew_model_V_per_us": _r(_slew(r["V_a"], t.dt), 4),
-                            "F_per_V_meas": _r(_gain(t.data["V_a"], t.data["F_cell"]), 4),
-                            "F_per_V_model": _r(_gain(r["V_a"], r["F_cell"]), 4)}
-    fitted = {k: float(f"{v:.6g}") for k, v in final["theta"].items()}
     return {"named_effect": winner["effect"] if winner else None,
             "runner_up": next((r["effect"] for r in ranked if r is not winner), None),
             "ranking": ranking, "calibration_only": {"score": round(base["score"], 2), "gap_after": feat_gap(base),
                                                      "fitted": {k: float(f"{v:.5g}") for k, v in base["theta"].items()}},
-            "threshold_delta_bic": NAME_THRESHOLD, "gap_before": gap_before, "gap_calibrated": gap_cal,
-            "gap_after": gap_after, "fitted_parameters": fitted, "localisation": localise,
-            "not_tried": [e for e in _unimplemented()],
-            "_config": final["cfg"],
-            "_plots": {"imp": imp, "act": act, "before": (run0, arun0), "after": (final["run"], arun1)}}
+            "threshold_delta_bic": NAME_THRESHOLD, **gap,
+            "fitted_parameters": {k: float(f"{v:.6g}") for k, v in final["theta"].items()},
+            "localisation": localisation, "not_tried": [e for e in _unimplemented()],
+            "_config": final["cfg"]}
+
+
+def frf_overlays(plots: dict) -> list[tuple]:
+    """(test name, F_N1 [N], freq [Hz], {"measured", "before", "after": H of a_frf_meas}) per test
+    of a result's "_plots": the impulse tests' windowed FRFs, or the FRF files' lines ("frf", from
+    rt.diagnose_frf; the first sensor where a file has no a_frf_meas)."""
+    if "frf" in plots:
+        out = []
+        for name, F_N1, f, H, H0, H1 in plots["frf"]:
+            s = "a_frf_meas" if "a_frf_meas" in H else next(iter(H))
+            out.append((name, F_N1, f, {"measured": H[s], "before": H0[s], "after": H1[s]}))
+        return out
+    (run0, _), (run1, _) = plots["before"], plots["after"]
+    out = []
+    for t, a0, a1 in zip(plots["imp"], run0.a, run1.a):
+        H = {k: frf(t, a) for k, a in zip(("measured", "before", "after"), (t.data["a_frf_meas"], a0, a1))}
+        out.append((t.name, float(np.mean(t.data["F_cell"])), H["measured"][0], {k: v[1] for k, v in H.items()}))
+    return out
+
+
+def modes_table(f_model: np.ndarray, f_modes: dict) -> dict:
+    """Localisation per mode m (1-based): the model's frequency, the identified one per sensor
+    (f_modes {sensor: array}) and their mean relative shift."""
+    out = {}
+    for j, f_m in enumerate(f_model):
+        f_s = [f_modes[s][j] for s in SENSORS]
+        out[str(j + 1)] = {"f_model_hz": _r(f_m)} | {f"f_{s}_hz": _r(f) for s, f in zip(SENSORS, f_s)} | {
+            "shift_rel": _r(np.nanmean(f_s) / f_m - 1.0, 6) if np.any(np.isfinite(f_s)) else None}
+    return out
 
 
 def _unimplemented() -> list[str]:

@@ -20,9 +20,13 @@ from rt.diagnose import (
     MIN_RSS_REDUCTION,
     NAME_THRESHOLD,
     NESTED_TOL,
-    frf,
+    frf_overlays,
     public,
 )
+
+
+LABELS = {"measured": ("measured", "k-"), "before": ("nominal model (before)", "C1--"),
+          "after": ("updated model (after)", "C0-")}
 
 
 def _plots(res: dict, folder: Path) -> list[str]:
@@ -30,24 +34,24 @@ def _plots(res: dict, folder: Path) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     pl = res["_plots"]
-    (run0, arun0), (run1, arun1) = pl["before"], pl["after"]
     names = []
-    for t, a0, a1 in zip(pl["imp"], run0.a, run1.a):
+    for name, F_N1, f, H in frf_overlays(pl):
         fig, ax = plt.subplots(figsize=(8, 4.5))
-        for a, lab, st in ((t.data["a_frf_meas"], "measured", "k-"), (a0, "nominal model (before)", "C1--"),
-                           (a1, "updated model (after)", "C0-")):
-            f, H = frf(t, a)
-            sel = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
-            ax.semilogy(f[sel], np.abs(H[sel]), st, lw=0.8, label=lab)
+        sel = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
+        for k, (lab, st) in LABELS.items():
+            ax.semilogy(f[sel], np.abs(H[k][sel]), st, lw=0.8, label=lab)
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel("accelerance |a_frf / F_exc| [(m/s^2)/N]")
-        ax.set_title(f"{t.name}: F_N1 = {np.mean(t.data['F_cell']):.0f} N")
+        ax.set_title(f"{name}: F_N1 = {F_N1:.0f} N")
         ax.legend()
         ax.grid(True, which="both", lw=0.3)
         fig.tight_layout()
-        names.append(f"frf_{t.name}.png")
+        names.append(f"frf_{name}.png")
         fig.savefig(folder / names[-1], dpi=110)
         plt.close(fig)
+    if not pl["act"]:
+        return names
+    (_, arun0), (_, arun1) = pl["before"], pl["after"]
     for t, r0, r1 in zip(pl["act"], arun0, arun1):
         fig, ax = plt.subplots(figsize=(8, 4))
         tt = np.arange(len(t.data["F_cell"])) * t.dt * 1e3
@@ -91,11 +95,13 @@ def report_md(res: dict, pngs: list[str]) -> str:
             for k, v in row.items():
                 lines.append(f"| {name} | {k} | {v} | {gc[name][k]} | {ga[name][k]} |")
     lines += [f"| all impulse tests | mean FRF log-magnitude RMS [dB] | {gb['structure_frf_db']} | "
-              f"{gc['structure_frf_db']} | {ga['structure_frf_db']} |",
-              f"| all actuator tests | mean F_cell NRMSE | {gb['actuator_nrmse']} | {gc['actuator_nrmse']} | "
-              f"{ga['actuator_nrmse']} |", "", "## Localisation (nominal model vs measurement)", "",
+              f"{gc['structure_frf_db']} | {ga['structure_frf_db']} |"]
+    if gb["actuator_nrmse"] is not None:
+        lines += [f"| all actuator tests | mean F_cell NRMSE | {gb['actuator_nrmse']} | {gc['actuator_nrmse']} | "
+                  f"{ga['actuator_nrmse']} |"]
+    lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
-              f"Not tried (not implemented yet): {', '.join(res['not_tried'])}.", "",
+              f"Not tried (not implemented yet, or not seen by this input): {', '.join(res['not_tried'])}.", "",
               "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"

@@ -4,7 +4,7 @@ for looking through the tests interactively (``rerun REPORT_DIR/diagnosis.rrd``)
 Entities (rt.rrd_log.write_series_rrd):
 
     /frf/<test>/{measured, before, after}        20 log10 |a_frf / F_exc| [dB re 1 (m/s^2)/N]
-                                                 per impulse test, timeline "freq_mHz"
+                                                 per impulse test or FRF file, timeline "freq_mHz"
     /frf_gap/<test>/{before, after}              20 log10 |H_meas / H_model| [dB]: where in
                                                  frequency the gap sits and how it shrank
     /actuator/<test>/{measured, before, after}   bolt force F_cell [N] per actuator test,
@@ -23,7 +23,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.diagnose import BAND_HZ, frf
+from rt.diagnose import BAND_HZ, frf_overlays
 from rt.rrd_log import freq_index, write_series_rrd
 
 CURVES = ("measured", "before", "after")
@@ -36,22 +36,19 @@ def _part(name: str) -> str:
 def diagnosis_series(res: dict) -> tuple[list, list]:
     """(series, views) of the recording from a diagnose result with its "_plots" data."""
     pl = res["_plots"]
-    (run0, arun0), (run1, arun1) = pl["before"], pl["after"]
     series, tabs = [], []
-    for t, a0, a1 in zip(pl["imp"], run0.a, run1.a):
-        e = _part(t.name)
-        H = {}
-        for leaf, a in zip(CURVES, (t.data["a_frf_meas"], a0, a1)):
-            f, H[leaf] = frf(t, a)
+    for name, _, f, H in frf_overlays(pl):
+        e = _part(name)
         sel = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
         index = freq_index(f[sel])
         db = {k: 20.0 * np.log10(np.abs(v[sel])) for k, v in H.items()}
         series += [(f"/frf/{e}/{k}", index, db[k]) for k in CURVES]
         series += [(f"/frf_gap/{e}/{k}", index, db["measured"] - db[k]) for k in ("before", "after")]
         tabs.append(rrb.Vertical(
-            rrb.TimeSeriesView(origin=f"/frf/{e}", name=f"{t.name}: |H| [dB re 1 (m/s^2)/N] vs f [mHz]"),
-            rrb.TimeSeriesView(origin=f"/frf_gap/{e}", name=f"{t.name}: measured - model [dB]"), name=t.name))
+            rrb.TimeSeriesView(origin=f"/frf/{e}", name=f"{name}: |H| [dB re 1 (m/s^2)/N] vs f [mHz]"),
+            rrb.TimeSeriesView(origin=f"/frf_gap/{e}", name=f"{name}: measured - model [dB]"), name=name))
     if pl["act"]:
+        (_, arun0), (_, arun1) = pl["before"], pl["after"]
         for t, r0, r1 in zip(pl["act"], arun0, arun1):
             index = rr.TimeColumn("t", duration=np.arange(len(t.data["F_cell"])) * t.dt)
             series += [(f"/actuator/{_part(t.name)}/{k}", index, y)

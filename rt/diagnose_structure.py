@@ -145,7 +145,14 @@ def _identify_modes(F_w, a, dt, f_nom, n_modes: int = len(MODES)) -> np.ndarray:
     """Identified f [Hz] of the first n_modes of MODES near the nominal model's f_nom; the bands of
     the close modes 7, 8 follow the median shift of modes 1-6."""
     freq, H, _ = windowed_frf(F_w, a, dt, PAD)
-    tau = len(a) * dt / 4.0
+    return identify_modes(freq, H, len(a) * dt / 4.0, f_nom, n_modes)
+
+
+def identify_modes(freq: np.ndarray, H: np.ndarray, tau: float, f_nom: np.ndarray,
+                   n_modes: int = len(MODES)) -> np.ndarray:
+    """Identified f [Hz] of the first n_modes of MODES in the FRF H on freq [Hz] (exponential
+    window tau [s]; math.inf for none) near f_nom (plant.impulse.identify, bands HALF_BAND); the
+    bands of the close modes 7, 8 follow the median shift of modes 1-6."""
     f = np.full(len(MODES), np.nan)
     for k, m in enumerate(MODES[:n_modes]):
         if k >= len(f_nom):
@@ -180,9 +187,11 @@ def _prior(names, x) -> np.ndarray:
 
 # --- stage 1: frequencies -------------------------------------------------------------------------
 
-def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | None) -> dict:
+def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
+                    frequencies=model_frequencies) -> dict:
     """E (and the effect) on the identified frequencies of both accelerometers in the stuck tests
-    (k_t moves them by < 0.1 % over its tolerance: left to stage 2)."""
+    (k_t moves them by < 0.1 % over its tolerance: left to stage 2); the model's are
+    ``frequencies(model, F_N1)`` (default: as the plant step shows them)."""
     names = ["E"] + ([effect.name] if effect else [])
     data = [d for d in data if d.stuck] or data
     meas = np.array([[d.f_modes[s] for s in SENSORS] for d in data])          # (tests, sensors, modes)
@@ -190,7 +199,7 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
 
     def res(x):
         model = build_plant(quiet(struct_cfg(nominal, dict(zip(names, x)), effect)))
-        fm = np.array([model_frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
+        fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
         r = ((meas - fm) / meas / SIGMA_F)[ok]
         return np.concatenate([r, _prior(names, x)])
 
@@ -255,12 +264,6 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
         run = run_shape(struct_cfg(nominal, dict(zip(names, x)), effect), data)
         return run, np.concatenate([*run.r.values(), _prior(names, x)])
 
-    def column(x, r, j):
-        xj = x.copy()
-        h = steps[j] if x[j] + steps[j] <= hi[j] else -steps[j]
-        xj[j] += h
-        return -(evaluate(xj)[1] - r) / h                 # d(model)/d(theta), r = meas - model
-
     run, r = evaluate(x)
     J = None
     if calibrated is not None and effect is not None:
@@ -268,10 +271,35 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
         r_cal = np.concatenate([*calibrated.run.r.values(), _prior(names, x_cal)])
         if r_cal @ r_cal < r @ r:
             x, run, r = x_cal, calibrated.run, r_cal
-            J = np.column_stack([calibrated.J[k] for k in names[:-1]] + [column(x, r, len(names) - 1)])
+            J = np.column_stack([calibrated.J[k] for k in names[:-1]]
+                                + [jacobian_column(evaluate, x, r, len(names) - 1, steps, hi)])
+    x, run, r, J = gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps)
+    theta = dict(zip(names, map(float, x)))
+    return StructureFit(theta, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, theta, effect),
+                        dict(zip(names, J.T)))
+
+
+def jacobian_column(evaluate, x: np.ndarray, r: np.ndarray, j: int, steps: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """d(model)/d(theta_j) by a forward difference of ``steps[j]`` (backward at the upper bound);
+    ``evaluate(x) -> (run, r)`` with r = measurement - model."""
+    xj = x.copy()
+    h = steps[j] if x[j] + steps[j] <= hi[j] else -steps[j]
+    xj[j] += h
+    return -(evaluate(xj)[1] - r) / h
+
+
+def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps):
+    """Bounded Gauss-Newton steps (scipy.optimize.lsq_linear) from x (``run``, residuals r, the
+    Jacobian J or None: computed) with Broyden's rank-one update of J after each step (in units of
+    ``steps``), recomputed by finite differences only when a step fails; a fresh Jacobian's step is
+    halved up to twice. Stops when the cost drops by less than ``CONVERGED`` (relative), after
+    ``MAX_STEPS`` or when a fresh Jacobian's step fails. Returns (x, run, r, J)."""
+    def column(x, r, j):
+        return jacobian_column(evaluate, x, r, j, steps, hi)
+
     fresh = J is None
     if J is None:
-        J = np.column_stack([column(x, r, j) for j in range(len(names))])
+        J = np.column_stack([column(x, r, j) for j in range(len(x))])
     for _ in range(MAX_STEPS):
         dx = lsq_linear(J, r, bounds=(lo - x, hi - x)).x
         cost = float(r @ r)
@@ -291,8 +319,6 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
             continue
         if fresh:
             break
-        J = np.column_stack([column(x, r, j) for j in range(len(names))])
+        J = np.column_stack([column(x, r, j) for j in range(len(x))])
         fresh = True
-    theta = dict(zip(names, map(float, x)))
-    return StructureFit(theta, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, theta, effect),
-                        dict(zip(names, J.T)))
+    return x, run, r, J

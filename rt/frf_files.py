@@ -278,7 +278,7 @@ def _uff_sets(path: Path) -> list[dict]:
         uff = pyuff.UFF(str(path))
         n = uff.get_n_sets()
         sets = uff.read_sets() if n else []
-    except Exception as exc:    # pyuff raises bare Exception (and numpy/struct errors) on damaged files
+    except Exception as exc:  # noqa: BLE001 (pyuff raises bare Exception on damaged files)
         raise ValueError(f"not a readable universal file ({str(exc)[:80]}); export the FRFs as UFF data "
                          f"sets 58 ({FIX_DOC})") from None
     sets = [sets] if isinstance(sets, dict) else list(sets)

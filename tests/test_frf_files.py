@@ -8,7 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rt.frf_files import FORMAT, FRFTest, load_frf_folder, read_frf, sidecar_path, write_frf_csv, write_frf_uff
+from rt.frf_files import (
+    FORMAT,
+    FRFTest,
+    load_frf_folder,
+    read_frf,
+    sidecar_path,
+    write_frf_csv,
+    write_frf_uff,
+)
 
 
 def _test(n: int = 400, amps: bool = True) -> FRFTest:
