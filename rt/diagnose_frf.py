@@ -112,10 +112,11 @@ def noise_sigma(H: np.ndarray) -> np.ndarray:
 
 def prepare(tests: list[FRFTest], nominal: Config) -> list[FRFData]:
     """The fitted lines, ln|H|, sigma and identified mode frequencies of every test."""
+    for t in tests:
+        check_positions(t, nominal)
     m0 = build_plant(quiet(nominal))
     out = []
     for t in tests:
-        check_positions(t, nominal)
         f_nom = undamped_frequencies(m0, t.F_N1)
         f_nom = f_nom[f_nom * 1.08 < t.freq_hz[-1]]
         sel, ln_h, sig, fm = {}, {}, {}, {}
@@ -226,7 +227,11 @@ def _candidates(nominal: Config) -> list[Effect]:
 
 def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
-    data = prepare(load_frf_folder(folder), nominal)       # raises on bad input before any progress line
+    tests = load_frf_folder(folder)                          # bad input raises before any progress line
+    try:
+        data = prepare(tests, nominal)
+    except ValueError as exc:
+        raise ValueError(f"{folder}: {exc}") from None
     if not any(d.sel for d in data):
         raise ValueError(f"{folder}: no FRF line above the noise in any test")
     _, H0 = residuals(nominal, data)

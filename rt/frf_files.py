@@ -19,10 +19,13 @@ appears, and a failed write leaves neither.
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import math
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -274,14 +277,22 @@ def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarr
 
 def _uff_sets(path: Path) -> list[dict]:
     import pyuff
-    try:
-        uff = pyuff.UFF(str(path))
-        n = uff.get_n_sets()
-        sets = uff.read_sets() if n else []
-    except Exception as exc:  # noqa: BLE001 (pyuff raises bare Exception on damaged files)
-        raise ValueError(f"not a readable universal file ({str(exc)[:80]}); export the FRFs as UFF data "
-                         f"sets 58 ({FIX_DOC})") from None
-    sets = [sets] if isinstance(sets, dict) else list(sets)
+    # pyuff prints some readers' notes to stdout, numpy may warn on odd numbers: neither may reach the CLI
+    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            uff = pyuff.UFF(str(path))
+            n = uff.get_n_sets()
+        except Exception as exc:  # noqa: BLE001 (pyuff raises bare Exception on damaged files)
+            raise ValueError(f"not a readable universal file ({str(exc)[:80]}); export the FRFs as UFF data "
+                             f"sets 58 ({FIX_DOC})") from None
+        sets = []
+        for i in range(n):
+            try:
+                sets.append(uff.read_sets(i))
+            except Exception:  # noqa: BLE001
+                raise ValueError(f"data set {i + 1} of {n} cannot be parsed (a damaged header line or number); "
+                                 f"export the file again ({FIX_DOC})") from None
     sets = [d for d in sets if d.get("type") == 58]
     if not sets:
         raise ValueError(f"no data set 58 (function at nodal DOF) in the file; export the FRFs as UFF data "

@@ -18,7 +18,10 @@ A clean end is exit code 2 with exactly one stderr line "frictionrt: error: ..."
 bytes that are valid TOML, a bit flip in an unchecked byte), a normal run (exit 0 or 1, one JSON
 object on stdout, nothing on stderr). Never a traceback, never a hang (hypothesis deadline plus a
 SIGALRM watchdog), never a partly written output (the output folder is checked after each run).
-UFF/CSV FRF files are not read by frictionrt yet (issue 7): not fuzzed here.
+    FRF files       a small CSV and a small UFF file (rt.frf_files) truncated, bit-flipped, overwritten
+                    in part, empty, replaced by garbage, and their JSON sidecar likewise, fed to
+                    diagnose (their sidecar places the excitation off the model's point, so a file
+                    that survives the damage stops at that check, exit 2, instead of a 10 s fit)
 
 The runs are deterministic (``derandomize=True``). HYPOTHESIS_PROFILE=long multiplies the example
 counts by FRICTIONRT_FUZZ_SCALE (default 20) and draws new random examples on every run.
@@ -57,7 +60,7 @@ LONG = os.environ.get("HYPOTHESIS_PROFILE") == "long"
 SCALE = int(os.environ.get("FRICTIONRT_FUZZ_SCALE", "20")) if LONG else 1
 EXAMPLES = {"config_bytes": 150, "config_truncated": 150, "config_field": 400, "config_structure": 36,
             "set_random": 250, "set_field": 300, "set_list": 100,
-            "file_mutated": 200, "file_crafted": 100}
+            "file_mutated": 200, "file_crafted": 100, "frf_mutated": 120}
 FAST_S, SLOW_S = 10.0, 40.0   # per-example deadline [s]: config/--set, files (a readable log
 #                               rebuilds the controller for replay: 3-5 s on the shared 2 cores)
 COUNT: collections.Counter = collections.Counter()   # examples run per entry point
@@ -591,6 +594,76 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
     src = src_dir / "crafted.mcap"
     write_mcap(src, schemas, records, msgs)
     feed(capfd, cmd, src, out, allowed)
+
+
+# --- FRF files (diagnose) -------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def frf_sources(tmp_path_factory):
+    """{suffix: (data bytes, sidecar bytes)} of a 40-line test of both accelerometers, CSV and UFF,
+    whose sidecar places the excitation 0.1 m from the model's (a valid file stops at that check)."""
+    from rt.frf_files import FORMAT, FRFTest, sidecar_path, write_frf_csv, write_frf_uff
+    d = tmp_path_factory.mktemp("frf_src")
+    f = 100.0 + 0.25 * np.arange(40)
+    H = {s: (1.0 + 0.1j) * f / (s.startswith("a_tip") + 1.0) for s in ("a_frf_meas", "a_tip_meas")}
+    meta = {"format": FORMAT, "kind": "frf", "excitation_x_m": 0.225,
+            "sensor_positions_m": {"a_frf_meas": 0.45, "a_tip_meas": 0.765}, "F_N1_N": 100.0, "amplitude_n": 1.0,
+            "description": "fuzz source"}
+    test = FRFTest("t", f, H, np.full(40, 1.0), None, meta)
+    out = {}
+    for suffix, write in ((".csv", write_frf_csv), (".uff", write_frf_uff)):
+        write(d / f"t{suffix}", test)
+        out[suffix] = ((d / f"t{suffix}").read_bytes(), sidecar_path(d / f"t{suffix}").read_bytes())
+    return out
+
+
+def mutate(data, raw: bytes, kind: str) -> bytes:
+    """``raw`` truncated, bit-flipped, overwritten in part, emptied or replaced by garbage."""
+    n = len(raw)
+    at = st.integers(0, max(0, n - 1))
+    b = bytearray(raw)
+    if kind == "truncate":
+        b = b[:data.draw(at, label="cut")]
+    elif kind == "bitflip":
+        for _ in range(data.draw(st.integers(1, 8), label="flips")):
+            b[data.draw(at, label="at")] ^= 1 << data.draw(st.integers(0, 7), label="bit")
+    elif kind == "overwrite":
+        i = data.draw(at, label="at")
+        junk = data.draw(st.binary(min_size=1, max_size=64), label="junk")
+        b[i:i + len(junk)] = junk
+    elif kind == "empty":
+        b = bytearray()
+    else:
+        b = bytearray(data.draw(st.binary(max_size=400), label="garbage"))
+    return bytes(b)
+
+
+@fuzz("frf_mutated", FAST_S)
+@given(data=st.data(), suffix=st.sampled_from([".csv", ".uff"]), which=st.sampled_from(["data", "data", "sidecar"]),
+       kind=st.sampled_from(["truncate", "bitflip", "bitflip", "overwrite", "empty", "garbage"]))
+def test_frf_file_mutated(data, suffix, which, kind, frf_sources, dirs, capfd):
+    """diagnose on a folder with one damaged FRF file or sidecar: exit 2, one line naming the
+    folder (the file or sidecar in it), nothing written, the input untouched."""
+    raw, side = frf_sources[suffix]
+    if which == "data":
+        raw = mutate(data, raw, kind)
+    else:
+        side = mutate(data, side, kind)
+    COUNT[f"frf:{suffix}"] += 1
+    src_dir, out = dirs
+    shutil.rmtree(src_dir)
+    src_dir.mkdir()
+    (src_dir / f"t{suffix}").write_bytes(raw)
+    (src_dir / "t.json").write_bytes(side)
+    shutil.rmtree(out)
+    out.mkdir()
+    before = listing(src_dir)
+    t0 = time.perf_counter()
+    res = run_cli(capfd, ["diagnose", str(src_dir), "--json", "--out", str(out / "report")], FAST_S)
+    SECONDS["diagnose frf"].append(time.perf_counter() - t0)
+    OUTCOME["diagnose frf", res[0]] += 1
+    check_end(res, (2,), names=(str(src_dir),))
+    assert listing(src_dir) == before and listing(out) == {}
 
 
 @pytest.mark.parametrize("cmd", COMMANDS + ("config",))
