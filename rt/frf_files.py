@@ -115,7 +115,8 @@ def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict) ->
     if not np.all(np.isfinite(freq_hz)):
         raise ValueError(f"frequency line {int(np.argmin(np.isfinite(freq_hz))) + 1} is not finite (NaN or inf)")
     if freq_hz[0] <= 0:
-        raise ValueError(f"the first frequency is {float(freq_hz[0])!r} Hz; frequencies must be > 0 (drop the 0 Hz line)")
+        raise ValueError(f"the first frequency is {float(freq_hz[0])!r} Hz; frequencies must be > 0 "
+                         "(drop the 0 Hz line)")
     bad = np.flatnonzero(np.diff(freq_hz) <= 0)
     if len(bad):
         i = int(bad[0])
