@@ -35,6 +35,23 @@ beta = 2 / (V_max - V_min) (``HYST_BETA_RANGE``), and A is set by the loop width
 h enters the stack as an input held first-order over the substep (the m update's Gm0, Gm1).
 Structure and impulse tests at constant V_a are unchanged (h = 0 from rest).
 
+Preload creep (actuator.creep_per_decade = c > 0; off by default). After a step of the stack's
+force the screw thread creeps and F_N1 relaxes by c of the step per decade of time,
+F_step (1 - c log10(1 + t / tau0)). One first-order state per decade, a Prony series
+(tau_j = tau0 10^j, j = 0..K-1, tau0 = ``CREEP_TAU0_S`` = 1 ms, K = ``CREEP_DECADES`` = 5):
+
+    q_j' = (g_j u - q_j) / tau_j,   u = V_a - h,   stack input (1 + G) u - sum_j q_j  instead of u,
+    g_j = c w_j / (1 - c W),  G = sum_j g_j,  W = sum_j w_j
+
+so that at rest (q_j = g_j u) the input is u and c_v stays the static gain, and after a step du
+the input is u0 + (1 + G) du (1 - c sum_j w_j (1 - e^{-t / tau_j})): F_step = c_v (1 + G) du, and
+sum_j w_j (1 - e^{-t / tau_j}) is within 0.024 decade of log10(1 + t / tau0) over [0, 10 s]
+(``creep_weights``: least-squares weights; equal ones would be 0.75 decade off). The q_j are
+states of the LTI chain, so the linear, slewing and held updates stay exact: the matrices come
+from the system augmented by q_j (``creep_ss``), the extra rows and columns in ``Q``
+(``ActuatorParams``); ``initial_state`` puts q_j at rest for the initial V (a bolt held there for
+long), so runs at constant V stay at rest. c = 0 builds the 7-state chain: runs are bit-identical.
+
 The bolt force sensors' analog parts (w_s = 2 pi sensors.strain_bandwidth_hz, w_c = 2 pi
 sensors.cell_bandwidth_hz) are integrated here, with the stack, because F_N1(t) is only known
 inside this continuous integration: filtering the 21 kHz samples of F_N1 afterwards (as
