@@ -35,6 +35,23 @@ beta = 2 / (V_max - V_min) (``HYST_BETA_RANGE``), and A is set by the loop width
 h enters the stack as an input held first-order over the substep (the m update's Gm0, Gm1).
 Structure and impulse tests at constant V_a are unchanged (h = 0 from rest).
 
+Preload creep (actuator.creep_per_decade = c > 0; off by default). After a step of the stack's
+force the screw thread creeps and F_N1 relaxes by c of the step per decade of time,
+F_step (1 - c log10(1 + t / tau0)). One first-order state per decade, a Prony series
+(tau_j = tau0 10^j, j = 0..K-1, tau0 = ``CREEP_TAU0_S`` = 1 ms, K = ``CREEP_DECADES`` = 5):
+
+    q_j' = (g_j u - q_j) / tau_j,   u = V_a - h,   stack input (1 + G) u - sum_j q_j  instead of u,
+    g_j = c w_j / (1 - c W),  G = sum_j g_j,  W = sum_j w_j
+
+so that at rest (q_j = g_j u) the input is u and c_v stays the static gain, and after a step du
+the input is u0 + (1 + G) du (1 - c sum_j w_j (1 - e^{-t / tau_j})): F_step = c_v (1 + G) du, and
+sum_j w_j (1 - e^{-t / tau_j}) is within 0.024 decade of log10(1 + t / tau0) over [0, 10 s]
+(``creep_weights``: least-squares weights; equal ones would be 0.75 decade off). The q_j are
+states of the LTI chain, so the linear, slewing and held updates stay exact: the matrices come
+from the system augmented by q_j (``creep_ss``), the extra rows and columns in ``Q``
+(``ActuatorParams``); ``initial_state`` puts q_j at rest for the initial V (a bolt held there for
+long), so runs at constant V stay at rest. c = 0 builds the 7-state chain: runs are bit-identical.
+
 The bolt force sensors' analog parts (w_s = 2 pi sensors.strain_bandwidth_hz, w_c = 2 pi
 sensors.cell_bandwidth_hz) are integrated here, with the stack, because F_N1(t) is only known
 inside this continuous integration: filtering the 21 kHz samples of F_N1 afterwards (as
@@ -77,6 +94,7 @@ the change of the stored energy C V_a^2 / 2 and vanish over a cycle, hiding the 
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -97,10 +115,22 @@ from rt.config import Config
 N_SUB = 8
 N_FINE = 8
 
-ACTUATOR_SLOTS = ("v_f", "r", "V_a", "x", "x_dot", "F_strain_a", "F_cell_a", "E", "h")
+CREEP_DECADES = 5
+"""K, the creep states q_0..q_{K-1} (one per decade of time, module docstring "Preload creep"):
+tau_j = CREEP_TAU0_S 10^j spans 1 ms to 10 s, so the log law holds from the rig's 40 ms holds to a
+loop run of seconds; beyond ~10 tau_{K-1} = 100 s the series has relaxed fully (c_v, the static
+gain). Each state costs ~12 multiply-adds per substep."""
+CREEP_TAU0_S = 1e-3
+"""tau0 [s] of the log law F_step (1 - c log10(1 + t / tau0)): below it the relaxation is linear
+in t. 1 ms = 21 controller ticks, the shortest time at which the rig sees the drift apart from
+the stack's ringing (7.1 kHz, zeta 0.05: decays by e within 0.45 ms)."""
+
+ACTUATOR_SLOTS = ("v_f", "r", "V_a", "x", "x_dot", "F_strain_a", "F_cell_a", "E", "h") + tuple(
+    f"q_{j}" for j in range(CREEP_DECADES))
 """State slots: filter output v_f [V], filter rate r = (dv_f/dt)/w_lp [V], amplifier output
 V_a [V], screw elongation x [m] and its rate x' [m/s], analog strain-gauge and force-cell
-outputs [N], delivered energy E [J], piezo hysteresis state h [V] (0 without hysteresis)."""
+outputs [N], delivered energy E [J], piezo hysteresis state h [V] (0 without hysteresis),
+creep states q_0..q_{K-1} [V] (0 without creep)."""
 
 ACTUATOR_OUTPUTS = (("F_N1", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V"),
                     ("i", "A"), ("P", "W"), ("E", "J"), ("F_strain_a", "N"), ("F_cell_a", "N"))
@@ -108,7 +138,8 @@ ACTUATOR_OUTPUTS = (("F_N1", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V"),
 [t_k, t_{k+1}); i, P: means over the last substep; F_strain_a, F_cell_a: the force sensors'
 analog outputs, before their noise and ADC in ``rt.sensors``)."""
 
-N_STATE = 7  # continuous states (all slots but E)
+N_STATE = 7  # continuous states without creep (all slots but E, h, q_j)
+Q0 = 9       # slot of q_0
 
 
 class ActuatorParams(NamedTuple):
@@ -129,6 +160,15 @@ class ActuatorParams(NamedTuple):
     z_s = F_strain_a - F0, z_c = F_cell_a - F0 (deviations: the model is then homogeneous in
     V). Linear: s1 = Ad s0 + Bd V_dac; amplifier clipped (ramp V_a0 -> V_a0 + dV_a):
     [x, x', z_s, z_c]1 = Pm [x, x', z_s, z_c]0 + Gm0 V_a0 + Gm1 dV_a.
+
+    With creep (n_creep = K > 0) the blocks are those of the system augmented by q_0..q_{K-1}
+    (``creep_ss``) and Q holds the rest, row j for q_j:
+
+              x x' z_s z_c     v_f  r  V_a  V_dac   e_j    G0_j  G1_j
+        Q = [ response to q_j | q_j1, linear regime | e^{-h/tau_j} | ramp  ]   (K x 11)
+
+    Both regimes: [x, x', z_s, z_c]1 += Q[j, 0:4] q_j0 (q_j is driven by V_a only); linear:
+    q_j1 = Q[j, 4:8] . [v_f, r, V_a, V_dac]0 + e_j q_j0; ramp: q_j1 = e_j q_j0 + G0_j V_a0 + G1_j dV_a.
     """
     V_min: float      # amplifier / DAC range, low end [V]
     V_max: float      # high end [V]
@@ -148,6 +188,10 @@ class ActuatorParams(NamedTuple):
     x_per_V: float    # static elongation per volt c_v / k_screw [m/V]
     hyst_A: float     # Bouc-Wen gain A of h' = A V_a' - beta |V_a'| h [-]; 0: no hysteresis
     hyst_beta: float  # Bouc-Wen beta [1/V] (``hysteresis_constants``)
+    n_creep: int      # creep states in use: CREEP_DECADES, or 0 without creep
+    creep_g: np.ndarray  # (n_creep,) static gains g_j of q_j = g_j (V_a - h) at rest [-]
+    Q: np.ndarray     # (n_creep, 11) creep coefficients over h (``creep_block``)
+    Q_f: np.ndarray   # (n_creep, 11) over h_f
 
 
 # --- design time -----------------------------------------------------------------------------
@@ -205,6 +249,35 @@ def hysteresis_constants(cfg: Config) -> tuple[float, float]:
     return A, beta
 
 
+@functools.lru_cache(maxsize=None)
+def creep_weights() -> tuple[np.ndarray, np.ndarray]:
+    """(tau (K,) [s], w (K,) [-]) of the Prony series of the log law: tau_j = tau0 10^j and the
+    weights w_j with  sum_j w_j (1 - e^{-t / tau_j}) ~ log10(1 + t / tau0)  by least squares on
+    4001 log-spaced t in [0, tau_{K-1}] (tau0 = CREEP_TAU0_S, K = CREEP_DECADES). Equal weights
+    would leave an offset of 0.75 decade: the first weight carries the linear start (0.34), the
+    last the tail beyond tau_{K-1} (1.23); measured, the fit is within 0.024 decade of the log
+    law over [0, tau_{K-1}] (the ripple of a one-state-per-decade series)."""
+    tau = CREEP_TAU0_S * 10.0 ** np.arange(CREEP_DECADES)
+    t = np.concatenate([[0.0], np.logspace(math.log10(CREEP_TAU0_S) - 2.0, math.log10(tau[-1]), 4000)])
+    w = np.linalg.lstsq(-np.expm1(-t[:, None] / tau[None, :]), np.log10(1.0 + t / CREEP_TAU0_S), rcond=None)[0]
+    tau.setflags(write=False)
+    w.setflags(write=False)
+    return tau, w
+
+
+def creep_constants(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
+    """(tau (K,) [s], g (K,) [-]) of the creep states for actuator.creep_per_decade = c (empty
+    arrays for c = 0): g_j = c w_j / (1 - c W), W = sum_j w_j (``creep_weights``), so that after a
+    step of u = V_a - h from rest the stack's input (1 + G) u - sum_j q_j (G = sum_j g_j) is
+    u0 + du (1 + G) (1 - c sum_j w_j (1 - e^{-t / tau_j})): the instantaneous step (1 + G) du relaxes
+    by c per decade, to du, c_v's static force (module docstring, "Preload creep")."""
+    c = cfg.actuator.creep_per_decade
+    if c == 0.0:
+        return np.zeros(0), np.zeros(0)
+    tau, w = creep_weights()
+    return tau.copy(), c * w / (1.0 - c * float(np.sum(w)))
+
+
 def stack_constants(cfg: Config) -> dict:
     """Derived piezo stack constants: K = k_stack + k_screw [N/m], c [N s/m], d [m/V],
     undamped stack frequency f_n [Hz] and its damped ringing frequency f_d [Hz]."""
@@ -248,6 +321,23 @@ def actuator_ss(cfg: Config):
     return A, B, C, a.F0_N
 
 
+def creep_ss(cfg: Config):
+    """``actuator_ss`` augmented by the creep states (state [v_f, r, V_a, x, x', z_s, z_c, q_0..]):
+    q_j' = (g_j V_a - q_j) / tau_j and the stack's input (1 + G) V_a - sum_j q_j instead of V_a
+    (``creep_constants``). Returns (A (7 + K, 7 + K), B (7 + K,)); K = 0 gives ``actuator_ss``'s."""
+    A7, B7, _, _ = actuator_ss(cfg)
+    tau, g = creep_constants(cfg)
+    K = len(g)
+    A = np.zeros((N_STATE + K, N_STATE + K))
+    A[:N_STATE, :N_STATE] = A7
+    A[4, 2] *= 1.0 + float(np.sum(g))
+    for j in range(K):
+        A[4, N_STATE + j] = -A7[4, 2]
+        A[N_STATE + j, 2] = g[j] / tau[j]
+        A[N_STATE + j, N_STATE + j] = -1.0 / tau[j]
+    return A, np.concatenate([B7, np.zeros(K)])
+
+
 def build_actuator(cfg: Config, n_sub: int | None = None, n_fine: int | None = None) -> ActuatorParams:
     """Constant arrays of ``_actuator_step`` for the configuration (controller step cfg.dt_s;
     reads cfg.actuator, its substeps and fine_substeps unless n_sub / n_fine are given, and the
@@ -259,32 +349,50 @@ def build_actuator(cfg: Config, n_sub: int | None = None, n_fine: int | None = N
     a = cfg.actuator
     h = cfg.dt_s / int(n_sub)
     h_f = h / int(n_fine)
-    A, B, _, _ = actuator_ss(cfg)
     sc = stack_constants(cfg)
     x_per_V = a.c_v / a.k_screw
     wn = math.sqrt(sc["K"] / sc["m"])
-    scale = np.array([1.0, 1.0, 1.0, x_per_V, x_per_V * wn, a.c_v, a.c_v])  # per volt
+    if a.creep_per_decade == 0.0:  # the 7-state chain (kept apart: bit-identical runs without creep)
+        A, B, _, _ = actuator_ss(cfg)
+        g = np.zeros(0)
+    else:
+        A, B = creep_ss(cfg)
+        g = creep_constants(cfg)[1]
+    K = len(g)
+    scale = np.concatenate([[1.0, 1.0, 1.0, x_per_V, x_per_V * wn, a.c_v, a.c_v], g])  # per volt
 
     def block(step):
         Phi, G0, _ = discretise(A, B, step, scale)
         Pm, Gm0, Gm1 = discretise(A[3:, 3:], A[3:, 2], step, scale[3:])
         M = np.zeros((N_STATE, 14))
-        M[:, :7] = Phi
-        M[:, 7] = G0[:, 0]
-        M[3:, 8:12] = Pm
-        M[3:, 12] = Gm0[:, 0]
-        M[3:, 13] = Gm1[:, 0]
-        return M
+        M[:, :7] = Phi[:N_STATE, :N_STATE]
+        M[:, 7] = G0[:N_STATE, 0]
+        M[3:, 8:12] = Pm[:4, :4]
+        M[3:, 12] = Gm0[:4, 0]
+        M[3:, 13] = Gm1[:4, 0]
+        Q = np.zeros((K, 11))
+        for j in range(K):
+            q = N_STATE + j
+            Q[j, 0:4] = Phi[3:N_STATE, q]
+            Q[j, 4:7] = Phi[q, 0:3]
+            Q[j, 7] = G0[q, 0]
+            Q[j, 8] = Phi[q, q]
+            Q[j, 9] = Gm0[4 + j, 0]
+            Q[j, 10] = Gm1[4 + j, 0]
+        return M, Q
 
     lsb = (a.V_max - a.V_min) / (2 ** a.dac_bits - 1)
     hyst_A, hyst_beta = hysteresis_constants(cfg)
+    M, Q = block(h)
+    M_f, Q_f = block(h_f)
     p = ActuatorParams(
         V_min=float(a.V_min), V_max=float(a.V_max), lsb=float(lsb), inv_lsb=float(1.0 / lsb),
         w_a=float(2.0 * math.pi * a.amp_bandwidth_hz), L=float(a.current_limit_A / a.capacitance_F),
-        C=float(a.capacitance_F), n_sub=int(n_sub), h=float(h), M=block(h),
-        n_fine=int(n_fine), h_f=float(h_f), M_f=block(h_f),
+        C=float(a.capacitance_F), n_sub=int(n_sub), h=float(h), M=M,
+        n_fine=int(n_fine), h_f=float(h_f), M_f=M_f,
         F0=float(a.F0_N), k_screw=float(a.k_screw), x_per_V=float(x_per_V),
-        hyst_A=float(hyst_A), hyst_beta=float(hyst_beta))
+        hyst_A=float(hyst_A), hyst_beta=float(hyst_beta),
+        n_creep=int(K), creep_g=np.ascontiguousarray(g, dtype=np.float64), Q=Q, Q_f=Q_f)
     for arr in p:
         if isinstance(arr, np.ndarray):
             arr.setflags(write=False)
@@ -304,7 +412,8 @@ def output_index() -> dict[str, int]:
 def initial_state(p: ActuatorParams, V: float | None = None, F_N1: float | None = None) -> np.ndarray:
     """Rest state at amplifier voltage V [V] (or at the voltage giving F_N1 [N] statically,
     F_N1 = F0 + c_v V; default V_min), energy 0, hysteresis state h = 0 (a stack at rest after
-    demagnetising, on its virgin curve). V must lie in [V_min, V_max]."""
+    demagnetising, on its virgin curve), creep states at their rest q_j = g_j V (a bolt held at V
+    for long, so F_N1 stays at F0 + c_v V). V must lie in [V_min, V_max]."""
     if V is None:
         V = p.V_min if F_N1 is None else (F_N1 - p.F0) / (p.k_screw * p.x_per_V)
     if not (p.V_min <= V <= p.V_max):
@@ -314,6 +423,7 @@ def initial_state(p: ActuatorParams, V: float | None = None, F_N1: float | None 
     x[2] = V
     x[3] = p.x_per_V * V
     x[5] = x[6] = p.F0 + p.k_screw * x[3]
+    x[Q0:Q0 + p.n_creep] = p.creep_g * V
     return x
 
 
@@ -351,12 +461,14 @@ def _hysteresis(h0, dV, A, beta):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy")
-def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p):
+def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p, q):
     """One substep h as p.n_fine substeps of h_f = h / n_fine (a substep where the amplifier
     changes regime): linear update, its V_a change clipped to +-L h_f and to [V_min, V_max], the
-    stack and sensors by the ramp update where clipped. Returns (v_f, r, V_a, x, x', z_s, z_c,
-    dE). RT-safe."""
+    stack and sensors by the ramp update where clipped; the creep states q[Q0:Q0 + n_creep] (the
+    caller's next state) advanced in place by p.Q_f in the same regime. Returns (v_f, r, V_a, x,
+    x', z_s, z_c, dE). RT-safe."""
     M = p.M_f
+    Q = p.Q_f
     V_min, V_max = p.V_min, p.V_max
     slew = p.L * p.h_f
     half_C = 0.5 * p.C
@@ -373,6 +485,13 @@ def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p):
             v1 = M[4, 8] * xm + M[4, 9] * vm + M[4, 12] * Va + M[4, 13] * dV
             zs1 = M[5, 8] * xm + M[5, 9] * vm + M[5, 10] * zs + M[5, 12] * Va + M[5, 13] * dV
             zc1 = M[6, 8] * xm + M[6, 9] * vm + M[6, 11] * zc + M[6, 12] * Va + M[6, 13] * dV
+            for j in range(p.n_creep):
+                qj = q[Q0 + j]
+                x1 += Q[j, 0] * qj
+                v1 += Q[j, 1] * qj
+                zs1 += Q[j, 2] * qj
+                zc1 += Q[j, 3] * qj
+                q[Q0 + j] = Q[j, 8] * qj + Q[j, 9] * Va + Q[j, 10] * dV
         else:
             x1 = (M[3, 0] * vf + M[3, 1] * r + M[3, 2] * Va + M[3, 3] * xm + M[3, 4] * vm
                   + M[3, 7] * Vd)
@@ -382,6 +501,13 @@ def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p):
                    + M[5, 5] * zs + M[5, 7] * Vd)
             zc1 = (M[6, 0] * vf + M[6, 1] * r + M[6, 2] * Va + M[6, 3] * xm + M[6, 4] * vm
                    + M[6, 6] * zc + M[6, 7] * Vd)
+            for j in range(p.n_creep):
+                qj = q[Q0 + j]
+                x1 += Q[j, 0] * qj
+                v1 += Q[j, 1] * qj
+                zs1 += Q[j, 2] * qj
+                zc1 += Q[j, 3] * qj
+                q[Q0 + j] = Q[j, 4] * vf + Q[j, 5] * r + Q[j, 6] * Va + Q[j, 7] * Vd + Q[j, 8] * qj
         dE += _energy(Va, Va1c, half_C)
         vf, r, Va, xm, vm, zs, zc = vf1, r1, Va1c, x1, v1, zs1, zc1
     return vf, r, Va, xm, vm, zs, zc, dE
@@ -394,11 +520,11 @@ def _actuator_step(k, x, u, p, x_next, y):
     Parameters
     ----------
     k : int64 tick (the chain is time-invariant; kept for the uniform step signature)
-    x : (9,) state at t_k, slots ``ACTUATOR_SLOTS`` = v_f [V], r [V], V_a [V], x [m], x' [m/s],
-        F_strain_a [N], F_cell_a [N], E [J], h [V] (read only)
+    x : (14,) state at t_k, slots ``ACTUATOR_SLOTS`` = v_f [V], r [V], V_a [V], x [m], x' [m/s],
+        F_strain_a [N], F_cell_a [N], E [J], h [V], q_0..q_4 [V] (read only)
     u : (1,) u[0] = V_cmd [V], the controller's DAC command, held over the step
     p : ActuatorParams
-    x_next : (9,) state at t_{k+1} (written)
+    x_next : (14,) state at t_{k+1} (written)
     y : (9,) outputs ``ACTUATOR_OUTPUTS`` (written): F_N1 [N], V_dac [V], v_f [V], V_a [V],
         i [A], P [W], E [J], F_strain_a [N], F_cell_a [N]
 
@@ -411,6 +537,9 @@ def _actuator_step(k, x, u, p, x_next, y):
         else     n_fine substeps of h / n_fine (``_actuator_fine``)
     Hysteresis (p.hyst_A > 0): h1 = ``_hysteresis``(h0, V_a1 - V_a0) and the stack's input
     V_a - h, so m1 -= Gm0 h0 + Gm1 (h1 - h0) (superposition; h taken linear over the substep).
+    Creep (p.n_creep > 0): the stack's input (1 + G) (V_a - h) - sum_j q_j, exact through the
+    augmented blocks (M, and p.Q for the q_j rows and columns, ``ActuatorParams``); the -h input
+    reaches q_j by the same superposition, q_j1 -= G0_j h0 + G1_j (h1 - h0).
     E += C/2 |V_a1^2 - V_a0^2|;  F_N1 = F0 + k_screw x;  i = C (V_a1 - V_a0) / h and
     P = i (V_a0 + V_a1) / 2 over the last substep.
     RT-safe (no allocation, no Python objects).
@@ -437,6 +566,10 @@ def _actuator_step(k, x, u, p, x_next, y):
     hA, hbeta = p.hyst_A, p.hyst_beta
     zs = x[5] - F0
     zc = x[6] - F0
+    Q = p.Q
+    nq = p.n_creep
+    for j in range(CREEP_DECADES):  # creep states advance in place in x_next
+        x_next[Q0 + j] = x[Q0 + j]
     Va_prev = Va
     for _ in range(p.n_sub):
         vf1 = a00 * vf + a01 * r + b0 * Vd
@@ -457,7 +590,7 @@ def _actuator_step(k, x, u, p, x_next, y):
         else:  # the regime changes within the substep
             fine = True
         if fine:
-            vf1, r1, Va1, x1, v1, zs1, zc1, dE = _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p)
+            vf1, r1, Va1, x1, v1, zs1, zc1, dE = _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p, x_next)
             E += dE
         else:
             if ramp:
@@ -471,6 +604,16 @@ def _actuator_step(k, x, u, p, x_next, y):
                 v1 = a40 * vf + a41 * r + a42 * Va + a43 * xm + a44 * vm + b4 * Vd
                 zs1 = a50 * vf + a51 * r + a52 * Va + a53 * xm + a54 * vm + a55 * zs + b5 * Vd
                 zc1 = a60 * vf + a61 * r + a62 * Va + a63 * xm + a64 * vm + a66 * zc + b6 * Vd
+            for j in range(nq):  # creep: the response to q_j0, then q_j's own update
+                qj = x_next[Q0 + j]
+                x1 += Q[j, 0] * qj
+                v1 += Q[j, 1] * qj
+                zs1 += Q[j, 2] * qj
+                zc1 += Q[j, 3] * qj
+                if ramp:
+                    x_next[Q0 + j] = Q[j, 8] * qj + Q[j, 9] * Va + Q[j, 10] * (Va1 - Va)
+                else:
+                    x_next[Q0 + j] = Q[j, 4] * vf + Q[j, 5] * r + Q[j, 6] * Va + Q[j, 7] * Vd + Q[j, 8] * qj
             E += _energy(Va, Va1, half_C)
         if hA > 0.0:  # hysteresis: the stack input is V_a - h, h a first-order hold over the substep
             h1 = _hysteresis(hb, Va1 - Va, hA, hbeta)
@@ -479,6 +622,8 @@ def _actuator_step(k, x, u, p, x_next, y):
             v1 -= g1 * hb + q1 * dh
             zs1 -= g2 * hb + q2 * dh
             zc1 -= g3 * hb + q3 * dh
+            for j in range(nq):
+                x_next[Q0 + j] -= Q[j, 9] * hb + Q[j, 10] * dh
             hb = h1
         Va_prev = Va
         vf, r, Va, xm, vm, zs, zc = vf1, r1, Va1, x1, v1, zs1, zc1
@@ -522,7 +667,7 @@ def actuator_step(k: int, x: np.ndarray, u: np.ndarray, p: ActuatorParams, x_nex
 
 @numba.njit(cache=True, nogil=True)
 def _actuator_run(x0, V_cmd, p, X, Y):
-    """Step the chain over the commands V_cmd (n,) [V] from x0: X (n + 1, 9) states, Y (n, 9)
+    """Step the chain over the commands V_cmd (n,) [V] from x0: X (n + 1, 14) states, Y (n, 9)
     outputs (filled)."""
     X[0] = x0
     for k in range(V_cmd.shape[0]):
@@ -532,7 +677,7 @@ def _actuator_run(x0, V_cmd, p, X, Y):
 def run_actuator(p: ActuatorParams, V_cmd: np.ndarray, x0: np.ndarray | None = None):
     """Offline run over a command sequence V_cmd [V] (one per controller step).
 
-    Returns (X (n + 1, 9) states at t_0..t_n, Y (n, 9) outputs at t_1..t_n)."""
+    Returns (X (n + 1, 14) states at t_0..t_n, Y (n, 9) outputs at t_1..t_n)."""
     V_cmd = np.ascontiguousarray(V_cmd, dtype=np.float64)
     x0 = initial_state(p) if x0 is None else np.ascontiguousarray(x0, dtype=np.float64)
     X = np.empty((len(V_cmd) + 1, len(ACTUATOR_SLOTS)))

@@ -8,9 +8,10 @@ import math
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
-records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms (structure at rest), with a few
-percent of scatter in E, mu, k_t, modal damping and c_v drawn from --seed, and sensor noise. One
-effect of the library (--list) is hidden in the true structure; nothing in the files names it.
+records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms, each end held 30 ms (structure at
+rest), with a few percent of scatter in E, mu, k_t, modal damping and c_v drawn from --seed, and
+sensor noise. One effect of the library (--list) is hidden in the true structure; nothing in the
+files names it.
 With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
 of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
 of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars."""

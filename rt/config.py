@@ -190,6 +190,11 @@ class Actuator:
                                             "bolt force-voltage loop at mid range of a slow full-range "
                                             "triangle over the full-range force c_v (V_max - V_min); "
                                             "0 = off, typical stacks 0.1-0.15")
+    creep_per_decade: float = param(0.0, "-", lo=0.0, hi=0.1,
+                                    doc="creep of the screw thread's preload (plant/actuator.py): after a "
+                                        "step of the stack's force F_N1 relaxes by this fraction of the "
+                                        "step per decade of time, F_step (1 - c log10(1 + t / 1 ms)), "
+                                        "1 ms to 10 s; c_v stays the static gain; 0 = off")
     substeps: int = param(8, "-", lo=1, hi=256, doc="actuator substeps per controller step")
     fine_substeps: int = param(8, "-", lo=1, hi=256,
                                doc="finer substeps of a substep in which the amplifier changes regime")

@@ -125,7 +125,8 @@ def frf(t: Test, a: np.ndarray):
 
 
 def run_actuator_tests(cfg: Config, tests: list[Test]) -> list[dict]:
-    return [measure_actuator(quiet(cfg), t.data["V_cmd"], seed=0) for t in tests]
+    cfg = quiet(cfg)
+    return [measure_actuator(cfg, t.data["V_cmd"], seed=0) for t in tests]
 
 
 # --- gap metrics ----------------------------------------------------------------------------------
@@ -169,10 +170,12 @@ def _act_noise(tests: list[Test]) -> dict[str, float]:
     return {s: max(float(np.mean([np.std(t.data[s][:n]) for t in tests])), 1e-9) for s in ("V_a", "i", "F_cell")}
 
 
-def fit_actuator(nominal: Config, tests: list[Test], effect: Effect | None, calibrated: dict | None = None):
-    """Bounded least squares of c_v (and the effect's strength) on the exact chain; with the
-    calibration-only ``calibrated`` theta, never worse than it (the effect at its nominal strength).
-    Returns (theta, residuals by channel)."""
+def fit_actuator(nominal: Config, tests: list[Test], effect: Effect | None, calibrated=None):
+    """Bounded least squares of c_v (and the effect's strength) on the exact chain. Returns
+    (theta, residuals by channel). ``calibrated``: fit_actuator's result without the effect;
+    calibration alone is nested in every candidate (strength at nominal), so a candidate whose
+    fit ends above its cost (measured: stopped at max_nfev near strength 0 on clean campaigns,
+    72 % more F_cell RSS) returns that nested point instead."""
     noise = _act_noise(tests)
     names = ["c_v"] + ([effect.name] if effect else [])
     lo = [ACT_CAL["c_v"][0]] + ([effect.parameter.lo] if effect else [])
@@ -192,17 +195,11 @@ def fit_actuator(nominal: Config, tests: list[Test], effect: Effect | None, cali
                             diff_step=[1e-3] + ([1e-2] if effect else []), max_nfev=40)
         if best is None or sol.cost < best.cost:
             best = sol
-    x = best.x
-    if effect is not None and calibrated is not None:
-        # calibration alone is nested in the candidate (at its nominal strength): the ADC's 0.06 N steps in F_cell
-        # make the cost piecewise constant, and a fit from the start points can stop short of that point
-        # (clean campaign, seed 11: piezo_hysteresis stopped at 0.0002 with 840 BIC points more than calibration)
-        x_cal = np.array([calibrated["c_v"], effect.nominal])
-        r_cal = res(x_cal)
-        if 0.5 * float(r_cal @ r_cal) < best.cost:
-            x = x_cal
-    theta = dict(zip(names, map(float, x)))
-    return theta, _act_residuals(tests, run_actuator_tests(cfg_of(x), tests), noise)
+    if calibrated is not None and effect is not None and 2.0 * best.cost > sum(
+            float(v @ v) for v in calibrated[1].values()):
+        return calibrated[0] | {effect.name: float(effect.nominal)}, calibrated[1]
+    theta = dict(zip(names, map(float, best.x)))
+    return theta, _act_residuals(tests, run_actuator_tests(cfg_of(best.x), tests), noise)
 
 
 # --- the workflow ---------------------------------------------------------------------------------
@@ -261,7 +258,7 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
         a_eff = eff if eff in act_eff else None
         if a_eff not in act_fits:
             say(f"fit actuator {a_eff.name if a_eff else 'calibration only'}")
-            act_fits[a_eff] = fit_actuator(nominal, act, a_eff, act_fits[None][0] if a_eff else None) if act else ({}, {})
+            act_fits[a_eff] = fit_actuator(nominal, act, a_eff, act_fits.get(None)) if act else ({}, {})
         ath, ares = act_fits[a_eff]
         theta = s_fit.theta | ath
         channels = dict(s_fit.channels) | {f"actuator {k}": v for k, v in ares.items()}

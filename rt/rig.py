@@ -11,7 +11,9 @@ Campaign (``make_campaign``):
   tip velocity, both bolt force sensors (rt.sensors: anti-alias filter, noise, ADC), V_cmd,
   V_a and i (noise ``V_NOISE_V``, ``I_NOISE_A``);
 * actuator characterisation, structure at rest: V_cmd ramps 0 -> 150 V -> 0 V over each of
-  ``RAMPS_S``, recorded with the same channels (F_exc and the accelerations are sensor noise).
+  ``RAMPS_S``, each end held ``HOLD_S`` (``ramp_command``: long enough for the bolt force's
+  creep to show, 18 N at the default strength), recorded with the same channels (F_exc and the
+  accelerations are sensor noise).
 
 Realism: nominal parameters scatter by ``SCATTER`` (relative standard deviation, normal draws cut
 at 2 sigma, one draw per campaign from the seed); every channel has sensor noise; records are
@@ -48,6 +50,7 @@ from rt.writer import McapBlockWriter
 FN1_LEVELS_N = (40.0, 100.0, 300.0)   # impulse tests: bolt force levels [N]
 RAMPS_S = (0.3e-3, 1e-3, 3e-3)        # actuator tests: 0 -> V_RAMP_V ramp durations [s]
 V_RAMP_V = 150.0                      # [V] ramp height
+HOLD_S = 0.03                         # [s] each ramp's end held: 1.5 decades of creep past tau0 = 1 ms
 HAMMER_PEAK_N = 50.0                  # [N] nominal hammer peak
 HAMMER_CONTACT_S = 0.5e-3             # [s] nominal contact time
 PRETRIGGER_S = 0.01                   # [s] record before the hit
@@ -142,13 +145,13 @@ def _chain(cfg: Config):
 def measure_actuator(cfg: Config, V_cmd: np.ndarray, seed: int) -> dict[str, np.ndarray]:
     """The channels of an actuator test (structure at rest): the chain driven by V_cmd [V] per tick,
     the bolt force sensors read by rt.sensors (noise from ``seed``). Returns {name: array (n,)}."""
-    pa = build_actuator(cfg)
+    pa, ps = _chain(cfg)
     _, Ya = run_actuator(pa, V_cmd, initial_state(pa, V=float(V_cmd[0])))
     ia = output_index()
     U = np.zeros((len(V_cmd), 4))
     U[:, 2] = Ya[:, ia["F_strain_a"]]
     U[:, 3] = Ya[:, ia["F_cell_a"]]
-    _, Ys = run_sensors(build_sensors(cfg), U, new_rng(seed))
+    _, Ys = run_sensors(ps, U, new_rng(seed))
     out = dict(zip(SENSOR_FIELDS, Ys.T))
     out.update(V_cmd=np.asarray(V_cmd, float), V_a=Ya[:, ia["V_a"]], i=Ya[:, ia["i"]])
     return out
@@ -159,12 +162,14 @@ def _point(cfg: Config, role: str) -> str:
     return cfg.plant.frf_point if role == "frf" else "tip"
 
 
-def ramp_command(ramp_s: float, dt: float, V_hi: float = V_RAMP_V) -> np.ndarray:
-    """V_cmd [V] per tick: 2 ms at 0, ramp to V_hi over ramp_s, 6 ms held, ramp down, 6 ms at 0."""
+def ramp_command(ramp_s: float, dt: float, V_hi: float = V_RAMP_V, hold_s: float = HOLD_S) -> np.ndarray:
+    """V_cmd [V] per tick: 2 ms at 0 (the diagnosis' noise estimate), ramp to V_hi over ramp_s,
+    hold_s held (the bolt force creeps: c log10(1 + t / 1 ms) of the step), ramp down, hold_s at 0
+    (the creep back, below the force at 0 V, unlike the piezo hysteresis' offset above it)."""
     n_r = max(1, int(round(ramp_s / dt)))
     hold = lambda s: np.zeros(int(round(s / dt)))   # noqa: E731
     up = np.linspace(0.0, V_hi, n_r + 1)[1:]
-    return np.concatenate([hold(2e-3), up, hold(6e-3) + V_hi, up[::-1] - up[0], hold(6e-3)])
+    return np.concatenate([hold(2e-3), up, hold(hold_s) + V_hi, up[::-1] - up[0], hold(hold_s)])
 
 
 def test_record(cfg: Config, kind: str, duration_s: float, amplitude_n: float | None, description: str) -> dict:
@@ -224,7 +229,8 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
             name = f"actuator_{j + 1:02d}.mcap"
             write_measurement(tmp / name, true, cols, test_record(
                 true, "actuator", len(V) * dt, None,
-                f"voltage ramps 0 -> {V_RAMP_V:g} -> 0 V over {ramp * 1e3:g} ms each, structure at rest"))
+                f"voltage ramps 0 -> {V_RAMP_V:g} -> 0 V over {ramp * 1e3:g} ms each, each end held "
+                f"{HOLD_S * 1e3:g} ms, structure at rest"))
             names.append(name)
     return [Path(out_dir) / n for n in names]
 
