@@ -12,6 +12,15 @@ gap directions (and its opposite on the lower body), so its generalised force is
     open:    f_n = f_t = 0,  w = g_t                  (spring relaxed)
     lambda_n = f_n,  lambda_t = -f_t
 
+Stribeck friction (``_stribeck_mu``, plant.interface.static_excess s > 0): the slider's
+coefficient depends on the pair's tangential surface velocity v = dg_t/dt,
+
+    mu(v) = mu_k (1 + s exp(-(v / v_s)^2))       mu_k = plant.interface.mu, v_s = stribeck_velocity_m_s
+
+so a stuck pair breaks away at mu_s f_n = (1 + s) mu_k f_n and slides at mu_k f_n for |v| >> v_s.
+The plant step takes v at the start of each substep (lagged by one substep, 48 us at 21 kHz),
+so that mu is constant over the substep and the pair law stays piecewise affine in the gaps.
+
 Interface damping (``_interface_dashpot``): Kelvin-Voigt dashpots c = k tau in parallel with the
 normal spring (on the change of penetration) and the Jenkins element (faded in over a
 penetration depth).
@@ -22,6 +31,8 @@ when the pair opens or closes inside the step (a penalty impact integrated with 
 trapezoidal forces gains or loses 1/2 k_n a b per impact; repeated chatter pumps energy).
 """
 from __future__ import annotations
+
+import math
 
 import numba
 
@@ -45,6 +56,17 @@ def _jenkins_pair(g_n, g_t, w_old, k_n, k_t, mu):
     sgn = 1.0 if f_star > 0.0 else -1.0
     f_t = limit * sgn
     return f_n, -f_t, g_t - f_t / k_t, -k_n, mu * k_n * sgn, 0.0
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _stribeck_mu(mu_k, s, v, v_s):
+    """Stribeck friction coefficient mu(v) = mu_k (1 + s exp(-(v / v_s)^2)) [-]. RT-safe.
+
+    mu_k [-] kinetic (sliding) coefficient, s [-] static excess (mu_s = (1 + s) mu_k), v [m/s]
+    sliding velocity, v_s [m/s] Stribeck velocity (mu - mu_k falls to 1/e of s mu_k at |v| = v_s).
+    """
+    x = v / v_s
+    return mu_k * (1.0 + s * math.exp(-x * x))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

@@ -81,7 +81,8 @@ class PlantModel:
                          lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
-                         ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64))
+                         ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
+                         mu_eff=self.params.mu.copy(), stale=np.zeros(1, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""
@@ -147,7 +148,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         dashpot_depth=float(cfg.plant.interface.dashpot_depth_m), h=float(h),
         substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
         h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
-        max_iter=int(cfg.plant.newton_max_iter))
+        max_iter=int(cfg.plant.newton_max_iter), static_excess=float(cfg.plant.interface.static_excess),
+        stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s))
     for a in params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)

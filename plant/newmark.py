@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import _interface_dashpot, _jenkins_pair, _normal_impulse
+from plant.contact import _interface_dashpot, _jenkins_pair, _normal_impulse, _stribeck_mu
 
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
@@ -80,6 +80,8 @@ class PlantParams(NamedTuple):
     fine_split: int        # fallback substeps per failed substep
     tol: float             # Newton tolerance on |r|_2 [m]
     max_iter: int
+    static_excess: float   # Stribeck s: mu_s = (1 + s) mu [-]; 0 = Coulomb (mu constant)
+    stribeck_v: float      # Stribeck velocity v_s [m/s]
 
 
 class PlantWork(NamedTuple):
@@ -103,6 +105,8 @@ class PlantWork(NamedTuple):
     act: np.ndarray        # (p,) int64 active pairs of the current iterate (first n_act entries)
     ra: np.ndarray         # (2p,) right-hand side / solution of the active block
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
+    mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
+    stale: np.ndarray      # (1,) int64: 1 if mu_eff changed since the LU was factorised
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -166,7 +170,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below
     lam, lam1, lamd, w_new, d = wk.lam, wk.lam1, wk.lamd, wk.w_new, wk.d
     code, act, pattern = wk.code, wk.act, wk.pattern
-    g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, p.mu, p.c_n, p.c_t, p.dashpot_depth
+    g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, wk.mu_eff, p.c_n, p.c_t, p.dashpot_depth
     n_act = 0
     same = True
     for j in range(g.shape[0] // 2):
@@ -271,7 +275,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
 
     J_aa depends only on the pairs' states (open, stick, slip+, slip-) unless a pair opens or
     closes within the step, so its LU factors are kept with that pattern and reused while it
-    holds. The law is affine within one pattern, so a step taken with the factors of pattern P
+    holds (and while wk.mu_eff is unchanged: ``_stribeck_update`` sets wk.stale when it changes
+    a slipping pair's coefficient). The law is affine within one pattern, so a step taken with the factors of pattern P
     that lands on a point whose pattern is still P is the exact solution (to round-off): the
     residual is not evaluated again there. If plain Newton has not converged after PLAIN_ITER
     iterations (the active set cycles), steps are shortened by backtracking on |r|^2.
@@ -279,7 +284,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     if that was not reached within p.max_iter. RT-safe.
     """
     act, LU, d, piv, pattern, code = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code
-    rhs, r_, g_old, dg = wk.ra, wk.r, wk.g_old, wk.dg
+    rhs, r_, g_old, dg, stale = wk.ra, wk.r, wk.g_old, wk.dg, wk.stale
     m = g.shape[0]
     npair = m // 2
     scale = 0.0
@@ -293,7 +298,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         if res2 <= tol2:
             return it
         ma = 2 * n_act
-        if not same:
+        if not same or stale[0] != 0:
+            stale[0] = 0
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
             for ra in range(ma):
                 i = 2 * act[ra // 2] + ra % 2
@@ -343,6 +349,27 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     return -1 if res2 > tol2 else p.max_iter
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _stribeck_update(qd, p, wk):
+    """Friction coefficient of every pair for the coming substep (Stribeck, p.static_excess > 0):
+    mu_eff_j = mu(v_j) (``plant.contact._stribeck_mu``) with v_j = G_t,j qd the pair's tangential
+    surface velocity at the start of the substep [m/s]. Held over the substep (lagged), so the
+    pair law stays piecewise affine and Newton exact. A changed coefficient of a pair whose cached
+    pattern slips invalidates the LU factors (wk.stale). RT-safe."""
+    G, mu, mu_eff, pattern = p.G, p.mu, wk.mu_eff, wk.pattern
+    s, v_s = p.static_excess, p.stribeck_v
+    n = qd.shape[0]
+    for j in range(mu.shape[0]):
+        v = 0.0
+        for i in range(n):
+            v += G[2 * j + 1, i] * qd[i]
+        m = _stribeck_mu(mu[j], s, v, v_s)
+        if m != mu_eff[j]:
+            mu_eff[j] = m
+            if pattern[j] >= 2:  # slipping: its Jacobian column holds mu
+                wk.stale[0] = 1
+
+
 # inlined into _plant_step (two call sites): measured ~5 % faster per step at 9 and 33 pairs
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
@@ -368,6 +395,8 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
             acc += G[r, i] * q_pred[i]
         g_pred[r] = acc
         g0[r] = g[r]
+    if p.static_excess > 0.0:
+        _stribeck_update(qd, p, wk)
     # --- contact: g1 = g_pred + W Lambda(g0, g1), Newton started from g0
     it = _contact_newton(g, g_pred, w, W, p, wk, 1.0 / h)
     if it < 0:
