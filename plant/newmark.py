@@ -20,15 +20,16 @@ and the contact gaps g1 = G q1 obey the small system of the contact pairs only
 solved by Newton (Jacobian I - W dLambda/dg1, LU cached per contact pattern).
 
 Lambda is the mean contact force over the step: for the normal spring its discrete gradient
-(``plant.contact._normal_impulse``), for the Jenkins element the mean of its end-point forces
-(the trapezoid). Both are what average acceleration gives while no pair changes state; across
+(``plant.contact._normal_impulse``), for the Jenkins element (or each element of an Iwan
+element) the mean of its end-point forces (the trapezoid). Both are what average acceleration gives while no pair changes state; across
 an impact the discrete gradient keeps the contact's work equal to its energy change, so the
 energy balance holds to round-off (no energy pumped by chatter).
 
 Inputs are held over the step (zero-order hold), so f_mean is the held value and the input
 work over a step is F * (b . dq).
 
-State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), slider w (p),
+State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), sliders w (p N:
+N = 1 Jenkins element per pair, or the N elements of an Iwan element, pair-major),
 gaps g (2p), then E_fric, E_damp, W_exc, W_screw [J].
 """
 from __future__ import annotations
@@ -38,7 +39,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import _interface_dashpot, _jenkins_pair, _normal_impulse, _stribeck_mu
+from plant.contact import _interface_dashpot, _iwan_pair, _jenkins_pair, _normal_impulse, _stribeck_mu
 
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
@@ -82,6 +83,8 @@ class PlantParams(NamedTuple):
     max_iter: int
     static_excess: float   # Stribeck s: mu_s = (1 + s) mu [-]; 0 = Coulomb (mu constant)
     stribeck_v: float      # Stribeck velocity v_s [m/s]
+    iwan_k: np.ndarray     # (N,) element stiffness fractions k_i / k_t (N = 1: [1], the Jenkins element)
+    iwan_q: np.ndarray     # (N,) element slip-limit fractions q_i / (mu f_n)
 
 
 class PlantWork(NamedTuple):
@@ -94,7 +97,7 @@ class PlantWork(NamedTuple):
     lam: np.ndarray        # (2p,) mean contact force Lambda over the step
     lam1: np.ndarray       # (2p,) end-point force lambda(g1) of the springs and sliders
     lamd: np.ndarray       # (2p,) interface dashpot force over the step (included in lam)
-    w_new: np.ndarray      # (p,)
+    w_new: np.ndarray      # (p N,) slider positions at the end of the step
     d: np.ndarray          # (3p,) dLambda_n/dg_n1, dLambda_t/dg_n1, dLambda_t/dg_t1
     code: np.ndarray       # (p,) int64 contact state per pair of the current iterate
     r: np.ndarray          # (2p,)
@@ -163,7 +166,9 @@ def _contact_laws(g, w_old, p, wk, inv_h):
 
     Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and the active pairs
     wk.act[:n_act] (closed at the end of the step, or opening/closing within it; all others
-    have Lambda = 0). Returns (n_act, True if every pair's state equals wk.pattern and none
+    have Lambda = 0). The tangential law is the Jenkins element (p.iwan_k of length 1) or the
+    Iwan element (``plant.contact._iwan_pair``; code 1 + sum_i s_i 3^i over its elements), with
+    the friction coefficient wk.mu_eff of the substep. Returns (n_act, True if every pair's state equals wk.pattern and none
     opens or closes). RT-safe.
     """
     # fields unpacked into locals: inside loops numba would reload every array pointer from
@@ -171,6 +176,8 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     lam, lam1, lamd, w_new, d = wk.lam, wk.lam1, wk.lamd, wk.w_new, wk.d
     code, act, pattern = wk.code, wk.act, wk.pattern
     g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, wk.mu_eff, p.c_n, p.c_t, p.dashpot_depth
+    kf, qf = p.iwan_k, p.iwan_q
+    ne = kf.shape[0]
     n_act = 0
     same = True
     for j in range(g.shape[0] // 2):
@@ -179,7 +186,8 @@ def _contact_laws(g, w_old, p, wk, inv_h):
             lam[2 * j + 1] = 0.0
             lam1[2 * j] = 0.0
             lam1[2 * j + 1] = 0.0
-            w_new[j] = g[2 * j + 1]
+            for i in range(ne):
+                w_new[j * ne + i] = g[2 * j + 1]
             lamd[2 * j] = 0.0
             lamd[2 * j + 1] = 0.0
             d[3 * j] = 0.0
@@ -189,40 +197,56 @@ def _contact_laws(g, w_old, p, wk, inv_h):
             same = same and pattern[j] == 0
             continue
         ln, dln, moved = _normal_impulse(g0[2 * j], g[2 * j], k_n[j])
-        fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], k_n[j], k_t[j], mu[j])
-        lt0 = -k_t[j] * (g0[2 * j + 1] - w_old[j])
-        lam[2 * j] = ln
-        lam[2 * j + 1] = 0.5 * (lt0 + lt1)
-        lam1[2 * j] = fn1
-        lam1[2 * j + 1] = lt1
-        w_new[j] = wn
-        d[3 * j] = dln
-        d[3 * j + 1] = 0.5 * dtn
-        d[3 * j + 2] = 0.5 * dtt
-        if moved:
-            c = TRANSITION
-        elif fn1 == 0.0:
-            c = 0
-        else:
-            c = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
-            if c == 1 and (pattern[j] == 2 or pattern[j] == 3):
-                # a pair that slipped sits on its friction limit at the start of the next step,
-                # where stick and slip give the same force; keep it slipping in the same
-                # direction (else Newton takes a stick step first and needs a second one)
-                f_star = k_t[j] * (g[2 * j + 1] - w_old[j])
-                sgn = 1.0 if pattern[j] == 2 else -1.0
-                limit = mu[j] * fn1
-                if f_star * sgn >= limit * (1.0 - SLIP_TIE):
-                    lt1 = -limit * sgn
-                    wn = g[2 * j + 1] - limit * sgn / k_t[j]
-                    dtn = mu[j] * k_n[j] * sgn
-                    dtt = 0.0
-                    c = pattern[j]
-                    lam[2 * j + 1] = 0.5 * (lt0 + lt1)
-                    lam1[2 * j + 1] = lt1
-                    w_new[j] = wn
-                    d[3 * j + 1] = 0.5 * dtn
-                    d[3 * j + 2] = 0.0
+        if ne > 1:  # Iwan element
+            lt0 = 0.0
+            for i in range(ne):
+                lt0 -= k_t[j] * kf[i] * (g0[2 * j + 1] - w_old[j * ne + i])
+            fn1, lt1, dtn, dtt, c = _iwan_pair(g[2 * j], g[2 * j + 1], w_old, w_new, j * ne, k_n[j], k_t[j],
+                                               mu[j], kf, qf, pattern[j], SLIP_TIE)
+            lam[2 * j] = ln
+            lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+            lam1[2 * j] = fn1
+            lam1[2 * j + 1] = lt1
+            d[3 * j] = dln
+            d[3 * j + 1] = 0.5 * dtn
+            d[3 * j + 2] = 0.5 * dtt
+            if moved:
+                c = TRANSITION
+        else:  # Jenkins element
+            fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], k_n[j], k_t[j], mu[j])
+            lt0 = -k_t[j] * (g0[2 * j + 1] - w_old[j])
+            lam[2 * j] = ln
+            lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+            lam1[2 * j] = fn1
+            lam1[2 * j + 1] = lt1
+            w_new[j] = wn
+            d[3 * j] = dln
+            d[3 * j + 1] = 0.5 * dtn
+            d[3 * j + 2] = 0.5 * dtt
+            if moved:
+                c = TRANSITION
+            elif fn1 == 0.0:
+                c = 0
+            else:
+                c = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
+                if c == 1 and (pattern[j] == 2 or pattern[j] == 3):
+                    # a pair that slipped sits on its friction limit at the start of the next step,
+                    # where stick and slip give the same force; keep it slipping in the same
+                    # direction (else Newton takes a stick step first and needs a second one)
+                    f_star = k_t[j] * (g[2 * j + 1] - w_old[j])
+                    sgn = 1.0 if pattern[j] == 2 else -1.0
+                    limit = mu[j] * fn1
+                    if f_star * sgn >= limit * (1.0 - SLIP_TIE):
+                        lt1 = -limit * sgn
+                        wn = g[2 * j + 1] - limit * sgn / k_t[j]
+                        dtn = mu[j] * k_n[j] * sgn
+                        dtt = 0.0
+                        c = pattern[j]
+                        lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+                        lam1[2 * j + 1] = lt1
+                        w_new[j] = wn
+                        d[3 * j + 1] = 0.5 * dtn
+                        d[3 * j + 2] = 0.0
         ldn, ldt, ddn, ddtn, ddtt, fading = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
                                                                c_n[j] * inv_h, c_t[j] * inv_h, depth)
         if fading and c != 0:
@@ -427,10 +451,18 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
         qd[i] = qd_new
         qdd_lin[i] = b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]
     dE_fric = 0.0
+    kf = p.iwan_k
+    ne = kf.shape[0]
     for j in range(npair):
-        f_t0 = k_t[j] * (g0[2 * j + 1] - w[j])
-        dE_fric += 0.5 * (f_t0 - lam1[2 * j + 1]) * (w_new[j] - w[j])
-        w[j] = w_new[j]
+        if ne == 1:
+            f_t0 = k_t[j] * (g0[2 * j + 1] - w[j])
+            dE_fric += 0.5 * (f_t0 - lam1[2 * j + 1]) * (w_new[j] - w[j])
+            w[j] = w_new[j]
+        else:  # per element: 1/2 (f_i0 + f_i1) dw_i, f_i = k_i (g_t - w_i)
+            for i in range(j * ne, j * ne + ne):
+                k_i = k_t[j] * kf[i - j * ne]
+                dE_fric += 0.5 * k_i * ((g0[2 * j + 1] - w[i]) + (g[2 * j + 1] - w_new[i])) * (w_new[i] - w[i])
+                w[i] = w_new[i]
         # the interface dashpots dissipate -lamd . dg >= 0
         dE_damp -= lamd[2 * j] * (g[2 * j] - g0[2 * j]) + lamd[2 * j + 1] * (g[2 * j + 1] - g0[2 * j + 1])
     en[0] += dE_fric
@@ -469,13 +501,14 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     n = p.c.shape[0]
     m = p.G.shape[0]
     npair = m // 2
+    n_w = npair * p.iwan_k.shape[0]
     for i in range(x.shape[0]):
         x_next[i] = x[i]
     q = x_next[0:n]
     qd = x_next[n:2 * n]
-    w = x_next[2 * n:2 * n + npair]
-    g = x_next[2 * n + npair:2 * n + npair + m]
-    e = 2 * n + npair + m
+    w = x_next[2 * n:2 * n + n_w]
+    g = x_next[2 * n + n_w:2 * n + n_w + m]
+    e = 2 * n + n_w + m
     en = x_next[e:e + N_ENERGY]
     F_exc, F_N1 = u[0], u[1]
     iters = 0
