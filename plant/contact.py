@@ -70,7 +70,7 @@ def _jenkins_pair(g_n, g_t, w_old, k_n, k_t, mu):
     return f_n, -f_t, g_t - f_t / k_t, -k_n, mu * k_n * sgn, 0.0
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _iwan_pair(g_n, g_t, w_old, w_new, o, k_n, k_t, mu, kf, qf, prev, tie):
     """Pair force and Jacobian of an Iwan element (N Jenkins elements in parallel). RT-safe.
 
