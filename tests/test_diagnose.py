@@ -103,7 +103,7 @@ def test_files_validate_and_do_not_reveal_the_effect(campaigns):
 
 
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys):
-    assert main(["rig", "--effect", "stribeck", "-o", str(tmp_path / "x")]) == 2
+    assert main(["rig", "--effect", "shaker_interaction", "-o", str(tmp_path / "x")]) == 2
     assert main(["rig", "--effect", "nonsense", "-o", str(tmp_path / "x")]) == 2
     assert main(["rig", "--effect", "current_limit", "--strength", "5", "-o", str(tmp_path / "x")]) == 2
     assert main(["diagnose", str(tmp_path)]) == 2                  # no *.mcap in it
@@ -120,4 +120,5 @@ def test_list_json_shows_every_effect(capsys):
     names = {r["name"]: r for r in rows}
     assert set(names) >= {"accelerometer_mass", "clamp_compliance", "moving_mass", "current_limit", "stribeck",
                           "piezo_hysteresis", "preload_creep", "micro_slip", "shaker_interaction"}
-    assert names["stribeck"]["implemented"] is False and names["current_limit"]["default_strength"] == 0.3
+    assert names["shaker_interaction"]["implemented"] is False and names["stribeck"]["implemented"]
+    assert names["current_limit"]["default_strength"] == 0.3
