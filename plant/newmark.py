@@ -21,9 +21,10 @@ solved by Newton (Jacobian I - W dLambda/dg1, LU cached per contact pattern).
 
 Lambda is the mean contact force over the step: for the normal spring its discrete gradient
 (``plant.contact._normal_impulse``), for the Jenkins element (or each element of an Iwan
-element) the mean of its end-point forces (the trapezoid). Both are what average acceleration gives while no pair changes state; across
-an impact the discrete gradient keeps the contact's work equal to its energy change, so the
-energy balance holds to round-off (no energy pumped by chatter).
+element) the mean of its end-point forces (the trapezoid). Both are what average acceleration
+gives while no pair changes state; across an impact the discrete gradient keeps the contact's
+work equal to its energy change, so the energy balance holds to round-off (no energy pumped by
+chatter).
 
 Inputs are held over the step (zero-order hold), so f_mean is the held value and the input
 work over a step is F * (b . dq).
@@ -39,7 +40,13 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import _interface_dashpot, _iwan_pair, _jenkins_pair, _normal_impulse, _stribeck_mu
+from plant.contact import (
+    _interface_dashpot,
+    _iwan_pair,
+    _jenkins_pair,
+    _normal_impulse,
+    _stribeck_mu,
+)
 
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
@@ -168,8 +175,8 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     wk.act[:n_act] (closed at the end of the step, or opening/closing within it; all others
     have Lambda = 0). The tangential law is the Jenkins element (p.iwan_k of length 1) or the
     Iwan element (``plant.contact._iwan_pair``; code 1 + sum_i s_i 3^i over its elements), with
-    the friction coefficient wk.mu_eff of the substep. Returns (n_act, True if every pair's state equals wk.pattern and none
-    opens or closes). RT-safe.
+    the friction coefficient wk.mu_eff of the substep. Returns (n_act, True if every pair's state
+    equals wk.pattern and none opens or closes). RT-safe.
     """
     # fields unpacked into locals: inside loops numba would reload every array pointer from
     # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below

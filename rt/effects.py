@@ -167,7 +167,8 @@ _EFFECTS = (
            "s the static excess (mu_s = (1 + s) mu_k), v the pair's tangential surface velocity at the start of "
            "each substep, v_s = plant.interface.stribeck_velocity_m_s (1 mm/s)",
            "modes 2-5 move only in the slipping impulse tests (0.3, 50 N hammer; at 300 N within 0.05 Hz, where the "
-           "lightly loaded pairs still slip and change the damping; FRFs 1.7 / 2.2 / 2.6 dB rms off at 40 / 100 / 300 N): "
+           "lightly loaded pairs still slip and change the damping; FRFs 1.7 / 2.2 / 2.6 dB rms off at 40 / 100 / "
+           "300 N): "
            "pairs stick longer (breakaway at mu_s) so the joint modes rise, at 40 N mode 2 +1.0 % (72.3 -> 73.0 Hz), "
            "at 100 N mode 3 +1.4 % (218.5 -> 221.6 Hz), but once sliding the pairs dissipate at mu_k: mode 3 "
            "damping at 100 N stays 1.26 % (nominal 1.29 %) where a 30 % higher mu that gives the same shift "

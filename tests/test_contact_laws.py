@@ -89,8 +89,9 @@ def _iwan_cycle_energy(x0, f_n, a, N, k_t=8e8, mu=MU_K, k_n=1e9, n=20000):
 @pytest.mark.parametrize("a, N", [(0.5, 6), (0.9, 4), (0.3, 8)])
 def test_iwan_energy_per_cycle_is_the_sum_of_its_jenkins_loops(a, N):
     """Dissipation per cycle of amplitude x0 = sum over elements with k_i x0 > q_i of
-    4 q_i (x0 - q_i / k_i) (each element's Jenkins loop); amplitudes from below micro-slip (no loss) through partial slip to
-    macro-slip (the 20000-point trapezoid of a piecewise-linear loop: ~1e-4)."""
+    4 q_i (x0 - q_i / k_i) (each element's Jenkins loop); amplitudes from below micro-slip (no
+    loss) through partial slip to macro-slip (the 20000-point trapezoid of a piecewise-linear
+    loop: ~1e-4)."""
     k_t, f_n = 8e8, 500.0
     x_macro = MU_K * f_n / k_t   # 0.25 um: all elements slip above (1 + a (N-1)/N) x_macro
     for x0 in np.array([0.3, 0.7, 1.0, 1.3, 3.0]) * x_macro:
