@@ -12,6 +12,27 @@ gap directions (and its opposite on the lower body), so its generalised force is
     open:    f_n = f_t = 0,  w = g_t                  (spring relaxed)
     lambda_n = f_n,  lambda_t = -f_t
 
+Iwan element (``_iwan_pair``, plant.interface.iwan_spread a > 0): N Jenkins elements in
+parallel instead of one, element i with stiffness k_i = k_t / N and slip limit
+
+    q_i = (mu f_n / N) (1 + a (2 (i + 1/2) / N - 1)),       i = 0 .. N-1,  sum q_i = mu f_n,
+
+the midpoint discretisation of a uniform density of slip limits on [1 - a, 1 + a] mu f_n / N:
+the same stuck stiffness k_t and macro-slip force mu f_n as the Jenkins element, but the
+weakest element slips from k_t |g_t - w| = (1 - a (N - 1) / N) mu f_n on (micro-slip), so the
+tangential force-displacement curve bends gradually and the pair dissipates
+sum_i 4 q_i (x0 - q_i / k_i) per cycle of amplitude x0 (over the elements with k_i x0 > q_i).
+With a = 0 the plant keeps the single Jenkins element (N = 1).
+
+Stribeck friction (``_stribeck_mu``, plant.interface.static_excess s > 0): the slider's
+coefficient depends on the pair's tangential surface velocity v = dg_t/dt,
+
+    mu(v) = mu_k (1 + s exp(-(v / v_s)^2))       mu_k = plant.interface.mu, v_s = stribeck_velocity_m_s
+
+so a stuck pair breaks away at mu_s f_n = (1 + s) mu_k f_n and slides at mu_k f_n for |v| >> v_s.
+The plant step takes v at the start of each substep (lagged by one substep, 48 us at 21 kHz),
+so that mu is constant over the substep and the pair law stays piecewise affine in the gaps.
+
 Interface damping (``_interface_dashpot``): Kelvin-Voigt dashpots c = k tau in parallel with the
 normal spring (on the change of penetration) and the Jenkins element (faded in over a
 penetration depth).
@@ -22,6 +43,8 @@ when the pair opens or closes inside the step (a penalty impact integrated with 
 trapezoidal forces gains or loses 1/2 k_n a b per impact; repeated chatter pumps energy).
 """
 from __future__ import annotations
+
+import math
 
 import numba
 
@@ -45,6 +68,67 @@ def _jenkins_pair(g_n, g_t, w_old, k_n, k_t, mu):
     sgn = 1.0 if f_star > 0.0 else -1.0
     f_t = limit * sgn
     return f_n, -f_t, g_t - f_t / k_t, -k_n, mu * k_n * sgn, 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def _iwan_pair(g_n, g_t, w_old, w_new, o, k_n, k_t, mu, kf, qf, prev, tie):
+    """Pair force and Jacobian of an Iwan element (N Jenkins elements in parallel). RT-safe.
+
+    Parameters: g_n, g_t [m] gaps at the end of the step; w_old [m] slider positions at its
+    start, elements o .. o+N-1 of the pair; w_new [m] written there; k_n, k_t [N/m] the pair's
+    stiffnesses; mu [-]; kf, qf (N,) stiffness and slip-limit fractions (k_i = kf_i k_t,
+    q_i = qf_i mu f_n); prev: the pair's code in the cached pattern, whose slipping elements
+    stay slipping while their trial force is within the relative band `tie` of the limit (where
+    stick and slip give the same force: as in plant.newmark._contact_laws for one element).
+    Returns (lambda_n [N], lambda_t [N], dlambda_t/dg_n, dlambda_t/dg_t [N/m], code):
+    code 0 open, else 1 + sum_i s_i 3^i with s_i = 0 stick, 1 slip +, 2 slip - (for N = 1
+    the Jenkins codes 1, 2, 3).
+    """
+    ne = kf.shape[0]
+    if g_n >= 0.0:
+        for i in range(ne):
+            w_new[o + i] = g_t
+        return 0.0, 0.0, 0.0, 0.0, 0
+    f_n = -k_n * g_n
+    f_t = 0.0
+    dtn = 0.0
+    dtt = 0.0
+    code = 1
+    pw = 1
+    for i in range(ne):
+        k_i = k_t * kf[i]
+        q_i = mu * qf[i] * f_n
+        f_star = k_i * (g_t - w_old[o + i])
+        st = 0
+        if abs(f_star) > q_i:
+            st = 1 if f_star > 0.0 else 2
+        elif prev >= 1:
+            sp = ((prev - 1) // pw) % 3
+            if (sp == 1 and f_star >= q_i * (1.0 - tie)) or (sp == 2 and -f_star >= q_i * (1.0 - tie)):
+                st = sp
+        if st == 0:
+            w_new[o + i] = w_old[o + i]
+            f_t += f_star
+            dtt -= k_i
+        else:
+            sgn = 1.0 if st == 1 else -1.0
+            w_new[o + i] = g_t - q_i * sgn / k_i
+            f_t += q_i * sgn
+            dtn += mu * qf[i] * k_n * sgn
+            code += st * pw
+        pw *= 3
+    return f_n, -f_t, dtn, dtt, code
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _stribeck_mu(mu_k, s, v, v_s):
+    """Stribeck friction coefficient mu(v) = mu_k (1 + s exp(-(v / v_s)^2)) [-]. RT-safe.
+
+    mu_k [-] kinetic (sliding) coefficient, s [-] static excess (mu_s = (1 + s) mu_k), v [m/s]
+    sliding velocity, v_s [m/s] Stribeck velocity (mu - mu_k falls to 1/e of s mu_k at |v| = v_s).
+    """
+    x = v / v_s
+    return mu_k * (1.0 + s * math.exp(-x * x))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

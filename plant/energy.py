@@ -2,7 +2,8 @@
 
 Balance (SPEC check 4): W_exc + W_screw = (T + V) - (T + V)_0 + E_fric + E_damp, with
 T = 1/2 qd^T qd, V = 1/2 q^T Omega^2 q + contact spring energy
-(1/2 k_n g_n^2 for g_n < 0, 1/2 k_t (g_t - w)^2 on closed pairs).
+(1/2 k_n g_n^2 for g_n < 0, 1/2 k_t (g_t - w)^2 on closed pairs; an Iwan element's
+sum_i 1/2 k_i (g_t - w_i)^2).
 """
 from __future__ import annotations
 
@@ -21,7 +22,9 @@ def mechanical_energy(model: PlantModel, x: np.ndarray) -> tuple[float, float]:
     closed = g_n < 0.0
     V = 0.5 * float(np.sum(model.omega**2 * q**2))
     V += 0.5 * float(np.sum(p.k_n[closed] * g_n[closed] ** 2))
-    V += 0.5 * float(np.sum(p.k_t[closed] * (g_t[closed] - w[closed]) ** 2))
+    w = w.reshape(model.n_pairs, model.n_sliders)
+    k_i = np.outer(p.k_t, p.iwan_k)
+    V += 0.5 * float(np.sum(k_i[closed] * (g_t[closed, None] - w[closed]) ** 2))
     return T, V
 
 

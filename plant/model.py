@@ -43,16 +43,22 @@ class PlantModel:
         return self.structure.n_pairs
 
     @property
+    def n_sliders(self) -> int:
+        """Sliders per pair: 1 (Jenkins element) or the elements of the Iwan element."""
+        return len(self.params.iwan_k)
+
+    @property
     def state_size(self) -> int:
-        return 2 * self.n + 3 * self.n_pairs + N_ENERGY
+        return 2 * self.n + (2 + self.n_sliders) * self.n_pairs + N_ENERGY
 
     def state_slots(self) -> dict[str, slice]:
-        """Named slots of the state vector (the one table the kernel's offsets follow)."""
-        n, p = self.n, self.n_pairs
-        o = 2 * n + 3 * p
+        """Named slots of the state vector (the one table the kernel's offsets follow); the
+        sliders w are pair-major (pair j's elements at j N .. j N + N - 1)."""
+        n, p, nw = self.n, self.n_pairs, self.n_pairs * self.n_sliders
+        o = 2 * n + nw + 2 * p
         names = ["E_fric", "E_damp", "W_exc", "W_screw"]
         slots = {"q": slice(0, n), "qd": slice(n, 2 * n),
-                 "w": slice(2 * n, 2 * n + p), "g": slice(2 * n + p, 2 * n + 3 * p)}
+                 "w": slice(2 * n, 2 * n + nw), "g": slice(2 * n + nw, o)}
         slots.update({nm: slice(o + i, o + i + 1) for i, nm in enumerate(names)})
         return slots
 
@@ -78,10 +84,11 @@ class PlantModel:
         i64 = np.int64
         return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
                          g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
-                         lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p), d=np.zeros(3 * p),
+                         lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p * self.n_sliders), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
-                         ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64))
+                         ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
+                         mu_eff=self.params.mu.copy(), stale=np.zeros(1, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""
@@ -147,22 +154,42 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         dashpot_depth=float(cfg.plant.interface.dashpot_depth_m), h=float(h),
         substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
         h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
-        max_iter=int(cfg.plant.newton_max_iter))
+        max_iter=int(cfg.plant.newton_max_iter), static_excess=float(cfg.plant.interface.static_excess),
+        stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s), **iwan_fractions(cfg))
     for a in params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
     return PlantModel(cfg, st, params, Phi, omega, reduced)
 
 
+def iwan_fractions(cfg: Config) -> dict[str, np.ndarray]:
+    """Element stiffness and slip-limit fractions of the pairs' tangential law (plant.contact):
+    iwan_k = k_i / k_t = 1/N, iwan_q = q_i / (mu f_n) = (1 + a (2 (i + 1/2)/N - 1)) / N with
+    a = plant.interface.iwan_spread and N = iwan_elements; a = 0: one Jenkins element ([1], [1])."""
+    i = cfg.plant.interface
+    if i.iwan_spread == 0.0:
+        return {"iwan_k": np.ones(1), "iwan_q": np.ones(1)}
+    N = int(i.iwan_elements)
+    return {"iwan_k": np.full(N, 1.0 / N),
+            "iwan_q": (1.0 + i.iwan_spread * (2.0 * (np.arange(N) + 0.5) / N - 1.0)) / N}
+
+
 def contact_forces(model: PlantModel, g: np.ndarray, w_old: np.ndarray):
-    """Vectorised pair law over all pairs (design time): lambda (2p,), w_new (p,), dlambda/dg (2p, 2p)."""
+    """Vectorised pair law over all pairs (design time): lambda (2p,), w_new (p N,), dlambda/dg (2p, 2p).
+    An Iwan element is summed from its N Jenkins elements (k_i = iwan_k_i k_t, mu_i = iwan_q_i mu)."""
     p = model.params
     m = len(g)
-    lam, w_new, D = np.zeros(m), np.zeros(m // 2), np.zeros((m, m))
+    N = model.n_sliders
+    lam, w_new, D = np.zeros(m), np.zeros(m // 2 * N), np.zeros((m, m))
     for j in range(m // 2):
-        ln, lt, wn, dnn, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], p.k_n[j], p.k_t[j], p.mu[j])
-        lam[2 * j], lam[2 * j + 1], w_new[j] = ln, lt, wn
-        D[2 * j, 2 * j], D[2 * j + 1, 2 * j], D[2 * j + 1, 2 * j + 1] = dnn, dtn, dtt
+        for i in range(N):
+            ln, lt, wn, dnn, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j * N + i], p.k_n[j],
+                                                      p.k_t[j] * p.iwan_k[i], p.mu[j] * p.iwan_q[i])
+            lam[2 * j], w_new[j * N + i] = ln, wn
+            lam[2 * j + 1] += lt
+            D[2 * j, 2 * j] = dnn
+            D[2 * j + 1, 2 * j] += dtn
+            D[2 * j + 1, 2 * j + 1] += dtt
     return lam, w_new, D
 
 
@@ -178,7 +205,7 @@ def static_equilibrium(model: PlantModel, F_N1: float, max_iter: int = 100):
     k_all = np.zeros(m)
     k_all[0::2], k_all[1::2] = p.k_n, p.k_t
     q = np.linalg.solve(K + (p.G.T * k_all) @ p.G, f)
-    w0 = np.zeros(m // 2)
+    w0 = np.zeros(m // 2 * model.n_sliders)
     for _ in range(max_iter):
         g = p.G @ q
         lam, w, D = contact_forces(model, g, w0)

@@ -20,15 +20,17 @@ and the contact gaps g1 = G q1 obey the small system of the contact pairs only
 solved by Newton (Jacobian I - W dLambda/dg1, LU cached per contact pattern).
 
 Lambda is the mean contact force over the step: for the normal spring its discrete gradient
-(``plant.contact._normal_impulse``), for the Jenkins element the mean of its end-point forces
-(the trapezoid). Both are what average acceleration gives while no pair changes state; across
-an impact the discrete gradient keeps the contact's work equal to its energy change, so the
-energy balance holds to round-off (no energy pumped by chatter).
+(``plant.contact._normal_impulse``), for the Jenkins element (or each element of an Iwan
+element) the mean of its end-point forces (the trapezoid). Both are what average acceleration
+gives while no pair changes state; across an impact the discrete gradient keeps the contact's
+work equal to its energy change, so the energy balance holds to round-off (no energy pumped by
+chatter).
 
 Inputs are held over the step (zero-order hold), so f_mean is the held value and the input
 work over a step is F * (b . dq).
 
-State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), slider w (p),
+State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), sliders w (p N:
+N = 1 Jenkins element per pair, or the N elements of an Iwan element, pair-major),
 gaps g (2p), then E_fric, E_damp, W_exc, W_screw [J].
 """
 from __future__ import annotations
@@ -38,7 +40,13 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import _interface_dashpot, _jenkins_pair, _normal_impulse
+from plant.contact import (
+    _interface_dashpot,
+    _iwan_pair,
+    _jenkins_pair,
+    _normal_impulse,
+    _stribeck_mu,
+)
 
 # reassociation (SIMD dot products) and FMA contraction only: NaN/Inf semantics are kept
 FASTMATH = {"reassoc", "contract"}
@@ -80,6 +88,10 @@ class PlantParams(NamedTuple):
     fine_split: int        # fallback substeps per failed substep
     tol: float             # Newton tolerance on |r|_2 [m]
     max_iter: int
+    static_excess: float   # Stribeck s: mu_s = (1 + s) mu [-]; 0 = Coulomb (mu constant)
+    stribeck_v: float      # Stribeck velocity v_s [m/s]
+    iwan_k: np.ndarray     # (N,) element stiffness fractions k_i / k_t (N = 1: [1], the Jenkins element)
+    iwan_q: np.ndarray     # (N,) element slip-limit fractions q_i / (mu f_n)
 
 
 class PlantWork(NamedTuple):
@@ -92,7 +104,7 @@ class PlantWork(NamedTuple):
     lam: np.ndarray        # (2p,) mean contact force Lambda over the step
     lam1: np.ndarray       # (2p,) end-point force lambda(g1) of the springs and sliders
     lamd: np.ndarray       # (2p,) interface dashpot force over the step (included in lam)
-    w_new: np.ndarray      # (p,)
+    w_new: np.ndarray      # (p N,) slider positions at the end of the step
     d: np.ndarray          # (3p,) dLambda_n/dg_n1, dLambda_t/dg_n1, dLambda_t/dg_t1
     code: np.ndarray       # (p,) int64 contact state per pair of the current iterate
     r: np.ndarray          # (2p,)
@@ -103,6 +115,8 @@ class PlantWork(NamedTuple):
     act: np.ndarray        # (p,) int64 active pairs of the current iterate (first n_act entries)
     ra: np.ndarray         # (2p,) right-hand side / solution of the active block
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
+    mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
+    stale: np.ndarray      # (1,) int64: 1 if mu_eff changed since the LU was factorised
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -159,14 +173,18 @@ def _contact_laws(g, w_old, p, wk, inv_h):
 
     Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and the active pairs
     wk.act[:n_act] (closed at the end of the step, or opening/closing within it; all others
-    have Lambda = 0). Returns (n_act, True if every pair's state equals wk.pattern and none
-    opens or closes). RT-safe.
+    have Lambda = 0). The tangential law is the Jenkins element (p.iwan_k of length 1) or the
+    Iwan element (``plant.contact._iwan_pair``; code 1 + sum_i s_i 3^i over its elements), with
+    the friction coefficient wk.mu_eff of the substep. Returns (n_act, True if every pair's state
+    equals wk.pattern and none opens or closes). RT-safe.
     """
     # fields unpacked into locals: inside loops numba would reload every array pointer from
     # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below
     lam, lam1, lamd, w_new, d = wk.lam, wk.lam1, wk.lamd, wk.w_new, wk.d
     code, act, pattern = wk.code, wk.act, wk.pattern
-    g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, p.mu, p.c_n, p.c_t, p.dashpot_depth
+    g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, wk.mu_eff, p.c_n, p.c_t, p.dashpot_depth
+    kf, qf = p.iwan_k, p.iwan_q
+    ne = kf.shape[0]
     n_act = 0
     same = True
     for j in range(g.shape[0] // 2):
@@ -175,7 +193,8 @@ def _contact_laws(g, w_old, p, wk, inv_h):
             lam[2 * j + 1] = 0.0
             lam1[2 * j] = 0.0
             lam1[2 * j + 1] = 0.0
-            w_new[j] = g[2 * j + 1]
+            for i in range(ne):
+                w_new[j * ne + i] = g[2 * j + 1]
             lamd[2 * j] = 0.0
             lamd[2 * j + 1] = 0.0
             d[3 * j] = 0.0
@@ -185,40 +204,56 @@ def _contact_laws(g, w_old, p, wk, inv_h):
             same = same and pattern[j] == 0
             continue
         ln, dln, moved = _normal_impulse(g0[2 * j], g[2 * j], k_n[j])
-        fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], k_n[j], k_t[j], mu[j])
-        lt0 = -k_t[j] * (g0[2 * j + 1] - w_old[j])
-        lam[2 * j] = ln
-        lam[2 * j + 1] = 0.5 * (lt0 + lt1)
-        lam1[2 * j] = fn1
-        lam1[2 * j + 1] = lt1
-        w_new[j] = wn
-        d[3 * j] = dln
-        d[3 * j + 1] = 0.5 * dtn
-        d[3 * j + 2] = 0.5 * dtt
-        if moved:
-            c = TRANSITION
-        elif fn1 == 0.0:
-            c = 0
-        else:
-            c = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
-            if c == 1 and (pattern[j] == 2 or pattern[j] == 3):
-                # a pair that slipped sits on its friction limit at the start of the next step,
-                # where stick and slip give the same force; keep it slipping in the same
-                # direction (else Newton takes a stick step first and needs a second one)
-                f_star = k_t[j] * (g[2 * j + 1] - w_old[j])
-                sgn = 1.0 if pattern[j] == 2 else -1.0
-                limit = mu[j] * fn1
-                if f_star * sgn >= limit * (1.0 - SLIP_TIE):
-                    lt1 = -limit * sgn
-                    wn = g[2 * j + 1] - limit * sgn / k_t[j]
-                    dtn = mu[j] * k_n[j] * sgn
-                    dtt = 0.0
-                    c = pattern[j]
-                    lam[2 * j + 1] = 0.5 * (lt0 + lt1)
-                    lam1[2 * j + 1] = lt1
-                    w_new[j] = wn
-                    d[3 * j + 1] = 0.5 * dtn
-                    d[3 * j + 2] = 0.0
+        if ne > 1:  # Iwan element
+            lt0 = 0.0
+            for i in range(ne):
+                lt0 -= k_t[j] * kf[i] * (g0[2 * j + 1] - w_old[j * ne + i])
+            fn1, lt1, dtn, dtt, c = _iwan_pair(g[2 * j], g[2 * j + 1], w_old, w_new, j * ne, k_n[j], k_t[j],
+                                               mu[j], kf, qf, pattern[j], SLIP_TIE)
+            lam[2 * j] = ln
+            lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+            lam1[2 * j] = fn1
+            lam1[2 * j + 1] = lt1
+            d[3 * j] = dln
+            d[3 * j + 1] = 0.5 * dtn
+            d[3 * j + 2] = 0.5 * dtt
+            if moved:
+                c = TRANSITION
+        else:  # Jenkins element
+            fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], k_n[j], k_t[j], mu[j])
+            lt0 = -k_t[j] * (g0[2 * j + 1] - w_old[j])
+            lam[2 * j] = ln
+            lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+            lam1[2 * j] = fn1
+            lam1[2 * j + 1] = lt1
+            w_new[j] = wn
+            d[3 * j] = dln
+            d[3 * j + 1] = 0.5 * dtn
+            d[3 * j + 2] = 0.5 * dtt
+            if moved:
+                c = TRANSITION
+            elif fn1 == 0.0:
+                c = 0
+            else:
+                c = 1 if dtn == 0.0 else (2 if dtn > 0.0 else 3)
+                if c == 1 and (pattern[j] == 2 or pattern[j] == 3):
+                    # a pair that slipped sits on its friction limit at the start of the next step,
+                    # where stick and slip give the same force; keep it slipping in the same
+                    # direction (else Newton takes a stick step first and needs a second one)
+                    f_star = k_t[j] * (g[2 * j + 1] - w_old[j])
+                    sgn = 1.0 if pattern[j] == 2 else -1.0
+                    limit = mu[j] * fn1
+                    if f_star * sgn >= limit * (1.0 - SLIP_TIE):
+                        lt1 = -limit * sgn
+                        wn = g[2 * j + 1] - limit * sgn / k_t[j]
+                        dtn = mu[j] * k_n[j] * sgn
+                        dtt = 0.0
+                        c = pattern[j]
+                        lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+                        lam1[2 * j + 1] = lt1
+                        w_new[j] = wn
+                        d[3 * j + 1] = 0.5 * dtn
+                        d[3 * j + 2] = 0.0
         ldn, ldt, ddn, ddtn, ddtt, fading = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
                                                                c_n[j] * inv_h, c_t[j] * inv_h, depth)
         if fading and c != 0:
@@ -271,7 +306,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
 
     J_aa depends only on the pairs' states (open, stick, slip+, slip-) unless a pair opens or
     closes within the step, so its LU factors are kept with that pattern and reused while it
-    holds. The law is affine within one pattern, so a step taken with the factors of pattern P
+    holds (and while wk.mu_eff is unchanged: ``_stribeck_update`` sets wk.stale when it changes
+    a slipping pair's coefficient). The law is affine within one pattern, so a step taken with the factors of pattern P
     that lands on a point whose pattern is still P is the exact solution (to round-off): the
     residual is not evaluated again there. If plain Newton has not converged after PLAIN_ITER
     iterations (the active set cycles), steps are shortened by backtracking on |r|^2.
@@ -279,7 +315,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     if that was not reached within p.max_iter. RT-safe.
     """
     act, LU, d, piv, pattern, code = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code
-    rhs, r_, g_old, dg = wk.ra, wk.r, wk.g_old, wk.dg
+    rhs, r_, g_old, dg, stale = wk.ra, wk.r, wk.g_old, wk.dg, wk.stale
     m = g.shape[0]
     npair = m // 2
     scale = 0.0
@@ -293,7 +329,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         if res2 <= tol2:
             return it
         ma = 2 * n_act
-        if not same:
+        if not same or stale[0] != 0:
+            stale[0] = 0
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
             for ra in range(ma):
                 i = 2 * act[ra // 2] + ra % 2
@@ -343,6 +380,27 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     return -1 if res2 > tol2 else p.max_iter
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _stribeck_update(qd, p, wk):
+    """Friction coefficient of every pair for the coming substep (Stribeck, p.static_excess > 0):
+    mu_eff_j = mu(v_j) (``plant.contact._stribeck_mu``) with v_j = G_t,j qd the pair's tangential
+    surface velocity at the start of the substep [m/s]. Held over the substep (lagged), so the
+    pair law stays piecewise affine and Newton exact. A changed coefficient of a pair whose cached
+    pattern slips invalidates the LU factors (wk.stale). RT-safe."""
+    G, mu, mu_eff, pattern = p.G, p.mu, wk.mu_eff, wk.pattern
+    s, v_s = p.static_excess, p.stribeck_v
+    n = qd.shape[0]
+    for j in range(mu.shape[0]):
+        v = 0.0
+        for i in range(n):
+            v += G[2 * j + 1, i] * qd[i]
+        m = _stribeck_mu(mu[j], s, v, v_s)
+        if m != mu_eff[j]:
+            mu_eff[j] = m
+            if pattern[j] >= 2:  # slipping: its Jacobian column holds mu
+                wk.stale[0] = 1
+
+
 # inlined into _plant_step (two call sites): measured ~5 % faster per step at 9 and 33 pairs
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
@@ -368,6 +426,8 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
             acc += G[r, i] * q_pred[i]
         g_pred[r] = acc
         g0[r] = g[r]
+    if p.static_excess > 0.0:
+        _stribeck_update(qd, p, wk)
     # --- contact: g1 = g_pred + W Lambda(g0, g1), Newton started from g0
     it = _contact_newton(g, g_pred, w, W, p, wk, 1.0 / h)
     if it < 0:
@@ -398,10 +458,18 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
         qd[i] = qd_new
         qdd_lin[i] = b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]
     dE_fric = 0.0
+    kf = p.iwan_k
+    ne = kf.shape[0]
     for j in range(npair):
-        f_t0 = k_t[j] * (g0[2 * j + 1] - w[j])
-        dE_fric += 0.5 * (f_t0 - lam1[2 * j + 1]) * (w_new[j] - w[j])
-        w[j] = w_new[j]
+        if ne == 1:
+            f_t0 = k_t[j] * (g0[2 * j + 1] - w[j])
+            dE_fric += 0.5 * (f_t0 - lam1[2 * j + 1]) * (w_new[j] - w[j])
+            w[j] = w_new[j]
+        else:  # per element: 1/2 (f_i0 + f_i1) dw_i, f_i = k_i (g_t - w_i)
+            for i in range(j * ne, j * ne + ne):
+                k_i = k_t[j] * kf[i - j * ne]
+                dE_fric += 0.5 * k_i * ((g0[2 * j + 1] - w[i]) + (g[2 * j + 1] - w_new[i])) * (w_new[i] - w[i])
+                w[i] = w_new[i]
         # the interface dashpots dissipate -lamd . dg >= 0
         dE_damp -= lamd[2 * j] * (g[2 * j] - g0[2 * j]) + lamd[2 * j + 1] * (g[2 * j + 1] - g0[2 * j + 1])
     en[0] += dE_fric
@@ -440,13 +508,14 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     n = p.c.shape[0]
     m = p.G.shape[0]
     npair = m // 2
+    n_w = npair * p.iwan_k.shape[0]
     for i in range(x.shape[0]):
         x_next[i] = x[i]
     q = x_next[0:n]
     qd = x_next[n:2 * n]
-    w = x_next[2 * n:2 * n + npair]
-    g = x_next[2 * n + npair:2 * n + npair + m]
-    e = 2 * n + npair + m
+    w = x_next[2 * n:2 * n + n_w]
+    g = x_next[2 * n + n_w:2 * n + n_w + m]
+    e = 2 * n + n_w + m
     en = x_next[e:e + N_ENERGY]
     F_exc, F_N1 = u[0], u[1]
     iters = 0

@@ -104,6 +104,15 @@ class Interface:
                                    doc="penetration over which the tangential dashpot fades in (A)")
     k_t: float = param(8.0e8, "N/m", lo=0.0, lo_inclusive=False,
                       doc="Jenkins tangential stiffness per pair (Mindlin ratio 0.82 k_n)")
+    static_excess: float = param(0.0, "-", lo=0.0, hi=1.0,
+                                 doc="Stribeck friction: static excess s, mu(v) = mu (1 + s exp(-(v/v_s)^2)), "
+                                     "mu_s = (1 + s) mu; 0 = Coulomb")
+    stribeck_velocity_m_s: float = param(1e-3, "m/s", lo=0.0, lo_inclusive=False,
+                                         doc="Stribeck velocity v_s (docs/plant.md, 'Stribeck friction')")
+    iwan_spread: float = param(0.0, "-", lo=0.0, hi=0.95,
+                               doc="micro-slip: slip limits of the Iwan element's elements spread over "
+                                   "(1 -+ a) mu f_n / N; 0 = one Jenkins element")
+    iwan_elements: int = param(6, "-", lo=2, hi=12, doc="elements N of the Iwan element (used if iwan_spread > 0)")
 
 
 def _default_beams():

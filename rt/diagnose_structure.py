@@ -248,9 +248,10 @@ class StructureFit(NamedTuple):
 def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
                   calibrated: StructureFit | None = None, start: dict | None = None) -> StructureFit:
     """Stage 1 then stage 2 (module docstring) for calibration alone (effect None) or with the
-    effect. With ``calibrated`` (the calibration-only fit) stage 2 starts from the better of stage 1
-    and the calibration with the effect at its nominal strength, there reusing the calibration's
-    Jacobian columns (so a candidate never fits worse than calibration alone). Stage 2 iterates
+    effect. With ``calibrated`` (the calibration-only fit) stage 2 starts from the best of stage 1,
+    the calibration with the effect at its nominal strength (there reusing the calibration's
+    Jacobian columns, so a candidate never fits worse than calibration alone) and the calibration
+    with the effect at its default strength. Stage 2 iterates
     Gauss-Newton steps with Broyden's rank-one update of the Jacobian (recomputed by finite
     differences only when a step fails) until the cost drops by less than ``CONVERGED``
     (relative) or ``MAX_STEPS``. ``start``: stage-2 start values instead of stage 1."""
@@ -269,10 +270,18 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     if calibrated is not None and effect is not None:
         x_cal = np.array([calibrated.theta.get(k, effect.nominal) for k in names])
         r_cal = np.concatenate([*calibrated.run.r.values(), _prior(names, x_cal)])
-        if r_cal @ r_cal < r @ r:
+        # the calibration with the effect at its default strength too: an effect even in its strength
+        # (micro_slip: the Iwan spread changes the loop by O(a^2)) has no gradient at the nominal
+        # strength, and stage 1 cannot see one that leaves the stuck plant alone
+        x_def = x_cal.copy()
+        x_def[-1] = effect.parameter.default
+        run_def, r_def = evaluate(x_def)
+        if r_cal @ r_cal < min(r @ r, r_def @ r_def):
             x, run, r = x_cal, calibrated.run, r_cal
             J = np.column_stack([calibrated.J[k] for k in names[:-1]]
                                 + [jacobian_column(evaluate, x, r, len(names) - 1, steps, hi)])
+        elif r_def @ r_def < r @ r:
+            x, run, r = x_def, run_def, r_def
     x, run, r, J = gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps)
     theta = dict(zip(names, map(float, x)))
     return StructureFit(theta, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, theta, effect),

@@ -30,15 +30,37 @@ def campaigns(tmp_path_factory):
     return get
 
 
+@pytest.fixture(scope="module")
+def diagnosed(campaigns):
+    cache = {}
+
+    def get(effect: str):
+        if effect not in cache:
+            cache[effect] = diagnose(campaigns(effect))
+        return cache[effect]
+    return get
+
+
 @pytest.mark.parametrize("effect", implemented(), ids=lambda e: e.name)
-def test_hidden_effect_is_named_fitted_and_closes_the_gap(campaigns, effect):
-    res = diagnose(campaigns(effect.name))
+def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
+    res = diagnosed(effect.name)
     assert res["named_effect"] == effect.name, res["ranking"]
     assert res["ranking"][0]["delta_bic"] > 10.0
     fitted = res["fitted_parameters"][effect.name]
     assert abs(fitted / effect.parameter.default - 1.0) < 0.30, fitted
     key = "structure_frf_db" if effect.channel == "structure" else "actuator_nrmse"
     assert res["gap_before"][key] >= 3.0 * res["gap_after"][key], (res["gap_before"][key], res["gap_after"][key])
+
+
+def test_stribeck_is_not_a_friction_coefficient_change(diagnosed):
+    """Calibration alone (mu free within +-40 %) cannot make Stribeck friction: the pairs break away
+    at mu_s but slide at mu_k, so a higher mu that matches the joint modes' shift leaves their
+    damping too low. Measured on seed 5: FRF gap 3.06 dB, calibrated 1.31 dB, with stribeck 0.16 dB;
+    the fit returns the campaign's own mu scatter (0.9315 for 0.9338) beside s = 0.3003."""
+    res = diagnosed("stribeck")
+    assert res["gap_calibrated"]["structure_frf_db"] >= 3.0 * res["gap_after"]["structure_frf_db"]
+    true_mu = scatter_sets(np.random.default_rng(SEED))["mu"]
+    assert res["fitted_parameters"]["mu"] == pytest.approx(true_mu, rel=0.03)
 
 
 def test_true_parameters_fit_the_frfs_at_noise_level(campaigns):
@@ -100,7 +122,7 @@ def test_files_validate_and_do_not_reveal_the_effect(campaigns):
 
 
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys):
-    assert main(["rig", "--effect", "stribeck", "-o", str(tmp_path / "x")]) == 2
+    assert main(["rig", "--effect", "shaker_interaction", "-o", str(tmp_path / "x")]) == 2
     assert main(["rig", "--effect", "nonsense", "-o", str(tmp_path / "x")]) == 2
     assert main(["rig", "--effect", "current_limit", "--strength", "5", "-o", str(tmp_path / "x")]) == 2
     assert main(["diagnose", str(tmp_path)]) == 2                  # no *.mcap in it
@@ -117,7 +139,8 @@ def test_list_json_shows_every_effect(capsys):
     names = {r["name"]: r for r in rows}
     assert set(names) >= {"accelerometer_mass", "clamp_compliance", "moving_mass", "current_limit", "stribeck",
                           "piezo_hysteresis", "preload_creep", "micro_slip", "shaker_interaction"}
-    assert names["stribeck"]["implemented"] is False and names["current_limit"]["default_strength"] == 0.3
+    assert names["shaker_interaction"]["implemented"] is False and names["stribeck"]["implemented"]
+    assert names["current_limit"]["default_strength"] == 0.3
 
 
 def test_preload_creep_at_half_strength_is_named_and_not_confused(tmp_path):
