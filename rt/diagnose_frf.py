@@ -211,11 +211,12 @@ def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=Non
 
 
 def _candidates(nominal: Config) -> list[Effect]:
-    """The implemented structural effects that the structure has a place for (a clamp, an adaptive
-    screw, the accelerometer points): those that apply to ``nominal`` at their default strength."""
+    """The implemented effects linear FRFs can show (``Effect.visible_in_frf_files``: structural, and
+    changing the stuck structure) that the structure has a place for (a clamp, an adaptive screw,
+    the accelerometer points): those that apply to ``nominal`` at their default strength."""
     out = []
     for e in implemented():
-        if e.channel != "structure":
+        if not e.visible_in_frf_files():
             continue
         try:
             e.apply(nominal, e.parameter.default)
@@ -252,7 +253,7 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     gap = {"gap_before": gap_db(data, H0), "gap_calibrated": gap_db(data, base["fit"].H),
            "gap_after": gap_db(data, final["fit"].H)}
     out = ranking_result(base, ranked, winner, gap, localise)
-    out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # actuator ones, or no place
+    out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
     return out | {"input": "frf_files",
                   "_plots": {"frf": [(d.name, d.F_N1, d.freq, d.H, h0, h1)
                                      for d, h0, h1 in zip(data, H0, final["fit"].H)], "act": []}}

@@ -38,6 +38,12 @@ class Effect:
     channel: str               # "structure" (impulse tests) or "actuator" (voltage ramps)
     nominal: float             # the strength at which the model is the nominal one
     _apply: Callable[[Config, float], Config] | None = None
+    stuck_linear: bool = True  # it changes the structure linearised with the contact stuck (so the
+                               # linear FRFs of FRF-file input can show it); False: only slip shows it
+
+    def visible_in_frf_files(self) -> bool:
+        """Whether linear (stuck-contact) FRF files can show the effect (rt.diagnose_frf, rt.rig_frf)."""
+        return self.channel == "structure" and self.stuck_linear
 
     @property
     def implemented(self) -> bool:
@@ -58,7 +64,8 @@ class Effect:
         p = self.parameter
         return {"name": self.name, "implemented": self.implemented, "channel": self.channel,
                 "parameter": p.name, "unit": p.unit, "default_strength": p.default, "bounds": [p.lo, p.hi],
-                "nominal": self.nominal, "description": self.description, "signature": self.signature}
+                "nominal": self.nominal, "visible_in_frf_files": self.visible_in_frf_files(),
+                "description": self.description, "signature": self.signature}
 
 
 # --- configuration-level effects ------------------------------------------------------------------
@@ -152,7 +159,8 @@ _EFFECTS = (
            "static F0 + c_v 150 V 2 ms into the 150 V hold, 12 N lower by its end; after 150 -> 0 V 13 N below "
            "F0, 3 N below at the end), i.e. a log-time relaxation a calibrated c_v cannot follow and of the "
            "opposite sign after the down ramp to the piezo hysteresis' offset; nearly the same after every ramp "
-           "(drift 12.4 N after the 0.3 ms ramp, 10.9 N after the 3 ms one); V_a, i and the impulse tests (held V) unchanged",
+           "(drift 12.4 N after the 0.3 ms ramp, 10.9 N after the 3 ms one); V_a, i and the impulse tests "
+           "(held V) unchanged",
            Parameter("creep_per_decade", "-", 0.02, 0.0, 0.1), "actuator", 0.0, _preload_creep),
     # --- need new kernel code (next step) -------------------------------------------------------
     Effect("micro_slip",
@@ -166,7 +174,7 @@ _EFFECTS = (
            "0.45 / 0.61 / 0.63 dB rms over 4-1600 Hz at 40 / 100 / 300 N (0.9: 0.32 / 1.03 / 1.30), as much as "
            "mu +5 % (0.46 / 0.85 / 0.45); below macro-slip a steady 0.5 N sine at mode 3 (100 N) loses 17 % of "
            "its input to friction where the Jenkins pairs stay stuck (0 %)",
-           Parameter("iwan_spread", "-", 0.5, 0.0, 0.95), "structure", 0.0, _micro_slip),
+           Parameter("iwan_spread", "-", 0.5, 0.0, 0.95), "structure", 0.0, _micro_slip, stuck_linear=False),
     Effect("shaker_interaction",
            "shaker-structure interaction: stinger stiffness and armature mass/damping between the shaker and "
            "the beam",
@@ -183,7 +191,7 @@ _EFFECTS = (
            "at 100 N mode 3 +1.4 % (218.5 -> 221.6 Hz), but once sliding the pairs dissipate at mu_k: mode 3 "
            "damping at 100 N stays 1.26 % (nominal 1.29 %) where a 30 % higher mu that gives the same shift "
            "(223.0 Hz) leaves 0.28 %; mode 4 damping at 100 N 1.53 -> 0.32 %",
-           Parameter("static_excess_rel", "-", 0.3, 0.0, 1.0), "structure", 0.0, _stribeck),
+           Parameter("static_excess_rel", "-", 0.3, 0.0, 1.0), "structure", 0.0, _stribeck, stuck_linear=False),
 )
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in _EFFECTS}

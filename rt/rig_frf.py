@@ -27,6 +27,7 @@ from threadpoolctl import threadpool_limits
 
 from plant.model import build_plant
 from rt.config import Config
+from rt.effects import get
 from rt.data_format import ACCELEROMETER_POINTS
 from rt.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
 from rt.frf_model import point_accelerances
@@ -55,7 +56,12 @@ def frf_meta(cfg: Config, F_N1: float, description: str) -> dict:
 def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                       seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
-    then renamed). Arguments as rt.rig.make_campaign; returns the data files written."""
+    then renamed). Arguments as rt.rig.make_campaign; returns the data files written. ValueError
+    for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
+    if effect != "none" and not get(effect).visible_in_frf_files():
+        raise ValueError(f"effect {effect!r} leaves the structure linearised with the contact stuck unchanged "
+                         "(it acts through slip or the actuator), so FRF files cannot show it; write a time-series "
+                         "campaign instead (rig without --frf-files)")
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng)
     names = []

@@ -21,7 +21,7 @@ from rt.rig_frf import FREQ_HZ, make_frf_campaign
 
 SEED = 5
 LAP_JOINT = Path(__file__).resolve().parents[1] / "configs" / "lap_joint.toml"
-STRUCTURAL = [e for e in implemented() if e.channel == "structure"]
+STRUCTURAL = [e for e in implemented() if e.visible_in_frf_files()]
 
 
 @pytest.fixture(scope="module")
@@ -117,3 +117,15 @@ def test_another_structure_from_toml(tmp_path, capsys):
     assert main(["diagnose", str(d)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "excitation at x = 0.2 m, but the model's point 'exc' is at 0.325 m" in err[0]
+
+
+def test_effects_linear_frfs_cannot_show_are_refused_and_not_tried(tmp_path, capsys):
+    """stribeck and micro_slip leave the stuck structure alone, the actuator effects have no place in
+    an FRF: rig --frf-files refuses them (exit 2, one line, no folder) and diagnose lists them under
+    not_tried rather than fitting a parameter the linear model cannot feel."""
+    for name in ("stribeck", "micro_slip", "current_limit"):
+        assert not get(name).visible_in_frf_files()
+        assert main(["rig", "--effect", name, "--frf-files", "-o", str(tmp_path / name)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "FRF files cannot show it" in err[0] and not (tmp_path / name).exists()
+    assert {e.name for e in STRUCTURAL} == {"accelerometer_mass", "clamp_compliance", "moving_mass"}
