@@ -16,7 +16,8 @@ EXAMPLES = """examples:
   frictionrt rig --list
   frictionrt rig --effect accelerometer_mass -o logs/campaign_acc
   frictionrt rig --effect current_limit --strength 0.2 --seed 4 -o logs/campaign_il
-  frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean"""
+  frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean
+  frictionrt rig --effect shaker_interaction --stepsine --seed 3 -o logs/campaign_shaker"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -31,6 +32,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise "
                    "(default 0)")
     p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s] (default 1)")
+    p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
+                   "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
     p.add_argument("-o", "--out", metavar="DIR", help="new campaign folder (must not exist or be empty)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
@@ -68,7 +71,8 @@ def cmd_rig(cfg, args) -> int:
         return _fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
     from rt.rig import make_campaign
     try:
-        files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s)
+        files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s,
+                              stepsine=args.stepsine)
     except ValueError as exc:
         return _fail(f"rig -o: {exc}")
     if args.json:

@@ -296,8 +296,9 @@ class Shaker:
     armature_mass_kg: float = param(0.0, "kg", lo=0.0, hi=10.0,
                                     doc="moving mass of the armature (coil, table, transducer half); "
                                         "0 = ideal force source; modal shakers 0.02-0.3")
-    suspension_N_per_m: float = param(1.2e4, "N/m", lo=0.0, doc="armature flexure stiffness k_a")
-    suspension_damping_Ns_per_m: float = param(5.0, "N s/m", lo=0.0, doc="armature damping c_a")
+    suspension_hz: float = param(20.0, "Hz", lo=0.0,
+                                 doc="armature-on-flexure resonance f_a: k_a = m (2 pi f_a)^2 (modal shakers 10-50 Hz)")
+    suspension_zeta: float = param(0.05, "-", lo=0.0, doc="its damping ratio: c_a = 2 zeta_a m (2 pi f_a)")
     stinger_N_per_m: float = param(5.0e6, "N/m", lo=0.0, lo_inclusive=False,
                                    doc="stinger axial stiffness k_s (2 mm steel rod, 130 mm: E A / L)")
     stinger_damping_Ns_per_m: float = param(20.0, "N s/m", lo=0.0, doc="stinger axial damping c_s")

@@ -22,15 +22,17 @@ linear extrapolation. At design time the coupled linear map (the stuck plant's e
 of ``plant.linear_frf.discrete_map``, the stage, the lag) is formed and its spectral radius
 checked: ``build_shaker`` refuses a shaker whose coupled loop would not be stable with a margin.
 
-Defaults (``rt.config.Shaker``, a small modal shaker, 45-100 N class): suspension 1.2e4 N/m and
-5 N s/m (flexure resonance ~55 Hz at 0.1 kg, ~7 % damping); stinger 5e6 N/m (a 2 mm steel rod,
-~130 mm long: E A / L = 210e9 * 3.14e-6 / 0.13) and 20 N s/m (~1.4 % of critical at 0.1 kg:
-armature-on-stinger resonance ~1.1 kHz).
+Defaults (``rt.config.Shaker``, a small modal shaker, 45-100 N class): flexure resonance 20 Hz,
+5 % damping (k_a = m (2 pi 20 Hz)^2: 1.6e3 N/m at 0.1 kg; given as a frequency, so that the whole
+shaker vanishes continuously as m -> 0: the ratio below -> 1 / (1 + 0) ); stinger 5e6 N/m (a 2 mm
+steel rod, ~130 mm long: E A / L = 210e9 * 3.14e-6 / 0.13) and 20 N s/m (~1.4 % of critical at
+0.1 kg: armature-on-stinger resonance ~1.1 kHz, 1.2 kHz coupled to the beam).
 
 Closed form (``force_ratio``): for a harmonic drive at omega, with the driving-point receptance
 R = w_exc / F_exc of the structure,
 
     drive / F_exc = 1 + D_a / k~ + D_a R,    D_a = k_a + i omega c_a - m_a omega^2,  k~ = k_s + i omega c_s,
+    (rt.shaker.suspension: k_a, c_a proportional to m_a)
 
 so F_exc / drive drops where |R| is large (the structure's resonances: force drop-out) and rises
 near the zero of D_a (1 + D_a / k~) + D_a R (the armature on the stinger against the structure).
@@ -56,11 +58,20 @@ def continuous_matrices(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of the armature, state [x_a, x_a'], input [drive, w_exc, w_exc']; the stinger force is
     F_exc = [k_s, c_s] x + [0, -k_s, -c_s] u. Requires armature_mass_kg > 0."""
     s = cfg.shaker
-    m, ka, ca, ks, cs = s.armature_mass_kg, s.suspension_N_per_m, s.suspension_damping_Ns_per_m, \
-        s.stinger_N_per_m, s.stinger_damping_Ns_per_m
+    m, ks, cs = s.armature_mass_kg, s.stinger_N_per_m, s.stinger_damping_Ns_per_m
+    ka, ca = suspension(cfg)
     A = np.array([[0.0, 1.0], [-(ka + ks) / m, -(ca + cs) / m]])
     B = np.array([[0.0, 0.0, 0.0], [1.0 / m, ks / m, cs / m]])
     return A, B
+
+
+def suspension(cfg: Config) -> tuple[float, float]:
+    """(k_a [N/m], c_a [N s/m]) of the armature's flexure: k_a = m w_a^2, c_a = 2 zeta_a m w_a,
+    w_a = 2 pi shaker.suspension_hz (a shaker is specified by its flexure resonance, so that the
+    whole shaker vanishes continuously as m -> 0)."""
+    s = cfg.shaker
+    w_a = 2 * np.pi * s.suspension_hz
+    return s.armature_mass_kg * w_a * w_a, 2.0 * s.suspension_zeta * s.armature_mass_kg * w_a
 
 
 def build_shaker(cfg: Config) -> ShakerParams:
@@ -114,7 +125,8 @@ def force_ratio(cfg: Config, freq_hz, R) -> np.ndarray:
     if not s.on:
         return np.ones(f.shape, complex)
     w = 2 * np.pi * f
-    D_a = s.suspension_N_per_m + 1j * w * s.suspension_damping_Ns_per_m - s.armature_mass_kg * w * w
+    k_a, c_a = suspension(cfg)
+    D_a = k_a + 1j * w * c_a - s.armature_mass_kg * w * w
     k_s = s.stinger_N_per_m + 1j * w * s.stinger_damping_Ns_per_m
     return 1.0 / (1.0 + D_a / k_s + D_a * R)
 
