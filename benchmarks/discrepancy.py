@@ -25,13 +25,14 @@ def main() -> None:
     cases = [("none", None)] + [(e.name, e.nominal + f * (e.parameter.default - e.nominal))
                                 for e in implemented() for f in (1.0, 0.5)]
     print("| seed | hidden effect | strength | named | fitted (error) | best: dBIC, RSS reduction | runner-up | "
-          "FRF gap [dB] before -> after | actuator NRMSE before -> after | s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "FRF gap [dB] before -> after | actuator NRMSE before -> after | step-sine F_amp/drive gap [dB] | s |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for seed in args.seeds:
         for name, s in cases:
             t0 = time.perf_counter()
             with tempfile.TemporaryDirectory() as d:
-                make_campaign(Path(d) / "c", name, s, seed=seed, record_s=args.record_s)
+                make_campaign(Path(d) / "c", name, s, seed=seed, record_s=args.record_s,
+                              stepsine=name != "none" and get(name).channel == "stepsine")
                 r = diagnose(Path(d) / "c")
             top = r["ranking"][0]
             named = r["named_effect"]
@@ -43,7 +44,9 @@ def main() -> None:
             print(f"| {seed} | {name} | {'' if s is None else f'{s:g}'} | {named or '-'} | {fitted} | "
                   f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {r['runner_up']} | "
                   f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | "
-                  f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f} | {time.perf_counter() - t0:.0f} |",
+                  f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f} | "
+                  + (f"{gb['stepsine_ratio_db']:.2f} -> {ga['stepsine_ratio_db']:.2f}" if "stepsine_ratio_db" in gb else "")
+                  + f" | {time.perf_counter() - t0:.0f} |",
                   flush=True)
 
 

@@ -91,9 +91,14 @@ def report_md(res: dict, pngs: list[str]) -> str:
     lines += [f"| all impulse tests | mean FRF log-magnitude RMS [dB] | {gb['structure_frf_db']} | "
               f"{gc['structure_frf_db']} | {ga['structure_frf_db']} |",
               f"| all actuator tests | mean F_cell NRMSE | {gb['actuator_nrmse']} | {gc['actuator_nrmse']} | "
-              f"{ga['actuator_nrmse']} |", "", "## Localisation (nominal model vs measurement)", "",
+              f"{ga['actuator_nrmse']} |"]
+    if "stepsine_ratio_db" in gb:
+        lines.append(f"| all step-sine tests | F_amp / drive log-magnitude RMS [dB] | {gb['stepsine_ratio_db']} | "
+                     f"{gc['stepsine_ratio_db']} | {ga['stepsine_ratio_db']} |")
+    lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
-              f"Not tried (not implemented yet): {', '.join(res['not_tried'])}.", "",
+              f"Not tried (not implemented yet, or no step-sine tests for shaker_interaction): "
+              f"{', '.join(res['not_tried'])}.", "",
               "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from rt.config import Config, with_sets
-from rt.rig import FORCE_NOISE_N
 from rt.frf_files import FORMAT, FRFTest, write_frf_csv
+from rt.rig import FORCE_NOISE_N
 from rt.stepsine import SENSOR_READINGS, Branch, Settle, run_branches
 
 AMPLITUDES_N = (5.0, 10.0)                   # target force amplitudes [N]

@@ -287,7 +287,8 @@ class Point:
     F_meas_blocks: np.ndarray = field(repr=False)  # (n_blocks,) measured force per block [N]
     F_cmd_blocks: np.ndarray = field(repr=False)   # (n_blocks,) commanded force per block [N]
     drive_amp: float = math.nan    # first harmonic of the drive (the commands of the final N blocks) [N]
-    R_exc: complex = complex(math.nan)  # driving-point receptance w_exc / F_exc [m/N] (the plant's truth)
+    R_exc: complex = complex(math.nan)  # driving-point receptance w_exc / F_exc [m/N] (the plant's truth; w of
+    #                                     row k is at t_k+1, the force held over the tick: w referred to its middle)
     H_sensors: dict = field(default_factory=dict, repr=False)  # a_frf_meas, a_tip_meas readings / F_exc
 
 
@@ -343,7 +344,9 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     hF = harmonics(F, freq_hz, dt, 1, k0=tail[0][0], window=settle.window)
     drive = np.concatenate([b[5] * np.sin(2 * np.pi * freq_hz * dt * (b[0] + np.arange(len(b[1])))) for b in tail])
     extra = np.concatenate([b[6] for b in tail])
-    fit = lambda x: harmonics(x, freq_hz, dt, 1, k0=tail[0][0], window=settle.window).X[0]  # noqa: E731
+
+    def fit(x):
+        return harmonics(x, freq_hz, dt, 1, k0=tail[0][0], window=settle.window).X[0]
     h_last = np.asarray(H[-N:])
     scatter = float(np.sqrt(np.mean(np.abs(h_last - h_last.mean()) ** 2)) / abs(h_last.mean()))
     point = Point(freq_hz=float(freq_hz), H=complex(ha.X[0] / hF.X[0]), a_amp=ha.amp, F_amp=hF.amp,
@@ -352,7 +355,7 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
                   energy_j=E_end - tail[0][4], settle_s=(state.k - k_start) * dt, settled=settled,
                   n_blocks=len(H), H_scatter=scatter, residual=residual, k_start=k_start, k_end=state.k,
                   H_blocks=np.asarray(H), F_meas_blocks=np.asarray(F_meas), F_cmd_blocks=np.asarray(F_cmds),
-                  drive_amp=abs(fit(drive)), R_exc=complex(fit(extra[:, 0]) / hF.X[0]),
+                  drive_amp=abs(fit(drive)), R_exc=complex(fit(extra[:, 0]) / hF.X[0] * np.exp(-1j * np.pi * freq_hz * dt)),
                   H_sensors={name: complex(fit(extra[:, 1 + i]) / hF.X[0]) for i, name in enumerate(SENSOR_READINGS)})
     return point, state
 
