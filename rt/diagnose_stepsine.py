@@ -71,7 +71,7 @@ def model_branches(cfg: Config, tests: list[FRFTest]) -> list[Branch]:
 
 def prepare(cfg: Config, tests: list[FRFTest]) -> StepsineData:
     """Measured ratios and the driving point estimated through the calibrated model ``cfg``."""
-    results = run_branches(model_branches(cfg, tests), jobs=1, progress=False, desc="model step-sine")
+    results = run_branches(model_branches(cfg, tests), progress=False, desc="model step-sine")
     R = [t.H["a_frf_meas"] * r.R_exc / r.H_sensors["a_frf_meas"] for t, r in zip(tests, results)]
     return StepsineData(tests, [np.asarray(t.freq_hz, float) for t in tests],
                         [np.asarray(t.F_amp_N, float) / np.asarray(t.drive_amp, float) for t in tests], R)
