@@ -10,7 +10,11 @@ DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measu
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
 records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms (structure at rest), with a few
 percent of scatter in E, mu, k_t, modal damping and c_v drawn from --seed, and sensor noise. One
-effect of the library (--list) is hidden in the true structure; nothing in the files names it."""
+effect of the library (--list) is hidden in the true structure; nothing in the files names it.
+--stepsine adds step-sine FRF tests (CSV + JSON sidecar, docs/discrepancy.md): passive, force
+amplitude held at 5 and 10 N by the amplitude controller, at every F_N1 level, 18 lines 120-1250 Hz
+around modes 3 and 4; the files hold the measured force and the shaker's drive amplitude per line
+(shaker_interaction shows only there)."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
