@@ -255,16 +255,20 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     if cal is not struct_fits[None]:
         say("fit calibration only, continued")
         struct_fits[None] = fit_structure(nominal, data, None, start=cal.theta)
-    ss_data, ss_fits = None, {}
-    if ss_tests:
+    ss_data, ss_fits, act_fits = None, {}, {}
+    if ss_tests:  # the model's step-sine on the calibrated structure and stack (c_v: the loop's F_N1 ramp)
+        say("fit actuator calibration only")
+        act_fits[None] = fit_actuator(nominal, act, None) if act else ({}, {})
+        c_v = act_fits[None][0].get("c_v")
+        cal_cfg = scaled(struct_fits[None].cfg, {"c_v": c_v}) if c_v is not None else struct_fits[None].cfg
         say("model step-sine (driving point)")
-        ss_data = prepare_stepsine(struct_fits[None].cfg, ss_tests)
-        ss_fits[None] = ({}, stepsine_residuals(struct_fits[None].cfg, ss_data))
+        ss_data = prepare_stepsine(cal_cfg, ss_tests)
+        ss_fits[None] = ({}, stepsine_residuals(cal_cfg, ss_data))
         for eff in ss_eff:
             say(f"fit {eff.name}")
-            m, r = fit_shaker(struct_fits[None].cfg, ss_data, eff)
+            m, r = fit_shaker(cal_cfg, ss_data, eff)
             ss_fits[eff] = ({eff.name: m}, r)
-    results, act_fits = [], {}
+    results = []
     for eff in [None] + struct_eff + act_eff + ss_eff:
         s_fit = struct_fits[eff if eff in struct_eff else None]
         a_eff = eff if eff in act_eff else None

@@ -58,6 +58,7 @@ CHANNEL = "stepsine F_amp/drive"
 SIGMA = 0.01             # [-] relative: the floor of sigma_k (a well-conditioned line)
 DELTA_R = 0.10           # [-] relative error of the driving-point estimate R
 MODEL_SETTLE = Settle(max_s=1.0, rel_tol=0.02)   # the model's lines: a ratio of two responses settles fast
+H_AGREE = 0.25           # a line is used only where the model's |H| is within this of the measured one
 
 
 class StepsineData(NamedTuple):
@@ -85,12 +86,19 @@ def model_branches(cfg: Config, tests: list[FRFTest]) -> list[Branch]:
 
 
 def prepare(cfg: Config, tests: list[FRFTest]) -> StepsineData:
-    """Measured ratios and the driving point estimated through the calibrated model ``cfg``."""
+    """Measured ratios and the driving point estimated through the calibrated model ``cfg``, at the
+    lines where the model's accelerance |H| is within H_AGREE of the measured one (elsewhere the
+    model does not vibrate as the measurement did: another stick-slip branch, or a resonance the
+    calibration placed a little off, and its R_exc / H says nothing about the measured R)."""
     results = run_branches(model_branches(cfg, tests), progress=False, desc="model step-sine")
-    R = [t.H["a_frf_meas"] * r.R_exc / r.H_sensors["a_frf_meas"] for t, r in zip(tests, results)]
-    rho = [np.asarray(t.F_amp_N, float) / np.asarray(t.drive_amp, float) for t in tests]
-    return StepsineData(tests, [np.asarray(t.freq_hz, float) for t in tests], rho, R,
-                        [np.sqrt(SIGMA ** 2 + (DELTA_R * np.abs(1.0 - r)) ** 2) for r in rho])
+    freq, rho, R = [], [], []
+    for t, r in zip(tests, results):
+        H_meas, H_model = t.H["a_frf_meas"], r.H_sensors["a_frf_meas"]
+        keep = np.abs(np.log(np.abs(H_model / H_meas))) <= math.log(1.0 + H_AGREE)
+        freq.append(np.asarray(t.freq_hz, float)[keep])
+        rho.append((np.asarray(t.F_amp_N, float) / np.asarray(t.drive_amp, float))[keep])
+        R.append((H_meas * r.R_exc / H_model)[keep])
+    return StepsineData(tests, freq, rho, R, [np.sqrt(SIGMA ** 2 + (DELTA_R * np.abs(1.0 - x)) ** 2) for x in rho])
 
 
 def residuals(cfg: Config, data: StepsineData) -> np.ndarray:
