@@ -3,10 +3,14 @@ of rt.effects at its moderate (default) strength and at half of it (half its dep
 nominal value: current_limit 1 A -> 0.65 A), and for no effect, a rig campaign (seed SEED) is
 diagnosed; printed as a markdown table (hidden effect, strength, named effect, fitted strength and
 its error, dBIC and RSS reduction of the best candidate, runner-up, structure FRF gap and actuator
-NRMSE before -> after, seconds), then the confusion matrix: hidden effect (rows) against named
+NRMSE before -> after, the step-sine F_amp/drive gap where the campaign has step-sine tests,
+seconds), then the confusion matrix: hidden effect (rows) against named
 effect (columns), counts over seeds and strengths.
 
-    .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0] [--effects A,B] [--jobs N]
+    .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0] [--effects A,B] [--jobs N] [--stepsine]
+
+Campaigns get step-sine tests (rig --stepsine) when the hidden effect shows only there
+(channel "stepsine": shaker_interaction), or all of them with --stepsine (~10 s more each).
     (-m: benchmarks/plant.py would shadow the plant package)
 """
 import argparse
@@ -22,11 +26,12 @@ from rt.effects import get, implemented
 from rt.rig import make_campaign
 
 
-def case(seed: int, name: str, s: float | None, record_s: float) -> tuple[dict, float]:
+def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool) -> tuple[dict, float]:
     """(diagnose result, seconds) of one hidden case."""
     t0 = time.perf_counter()
+    stepsine = stepsine or (name != "none" and get(name).channel == "stepsine")
     with tempfile.TemporaryDirectory() as d:
-        make_campaign(Path(d) / "c", name, s, seed=seed, record_s=record_s)
+        make_campaign(Path(d) / "c", name, s, seed=seed, record_s=record_s, stepsine=stepsine)
         r = diagnose(Path(d) / "c")
     r.pop("_config"), r.pop("_plots")
     return r, time.perf_counter() - t0
@@ -41,9 +46,10 @@ def row(seed: int, name: str, s: float | None, r: dict, secs: float) -> str:
         fitted = f"{v:.4g}" + (f" ({100 * (v - s) / (s - get(name).nominal):+.1f} %)" if named == name else "")
     gb, ga = r["gap_before"], r["gap_after"]
     act = (f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}" if gb.get("actuator_nrmse") is not None else "")
+    ss = f"{gb['stepsine_ratio_db']:.2f} -> {ga['stepsine_ratio_db']:.2f}" if "stepsine_ratio_db" in gb else ""
     return (f"| {seed} | {name} | {'' if s is None else f'{s:g}'} | {named or '-'} | {fitted} | "
             f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {r['runner_up']} | "
-            f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | {act} | {secs:.0f} |")
+            f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | {act} | {ss} | {secs:.0f} |")
 
 
 def matrix(hidden: list[str], named: Counter) -> str:
@@ -60,16 +66,18 @@ def main() -> None:
     ap.add_argument("--record-s", type=float, default=1.0)
     ap.add_argument("--effects", help="comma-separated effect names (default: every implemented effect)")
     ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed in parallel processes")
+    ap.add_argument("--stepsine", action="store_true", help="step-sine tests in every campaign")
     args = ap.parse_args()
     effects = [get(n) for n in args.effects.split(",")] if args.effects else implemented()
     cases = [("none", None)] + [(e.name, e.nominal + f * (e.parameter.default - e.nominal))
                                 for e in effects for f in (1.0, 0.5)]
     print("| seed | hidden effect | strength | named | fitted (error) | best: dBIC, RSS reduction | runner-up | "
-          "FRF gap [dB] before -> after | actuator NRMSE before -> after | s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
+          "FRF gap [dB] before -> after | actuator NRMSE before -> after | step-sine F_amp/drive gap [dB] | s |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
     todo = [(seed, name, s) for seed in args.seeds for name, s in cases]
     named = Counter()
-    runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s) for c in todo)
+    runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s, args.stepsine)
+                                                              for c in todo)
     for (seed, name, s), (r, secs) in zip(todo, runs):
         print(row(seed, name, s, r, secs), flush=True)
         named[name, r["named_effect"] or "none"] += 1

@@ -84,9 +84,10 @@ def continuous_accelerance(lin: StuckModel, freq_hz) -> np.ndarray:
     return np.array(out)
 
 
-def discrete_accelerance(lin: StuckModel, freq_hz, dt: float, substeps: int = 1) -> np.ndarray:
-    """The plant step's own FRF [(m/s^2)/N]: a(t_{k+1}) / F_k for F_k = e^{i omega k dt}, with
-    substeps trapezoidal substeps of h = dt / substeps per tick (module docstring)."""
+def _substep_maps(lin: StuckModel, dt: float, substeps: int):
+    """(Phi_t, Gam_t, Phi, Gam): the tick's map s(t_k+1) = Phi_t s(t_k) + Gam_t F_k of the state
+    s = [x, v] (trapezoidal substeps of h = dt / substeps, F held), and the map over its first
+    substeps - 1 substeps."""
     n = len(lin.b)
     h = dt / substeps
     eye = np.eye(n)
@@ -98,7 +99,22 @@ def discrete_accelerance(lin: StuckModel, freq_hz, dt: float, substeps: int = 1)
     Phi, Gam = np.eye(2 * n), np.zeros(2 * n)     # over substeps - 1 substeps, then the last
     for _ in range(substeps - 1):
         Phi, Gam = Phi_s @ Phi, Phi_s @ Gam + Gam_s
-    Phi_t, Gam_t = Phi_s @ Phi, Phi_s @ Gam + Gam_s  # over the whole tick
+    return Phi_s @ Phi, Phi_s @ Gam + Gam_s, Phi, Gam
+
+
+def discrete_map(lin: StuckModel, dt: float, substeps: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """(Phi, Gam) of the plant's tick with the contact stuck: s(t_k+1) = Phi s(t_k) + Gam F_k,
+    s = [x, v] in modal coordinates, F_k [N] held over the tick (module docstring)."""
+    Phi_t, Gam_t, _, _ = _substep_maps(lin, dt, substeps)
+    return Phi_t, Gam_t
+
+
+def discrete_accelerance(lin: StuckModel, freq_hz, dt: float, substeps: int = 1) -> np.ndarray:
+    """The plant step's own FRF [(m/s^2)/N]: a(t_{k+1}) / F_k for F_k = e^{i omega k dt}, with
+    substeps trapezoidal substeps of h = dt / substeps per tick (module docstring)."""
+    n = len(lin.b)
+    h = dt / substeps
+    Phi_t, Gam_t, Phi, Gam = _substep_maps(lin, dt, substeps)
     out = []
     for w in 2 * np.pi * np.atleast_1d(np.asarray(freq_hz, float)):
         z = np.exp(1j * w * dt)

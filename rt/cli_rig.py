@@ -12,6 +12,10 @@ records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms, each end held 
 rest), with a few percent of scatter in E, mu, k_t, modal damping and c_v drawn from --seed, and
 sensor noise. One effect of the library (--list) is hidden in the true structure; nothing in the
 files names it.
+--stepsine adds step-sine FRF tests (CSV + JSON sidecar, docs/discrepancy.md): passive, force
+amplitude held at 5 and 10 N by the amplitude controller, at every F_N1 level, 18 lines 120-1250 Hz
+around modes 3 and 4; the files hold the measured force and the shaker's drive amplitude per line
+(shaker_interaction shows only there).
 With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
 of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
 of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars."""
@@ -21,7 +25,8 @@ EXAMPLES = """examples:
   frictionrt rig --effect accelerometer_mass -o logs/campaign_acc
   frictionrt rig --effect current_limit --strength 0.2 --seed 4 -o logs/campaign_il
   frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean
-  frictionrt rig --effect clamp_compliance --frf-files -o logs/frf_clamp && frictionrt diagnose logs/frf_clamp"""
+  frictionrt rig --effect clamp_compliance --frf-files -o logs/frf_clamp && frictionrt diagnose logs/frf_clamp
+  frictionrt rig --effect shaker_interaction --stepsine --seed 3 -o logs/campaign_shaker"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -38,6 +43,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s] (default 1)")
     p.add_argument("--frf-files", action="store_true", help="write FRF files (CSV/UFF + JSON sidecars: linear, "
                    "contact stuck, at each F_N1) instead of the time-series campaign (rt/rig_frf.py)")
+    p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
+                   "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
     p.add_argument("-o", "--out", metavar="DIR", help="new campaign folder (must not exist or be empty)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
@@ -73,6 +80,8 @@ def cmd_rig(cfg, args) -> int:
         return _fail("rig --strength: --effect none takes no strength")
     if not (math.isfinite(args.record_s) and 0.2 <= args.record_s <= 10.0):
         return _fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
+    if args.frf_files and (args.stepsine or args.record_s != 1.0):
+        return _fail("rig --frf-files: --stepsine and --record-s apply to the time-series campaign only; drop them")
     from rt.rig import make_campaign
     from rt.rig_frf import make_frf_campaign
     try:
@@ -80,7 +89,7 @@ def cmd_rig(cfg, args) -> int:
             files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg)
         else:
             files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                  record_s=args.record_s)
+                                  record_s=args.record_s, stepsine=args.stepsine)
     except ValueError as exc:
         return _fail(f"rig -o: {exc}")
     if args.json:

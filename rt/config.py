@@ -303,6 +303,27 @@ class Impulse:
 
 
 @dataclass(frozen=True)
+class Shaker:
+    """The shaker between the excitation generator and the plant (rt/shaker.py, docs/loop.md):
+    armature on its suspension, stinger to the excitation point, force transducer at the stinger's
+    tip. armature_mass_kg = 0: an ideal force source (F_exc = drive), the stage is off."""
+    armature_mass_kg: float = param(0.0, "kg", lo=0.0, hi=10.0,
+                                    doc="moving mass of the armature (coil, table, transducer half); "
+                                        "0 = ideal force source; modal shakers 0.02-0.3")
+    suspension_hz: float = param(20.0, "Hz", lo=0.0,
+                                 doc="armature-on-flexure resonance f_a: k_a = m (2 pi f_a)^2 (modal shakers 10-50 Hz)")
+    suspension_zeta: float = param(0.05, "-", lo=0.0, doc="its damping ratio: c_a = 2 zeta_a m (2 pi f_a)")
+    stinger_N_per_m: float = param(5.0e6, "N/m", lo=0.0, lo_inclusive=False,
+                                   doc="stinger axial stiffness k_s (2 mm steel rod, 130 mm: E A / L)")
+    stinger_damping_Ns_per_m: float = param(20.0, "N s/m", lo=0.0, doc="stinger axial damping c_s")
+
+    @property
+    def on(self) -> bool:
+        """False: ideal force source (no shaker stage in the loop)."""
+        return self.armature_mass_kg > 0.0
+
+
+@dataclass(frozen=True)
 class Config:
     """The whole configuration tree."""
     rt: Rt = field(default_factory=Rt)
@@ -313,6 +334,7 @@ class Config:
     observer: Observer = field(default_factory=Observer)
     supervisor: Supervisor = field(default_factory=Supervisor)
     impulse: Impulse = field(default_factory=Impulse)
+    shaker: Shaker = field(default_factory=Shaker)
 
     @property
     def dt_s(self) -> float:

@@ -11,8 +11,12 @@ Method, on a campaign of the measurement format (impulse tests at several F_N1, 
 2. Actuator: c_v (and an actuator candidate) by bounded nonlinear least squares
    (scipy.optimize.least_squares) on the exact chain, residuals per signal divided by the signal's
    noise rms estimated on the record's first 2 ms at rest.
+2s. Step-sine tests (rt.diagnose_stepsine, when the folder holds step-sine FRF files): the shaker's
+   force ratio F_amp / drive per line against the two-port of a shaker with armature mass m on the
+   calibrated structure (nominal: an ideal source, ratio 1); m by a bounded scalar fit.
 3. Ranking by BIC = sum over channels c of n_c ln(RSS_c / n_c) + p ln n (channels: FRF a_frf,
-   FRF a_tip, V_a, i, F_cell; p the fitted parameters, n all residuals), i.e. the Gaussian
+   FRF a_tip, V_a, i, F_cell, and stepsine F_amp/drive if present; p the fitted parameters, n all
+   residuals), i.e. the Gaussian
    likelihood with one variance per channel. The best candidate is named only if its BIC is below
    calibration alone by more than ``NAME_THRESHOLD`` (= 10, "very strong" on Kass & Raftery's
    scale), it removes at least ``MIN_RSS_REDUCTION`` of its channels' residual sum of squares and
@@ -47,6 +51,11 @@ from rt.diagnose_structure import (
     struct_cfg,
     windowed_frf,
 )
+from rt.diagnose_stepsine import CHANNEL as SS_CHANNEL
+from rt.diagnose_stepsine import fit_shaker, load_stepsine
+from rt.diagnose_stepsine import gap_db as stepsine_gap_db
+from rt.diagnose_stepsine import prepare as prepare_stepsine
+from rt.diagnose_stepsine import residuals as stepsine_residuals
 from rt.effects import Effect, get, implemented
 from rt.mcap_log import read_mcap
 from rt.rig import measure_actuator, quiet, scaled
@@ -236,6 +245,8 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     gap_before = gaps(imp, act, run0.a, arun0)
     struct_eff = [e for e in implemented() if e.channel == "structure"]
     act_eff = [e for e in implemented() if e.channel == "actuator"]
+    ss_tests = load_stepsine(folder)
+    ss_eff = [e for e in implemented() if e.channel == "stepsine"] if ss_tests else []
     say("fit calibration only")
     struct_fits = {None: fit_structure(nominal, data, None)}
     for eff in struct_eff:
@@ -252,19 +263,37 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     if cal is not struct_fits[None]:
         say("fit calibration only, continued")
         struct_fits[None] = fit_structure(nominal, data, None, start=cal.theta)
-    results, act_fits = [], {}
-    for eff in [None] + struct_eff + act_eff:
+    ss_data, ss_fits, act_fits = None, {}, {}
+    if ss_tests:  # the model's step-sine on the calibrated structure and stack (c_v: the loop's F_N1 ramp)
+        say("fit actuator calibration only")
+        act_fits[None] = fit_actuator(nominal, act, None) if act else ({}, {})
+        c_v = act_fits[None][0].get("c_v")
+        cal_cfg = scaled(struct_fits[None].cfg, {"c_v": c_v}) if c_v is not None else struct_fits[None].cfg
+        say("model step-sine (driving point)")
+        ss_data = prepare_stepsine(cal_cfg, ss_tests)
+        ss_fits[None] = ({}, stepsine_residuals(cal_cfg, ss_data))
+        for eff in ss_eff:
+            say(f"fit {eff.name}")
+            m, r = fit_shaker(cal_cfg, ss_data, eff)
+            ss_fits[eff] = ({eff.name: m}, r)
+    results = []
+    for eff in [None] + struct_eff + act_eff + ss_eff:
         s_fit = struct_fits[eff if eff in struct_eff else None]
         a_eff = eff if eff in act_eff else None
         if a_eff not in act_fits:
             say(f"fit actuator {a_eff.name if a_eff else 'calibration only'}")
             act_fits[a_eff] = fit_actuator(nominal, act, a_eff, act_fits.get(None)) if act else ({}, {})
         ath, ares = act_fits[a_eff]
-        theta = s_fit.theta | ath
+        sth, sres = ss_fits.get(eff if eff in ss_eff else None, ({}, None))
+        theta = s_fit.theta | ath | sth
         channels = dict(s_fit.channels) | {f"actuator {k}": v for k, v in ares.items()}
+        if sres is not None:
+            channels[SS_CHANNEL] = sres
         cfg = scaled(s_fit.cfg, {"c_v": ath["c_v"]}) if "c_v" in ath else s_fit.cfg
         if a_eff is not None:
             cfg = a_eff.apply(cfg, ath[a_eff.name])
+        if eff in ss_eff:
+            cfg = eff.apply(cfg, sth[eff.name])
         results.append({"effect": eff.name if eff else None, "theta": theta, "channels": channels,
                         "score": bic(channels, len(theta)), "run": s_fit.run, "cfg": cfg})
     base, ranked, winner = rank(results)
@@ -273,6 +302,9 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     arun1 = run_actuator_tests(final["cfg"], act)
     gap_after = gaps(imp, act, final["run"].a, arun1)
     gap_cal = gaps(imp, act, base["run"].a, run_actuator_tests(base["cfg"], act))
+    if ss_data is not None:  # nominal and calibrated: an ideal source (ratio 1)
+        for g, c in ((gap_before, nominal), (gap_cal, base["cfg"]), (gap_after, final["cfg"])):
+            g["stepsine_ratio_db"] = round(stepsine_gap_db(c, ss_data), 4)
     m0 = build_plant(quiet(nominal))
     localise = {}
     for t, d in zip(imp, data):
@@ -287,8 +319,11 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
                             "slew_model_V_per_us": _r(_slew(r["V_a"], t.dt), 4),
                             "F_per_V_meas": _r(_gain(t.data["V_a"], t.data["F_cell"]), 4),
                             "F_per_V_model": _r(_gain(r["V_a"], r["F_cell"]), 4)}
-    return ranking_result(base, ranked, winner, {"gap_before": gap_before, "gap_calibrated": gap_cal,
-                                                 "gap_after": gap_after}, localise) | {
+    res = ranking_result(base, ranked, winner, {"gap_before": gap_before, "gap_calibrated": gap_cal,
+                                                "gap_after": gap_after}, localise)
+    if not ss_tests:
+        res["not_tried"] += [e.name for e in implemented() if e.channel == "stepsine"]
+    return res | {
         "_plots": {"imp": imp, "act": act, "before": (run0, arun0), "after": (final["run"], arun1)}}
 
 
@@ -300,7 +335,7 @@ def rank(results: list[dict]) -> tuple[dict, list[dict], dict | None]:
     base = results[0]
     ranked = sorted(results[1:], key=lambda r: r["score"])
     for r in ranked:
-        group = "FRF" if get(r["effect"]).channel == "structure" else "actuator"
+        group = {"structure": "FRF", "actuator": "actuator", "stepsine": SS_CHANNEL}[get(r["effect"]).channel]
         rss = [sum(float(v @ v) for k, v in x["channels"].items() if k.startswith(group)) for x in (r, base)]
         r["rss_reduction"] = 1.0 - rss[0] / rss[1] if rss[1] > 0 else 0.0
     eligible = [r for r, e in ((r, get(r["effect"])) for r in ranked)
@@ -395,6 +430,8 @@ def summary(result: dict) -> str:
         lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  RSS -{100 * r['rss_reduction']:5.1f} %  "
                      f"fitted {json.dumps(r['fitted'])}")
     lines.append(f"structure FRF gap [dB]: {gb['structure_frf_db']:.3f} -> {ga['structure_frf_db']:.3f}")
+    if "stepsine_ratio_db" in gb:
+        lines.append(f"step-sine F_amp/drive gap [dB]: {gb['stepsine_ratio_db']:.3f} -> {ga['stepsine_ratio_db']:.3f}")
     if gb["actuator_nrmse"] is not None:
         lines.append(f"actuator F_cell NRMSE: {gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}")
     return "\n".join(lines)

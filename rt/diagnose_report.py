@@ -94,14 +94,19 @@ def report_md(res: dict, pngs: list[str]) -> str:
         if isinstance(row, dict):
             for k, v in row.items():
                 lines.append(f"| {name} | {k} | {v} | {gc[name][k]} | {ga[name][k]} |")
-    lines += [f"| all impulse tests | mean FRF log-magnitude RMS [dB] | {gb['structure_frf_db']} | "
+    tests = "all FRF files" if res.get("input") == "frf_files" else "all impulse tests"
+    lines += [f"| {tests} | mean FRF log-magnitude RMS [dB] | {gb['structure_frf_db']} | "
               f"{gc['structure_frf_db']} | {ga['structure_frf_db']} |"]
     if gb["actuator_nrmse"] is not None:
         lines += [f"| all actuator tests | mean F_cell NRMSE | {gb['actuator_nrmse']} | {gc['actuator_nrmse']} | "
                   f"{ga['actuator_nrmse']} |"]
+    if "stepsine_ratio_db" in gb:
+        lines.append(f"| all step-sine tests | F_amp / drive log-magnitude RMS [dB] | {gb['stepsine_ratio_db']} | "
+                     f"{gc['stepsine_ratio_db']} | {ga['stepsine_ratio_db']} |")
     lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
-              f"Not tried (not implemented yet, or not seen by this input): {', '.join(res['not_tried'])}.", "",
+              f"Not tried (not implemented yet, or not seen by this input: no step-sine tests for "
+              f"shaker_interaction, FRF files for slip and actuator effects): {', '.join(res['not_tried'])}.", "",
               "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"

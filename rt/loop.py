@@ -12,6 +12,9 @@ One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order
     3s supervisor checks the tick (rt.supervisor); on a fault F* := F_min in this tick
     4 tracking   V_cmd = feedforward + PID on the law's force sensor
     5 actuator   DAC -> 30 kHz low-pass -> amplifier -> piezo stack over [t_k, t_k+1]
+    5s shaker    (with shaker.armature_mass_kg > 0) the excitation generator's drive through the
+                 armature and stinger (rt.shaker): F_exc = the stinger force, mean over the tick,
+                 from the plant's excitation-point motion at t_k; otherwise F_exc = drive
     6 plant      over [t_k, t_k+1]: F_exc(t_k) held, F_N1 = mean of its values at t_k, t_k+1
     7 log        every signal of the tick into row k of the preallocated log (with a log writer: a
                  ring of R rows, row (k - k_start) mod R; ``run``, rt/writer.py)
@@ -50,6 +53,7 @@ from rt.config import Config
 from rt.noise import new_rng
 from rt.sensors import SENSOR_OUTPUTS, SensorParams, _sensors_read, _tip_velocity, build_sensors
 from rt.sensors import initial_state as sensors_initial_state
+from rt.shaker import ShakerParams, _shaker_step, build_shaker, check_shaker
 from rt.sensors import output_index as sensor_output_index
 from tracking.force_tracking import (FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign,
                                      _force_tracking_step, design_force_tracking)
@@ -91,6 +95,7 @@ class Loop:
     signals: tuple[tuple[str, str, str], ...]   # (name, unit, owner) per log column
     estimator: str = "oracle"                   # one of ESTIMATORS
     supervisor: SupervisorParams | None = None  # built by build_loop
+    shaker: ShakerParams | None = None          # built by build_loop (P = 0: ideal force source)
 
     def column(self, name: str) -> int:
         return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
@@ -129,9 +134,10 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
         observer = (design_observer(cfg, plant) if observer_cfg is None else design_observer(observer_cfg)).params
     else:
         observer = _no_observer()
+    check_shaker(cfg, plant)
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
                 build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator,
-                build_supervisor(cfg, estimator == "observer"))
+                build_supervisor(cfg, estimator == "observer"), build_shaker(cfg))
 
 
 def _no_observer() -> ObserverParams:
@@ -239,13 +245,16 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
                xf, xf_n, yf, uf, ft_p,
                xa, xa_n, ya, ua, act_p,
                xp, xp_n, yp, up, plant_p, plant_wk,
-               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell,
+               shake, xsh, xsh_n, ush, ysh, sh_p,
+               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_w_exc, col_v_exc,
                log, comp_ns):
     """Run ticks k0 <= k < k1 (see the module docstring); states are advanced in place.
 
     observe selects the estimator: False the oracle (states xo), True the observer (states xe;
     inputs: the measured tip velocity and force-cell reading). sv, sv_p: the supervisor's state
-    and constants; faults: the fault schedule (``rt.supervisor``, (0, 5) for none).
+    and constants; faults: the fault schedule (``rt.supervisor``, (0, 5) for none). shake: the
+    shaker stage runs (states xsh; inputs the drive and the plant's w, w' at the excitation point,
+    columns col_w_exc, col_v_exc of yp); False: F_exc = drive (ideal source).
     log[(k - k0) mod len(log)] receives the tick's signals (``loop_signals`` order): a log of
     k1 - k0 rows is filled in order, a shorter one is a ring (``run``); comp_ns the same row's
     per-component times [ns] if timing; ts is the clock's (2,) int64 scratch. Offline (not
@@ -292,7 +301,13 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         t2, t3, t3s, t4 = _controller_tick(k, ys, yc, yp[col_urel], yp[col_vrel], force_col, observe, faults,
                                            timing, ts, est, law, sup, trk)
         # 5 actuator (faults act on its input) and 6 plant over the tick
-        F_exc = exc_amp * math.sin(exc_omega * (k * dt))
+        F_exc = exc_amp * math.sin(exc_omega * (k * dt))   # the drive (an ideal source's force)
+        if shake:  # 5s: the force the structure gets through the stinger (its time counts as the actuator's)
+            ush[0] = F_exc
+            ush[1] = yp[col_w_exc]
+            ush[2] = yp[col_v_exc]
+            _shaker_step(k, xsh, ush, sh_p, xsh_n, ysh)
+            F_exc = ysh[0]
         iters, t5 = _actuate(k, F_exc, _inject_actuator(k, faults, yf[0]), xa, xa_n, ya, ua, act_p,
                              xp, xp_n, yp, up, plant_p, plant_wk, timing, ts)
         if iters < 0:
@@ -318,6 +333,8 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         _copy(xf_n, xf)
         _copy(xa_n, xa)
         _copy(xp_n, xp)
+        if shake:
+            _copy(xsh_n, xsh)
         t_end = _now_ns(ts)
         log[row, c] = t_end - t_start
         log[row, c + 1] = late
@@ -363,6 +380,7 @@ class LoopState:
     yp: np.ndarray
     rng: np.ndarray
     plant_work: object  # PlantWork: its cached contact factors decide round-off, so they carry over
+    xsh: np.ndarray     # the shaker's armature [x_a, x_a'] (rt.shaker), at rest 0
     k: int = 0  # the next tick to run
 
     def copy(self) -> LoopState:
@@ -389,7 +407,7 @@ def initial_loop_state(loop: Loop, seed: int) -> LoopState:
                      xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)),
                      sv=supervisor_initial_state(ys), xa=xa, ya=ya,
                      xp=plant.initial_state(cfg.actuator.F0_N), yp=np.zeros(len(plant.output_labels())),
-                     rng=new_rng(seed), plant_work=plant.new_work())
+                     rng=new_rng(seed), plant_work=plant.new_work(), xsh=np.zeros(2))
 
 
 @dataclass
@@ -489,6 +507,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     clk = np.zeros(CLK_SIZE, dtype=np.int64)
     clk[CLK_WRITTEN] = st.k if writer is not None and not paced else NO_WAIT
     si = sensor_output_index()
+    exc = cfg.plant.excitation_point
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     faults = no_faults() if faults is None else np.ascontiguousarray(faults, dtype=np.float64)
     args_fixed = (dt, amp_n, 2 * math.pi * freq_hz, force_col, timing, paced, period_ns, clk,
@@ -523,8 +542,10 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                                     st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params,
                                     st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator,
                                     st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work,
+                                    cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1),
+                                    loop.shaker,
                                     oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"],
-                                    ai["F_strain_a"], ai["F_cell_a"],
+                                    ai["F_strain_a"], ai["F_cell_a"], oi[f"w_{exc}"], oi[f"v_{exc}"],
                                     log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 

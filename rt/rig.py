@@ -195,12 +195,15 @@ def write_measurement(path: Path, cfg: Config, columns: dict[str, np.ndarray], t
 
 def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None, seed: int = 0,
                   cfg: Config | None = None, record_s: float = 1.0, levels_n=FN1_LEVELS_N,
-                  ramps_s=RAMPS_S) -> list[Path]:
+                  ramps_s=RAMPS_S, stepsine: bool = False) -> list[Path]:
     """Write a campaign into the new folder ``out_dir`` (written as a temporary folder beside it,
     then renamed: never half a campaign). ``effect``: a name of rt.effects or "none";
     ``strength`` [the effect's unit] defaults to its moderate strength. Returns the files written.
     ValueError for an unknown or unimplemented effect, a strength out of bounds, or an existing
-    non-empty ``out_dir``."""
+    non-empty ``out_dir``, or an effect that shows only in step-sine tests without ``stepsine``.
+    ``stepsine``: also the step-sine FRF tests of rt.rig_stepsine (CSV + sidecar)."""
+    if effect != "none" and get(effect).channel == "stepsine" and not stepsine:
+        raise ValueError(f"effect {effect!r} shows only in step-sine tests (the shaker's force ratio); add --stepsine")
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng)
     dt = true.dt_s
@@ -232,6 +235,9 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
                 f"voltage ramps 0 -> {V_RAMP_V:g} -> 0 V over {ramp * 1e3:g} ms each, each end held "
                 f"{HOLD_S * 1e3:g} ms, structure at rest"))
             names.append(name)
+        if stepsine:
+            from rt.rig_stepsine import write_stepsine_tests
+            names += write_stepsine_tests(tmp, true, levels_n, seed)
     return [Path(out_dir) / n for n in names]
 
 

@@ -92,6 +92,7 @@ from rt.config import LAWS, Config
 from rt.loop import ESTIMATORS, Loop, LoopState, build_loop, run
 
 WINDOWS = ("rect", "hann")
+SENSOR_READINGS = ("a_frf_meas", "a_tip_meas")  # accelerometer readings (rt.sensors) whose FRFs a point also gives
 PROGRESS_TOPIC = "frictionrt-frf-point"  # dask event topic: one message per finished point
 
 
@@ -285,6 +286,10 @@ class Point:
     H_blocks: np.ndarray = field(repr=False)      # (n_blocks,) complex H per block
     F_meas_blocks: np.ndarray = field(repr=False)  # (n_blocks,) measured force per block [N]
     F_cmd_blocks: np.ndarray = field(repr=False)   # (n_blocks,) commanded force per block [N]
+    drive_amp: float = math.nan    # first harmonic of the drive (the commands of the final N blocks) [N]
+    R_exc: complex = complex(math.nan)  # driving-point receptance w_exc / F_exc [m/N] (the plant's truth; w of
+    #                                     row k is at t_k+1, the force held over the tick: w referred to its middle)
+    H_sensors: dict = field(default_factory=dict, repr=False)  # a_frf_meas, a_tip_meas readings / F_exc
 
 
 def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopState | None, seed: int | None,
@@ -311,7 +316,9 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     iE = actuator_output_index()["E"]
     state = start
     F_cmd = float(amp_n)  # float: the compiled loop is specialised on its argument types
-    H, F_meas, F_cmds, tail = [], [], [], []  # tail: (k0, a_frf, F_exc, F_N1, E before) of the final N
+    H, F_meas, F_cmds, tail = [], [], [], []  # tail: (k0, a_frf, F_exc, F_N1, E before, F_cmd, log) of the final N
+    col_w = loop.column(f"w_{loop.cfg.plant.excitation_point}")
+    cols_meas = [loop.column(name) for name in SENSOR_READINGS]
     k_start = 0 if start is None else start.k
     settled, residual = False, float("inf")
     while True:
@@ -322,7 +329,8 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
         H.append(X_a / X_F)
         F_meas.append(abs(X_F))
         F_cmds.append(F_cmd)
-        tail = (tail + [(k0, a.copy(), F.copy(), r.signal("F_N1").copy(), E_before)])[-N:]
+        extra = r.log[:, [col_w] + cols_meas]
+        tail = (tail + [(k0, a.copy(), F.copy(), r.signal("F_N1").copy(), E_before, F_cmd, extra)])[-N:]
         E_end = float(r.signal("E")[-1])
         F_cmd = update_amplitude(F_cmd, abs(X_F), amp_n, settle.amp_gain, settle.amp_step_max)
         held = all(abs(f / amp_n - 1.0) <= settle.amp_tol for f in F_meas[-N:])
@@ -334,6 +342,11 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     F = np.concatenate([b[2] for b in tail])
     ha = harmonics(a, freq_hz, dt, settle.n_harm, k0=tail[0][0], window=settle.window)
     hF = harmonics(F, freq_hz, dt, 1, k0=tail[0][0], window=settle.window)
+    drive = np.concatenate([b[5] * np.sin(2 * np.pi * freq_hz * dt * (b[0] + np.arange(len(b[1])))) for b in tail])
+    extra = np.concatenate([b[6] for b in tail])
+
+    def fit(x):
+        return harmonics(x, freq_hz, dt, 1, k0=tail[0][0], window=settle.window).X[0]
     h_last = np.asarray(H[-N:])
     scatter = float(np.sqrt(np.mean(np.abs(h_last - h_last.mean()) ** 2)) / abs(h_last.mean()))
     point = Point(freq_hz=float(freq_hz), H=complex(ha.X[0] / hF.X[0]), a_amp=ha.amp, F_amp=hF.amp,
@@ -341,7 +354,9 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
                   F_N1_mean=float(np.mean(np.concatenate([b[3] for b in tail]))),
                   energy_j=E_end - tail[0][4], settle_s=(state.k - k_start) * dt, settled=settled,
                   n_blocks=len(H), H_scatter=scatter, residual=residual, k_start=k_start, k_end=state.k,
-                  H_blocks=np.asarray(H), F_meas_blocks=np.asarray(F_meas), F_cmd_blocks=np.asarray(F_cmds))
+                  H_blocks=np.asarray(H), F_meas_blocks=np.asarray(F_meas), F_cmd_blocks=np.asarray(F_cmds),
+                  drive_amp=abs(fit(drive)), R_exc=complex(fit(extra[:, 0]) / hF.X[0] * np.exp(-1j * np.pi * freq_hz * dt)),
+                  H_sensors={name: complex(fit(extra[:, 1 + i]) / hF.X[0]) for i, name in enumerate(SENSOR_READINGS)})
     return point, state
 
 
@@ -370,6 +385,9 @@ class StepSineResult:
     residual: np.ndarray        # the detector's last predicted remaining change of H [-]
     k_start: np.ndarray         # first tick of each point
     k_end: np.ndarray           # tick after each point (the next point's k_start)
+    drive_amp: np.ndarray | None = None  # first harmonic of the drive [N] (= F_amp with an ideal source)
+    R_exc: np.ndarray | None = None      # complex driving-point receptance w_exc / F_exc [m/N] (plant truth)
+    H_sensors: dict | None = None        # {a_frf_meas, a_tip_meas: complex reading / F_exc [(m/s^2)/N]}
 
     @property
     def H_abs(self) -> np.ndarray:
@@ -390,6 +408,8 @@ class StepSineResult:
                      "settled", "n_blocks", "H_scatter", "residual", "k_start", "k_end"):
             d[name] = getattr(self, name).tolist()
         d["thd"] = [None if math.isnan(v) else v for v in d["thd"]]
+        if self.drive_amp is not None:
+            d["drive_amp"] = self.drive_amp.tolist()
         return d
 
 
@@ -442,7 +462,8 @@ def sweep(loop: Loop, freqs_hz: Sequence[float], amp_n: float, *, start: LoopSta
                           thd=col("thd"), F_N1_mean=col("F_N1_mean"), energy_j=col("energy_j"),
                           settle_s=col("settle_s"), settled=col("settled", bool), n_blocks=col("n_blocks", np.int64),
                           H_scatter=col("H_scatter"), residual=col("residual"), k_start=col("k_start", np.int64),
-                          k_end=col("k_end", np.int64))
+                          k_end=col("k_end", np.int64), drive_amp=col("drive_amp"), R_exc=col("R_exc", complex),
+                          H_sensors={name: np.array([p.H_sensors[name] for p in points]) for name in SENSOR_READINGS})
 
 
 def phase_continuous_step(f_hz: float, k_b: int, dt: float, rate_hz_s: float, block_s: float) -> tuple[float, int]:

@@ -13,7 +13,7 @@ from rt.config import Config, with_sets
 from rt.data_format import validate
 from rt.diagnose import diagnose, load_campaign
 from rt.diagnose_structure import SENSORS, prepare, run_shape
-from rt.effects import implemented
+from rt.effects import EFFECTS, implemented
 from rt.rig import make_campaign, scaled, scatter_sets
 
 SEED = 5
@@ -24,8 +24,10 @@ def campaigns(tmp_path_factory):
     cache = {}
 
     def get(effect: str):
-        if effect not in cache:
-            cache[effect] = make_campaign(tmp_path_factory.mktemp(effect) / "c", effect, seed=SEED)[0].parent
+        if effect not in cache:   # step-sine tests only where the effect needs them (they cost ~15-40 s)
+            stepsine = effect != "none" and EFFECTS[effect].channel == "stepsine"
+            cache[effect] = make_campaign(tmp_path_factory.mktemp(effect) / "c", effect, seed=SEED,
+                                          stepsine=stepsine)[0].parent
         return cache[effect]
     return get
 
@@ -48,7 +50,7 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
     assert res["ranking"][0]["delta_bic"] > 10.0
     fitted = res["fitted_parameters"][effect.name]
     assert abs(fitted / effect.parameter.default - 1.0) < 0.30, fitted
-    key = "structure_frf_db" if effect.channel == "structure" else "actuator_nrmse"
+    key = {"structure": "structure_frf_db", "actuator": "actuator_nrmse", "stepsine": "stepsine_ratio_db"}[effect.channel]
     assert res["gap_before"][key] >= 3.0 * res["gap_after"][key], (res["gap_before"][key], res["gap_after"][key])
 
 
@@ -128,8 +130,10 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys):
     assert main(["diagnose", str(tmp_path)]) == 2                  # no *.mcap in it
     (tmp_path / "junk.mcap").write_bytes(b"not mcap")
     assert main(["diagnose", str(tmp_path)]) == 2
+    assert main(["rig", "--frf-files", "--stepsine", "-o", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 5 and all(line.startswith("frictionrt: error:") for line in err)
+    assert len(err) == 6 and all(line.startswith("frictionrt: error:") for line in err)
+    assert "add --stepsine" in err[0] and "apply to the time-series campaign only" in err[5]
     assert not (tmp_path / "x").exists()
 
 
@@ -139,8 +143,7 @@ def test_list_json_shows_every_effect(capsys):
     names = {r["name"]: r for r in rows}
     assert set(names) >= {"accelerometer_mass", "clamp_compliance", "moving_mass", "current_limit", "stribeck",
                           "piezo_hysteresis", "preload_creep", "micro_slip", "shaker_interaction"}
-    assert names["shaker_interaction"]["implemented"] is False and names["stribeck"]["implemented"]
-    assert names["current_limit"]["default_strength"] == 0.3
+    assert all(r["implemented"] for r in rows) and names["current_limit"]["default_strength"] == 0.3
 
 
 def test_preload_creep_at_half_strength_is_named_and_not_confused(tmp_path):
@@ -156,3 +159,17 @@ def test_preload_creep_at_half_strength_is_named_and_not_confused(tmp_path):
     assert rows["current_limit"]["fitted"]["current_limit"] == pytest.approx(1.0, abs=0.01)
     assert rows["piezo_hysteresis"]["fitted"]["piezo_hysteresis"] < 0.001
     assert rows["current_limit"]["rss_reduction"] < 0.25 and rows["piezo_hysteresis"]["rss_reduction"] < 0.25
+
+
+def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
+    """rig --stepsine: six FRF files (2 amplitudes x 3 F_N1 levels) with measured force and drive
+    amplitudes, readable by rt.frf_files; the shaker shows only as F_amp_N != drive_amp_N."""
+    from rt.frf_files import load_frf_folder
+    folder = campaigns("shaker_interaction")
+    tests = load_frf_folder(folder)
+    assert len(tests) == 6 and all(t.meta["kind"] == "stepsine" and len(t.freq_hz) >= 10 for t in tests)
+    assert sorted(round(t.F_N1) for t in tests) == [40, 40, 100, 100, 300, 300]
+    ratio = np.concatenate([t.F_amp_N / t.drive_amp for t in tests])
+    assert ratio.min() < 0.8 and ratio.max() > 1.2          # drop-out and rise around the resonances
+    text = b"".join(p.read_bytes() for p in folder.iterdir() if p.suffix in (".csv", ".json"))
+    assert b"shaker" not in text and b"armature" not in text and b"mass" not in text

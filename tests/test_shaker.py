@@ -1,0 +1,65 @@
+"""The shaker stage of the loop (rt/shaker.py): its force ratio F_exc / drive in the closed loop
+against the closed-form two-port of armature + stinger on the stuck structure's driving point
+(plant.linear_frf, an independent linear solve), the ideal source when off, and the design-time
+refusal of a coupling that would be unstable."""
+import math
+
+import numpy as np
+import pytest
+
+from plant.linear_frf import continuous_accelerance, stuck_model
+from rt.config import Config, with_sets
+from rt.loop import build_loop, run
+from rt.shaker import coupled_spectral_radius, force_ratio
+from rt.stepsine import settle_point
+
+STUCK = ["shaker.armature_mass_kg=0.1", "tracking.F_passive_N=300.0", "plant.screws.adaptive.F_N=300.0"]
+
+
+def test_force_ratio_matches_the_two_port_on_the_stuck_structure():
+    """300 N, 1 N: the joint stays stuck, the structure is the linear stuck model. The step-sine's
+    measured F_amp / drive against 1 / (1 + D_a / k~ + D_a R), R = the continuous driving-point
+    receptance of the stuck model. Lines away from the lightly damped stuck resonances (there the
+    amplitude controller needs longer than a test should run). Tolerance 0.5 %: the plant's
+    trapezoidal warping and held force move R by up to 0.3 % at 360-500 Hz (measured 0.02-0.3 %)."""
+    cfg = with_sets(Config(), STUCK)
+    loop = build_loop(cfg, "passive")
+    lin = stuck_model(loop.plant, cfg.plant.excitation_point, 300.0)
+    state, rows = None, []
+    for f in (100.0, 150.0, 360.0, 500.0):
+        p, state = settle_point(loop, f, 1.0, start=state)
+        assert p.settled, f
+        R = continuous_accelerance(lin, f)[0] / -(2 * np.pi * f) ** 2
+        f_w = math.tan(math.pi * f * cfg.dt_s) / (math.pi * cfg.dt_s)      # the trapezoidal rule's warp
+        R_w = continuous_accelerance(lin, f_w)[0] / -(2 * np.pi * f_w) ** 2
+        rows.append((f, p.F_amp / p.drive_amp, abs(force_ratio(cfg, f, R)[0]), abs(p.R_exc / R_w - 1.0)))
+    for f, meas, two_port, r_err in rows:
+        assert meas == pytest.approx(two_port, rel=5e-3), rows
+        # the loop's own driving point (the step-sine's R_exc) is the stuck model's at the warped frequency
+        # (measured 0.04-0.44 %; unwarped 3-4 % at 360-500 Hz, near the 0.1 %-damped 389 Hz mode)
+        assert r_err < 1e-2, rows
+    ratios = [r[1] for r in rows]
+    assert min(ratios) < 0.95 and max(ratios) > 1.05, rows   # not an ideal source: the test can fail
+
+
+def test_drop_out_at_a_slipping_resonance_and_ideal_source_when_off():
+    """100 N, 10 N at the friction-softened mode-4 peak (375 Hz; stuck 389 Hz): the force drops out, the
+    amplitude controller raises the drive to hold 10 N (measured: ratio 0.589, drive 16.9 N). With
+    armature_mass_kg = 0 the logged F_exc is the generator's sine, bit for bit."""
+    cfg = with_sets(Config(), ["shaker.armature_mass_kg=0.1", "tracking.F_passive_N=100.0"])
+    p, _ = settle_point(build_loop(cfg, "passive"), 375.0, 10.0)
+    assert p.settled and p.F_amp == pytest.approx(10.0, rel=0.02), (p.F_amp, p.drive_amp)
+    assert p.F_amp / p.drive_amp < 0.7, (p.F_amp, p.drive_amp)
+    off = build_loop(with_sets(Config(), ["shaker.armature_mass_kg=0.0"]), "passive")
+    r = run(off, 200.0, 3.0, 0.01)
+    k = np.arange(len(r.log))
+    assert np.array_equal(r.signal("F_exc"), 3.0 * np.sin(2 * np.pi * 200.0 * (k * off.cfg.dt_s)))
+
+
+def test_unstable_coupling_is_refused_at_design_time():
+    """The one-tick lag on a 5e7 N/m stinger feeds more energy in than the shaker dissipates."""
+    stiff = with_sets(Config(), ["shaker.armature_mass_kg=0.1", "shaker.stinger_N_per_m=5e7"])
+    assert coupled_spectral_radius(stiff) > 1.0
+    assert coupled_spectral_radius(with_sets(Config(), ["shaker.armature_mass_kg=0.1"])) < 1.0
+    with pytest.raises(ValueError, match="stinger_N_per_m"):
+        build_loop(stiff, "passive")
