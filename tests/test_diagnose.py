@@ -130,7 +130,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys):
     assert main(["diagnose", str(tmp_path)]) == 2                  # no *.mcap in it
     (tmp_path / "junk.mcap").write_bytes(b"not mcap")
     assert main(["diagnose", str(tmp_path)]) == 2
-    assert main(["rig", "--frf-files", "--stepsine", "-o", str(tmp_path / "x")]) == 2
+    assert main(["rig", "--effect", "none", "--frf-files", "--stepsine", "-o", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 6 and all(line.startswith("frictionrt: error:") for line in err)
     assert "add --stepsine" in err[0] and "apply to the time-series campaign only" in err[5]
