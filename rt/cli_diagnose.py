@@ -35,6 +35,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "gap_after, fitted_parameters, ...)")
     p.add_argument("--out", metavar="REPORT_DIR", help="write report.md, diagnose.json, model.toml (the updated "
                    "model) and FRF/actuator overlay PNGs into this new folder")
+    p.add_argument("--jobs", type=int, metavar="N", help="processes for the candidates' fits (default: the number "
+                   "of cores; 1: in this process); the result is the same for any N")
     return p
 
 
@@ -45,9 +47,14 @@ def cmd_diagnose(cfg, args) -> int:
     from pathlib import Path
     if args.out and Path(args.out).exists():
         return _fail(f"diagnose --out {args.out}: exists; choose a new folder")
+    if args.jobs is not None and args.jobs < 1:
+        return _fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
+    say = None if args.json else lambda m: print(f"  {m}", file=sys.stderr)
     try:
-        run = diagnose_frf if is_frf_folder(args.folder) else diagnose
-        res = run(args.folder, cfg, progress=None if args.json else lambda m: print(f"  {m}", file=sys.stderr))
+        if is_frf_folder(args.folder):
+            res = diagnose_frf(args.folder, cfg, progress=say)
+        else:
+            res = diagnose(args.folder, cfg, progress=say, jobs=args.jobs)
     except ValueError as exc:
         return _fail(f"diagnose: {exc}")
     if args.out:

@@ -34,6 +34,7 @@ import math
 from pathlib import Path
 from typing import NamedTuple
 
+import joblib
 import numpy as np
 from mcap.reader import make_reader
 from scipy.optimize import least_squares
@@ -220,19 +221,31 @@ def bic(channels: dict[str, np.ndarray], p: int) -> float:
                  + p * math.log(n))
 
 
-def diagnose(folder: str | Path, nominal: Config | None = None, progress=None) -> dict:
+def diagnose(folder: str | Path, nominal: Config | None = None, progress=None, jobs: int | None = None) -> dict:
     """Run the workflow on a campaign folder; the result dict (docs/discrepancy.md) with the fitted
     configuration under "_config" and the plotting data under "_plots". BLAS runs single-threaded
-    meanwhile (the fit's matrices are small: threads only contend, 20x slower on a loaded machine)."""
+    meanwhile (the fit's matrices are small: threads only contend, 20x slower on a loaded machine).
+    jobs: processes for the candidates' fits (``fit_in_parallel``; default the number of cores)."""
     with threadpool_limits(1):
-        return _diagnose(folder, nominal, progress or (lambda msg: None))
+        return _diagnose(folder, nominal, progress or (lambda msg: None), jobs)
+
+
+def fit_in_parallel(calls: list, jobs: int | None) -> list:
+    """[f(*args, **kwargs) for (f, args, kwargs) in calls], in joblib (loky) worker processes when
+    jobs (default joblib.cpu_count()) > 1: the candidates' fits are independent given the
+    calibration, and each is a pure function of its inputs, so the results are the same as in
+    sequence (tested); the workers keep their compiled kernels between calls."""
+    jobs = min(jobs or joblib.cpu_count(), len(calls))
+    if jobs <= 1:
+        return [f(*a, **k) for f, a, k in calls]
+    return joblib.Parallel(n_jobs=jobs, backend="loky")(joblib.delayed(f)(*a, **k) for f, a, k in calls)
 
 
 def _cost(fit: StructureFit) -> float:
     return float(sum(v @ v for v in fit.channels.values()))
 
 
-def _diagnose(folder, nominal: Config | None, say) -> dict:
+def _diagnose(folder, nominal: Config | None, say, jobs: int | None) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_campaign(folder)
     imp = [t for t in tests if t.kind == "impulse"]
@@ -249,9 +262,12 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     ss_eff = [e for e in implemented() if e.channel == "stepsine"] if ss_tests else []
     say("fit calibration only")
     struct_fits = {None: fit_structure(nominal, data, None)}
-    for eff in struct_eff:
-        say(f"fit {eff.name}")
-        struct_fits[eff] = fit_structure(nominal, data, eff, calibrated=struct_fits[None])
+    act_fits = {None: fit_actuator(nominal, act, None) if act else ({}, {})}
+    say(f"fit {', '.join(e.name for e in struct_eff + act_eff)}")
+    fits = fit_in_parallel([(fit_structure, (nominal, data, e), {"calibrated": struct_fits[None]}) for e in struct_eff]
+                           + [(fit_actuator, (nominal, act, e, act_fits[None]), {}) for e in act_eff if act], jobs)
+    struct_fits |= dict(zip(struct_eff, fits))
+    act_fits |= dict(zip(act_eff, fits[len(struct_eff):])) if act else {e: ({}, {}) for e in act_eff}
     # calibration alone is nested in every candidate: where a candidate's calibration scales fit
     # better without the effect, calibration alone stopped short of its optimum; continue from there
     cal = struct_fits[None]
@@ -263,10 +279,8 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     if cal is not struct_fits[None]:
         say("fit calibration only, continued")
         struct_fits[None] = fit_structure(nominal, data, None, start=cal.theta)
-    ss_data, ss_fits, act_fits = None, {}, {}
+    ss_data, ss_fits = None, {}
     if ss_tests:  # the model's step-sine on the calibrated structure and stack (c_v: the loop's F_N1 ramp)
-        say("fit actuator calibration only")
-        act_fits[None] = fit_actuator(nominal, act, None) if act else ({}, {})
         c_v = act_fits[None][0].get("c_v")
         cal_cfg = scaled(struct_fits[None].cfg, {"c_v": c_v}) if c_v is not None else struct_fits[None].cfg
         say("model step-sine (driving point)")
@@ -280,9 +294,6 @@ def _diagnose(folder, nominal: Config | None, say) -> dict:
     for eff in [None] + struct_eff + act_eff + ss_eff:
         s_fit = struct_fits[eff if eff in struct_eff else None]
         a_eff = eff if eff in act_eff else None
-        if a_eff not in act_fits:
-            say(f"fit actuator {a_eff.name if a_eff else 'calibration only'}")
-            act_fits[a_eff] = fit_actuator(nominal, act, a_eff, act_fits.get(None)) if act else ({}, {})
         ath, ares = act_fits[a_eff]
         sth, sres = ss_fits.get(eff if eff in ss_eff else None, ({}, None))
         theta = s_fit.theta | ath | sth

@@ -11,9 +11,9 @@ from mcap.reader import make_reader
 from rt.cli import main
 from rt.config import Config, with_sets
 from rt.data_format import validate
-from rt.diagnose import diagnose, load_campaign
+from rt.diagnose import diagnose, fit_actuator, fit_in_parallel, load_campaign
 from rt.diagnose_structure import SENSORS, prepare, run_shape
-from rt.effects import EFFECTS, implemented
+from rt.effects import EFFECTS, get, implemented
 from rt.rig import make_campaign, scaled, scatter_sets
 
 SEED = 5
@@ -173,3 +173,17 @@ def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
     assert ratio.min() < 0.8 and ratio.max() > 1.2          # drop-out and rise around the resonances
     text = b"".join(p.read_bytes() for p in folder.iterdir() if p.suffix in (".csv", ".json"))
     assert b"shaker" not in text and b"armature" not in text and b"mass" not in text
+
+
+def test_parallel_fits_give_the_serial_result(tmp_path):
+    """diagnose's candidate fits in worker processes (rt.diagnose.fit_in_parallel, diagnose --jobs) give
+    the serial result to the bit: each fit is a pure function of its inputs. Two actuator candidates
+    of a short clean campaign (the structural fits go through the same function)."""
+    folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3)[0].parent
+    act = [t for t in load_campaign(folder) if t.kind == "actuator"]
+    nominal = with_sets(Config(), [])
+    cal = fit_actuator(nominal, act, None)
+    calls = [(fit_actuator, (nominal, act, get(n), cal), {}) for n in ("current_limit", "preload_creep")]
+    for (th1, r1), (th2, r2) in zip(fit_in_parallel(calls, 1), fit_in_parallel(calls, 2)):
+        assert th1 == th2 and all(np.array_equal(r1[k], r2[k]) for k in r1)
+    assert main(["diagnose", str(folder), "--jobs", "0"]) == 2
