@@ -11,7 +11,7 @@ from mcap.reader import make_reader
 from rt.cli import main
 from rt.config import Config, with_sets
 from rt.data_format import validate
-from rt.diagnose import diagnose, fit_actuator, fit_in_parallel, load_campaign
+from rt.diagnose import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
 from rt.diagnose_structure import SENSORS, prepare, run_shape
 from rt.effects import EFFECTS, get, implemented
 from rt.rig import make_campaign, scaled, scatter_sets
@@ -52,6 +52,15 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
     assert abs(fitted / effect.parameter.default - 1.0) < 0.30, fitted
     key = {"structure": "structure_frf_db", "actuator": "actuator_nrmse", "stepsine": "stepsine_ratio_db"}[effect.channel]
     assert res["gap_before"][key] >= 3.0 * res["gap_after"][key], (res["gap_before"][key], res["gap_after"][key])
+    if effect.channel == "actuator":
+        # not confused: the other actuator candidates explain under a quarter of the ramps' residual
+        # (a drift is neither a slew nor a loop, a slew is not a loop) and stay near nominal
+        for r in res["ranking"]:
+            other = EFFECTS[r["effect"]]
+            if other.channel == "actuator" and other is not effect:
+                assert r["rss_reduction"] < MIN_RSS_REDUCTION, r
+                span = abs(other.parameter.default - other.nominal)
+                assert abs(r["fitted"][other.name] - other.nominal) < 0.05 * span, r
 
 
 def test_stribeck_is_not_a_friction_coefficient_change(diagnosed):
@@ -144,21 +153,6 @@ def test_list_json_shows_every_effect(capsys):
     assert set(names) >= {"accelerometer_mass", "clamp_compliance", "moving_mass", "current_limit", "stribeck",
                           "piezo_hysteresis", "preload_creep", "micro_slip", "shaker_interaction"}
     assert all(r["implemented"] for r in rows) and names["current_limit"]["default_strength"] == 0.3
-
-
-def test_preload_creep_at_half_strength_is_named_and_not_confused(tmp_path):
-    # half the default (0.01 per decade: a 6 N drift over the 150 V hold against 0.05 N of F_cell
-    # noise): named, fitted within 30 %, the actuator gap closed >= 3x; the other actuator
-    # candidates find nothing (current_limit stays at its nominal 1 A within 1 %, the hysteresis
-    # width below 1 % of its default 0.1): the drift is neither a slew nor a loop
-    res = diagnose(make_campaign(tmp_path / "c", "preload_creep", 0.01, seed=SEED)[0].parent)
-    assert res["named_effect"] == "preload_creep", res["ranking"]
-    assert res["fitted_parameters"]["preload_creep"] == pytest.approx(0.01, rel=0.3)
-    assert res["gap_before"]["actuator_nrmse"] >= 3.0 * res["gap_after"]["actuator_nrmse"]
-    rows = {r["effect"]: r for r in res["ranking"]}
-    assert rows["current_limit"]["fitted"]["current_limit"] == pytest.approx(1.0, abs=0.01)
-    assert rows["piezo_hysteresis"]["fitted"]["piezo_hysteresis"] < 0.001
-    assert rows["current_limit"]["rss_reduction"] < 0.25 and rows["piezo_hysteresis"]["rss_reduction"] < 0.25
 
 
 def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
