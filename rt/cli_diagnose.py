@@ -9,17 +9,18 @@ import sys
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
 V_cmd), calibrates E, mu, k_t, modal damping and c_v, fits each implemented effect of the library
 jointly with the calibration (structure: on the log-magnitude FRFs of both accelerometers at every
-F_N1; actuator: on V_a, i, F_cell), ranks them by BIC and names the best only if it beats
-calibration alone by more than 10, removes at least 25 % of its channels' residual sum of squares
-and is fitted away from its nominal strength (else "no missing effect found"). About 15-20 s per
-campaign. A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
+F_N1; actuator: on V_a, i, F_cell; with step-sine files (rig --stepsine): the shaker on the force
+ratio F_amp/drive), ranks them by BIC and names the best only if it beats calibration alone by more
+than 10, removes at least 25 % of its channels' residual sum of squares and is fitted away from its
+nominal strength (else "no missing effect found"). The candidates' fits run in --jobs processes.
+About 10-25 s per campaign on 2 cores (30-50 s with step-sine tests). A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
 docs/data-format.md "FRF files") is fitted with the linear stuck-contact model of the --config
 structure: E, k_t, modal damping and each structural effect on the log-magnitude FRFs (mu cannot
 act there), about 10 s. Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
-  frictionrt diagnose logs/campaign_acc --json --out logs/diag_acc
+  frictionrt diagnose logs/campaign_acc --json --out logs/diag_acc   # report.md, model.toml, PNGs, diagnosis.rrd
   frictionrt --config logs/diag_acc/model.toml impulse     # the updated model in other commands
   frictionrt --config configs/lap_joint.toml diagnose lab/frf_tests --out lab/diag   # FRF files, any structure"""
 
