@@ -13,7 +13,8 @@ F_N1; actuator: on V_a, i, F_cell; with step-sine files (rig --stepsine): the sh
 ratio F_amp/drive), ranks them by BIC and names the best only if it beats calibration alone by more
 than 10, removes at least 25 % of its channels' residual sum of squares and is fitted away from its
 nominal strength (else "no missing effect found"). The candidates' fits run in --jobs processes.
-About 10-25 s per campaign on 2 cores (30-50 s with step-sine tests). A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
+About 10-25 s per campaign on 2 cores (30-50 s with step-sine tests).
+A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
 docs/data-format.md "FRF files") is fitted with the linear stuck-contact model of the --config
 structure: E, k_t, modal damping and each structural effect on the log-magnitude FRFs (mu cannot
 act there), about 10 s. Method: docs/discrepancy.md."""
