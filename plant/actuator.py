@@ -460,6 +460,20 @@ def _hysteresis(h0, dV, A, beta):
     return h0 - (hs - h0) * math.expm1(-beta * abs(dV))
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy", inline="always")
+def _creep_into_stack(q, Q, n_creep, x1, v1, zs1, zc1):
+    """Add the creep states' part of one fine substep's update to the stack and sensor states:
+    x1 += sum_j Q[j, 0] q_j, x1' += sum_j Q[j, 1] q_j, z_s1 += sum_j Q[j, 2] q_j, z_c1 += sum_j Q[j, 3] q_j,
+    q_j = q[Q0 + j] at the substep's start (the same in both regimes of ``_actuator_fine``). RT-safe."""
+    for j in range(n_creep):
+        qj = q[Q0 + j]
+        x1 += Q[j, 0] * qj
+        v1 += Q[j, 1] * qj
+        zs1 += Q[j, 2] * qj
+        zc1 += Q[j, 3] * qj
+    return x1, v1, zs1, zc1
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy")
 def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p, q):
     """One substep h as p.n_fine substeps of h_f = h / n_fine (a substep where the amplifier
@@ -485,13 +499,9 @@ def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p, q):
             v1 = M[4, 8] * xm + M[4, 9] * vm + M[4, 12] * Va + M[4, 13] * dV
             zs1 = M[5, 8] * xm + M[5, 9] * vm + M[5, 10] * zs + M[5, 12] * Va + M[5, 13] * dV
             zc1 = M[6, 8] * xm + M[6, 9] * vm + M[6, 11] * zc + M[6, 12] * Va + M[6, 13] * dV
+            x1, v1, zs1, zc1 = _creep_into_stack(q, Q, p.n_creep, x1, v1, zs1, zc1)
             for j in range(p.n_creep):
-                qj = q[Q0 + j]
-                x1 += Q[j, 0] * qj
-                v1 += Q[j, 1] * qj
-                zs1 += Q[j, 2] * qj
-                zc1 += Q[j, 3] * qj
-                q[Q0 + j] = Q[j, 8] * qj + Q[j, 9] * Va + Q[j, 10] * dV
+                q[Q0 + j] = Q[j, 8] * q[Q0 + j] + Q[j, 9] * Va + Q[j, 10] * dV
         else:
             x1 = (M[3, 0] * vf + M[3, 1] * r + M[3, 2] * Va + M[3, 3] * xm + M[3, 4] * vm
                   + M[3, 7] * Vd)
@@ -501,13 +511,9 @@ def _actuator_fine(vf, r, Va, xm, vm, zs, zc, Vd, p, q):
                    + M[5, 5] * zs + M[5, 7] * Vd)
             zc1 = (M[6, 0] * vf + M[6, 1] * r + M[6, 2] * Va + M[6, 3] * xm + M[6, 4] * vm
                    + M[6, 6] * zc + M[6, 7] * Vd)
+            x1, v1, zs1, zc1 = _creep_into_stack(q, Q, p.n_creep, x1, v1, zs1, zc1)
             for j in range(p.n_creep):
-                qj = q[Q0 + j]
-                x1 += Q[j, 0] * qj
-                v1 += Q[j, 1] * qj
-                zs1 += Q[j, 2] * qj
-                zc1 += Q[j, 3] * qj
-                q[Q0 + j] = Q[j, 4] * vf + Q[j, 5] * r + Q[j, 6] * Va + Q[j, 7] * Vd + Q[j, 8] * qj
+                q[Q0 + j] = Q[j, 4] * vf + Q[j, 5] * r + Q[j, 6] * Va + Q[j, 7] * Vd + Q[j, 8] * q[Q0 + j]
         dE += _energy(Va, Va1c, half_C)
         vf, r, Va, xm, vm, zs, zc = vf1, r1, Va1c, x1, v1, zs1, zc1
     return vf, r, Va, xm, vm, zs, zc, dE
