@@ -281,6 +281,14 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None) -> dict:
     if cal is not struct_fits[None]:
         say("fit calibration only, continued")
         struct_fits[None] = fit_structure(nominal, data, None, start=cal.theta)
+    # ... and a candidate whose fit ended less likely than (the continued) calibration alone is
+    # scored at that nested point, its strength at nominal (seed 3 with a hidden shaker: the three
+    # mass/compliance candidates had ended 10.7 % above calibration's RSS, 994 BIC points below it)
+    cal = struct_fits[None]
+    for e in struct_eff:
+        if bic(struct_fits[e].channels, 0) > bic(cal.channels, 0):
+            th = cal.theta | {e.name: e.nominal}
+            struct_fits[e] = StructureFit(th, cal.channels, cal.run, struct_cfg(nominal, th, e), cal.J)
     ss_data, ss_fits = None, {}
     if ss_tests:  # the model's step-sine on the calibrated structure and stack (c_v: the loop's F_N1 ramp)
         c_v = act_fits[None][0].get("c_v")
