@@ -14,6 +14,7 @@ code exists (no ``apply``: ``implemented`` False) is shown by ``frictionrt rig -
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -92,28 +93,15 @@ def _moving_mass(cfg: Config, m: float) -> Config:
     return with_sets(cfg, [f"plant.screws.{n}.mass_kg={m!r}" for n in names])
 
 
-def _piezo_hysteresis(cfg: Config, w: float) -> Config:
-    return with_sets(cfg, [f"actuator.hysteresis_width_rel={w!r}"])
+def _set_key(key: str, cfg: Config, value: float) -> Config:
+    """``cfg`` with the configuration key ``key`` set to ``value`` (an effect that is one setting)."""
+    return with_sets(cfg, [f"{key}={value!r}"])
 
 
-def _preload_creep(cfg: Config, c: float) -> Config:
-    return with_sets(cfg, [f"actuator.creep_per_decade={c!r}"])
-
-
-def _micro_slip(cfg: Config, a: float) -> Config:
-    return with_sets(cfg, [f"plant.interface.iwan_spread={a!r}"])
-
-
-def _stribeck(cfg: Config, s: float) -> Config:
-    return with_sets(cfg, [f"plant.interface.static_excess={s!r}"])
-
-
-def _shaker_interaction(cfg: Config, m: float) -> Config:
-    return with_sets(cfg, [f"shaker.armature_mass_kg={m!r}"])
-
-
-def _current_limit(cfg: Config, i_max: float) -> Config:
-    return with_sets(cfg, [f"actuator.current_limit_A={i_max!r}"])
+def _setting(key: str) -> Callable[[Config, float], Config]:
+    """The ``apply`` of an effect that is the configuration key ``key`` (picklable: the diagnosis
+    sends effects to worker processes)."""
+    return functools.partial(_set_key, key)
 
 
 _EFFECTS = (
@@ -145,7 +133,7 @@ _EFFECTS = (
            "(C = actuator.capacitance_F) when a command asks for more",
            "fast voltage ramps: the measured current plateaus at +-I_max, V_a and the bolt force lag the "
            "command with a constant slope; slow ramps and the impulse tests are unchanged",
-           Parameter("current_limit_A", "A", 0.3, 0.02, 1.0), "actuator", 1.0, _current_limit),
+           Parameter("current_limit_A", "A", 0.3, 0.02, 1.0), "actuator", 1.0, _setting("actuator.current_limit_A")),
     Effect("piezo_hysteresis",
            "rate-independent hysteresis of the stack: free elongation d (V_a - h) with the Bouc-Wen state "
            "h' = A V_a' - beta |V_a'| h (n = 1, gamma = 0), beta = 2 / (V_max - V_min), A set by the loop "
@@ -154,7 +142,8 @@ _EFFECTS = (
            "(V_max - V_min) at mid range (0.1: 56 N of the 560 N swing), the up branch is concave, and the "
            "force after 150 -> 0 V stays 44 N above F0 (-c_v h, h = -11.9 V); the same on every ramp rate; V_a, i "
            "and the impulse tests unchanged",
-           Parameter("hysteresis_width_rel", "-", 0.1, 0.0, 0.3), "actuator", 0.0, _piezo_hysteresis),
+           Parameter("hysteresis_width_rel", "-", 0.1, 0.0, 0.3), "actuator", 0.0,
+           _setting("actuator.hysteresis_width_rel")),
     Effect("preload_creep",
            "creep of the screw thread's preload: after a step of the stack's force F_N1 relaxes by c of the "
            "step per decade, F_step (1 - c log10(1 + t / tau0)), tau0 = 1 ms, as a Prony series of five "
@@ -166,7 +155,7 @@ _EFFECTS = (
            "opposite sign after the down ramp to the piezo hysteresis' offset; nearly the same after every ramp "
            "(drift 12.4 N after the 0.3 ms ramp, 10.9 N after the 3 ms one); V_a, i and the impulse tests "
            "(held V) unchanged",
-           Parameter("creep_per_decade", "-", 0.02, 0.0, 0.1), "actuator", 0.0, _preload_creep),
+           Parameter("creep_per_decade", "-", 0.02, 0.0, 0.1), "actuator", 0.0, _setting("actuator.creep_per_decade")),
     Effect("micro_slip",
            "micro-slip: an Iwan element per contact pair instead of one Jenkins element, N = "
            "plant.interface.iwan_elements (6) Jenkins elements in parallel with stiffness k_t / N and slip limits "
@@ -178,7 +167,8 @@ _EFFECTS = (
            "0.45 / 0.61 / 0.63 dB rms over 4-1600 Hz at 40 / 100 / 300 N (0.9: 0.32 / 1.03 / 1.30), as much as "
            "mu +5 % (0.46 / 0.85 / 0.45); below macro-slip a steady 0.5 N sine at mode 3 (100 N) loses 17 % of "
            "its input to friction where the Jenkins pairs stay stuck (0 %)",
-           Parameter("iwan_spread", "-", 0.5, 0.0, 0.95), "structure", 0.0, _micro_slip, stuck_linear=False),
+           Parameter("iwan_spread", "-", 0.5, 0.0, 0.95), "structure", 0.0,
+           _setting("plant.interface.iwan_spread"), stuck_linear=False),
     Effect("shaker_interaction",
            "shaker-structure interaction: the shaker's armature (mass m on its flexure, 20 Hz, 5 %) drives "
            "the excitation point through a stinger (5e6 N/m, 20 N s/m); the force transducer at the stinger's tip "
@@ -191,7 +181,7 @@ _EFFECTS = (
            "0 ideal); a / F_exc within 0.5 % off the resonances (force measured at the structure), up to 25 % "
            "at the slipping peaks (the force's harmonics); impulse tests unchanged (no shaker on the hammer "
            "tests)",
-           Parameter("armature_mass_kg", "kg", 0.1, 0.0, 1.0), "stepsine", 0.0, _shaker_interaction),
+           Parameter("armature_mass_kg", "kg", 0.1, 0.0, 1.0), "stepsine", 0.0, _setting("shaker.armature_mass_kg")),
     Effect("stribeck",
            "velocity-dependent friction (Stribeck) at the contact pairs: mu(v) = mu_k (1 + s exp(-(v / v_s)^2)), "
            "s the static excess (mu_s = (1 + s) mu_k), v the pair's tangential surface velocity at the start of "
@@ -203,7 +193,8 @@ _EFFECTS = (
            "at 100 N mode 3 +1.4 % (218.5 -> 221.6 Hz), but once sliding the pairs dissipate at mu_k: mode 3 "
            "damping at 100 N stays 1.26 % (nominal 1.29 %) where a 30 % higher mu that gives the same shift "
            "(223.0 Hz) leaves 0.28 %; mode 4 damping at 100 N 1.53 -> 0.32 %",
-           Parameter("static_excess_rel", "-", 0.3, 0.0, 1.0), "structure", 0.0, _stribeck, stuck_linear=False),
+           Parameter("static_excess_rel", "-", 0.3, 0.0, 1.0), "structure", 0.0,
+           _setting("plant.interface.static_excess"), stuck_linear=False),
 )
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in _EFFECTS}
