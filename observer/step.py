@@ -31,6 +31,8 @@ import math
 
 import numba
 
+from observer.atan import _atan
+
 OBSERVER_OUTPUTS = (("u_rel_hat", "m"), ("v_rel_hat", "m/s"), ("innovation", "m/s"), ("f_r_hat", "N"))
 NEWTON_MAX = 60  # safeguarded Newton on a monotone scalar function: 3..8 iterations in practice
 TWO_OVER_PI = 2.0 / math.pi
@@ -38,10 +40,11 @@ TWO_OVER_PI = 2.0 / math.pi
 
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
 def _friction(v, F_N, mu, alpha):
-    """f_r = mu F_N (2/pi) arctan(alpha v) [N] and its slope df_r/dv [N s/m]. RT-safe."""
+    """f_r = mu F_N (2/pi) arctan(alpha v) [N] and its slope df_r/dv [N s/m]; arctan of observer.atan
+    (the same bits on every machine). RT-safe."""
     c = mu * F_N * TWO_OVER_PI
     av = alpha * v
-    return c * math.atan(av), c * alpha / (1.0 + av * av)
+    return c * _atan(av), c * alpha / (1.0 + av * av)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)

@@ -249,7 +249,8 @@ def _cmd_simulate(cfg, args) -> int:
 
     from rt.data_format import run_test_record
     from rt.faults import schedule, to_json
-    from rt.loop import build_loop, check_run_input, run, summary
+    from rt.design_record import DESIGN_ATTACHMENT, MEDIA_TYPE, design_arrays, to_npz
+    from rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
     from rt.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
         return _fail(f"--seed {args.seed}: must be a non-negative integer")
@@ -278,6 +279,8 @@ def _cmd_simulate(cfg, args) -> int:
             meta["faults"] = json.dumps(to_json(faults))
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
             writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
+            writer.mcap.add_attachment(DESIGN_ATTACHMENT, MEDIA_TYPE,
+                                       to_npz(design_arrays(loop, initial_loop_state(loop, seed))))
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
                     writer=writer, faults=faults)
@@ -321,6 +324,7 @@ def _cmd_simulate(cfg, args) -> int:
 
 
 def _cmd_replay(cfg, args) -> int:
+    from rt.design_record import describe
     from rt.replay import replay
     if args.plant:
         return cmd_replay_plant(cfg, args)
@@ -337,6 +341,7 @@ def _cmd_replay(cfg, args) -> int:
           f"{res['realtime_factor']:.1f}x real time{', interrupted' if res['interrupted'] else ''}")
     if res["missing_ticks"]:
         print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
+    print(describe(res["design"]))
     if res["bit_exact"] is None:
         print("  no recorded controller outputs: nothing to compare; replayed outputs (min / mean / max):")
         for name, o in res["outputs"].items():

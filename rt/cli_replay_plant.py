@@ -8,6 +8,7 @@ def cmd_replay_plant(cfg, args) -> int:
     """Replay the log's V_cmd and F_exc into actuator and plant and compare their outputs; exit 0
     when bit-exact (or nothing to compare), 1 when they differ, 2 for a bad file."""
     from rt.cli import _fail
+    from rt.design_record import describe
     from rt.replay_plant import replay_plant
     if args.paced:
         return _fail("--plant with --paced: the plant replay runs offline only; drop --paced")
@@ -24,6 +25,7 @@ def cmd_replay_plant(cfg, args) -> int:
           f"({res['wall_s']:.2f} s), failed contact solves {res['failed_solves']}")
     if res["missing_ticks"]:
         print(f"  the log misses {res['missing_ticks']} ticks: replayed up to the first gap only")
+    print(describe(res["design"]))
     if res["bit_exact"] is None:
         print("  no recorded /actuator or /plant signals: nothing to compare; replayed (min / mean / max):")
         for name, o in res["outputs"].items():

@@ -420,6 +420,19 @@ def _chunk_messages(f, summary):
             yield (schema, channel), (payloads, times, seqs)
 
 
+def read_attachment(path: str | os.PathLike, name: str) -> bytes | None:
+    """The data of the first attachment called ``name`` in the MCAP file at path, or None if it
+    has none (or the file is unreadable: ``read_mcap`` names such problems)."""
+    try:
+        with open(path, "rb") as f:
+            for a in make_reader(f, validate_crcs=True).iter_attachments():
+                if a.name == name:
+                    return bytes(a.data)
+    except (OSError, McapError, EOFError, ValueError, struct.error):
+        return None
+    return None
+
+
 def read_mcap(path: str | os.PathLike) -> McapLog:
     """Read a log written by ``McapLogWriter``; ValueError naming the file on any problem.
 

@@ -43,7 +43,7 @@ import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
-from mcap.records import Chunk, DataEnd, Footer, Metadata, MetadataIndex
+from mcap.records import Attachment, Chunk, DataEnd, Footer, Metadata, MetadataIndex
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
 
 from rt.mcap_log import MAGIC, check_conversion, read_mcap, tick_runs, topics_of
@@ -65,6 +65,7 @@ class Scan:
     chunk_times_ns: list[tuple[int, int]] = field(default_factory=list)   # per complete chunk
     metadata: list[Metadata] = field(default_factory=list)
     metadata_at: list[tuple[int, int]] = field(default_factory=list)   # (offset, length) of each [B]
+    attachments: list[Attachment] = field(default_factory=list)   # e.g. the run's design (rt.design_record)
 
     @property
     def lost_bytes(self) -> int:
@@ -100,6 +101,8 @@ def scan(path: Path) -> Scan:
             elif isinstance(rec, Metadata):
                 s.metadata.append(rec)
                 s.metadata_at.append((start, s.end - start))
+            elif isinstance(rec, Attachment):
+                s.attachments.append(rec)
         if not s.finished and s.end < s.size:
             f.seek(s.end)
             head = f.read(CHUNK_HEAD.size)
@@ -186,6 +189,8 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
             w.add_metadata("frictionrt.recover", {
                 "source": str(src), "ticks": str(report["ticks"]), "last_tick": str(report["last_tick"]),
                 "lost_bytes": str(report["lost_bytes"]), "report": json.dumps(report)})
+            for att in s.attachments:
+                w.add_attachment(att.name, att.media_type, bytes(att.data))
             for a, b in tick_runs(rec.k):
                 w.write_block(int(rec.k[a]), rec.log[a:b])
         os.replace(out, dst)

@@ -36,6 +36,7 @@ import numpy as np
 from observer.step import OBSERVER_OUTPUTS
 from rt.clock import _now_ns
 from rt.config import ConfigError, load, loads
+from rt.design_record import use_logged
 from rt.faults import from_json
 from rt.loop import (CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, ESTIMATORS, _controller_tick, _copy, _put,
                      build_loop, initial_loop_state)
@@ -190,6 +191,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
         bad = int(rec.k[~np.all(np.isfinite(sens), axis=1)][0])
         raise ValueError(f"{path}: /sensors has missing or non-finite readings (first at tick {bad})")
     st = initial_loop_state(loop, _seed_of(path, meta, cfg))
+    loop, st, design = use_logged(path, loop, st, sets, meta=meta)
     n = len(rec.k)
     uv = np.zeros((n, 2))
     if estimator == "oracle":
@@ -247,7 +249,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     res = {"file": str(path), "law": law, "estimator": estimator, "paced": paced, "ticks": m,
            "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n), "interrupted": interrupted,
            "wall_s": wall, "realtime_factor": (m / rec.rate_hz) / wall if wall > 0 else float("inf"),
-           "overruns": int(clk[CLK_OVERRUNS]) if paced else 0}
+           "overruns": int(clk[CLK_OVERRUNS]) if paced else 0, "design": design}
     owner = {nm: o for nm, _, o in rec.signals}
     recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
     if recorded:

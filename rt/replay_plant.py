@@ -33,6 +33,7 @@ import numpy as np
 
 from plant.actuator import ACTUATOR_OUTPUTS
 from rt.loop import _actuate, _copy, _put, build_loop, initial_loop_state
+from rt.design_record import use_logged
 from rt.replay import _seed_of, open_log
 
 INPUTS = ("F_exc", "V_cmd")
@@ -104,6 +105,7 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
     except ValueError as exc:
         raise ValueError(f"{path}: the configuration cannot be built ({exc})") from None
     st = initial_loop_state(loop, _seed_of(path, meta, cfg))
+    loop, st, design = use_logged(path, loop, st, sets, meta=meta, parts=("plant", "actuator"))
     out_names = [nm for nm, _ in ACTUATOR_OUTPUTS] + [nm for nm, _ in loop.plant.output_labels()]
     out = np.empty((n, len(out_names)))
     F_exc = np.ascontiguousarray(u[:, 0])
@@ -119,7 +121,7 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
                 if c in owner and owner[c] in ("actuator", "plant") and "/" + owner[c] in rec.topics]
     res = {"file": str(path), "law": law, "estimator": estimator, "sets": list(sets), "inputs": list(INPUTS),
            "ticks": n, "missing_ticks": int(rec.k[-1] + 1 - len(rec.k)), "failed_solves": int(failed),
-           "wall_s": wall}
+           "wall_s": wall, "design": design}
     if compared:
         j_out = [out_names.index(c) for c in compared]
         ref = np.ascontiguousarray(rec.log[:n][:, [names.index(c) for c in compared]])

@@ -81,7 +81,7 @@ import numpy as np
 import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
-from mcap.records import (Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
+from mcap.records import (Attachment, AttachmentIndex, Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
 from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, check_block, checked_layout, part_path, signals_record,
@@ -94,7 +94,7 @@ POLL_S = 0.002            # the writer checks the loop's tick counter this often
 WRITER_NICE = 10          # paced runs: the writer thread's nice value (Linux: per thread)
 INTERRUPT_DRAIN_S = 0.5   # after Ctrl-C the writer writes its backlog for at most this long [s wall], then closes
 ZSTD_LEVEL = -1          # zstd "fast" level: 35 % faster than level 1, files 2 % larger (float64 noise)
-VERSION_PACKAGES = ("numpy", "numba", "scipy", "control", "mcap", "rerun-sdk", "zstandard", "frictionrt")
+VERSION_PACKAGES = ("numpy", "numba", "llvmlite", "scipy", "control", "mcap", "rerun-sdk", "zstandard", "frictionrt")
 _MSG_HEAD = 1 + 8 + 2 + 4 + 8 + 8   # opcode, record length, channel id, sequence, log time, publish time
 
 
@@ -127,6 +127,7 @@ class McapBlockWriter:
         self._zstd = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
         self._chunk_indexes: list[ChunkIndex] = []
         self._metadata_indexes: list[MetadataIndex] = []
+        self._attachment_indexes: list[AttachmentIndex] = []
         self._n_ticks = 0
         self._t_first = self._t_last = 0
         self._k_next = 0
@@ -155,6 +156,16 @@ class McapBlockWriter:
         data = rb.end()
         self._metadata_indexes.append(MetadataIndex(offset=self._file.tell(), length=len(data), name=name))
         self._file.write(data)
+
+    def add_attachment(self, name: str, media_type: str, data: bytes) -> None:
+        """Write an attachment record (indexed in the summary); times 0: it belongs to no tick."""
+        rb = RecordBuilder()
+        Attachment(create_time=0, log_time=0, name=name, media_type=media_type, data=data).write(rb)
+        rec = rb.end()
+        self._attachment_indexes.append(AttachmentIndex(offset=self._file.tell(), length=len(rec), log_time=0,
+                                                        create_time=0, data_size=len(data), name=name,
+                                                        media_type=media_type))
+        self._file.write(rec)
 
     def write_block(self, k0: int, block: np.ndarray) -> None:
         """Append ticks k0 .. k0 + n - 1; block is float64 (n, n_sig), row i = tick k0 + i.
@@ -244,7 +255,7 @@ class McapBlockWriter:
                                         group_length=sb.count - g0))
         n_top = len(self.topics)
         stats = Statistics(message_count=self._n_ticks * n_top, schema_count=n_top, channel_count=n_top,
-                           attachment_count=0, metadata_count=len(self._metadata_indexes),
+                           attachment_count=len(self._attachment_indexes), metadata_count=len(self._metadata_indexes),
                            chunk_count=len(self._chunk_indexes), message_start_time=self._t_first,
                            message_end_time=self._t_last,
                            channel_message_counts={c.id: self._n_ticks for c in self._channels})
@@ -252,6 +263,8 @@ class McapBlockWriter:
         group(Opcode.CHANNEL, self._channels)
         group(Opcode.STATISTICS, [stats])
         group(Opcode.CHUNK_INDEX, self._chunk_indexes)
+        if self._attachment_indexes:
+            group(Opcode.ATTACHMENT_INDEX, self._attachment_indexes)
         group(Opcode.METADATA_INDEX, self._metadata_indexes)
         offsets_start = summary_start + sb.count
         for g in groups:
@@ -494,8 +507,11 @@ def package_versions() -> dict[str, str]:
 def run_metadata(cfg, law: str, estimator: str, seed: int, freq_hz: float, amp_n: float, duration_s: float,
                  paced: bool, argv: list[str] | None = None, start_tick: int = 0) -> dict[str, str]:
     """The "frictionrt" metadata record of a run (all strings; floats as repr, exact)."""
+    from rt.codegen import compiled_target
     from rt.config import dumps
-    return {"config": dumps(cfg), "versions": json.dumps(package_versions()), "seed": str(seed), "law": law,
+    from rt.jit_cache import source_hash
+    return {"config": dumps(cfg), "versions": json.dumps(package_versions()),
+            "codegen": json.dumps(compiled_target()), "kernels": source_hash(), "seed": str(seed), "law": law,
             "estimator": estimator, "freq_hz": repr(float(freq_hz)), "amp_n": repr(float(amp_n)),
             "duration_s": repr(float(duration_s)), "paced": str(bool(paced)).lower(),
             "start_tick": str(int(start_tick)),
