@@ -130,9 +130,9 @@ def _closed_copy(src: Path, s: Scan, tmp: Path) -> None:
         fo.write(rb.end() + MAGIC)
 
 
-def _tick(t_ns: int, rate_hz: int) -> int:
-    """k of a log time t = (k * 10**9) // rate_hz [ns] (rt.mcap_log's time rule)."""
-    return -((-t_ns * rate_hz) // 10**9)
+def _tick(t_ns: int, rec) -> int:
+    """k of a log time t = start_ns + (k * 10**9) // rate_hz [ns] of the log rec (rt.mcap_log's time rule)."""
+    return -((-(t_ns - rec.start_ns) * rec.rate_hz) // 10**9)
 
 
 def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
@@ -166,14 +166,14 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
     if missing:
         raise ValueError(f"{src}: topics {missing} of the 'signals' record are absent; recover rebuilds "
                          "complete run logs (frictionrt simulate --out) only")
-    chunk_ticks = [_tick(b, rec.rate_hz) - _tick(a, rec.rate_hz) + 1 for a, b in s.chunk_times_ns]
+    chunk_ticks = [_tick(b, rec) - _tick(a, rec) + 1 for a, b in s.chunk_times_ns]
     report = {
         "input": str(src), "output": str(dst), "ticks": len(rec.k),
         "first_tick": int(rec.k[0]), "last_tick": int(rec.k[-1]),
         "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - len(rec.k)), "chunks": s.chunks,
         "chunk_ticks": max(chunk_ticks), "finished": s.finished, "lost_bytes": s.lost_bytes,
         "lost_record": None if s.cut_opcode is None else _opcode_name(s.cut_opcode),
-        "lost_chunk_ticks": None if s.cut_times_ns is None else [_tick(t, rec.rate_hz) for t in s.cut_times_ns],
+        "lost_chunk_ticks": None if s.cut_times_ns is None else [_tick(t, rec) for t in s.cut_times_ns],
         "stop": s.stop if not s.finished else "",
         "metadata": [m.name for m in s.metadata if m.name != "signals"],
     }

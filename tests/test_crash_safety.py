@@ -31,9 +31,9 @@ FULL_VIEWS = {"F_N1 setpoint vs measured", "friction hysteresis: F_t [N] up vs u
 
 def chunk_ticks(signals):
     """Ticks per chunk of McapBlockWriter: whole ticks in CHUNK_BYTES (1 MiB) of message records,
-    each 31 B of record header (MCAP spec: opcode, length, channel, sequence, two times) + 4 B CDR
-    header + 8 B per field (1210 for simulate's 82 signals)."""
-    return CHUNK_BYTES // sum(31 + 4 + 8 * len(tp.fields) for tp in topics_of(signals))
+    each 31 B of record header (MCAP spec: opcode, length, channel, sequence, two times) + the CDR
+    message (4 B header, 8 B stamp, 8 B tick, the aligned fields; 1088 for simulate's 85 signals)."""
+    return CHUNK_BYTES // sum(31 + tp.message_size for tp in topics_of(signals))
 
 
 def start_simulate(base):
