@@ -235,8 +235,9 @@ def _check_test(meta: dict, signals: tuple, rate: int | None, problems: list[Pro
     """Check the "test" record; returns its law ("none" if absent or unknown)."""
     rec = meta.get("test")
     if rec is None:
-        problems.append(Problem("metadata test", "missing", "no 'test' record (kind, excitation point, sensor "
-                                "positions, law): docs/data-format.md"))
+        problems.append(Problem("metadata test", "missing", "no 'test' record: what was done (kind, excitation "
+                                "point, sensor positions, law) has no default; add it with the MCAP writer's "
+                                "add_metadata(\"test\", {\"kind\": ..., ...}), keys in docs/data-format.md"))
         return "none"
     kind = rec.get("kind")
     if kind is None:
