@@ -222,7 +222,7 @@ def test_inspect_converts_a_run_log_with_the_default_blueprint(recovered, capsys
     rec = read_mcap(recovered)
     assert r["output"] == str(rrd) and r["ticks"] == len(rec.k) and len(r["topics"]) == 6
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks() if not c.is_static}
-    assert entities == {f"/{o}/{n}" for n, _, o in rec.signals} | {"/hysteresis"}
+    assert entities == {f"/{o}" for _, _, o in rec.signals} | {"/hysteresis"}
     assert view_names(rrd) == FULL_VIEWS
     k, _, v = rrd_column(rrd, "/plant/v_rel")
     np.testing.assert_array_equal(k, rec.k)
@@ -249,7 +249,7 @@ def test_inspect_converts_a_measurement_with_a_gap(recovered, tmp_path, capsys):
     assert code == 0, err
     assert json.loads(out)["topics"] == ["/sensors"]
     entities = {c.entity_path for c in RrdReader(tmp_path / "view.rrd").stream().to_chunks() if not c.is_static}
-    assert entities == {f"/sensors/{n}" for n, _, o in rec.signals if o == "sensors"}
+    assert entities == {"/sensors"}
     assert view_names(tmp_path / "view.rrd") == {"F_N1 setpoint vs measured", "damper", "sensors"}
     k, _, v = rrd_column(tmp_path / "view.rrd", "/sensors/F_cell")
     np.testing.assert_array_equal(k, rows)

@@ -1,5 +1,8 @@
 """Log files: MCAP (rt.mcap_log) bit-exact round trip, time rule, layout and errors; rrd (rt.rrd_log)."""
 import struct
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -320,17 +323,23 @@ def test_writer_refuses_bad_blocks(tmp_path, signals):
 
 # --- rrd -------------------------------------------------------------------------------------------
 
-def rrd_column(path, entity):
-    """(tick, t [ns], values) of a Scalars entity, read back with rerun's chunk reader."""
+def rrd_column(path, series):
+    """(tick, t [ns], values) of one signal "/<owner>/<name>" of an .rrd: the series of the
+    entity /<owner> that its static SeriesLines names by the signal's ROS 2 field, read back with
+    rerun's chunk reader."""
     from rerun.chunk import RrdReader
 
+    entity, name = series.rsplit("/", 1)
+    chunks = [c for c in RrdReader(path).stream().to_chunks() if c.entity_path == entity]
+    names = next(c.to_record_batch().column("SeriesLines:names")[0].as_py() for c in chunks if c.is_static)
+    j = names.index(ros2_field(name))
     ticks, times, values = [], [], []
-    for c in RrdReader(path).stream().to_chunks():
-        if c.entity_path == entity and not c.is_static:
+    for c in chunks:
+        if not c.is_static:
             rb = c.to_record_batch()
             ticks.append(rb.column("tick").to_numpy())
             times.append(rb.column("t").cast("int64").to_numpy())
-            values.append(rb.column("Scalars:scalars").flatten().to_numpy(zero_copy_only=False))
+            values.append(np.stack(rb.column("Scalars:scalars").to_numpy(zero_copy_only=False))[:, j])
     order = np.argsort(np.concatenate(ticks))
     return tuple(np.concatenate(x)[order] for x in (ticks, times, values))
 
@@ -345,6 +354,8 @@ def test_rrd_is_written_and_reads_back(tmp_path, signals):
     assert len(RrdReader(tmp_path / "a.rrd").blueprints()) == 1
     k, t, v = rrd_column(tmp_path / "a.rrd", "/plant/v_rel")
     np.testing.assert_array_equal(k, 10 + np.arange(2000))
+    subprocess.run([str(Path(sys.executable).parent / "rerun"), "rrd", "verify", str(tmp_path / "a.rrd")],
+                   check=True, capture_output=True)
     np.testing.assert_array_equal(t, (k * 10**9) // RATE)
     names = [n for n, _, _ in signals]
     np.testing.assert_array_equal(v.view(np.uint64), log[:, names.index("v_rel")].view(np.uint64))

@@ -69,9 +69,9 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
     assert (meta["seed"], meta["law"], meta["estimator"]) == ("3", "hysteresis", "oracle")
     assert float(meta["freq_hz"]) == F3 and float(meta["amp_n"]) == AMP and float(meta["duration_s"]) == 0.2
     assert meta["start_utc"].endswith("+00:00") and isinstance(json.loads(meta["command"]), list)
-    # rrd: one entity per signal, the same values; a blueprint
+    # rrd: one entity per topic, a series per signal named by its field, the same values; a blueprint
     entities = {c.entity_path for c in RrdReader(tmp_path / "run.rrd").stream().to_chunks() if not c.is_static}
-    assert {f"/{o}/{n}" for n, _, o in loop.signals} <= entities
+    assert entities == {f"/{o}" for _, _, o in loop.signals} | {"/hysteresis"}
     assert len(RrdReader(tmp_path / "run.rrd").blueprints()) == 1
     from tests.test_logfiles import rrd_column
     k, t, v = rrd_column(tmp_path / "run.rrd", "/tracking/V_cmd")
