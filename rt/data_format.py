@@ -1,18 +1,16 @@
 """The measurement format (docs/data-format.md): what a run log or a measurement must carry, and
 a validator that names what is missing or wrong.
 
-A file is an MCAP log in the layout of ``rt.mcap_log`` (topics per owning package, ros2msg
-schemas of float64 fields, CDR messages, one message per tick at log_time = (k 10^9) // rate_hz
-ns) with the metadata records "signals" (the layout), "test" (what was done: ``TEST_KEYS``)
-and, for the project's own runs, "frictionrt" (configuration, law, estimator, seed, versions,
-command line).
+A file is an MCAP log in the layout of ``rt.mcap_log`` (ROS 2 profile, topics per owning
+package, ros2msg schemas of stamp, tick and the signals' ROS 2 fields, CDR messages, one message
+per tick at log_time = start_ns + (k 10^9) // rate_hz ns) with the metadata records "signals"
+(the layout; optional, with defaults), "test" (what was done: ``TEST_KEYS``) and, for the
+project's own runs, "frictionrt" (configuration, law, estimator, seed, versions, command line).
 
-``SIGNALS`` is the registry of every signal the format knows: name (``<point>`` stands for a
-point name of plant.points, ``<j>`` for a contact pair index 0, 1, ...), unit, owner (topic
-/owner), the instant row k holds, and its meaning. tests/test_data_format.py checks it against
-the loop's own signal list (``rt.loop.loop_signals``) in both directions and checks that the
-tables of docs/data-format.md are ``signal_table()`` and ``required_table()`` verbatim
-(``python -m rt.data_format`` prints them).
+``SIGNALS`` (``rt.registry``) is the registry of every signal the format knows.
+tests/test_data_format.py checks it against the loop's own signal list (``rt.loop.loop_signals``)
+in both directions and checks that the tables of docs/data-format.md are ``signal_table()``,
+``required_table()`` and ``keys_table()`` verbatim (``python -m rt.data_format`` prints them).
 
 ``validate(path)`` returns the list of ``Problem`` s (empty: valid) and raises ValueError only
 for a file that cannot be read at all (not MCAP, truncated, corrupt).
@@ -32,7 +30,7 @@ from mcap.reader import make_reader
 
 from rt.mcap_log import (MAX_TICK, Topic, _check_framing, _chunk_messages, _iter_messages, file_topics,
                          parse_schema, payload_rows, tick_time_ns, ticks_of_times)
-from rt.registry import SIGNALS, entry_of, field_type, ros2_field
+from rt.registry import SIGNALS, entry_of, field_type, lower_rule, ros2_field
 
 
 
@@ -91,8 +89,8 @@ def _md_table(header: tuple[str, ...], rows) -> str:
 
 def signal_table() -> str:
     """The signal table of docs/data-format.md (markdown), from ``SIGNALS``."""
-    return _md_table(("topic", "field", "unit", "row k holds", "meaning", "required"),
-                     ((f"/{e.owner}", f"`{e.name}`", e.unit, e.at, e.meaning,
+    return _md_table(("topic", "signal", "field", "type", "unit", "row k holds", "meaning", "required"),
+                     ((f"/{e.owner}", f"`{e.name}`", f"`{lower_rule(e.name)}`", e.type, e.unit, e.at, e.meaning,
                        "yes" if e.name in REQUIRED else ("with a law" if e.name in SETPOINTS else ""))
                       for e in SIGNALS))
 
@@ -102,8 +100,9 @@ def required_table() -> str:
     rows = []
     for name in REQUIRED + SETPOINTS:
         e = next(e for e in SIGNALS if e.name == name)
-        rows.append((f"/{e.owner}", f"`{e.name}`", e.unit, "always" if name in REQUIRED else "when test.law is not none"))
-    return _md_table(("topic", "field", "unit", "required"), rows)
+        rows.append((f"/{e.owner}", f"`{e.name}`", f"`{ros2_field(e.name)}`", e.type, e.unit,
+                     "always" if name in REQUIRED else "when test.law is not none"))
+    return _md_table(("topic", "signal", "field", "type", "unit", "required"), rows)
 
 
 def keys_table() -> str:

@@ -111,9 +111,14 @@ def entry_of(owner: str, name: str) -> Entry | None:
     return next((e for e, rx in _PATTERNS if e.owner == owner and rx.match(name)), None)
 
 
+def lower_rule(name: str) -> str:
+    """FIELD_EXCEPTIONS[name] if listed, else name.lower() (placeholders kept: w_<point>)."""
+    return FIELD_EXCEPTIONS.get(name, name.lower())
+
+
 def ros2_field(name: str) -> str:
     """The ROS 2 field name of a signal (module docstring); ValueError if it is not a valid one."""
-    field = FIELD_EXCEPTIONS.get(name, name.lower())
+    field = lower_rule(name)
     if not FIELD_RE.match(field) or field in RESERVED:
         raise ValueError(f"signal {name!r} has no valid ROS 2 field name: {field!r} must match "
                          f"{FIELD_RE.pattern} and not be one of {list(RESERVED)}")

@@ -15,6 +15,7 @@ from rt.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_tab
                             keys_table, validate)
 from rt.loop import loop_signals
 from rt.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
+from rt.registry import field_type, ros2_field
 from tracking.force_tracking import design_force_tracking
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
@@ -71,11 +72,11 @@ def test_doc_required_fields_exist_in_the_loop(reduced):
     unit and topic, and every required field of the code is listed."""
     text = DOC.read_text()
     block = re.search(r"<!-- required-table -->\n(.*?)<!-- /required-table -->", text, re.S).group(1)
-    rows = re.findall(r"\| /(\w+) \| `(\w+)` \| ([^|]+) \|", block)
+    rows = re.findall(r"\| /(\w+) \| `(\w+)` \| `(\w+)` \| (\w+) \| ([^|]+) \|", block)
     sig = {n: (u, o) for n, u, o in loop_signals(reduced)}
-    assert {n for _, n, _ in rows} == set(REQUIRED + SETPOINTS)
-    for owner, name, unit in rows:
-        assert sig[name] == (unit.strip(), owner)
+    assert {n for _, n, _, _, _ in rows} == set(REQUIRED + SETPOINTS)
+    for owner, name, field, typ, unit in rows:
+        assert sig[name] == (unit.strip(), owner) and field == ros2_field(name) and typ == field_type(name, owner)
 
 
 # --- the project's logs -------------------------------------------------------------------------
