@@ -291,7 +291,8 @@ def _cmd_simulate(cfg, args) -> int:
     s = summary(r)
     s["interrupted"] = r.interrupted or (writer is not None and writer.interrupted)
     if writer is not None:
-        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "dropped_blocks": writer.dropped_blocks,
+        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "foxglove_layout": writer.paths["foxglove"],
+              "dropped_blocks": writer.dropped_blocks,
               "unwritten_ticks": writer.unwritten_ticks}
     if args.json:
         print(json.dumps(s))
@@ -316,7 +317,8 @@ def _cmd_simulate(cfg, args) -> int:
     if s["trips"] and not s["faults"]:
         print("supervisor: " + ", ".join(f"{t['name']} (code {t['code']}) at tick {t['tick']}" for t in s["trips"]))
     if writer is not None:
-        print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}")
+        print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}; "
+              f"Foxglove layout {s['foxglove_layout']}")
     return 130 if s["interrupted"] else 0
 
 

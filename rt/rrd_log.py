@@ -21,11 +21,9 @@ One entity per topic, not per signal: each entity costs its own row ids and time
 so 85 entities made the .rrd 43.5 MB per simulated second (3.3 times the MCAP file); 6 make it
 about as large as the MCAP file (docs/data-format.md).
 
-The default blueprint (embedded with ``blueprint=True``) has a "damper" tab with "F_N1 setpoint
-vs measured" (the law's F_set, the prefiltered setpoint F_set_filtered, the true F_N1 and the
-strain-gauge and force-cell readings F_strain, F_cell, whichever are logged: the other series of
-their entities hidden) above the friction hysteresis (the last HYSTERESIS_WINDOW_S before the
-time cursor), and one time-series tab per owner.
+The default blueprint (embedded with ``blueprint=True``) has the panels of ``rt.views``: a
+"damper" tab with "F_N1 setpoint vs measured" (the other series of its entities hidden) above
+the friction hysteresis, and one time-series tab per owner.
 
 ``write_frf_rrd`` writes step-sine and sweep FRFs (``frictionrt frf --rrd``) as their own recording:
 |H| [dB], phase and force amplitude per law, amplitude and direction against a frequency timeline.
@@ -44,44 +42,27 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.mcap_log import OWNERS, check_block, check_owners, check_rate, part_path, tick_runs, tick_time_ns
+from rt.mcap_log import check_block, check_owners, check_rate, part_path, tick_runs, tick_time_ns
 from rt.registry import field_names
-
-SETPOINT_SIGNALS = ("F_set", "F_set_filtered", "F_N1", "F_strain", "F_cell")
-HYSTERESIS_WINDOW_S = 0.02   # [s] of the hysteresis view before the time cursor (4.5 periods at 224 Hz)
-
-
-def _hysteresis_columns(signals) -> tuple[int, np.ndarray] | None:
-    """(u_rel column, f_t_* columns) of the plant, or None if either is not logged."""
-    cols = {(o, n): c for c, (n, _, o) in enumerate(signals)}
-    u = cols.get(("plant", "u_rel"))
-    ft = [c for (o, n), c in cols.items() if o == "plant" and n.startswith("f_t_")]
-    return None if u is None or not ft else (u, np.array(ft, dtype=np.int64))
-
-
-def entities_of(signals) -> list[tuple[str, np.ndarray]]:
-    """(entity /<owner>, its log columns) per owner with signals, in OWNERS order."""
-    return [(f"/{o}", np.array([c for c, s in enumerate(signals) if s[2] == o], np.int64))
-            for o in OWNERS if any(s[2] == o for s in signals)]
-
+from rt.views import HYSTERESIS_WINDOW_S, SETPOINT_SIGNALS, SETPOINT_TITLE, hysteresis_columns, topic_columns
 
 def default_blueprint(signals) -> rrb.Blueprint:
     """Setpoint vs measured F_N1 and the friction hysteresis, then one time-series tab per owner."""
     setpoint = {}   # entity -> visible_series of its series
-    for entity, cols in entities_of(signals):
+    for entity, cols in topic_columns(signals):
         shown = [signals[c][0] in SETPOINT_SIGNALS for c in cols]
         if any(shown):
             setpoint[entity] = shown
-    damper = [rrb.TimeSeriesView(origin="/", contents=list(setpoint), name="F_N1 setpoint vs measured",
+    damper = [rrb.TimeSeriesView(origin="/", contents=list(setpoint), name=SETPOINT_TITLE,
                                  overrides={e: rr.SeriesLines.from_fields(visible_series=v)
                                             for e, v in setpoint.items()})]
-    if _hysteresis_columns(signals) is not None:
+    if hysteresis_columns(signals) is not None:
         window = rrb.VisibleTimeRange("t", start=rrb.TimeRangeBoundary.cursor_relative(seconds=-HYSTERESIS_WINDOW_S),
                                       end=rrb.TimeRangeBoundary.cursor_relative())
         damper.append(rrb.Spatial2DView(origin="/hysteresis", name="friction hysteresis: F_t [N] up vs u_rel [um]",
                                         time_ranges=window))
     return rrb.Blueprint(rrb.Tabs(rrb.Vertical(*damper, name="damper"),
-                                  *[rrb.TimeSeriesView(origin=e, name=e[1:]) for e, _ in entities_of(signals)]))
+                                  *[rrb.TimeSeriesView(origin=e, name=e[1:]) for e, _ in topic_columns(signals)]))
 
 
 class RrdLogWriter:
@@ -103,9 +84,9 @@ class RrdLogWriter:
         self.signals = tuple(tuple(s) for s in signals)
         self.rate_hz = check_rate(self.path, rate_hz)
         check_owners(self.path, self.signals)
-        self._entities = entities_of(self.signals)
+        self._entities = topic_columns(self.signals)
         fields = field_names(self.signals)
-        self._hysteresis = _hysteresis_columns(self.signals)
+        self._hysteresis = hysteresis_columns(self.signals)
         self._part = part_path(self.path)
         self._rec = rr.RecordingStream(app_id, recording_id=uuid.uuid4())
         self._rec.save(self._part, default_blueprint=default_blueprint(self.signals) if blueprint else None)
@@ -192,7 +173,7 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
         tmp.unlink(missing_ok=True)
     return {"input": str(src), "output": str(dst), "ticks": len(rec.k),
             "first_tick": int(rec.k[0]) if len(rec.k) else None, "last_tick": int(rec.k[-1]) if len(rec.k) else None,
-            "topics": list(rec.topics), "entities": [e for e, _ in entities_of(signals)]}
+            "topics": list(rec.topics), "entities": [e for e, _ in topic_columns(signals)]}
 
 
 FRF_TIMELINE = "freq_mHz"   # rerun plots series against a timeline: the frequency in whole mHz

@@ -463,10 +463,17 @@ class LogWriter:
 
 def open_run_log(base: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str], *,
                  rrd: bool = True, block_ticks: int = BLOCK_TICKS, ring_s: float | None = RING_S) -> LogWriter:
-    """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata``."""
+    """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata``; the
+    Foxglove layout of the log is written to BASE.foxglove.json (``rt.views``)."""
     from rt.rrd_log import RrdLogWriter
+    from rt.views import write_foxglove_layout
     base = Path(base)
     mcap = McapBlockWriter(base.with_name(base.name + ".mcap"), signals, rate_hz, metadata)
+    try:
+        layout = write_foxglove_layout(base.with_name(base.name + ".foxglove.json"), mcap.signals)
+    except BaseException:
+        mcap.close()
+        raise
     sinks = [mcap]
     if rrd:
         try:
@@ -476,7 +483,8 @@ def open_run_log(base: str | os.PathLike, signals, rate_hz: float, metadata: dic
             mcap.close()
             raise
     w = LogWriter(sinks, block_ticks=block_ticks, ring_s=ring_s, rate_hz=rate_hz, mcap=mcap)
-    w.paths = {"mcap": str(mcap.path), "rrd": str(base.with_name(base.name + ".rrd")) if rrd else None}
+    w.paths = {"mcap": str(mcap.path), "rrd": str(base.with_name(base.name + ".rrd")) if rrd else None,
+               "foxglove": str(layout)}
     return w
 
 

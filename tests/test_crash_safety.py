@@ -192,7 +192,7 @@ def test_sigint_leaves_a_finalised_mcap_and_a_valid_rrd_and_exits_promptly(tmp_p
     assert t_exit < 8.0 + INTERRUPT_DRAIN_S
     s = json.loads(stdout)
     assert s["interrupted"] and 0 < s["ticks"] < 20 * RATE and s["dropped_blocks"] == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["sig.mcap", "sig.rrd"]   # no .part left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sig.foxglove.json", "sig.mcap", "sig.rrd"]   # no .part left
     n = s["ticks"] - s["unwritten_ticks"]
     rec = read_mcap(tmp_path / "sig.mcap")
     assert n >= 3 * chunk_ticks(rec.signals)

@@ -2,6 +2,7 @@
 official ROS 2 decoder (mcap_ros2), a file written with mcap_ros2's writer is read by validate,
 replay and diagnose, and logs of the previous format (version 0) are still read."""
 import json
+import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -175,3 +176,38 @@ def test_diagnose_reads_a_campaign_written_with_mcap_ros2(tmp_path):
         assert sorted(t.data) == sorted(u.data)
         for name in t.data:
             np.testing.assert_array_equal(u.data[name], t.data[name])
+
+
+def test_simulate_writes_a_foxglove_layout_of_the_blueprints_panels(run_log):
+    from tests.test_crash_safety import FULL_VIEWS, view_names
+    layout = json.loads(run_log.with_name("run.foxglove.json").read_text())
+    panels = layout["configById"]
+    plots = {k: p for k, p in panels.items() if k.startswith("Plot!")}
+    tabs = {t["title"] for t in panels[layout["layout"]]["tabs"]}
+    damper = {"F_N1 setpoint vs measured", "friction hysteresis: F_t [N] up vs u_rel [um]"}   # rerun's titles
+    assert view_names(run_log.with_suffix(".rrd")) == FULL_VIEWS == tabs | damper
+    assert {p["title"] for p in plots.values()} == tabs - {"damper"} | {"F_N1 setpoint vs measured",
+                                                                         "friction hysteresis: F_t [N] vs u_rel"}
+    # every message path is a field of the file as the ROS 2 decoder sees it; every signal is in its tab
+    fields = {t: set(f) - {"tick"} for t, (_, _, f) in ros2_decode(run_log).items()}
+    for p in (p["value"] for plot in plots.values() for p in plot["paths"]):
+        topic, field = p.split(".")
+        assert field in fields[topic], p
+    for topic, f in fields.items():
+        assert {p["value"] for p in plots[f"Plot!{topic[1:]}"]["paths"]} == {f"{topic}.{x}" for x in f}
+    assert [p["value"] for p in plots["Plot!setpoint"]["paths"]] == [
+        "/tracking.f_set", "/tracking.f_set_filtered", "/actuator.f_n1", "/sensors.f_strain", "/sensors.f_cell"]
+    assert plots["Plot!hysteresis"]["xAxisPath"]["value"] == "/plant.u_rel"
+
+
+FOXGLOVE_CHECK = os.environ.get("FOXGLOVE_CHECK_DIR", "")
+
+
+@pytest.mark.skipif(shutil.which("node") is None or not Path(FOXGLOVE_CHECK, "node_modules").is_dir(),
+                    reason="Foxglove's parser: set FOXGLOVE_CHECK_DIR to a copy of /work/shared/tools/foxglove "
+                           "after npm install")
+def test_foxglove_parses_every_schema_and_decodes_every_message(run_log):
+    out = subprocess.run(["node", "check.mjs", str(run_log)], cwd=FOXGLOVE_CHECK, capture_output=True, text=True,
+                         timeout=120).stdout
+    assert 'profile: "ros2"' in out and "schema FAIL" not in out
+    assert out.count("schema ok:") == 6 and "messages decoded 6300" in out
