@@ -20,6 +20,7 @@ from rt.mcap_log import CHUNK_BYTES, read_mcap, topics_of
 from rt.recover import scan
 from rt.writer import INTERRUPT_DRAIN_S
 from tests.cli_process import start_cli, wait_for_chunks
+from rt.cli_log import RECOVER
 from tests.test_logfiles import rrd_column
 from tests.test_logging_loop import clock_columns
 from tests.test_replay import _sensors_only_file
@@ -152,7 +153,8 @@ def test_a_chunk_cut_short_is_reported_and_the_chunks_before_it_recovered(killed
     code, out, _ = cli(capsys, "recover", cut, "-o", tmp_path / "cut.mcap", "--json")
     r = json.loads(out)
     m = chunk_ticks(read_mcap(tmp_path / "cut.mcap").signals)
-    assert code == 0 and r["ticks"] == 2 * m and r["last_tick"] == 2 * m - 1
+    assert code == 0 and r["ticks"] == 2 * m and r["last_tick"] == 2 * m - 1 and r["chunk_ticks"] == m
+    assert f"chunk_ticks = {m} ticks = {1e3 * m / RATE:.1f} ms" in RECOVER   # the figure of recover --help
     assert r["lost_record"] == "chunk" and r["lost_chunk_ticks"] == [2 * m, 3 * m - 1]
     assert r["lost_bytes"] > len(c[2].data) // 2
     np.testing.assert_array_equal(read_mcap(tmp_path / "cut.mcap").log.view(np.uint64),
