@@ -41,7 +41,7 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
     s = simulate(tmp_path, "run", capsys=capsys)
     assert s["mcap"] == str(tmp_path / "run.mcap") and s["rrd"] == str(tmp_path / "run.rrd")
     assert s["dropped_blocks"] == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap", "run.rrd"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.foxglove.json", "run.mcap", "run.rrd"]
     rec = read_mcap(tmp_path / "run.mcap")
     assert rec.signals == loop.signals and rec.rate_hz == RATE
     assert rec.topics == ("/rt", "/sensors", "/observer", "/tracking", "/actuator", "/plant")
@@ -263,7 +263,7 @@ def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp
     w = open_run_log(tmp_path / "run", loop.signals, RATE, META)
     with pytest.raises(KeyboardInterrupt):
         run(loop, F3, AMP, 30.0, progress=progress, writer=w)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap", "run.rrd"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.foxglove.json", "run.mcap", "run.rrd"]
     rec = read_mcap(tmp_path / "run.mcap")
     assert 0 < len(rec.k) < 30 * RATE and np.array_equal(rec.k, np.arange(len(rec.k)))
     assert not any(t.name in ("frictionrt-loop", "frictionrt-writer") for t in threading.enumerate())
