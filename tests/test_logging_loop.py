@@ -83,7 +83,7 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
 def test_same_seed_gives_identical_mcap_logs(tmp_path, loop, capsys):
     simulate(tmp_path, "a", "--no-rrd", capsys=capsys)
     simulate(tmp_path, "b", "--no-rrd", capsys=capsys)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mcap", "b.mcap"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.foxglove.json", "a.mcap", "b.foxglove.json", "b.mcap"]
     a, b = read_mcap(tmp_path / "a.mcap"), read_mcap(tmp_path / "b.mcap")
     keep = np.setdiff1d(np.arange(len(a.signals)), clock_columns(a.signals))
     assert np.array_equal(a.k, b.k)
