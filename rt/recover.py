@@ -135,7 +135,7 @@ def _tick(t_ns: int, rec) -> int:
     return -((-(t_ns - rec.start_ns) * rec.rate_hz) // 10**9)
 
 
-def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
+def recover(src: str | os.PathLike, dst: str | os.PathLike, overwrite: bool = False) -> dict:
     """Recover the complete chunks of ``src`` (e.g. ``NAME.mcap.part`` after a kill) into a
     finished, indexed MCAP log ``dst`` (module docstring).
 
@@ -144,11 +144,13 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
     what the file shows), finished (src had been closed), lost_bytes (after the last good record),
     lost_record ("chunk", ..., or null), lost_chunk_ticks ([k0, k1] of a chunk cut short, or null),
     stop (why the walk ended), metadata (record names copied), seconds (wall time).
-    ValueError naming the file: dst exists, src missing or not MCAP, no complete chunk, not a
-    frictionrt log, topics missing."""
+    ValueError naming the file: dst exists (replaced only if ``overwrite``; never src), src missing
+    or not MCAP, no complete chunk, not a frictionrt log, topics missing."""
     t0 = time.perf_counter()
     src, dst = Path(src), Path(dst)
-    check_conversion(src, dst, "give a new file name (recover never overwrites)")
+    if dst.resolve() == src.resolve():
+        raise ValueError(f"{dst}: is the input; give another name for the recovered log")
+    check_conversion(src, dst, None if overwrite else "give a new file name or pass --force to replace it")
     s = scan(src)
     if s.chunks == 0:
         raise ValueError(f"{src}: no complete chunk in the file ({s.size} B; {s.stop or 'no data'}): nothing to "

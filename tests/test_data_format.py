@@ -212,4 +212,5 @@ def test_unreadable_files_exit_2_naming_the_file(logs, capsys, tmp_path, content
         f.write_bytes(content)
     code, out, err = validate_cli(capsys, f)
     lines = err.strip().splitlines()
-    assert code == 2 and out is None and len(lines) == 1 and str(f) in lines[0] and problem in lines[0]
+    assert code == 2 and len(lines) == 1 and str(f) in lines[0] and problem in lines[0]
+    assert out == {"error": lines[0].removeprefix("frictionrt: error: "), "exit": 2}   # --json: the error as JSON

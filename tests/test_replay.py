@@ -112,5 +112,5 @@ def test_bad_files_exit_2_naming_the_file(logs, capsys, tmp_path, content, probl
         f.write_bytes(content)
     code, out, err = replay(capsys, f)
     lines = err.strip().splitlines()
-    assert code == 2 and out is None and len(lines) == 1
+    assert code == 2 and len(lines) == 1 and out == {"error": lines[0].removeprefix("frictionrt: error: "), "exit": 2}
     assert str(f) in lines[0] and problem in lines[0]
