@@ -441,8 +441,14 @@ COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse,
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    json_errors("--json" in argv)
-    args = build_parser().parse_args(argv)
+    json_errors("--json" in argv)   # for this command line only (rt.cli_common)
+    try:
+        return _main(build_parser().parse_args(argv))
+    finally:
+        json_errors(False)
+
+
+def _main(args) -> int:
     try:
         cfg = load(args.config, args.sets)
     except ConfigError as exc:
