@@ -10,7 +10,9 @@ fields, .rrd series, JSON keys of a log's layout) by its ROS 2 field name, one r
                         (F_N1 -> f_n1, V_cmd -> v_cmd, E_fric -> e_fric; W_exc -> work_exc because
                         w_exc is the displacement at the point exc, W_screw -> work_screw alike)
     signal_name(field, owner) = the registry's symbol whose ros2_field is ``field`` (patterns
-                        filled in: w_tip -> w_tip, f_n_3 -> f_n_3), else ``field`` itself
+                        filled in: w_tip -> w_tip, f_n_3 -> f_n_3), else ``field`` itself; only
+                        needed for a file without the "signals" record (whose names are exact),
+                        where a point name with capitals comes back lower-cased
 
 The result must match ROS 2's field rule ``FIELD_RE`` (rosidl; Foxglove's parser and
 ``mcap_ros2`` enforce it) and must not be one of ``RESERVED`` (the fields every message carries
