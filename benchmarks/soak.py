@@ -41,22 +41,19 @@ def _scan_mcap(path: Path) -> dict:
     """Chunk-by-chunk check of a (large) run log: ticks increasing, values finite, late_ns stats."""
     from mcap.reader import make_reader
 
-    from rt.mcap_log import _chunk_messages, _decode_topic, topics_of
+    from rt.mcap_log import _chunk_messages, file_topics, payload_rows
     late, n_msgs, last_k, bad_ticks, nonfinite = [], 0, {}, 0, 0
     with open(path, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
-        signals = tuple((r["name"], r["unit"], r["owner"]) for r in json.loads(meta["signals"]["signals"]))
-        rate = int(float(meta["signals"]["rate_hz"]))
-        topics = {tp.name: tp for tp in topics_of(signals)}
+        _, signals, _, _, topics = file_topics(meta, {})
         late_col = next(i for i, (n, _, _) in enumerate(signals) if n == "late_ns")
         for (_, channel), (payloads, times, seqs) in _chunk_messages(f, summary):
             tp = topics[channel.topic]
-            vals = _decode_topic(path, tp, [payloads])
+            k, _, vals = tp.decode(payload_rows(path, tp, [payloads]))
             n_msgs += len(vals)
             nonfinite += int(np.count_nonzero(~np.isfinite(vals)))
-            k = -((-times.astype(np.int64) * rate) // 10**9)
             prev = last_k.get(tp.name, -1)
             bad_ticks += int(np.count_nonzero(np.diff(np.concatenate([[prev], k])) <= 0))
             last_k[tp.name] = int(k[-1])

@@ -23,6 +23,7 @@ from rt.cli_tune import cmd_tune
 from rt import cli_diagnose, cli_rig
 from rt.cli_log import add_parsers as add_log_parsers
 from rt.cli_log import cmd_inspect, cmd_recover
+from rt.cli_common import Parser, add_force, add_out, fail, json_errors, refuse_existing
 from rt.config import ConfigError, dumps, load, to_dict
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
@@ -47,12 +48,21 @@ def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
                         "(list elements by name); repeatable")
 
 
+def version_text() -> str:
+    """frictionrt's version and the log format it writes."""
+    from importlib.metadata import version
+
+    from rt.mcap_log import FORMAT_VERSION
+    return f"frictionrt {version('frictionrt')} (log format {FORMAT_VERSION})"
+
+
 def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
     _add_common(common, top=False)
-    ap = argparse.ArgumentParser(
+    ap = Parser(
         prog="frictionrt", epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Real-time emulation of semi-actively controlled friction dampers (Becker & Gaul).")
+    ap.add_argument("--version", action="version", version=version_text())
     _add_common(ap, top=True)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -76,6 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--fn1", type=float, default=None, metavar="N",
                    help="adaptive screw force F_N1 [N] (default: plant.screws.adaptive.F_N)")
     i.add_argument("--plot", metavar="FILE", help="write the FRF plot (PNG) here")
+    add_force(i)
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
 
     s = sub.add_parser("simulate", parents=[common], help="closed loop at 21 kHz: sine excitation, a law, the actuator",
@@ -93,8 +104,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s] (default 1)")
     s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
     s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
-    s.add_argument("--out", metavar="PATH", help="write the log to PATH.mcap and PATH.rrd (a .mcap or .rrd "
-                                                 "suffix is dropped); the folder must exist")
+    add_out(s, "PATH", "write the log to PATH.mcap, PATH.rrd and its Foxglove layout PATH.foxglove.json (a "
+                       ".mcap or .rrd suffix is dropped); the folder must exist")
+    add_force(s)
     s.add_argument("--no-rrd", action="store_true", help="with --out: write the MCAP file only")
     s.add_argument("--ring", type=float, default=1.0, metavar="S",
                    help="with --out: the log is a ring of S seconds [s] (whole 0.1 s blocks) that the writer "
@@ -116,6 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
     q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
     q.add_argument("--plot", metavar="FILE", help="write the time histories here (PNG)")
+    add_force(q)
     q.add_argument("--json", action="store_true", help="the table as JSON")
 
     g = sub.add_parser("budget", parents=[common], help="per-component tick times [us] against the 47.6 us budget",
@@ -171,9 +184,6 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _fail(msg: str) -> int:
-    print(f"frictionrt: error: {msg}", file=sys.stderr)
-    return 2
 
 
 def _cmd_config(cfg, args) -> int:
@@ -203,13 +213,15 @@ def _cmd_impulse(cfg, args) -> int:
     fn1 = next(s.F_N for s in cfg.plant.screws if s.adaptive) if args.fn1 is None else args.fn1
     t = cfg.tracking
     if not (t.F_min_N <= fn1 <= t.F_max_N):
-        return _fail(f"--fn1 {fn1:g} N lies outside [F_min, F_max] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
+        return fail(f"--fn1 {fn1:g} N lies outside [F_min, F_max] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png":
-            return _fail(f"--plot {out}: the plot is written as PNG; give a file name ending in .png")
+            return fail(f"--plot {out}: the plot is written as PNG; give a file name ending in .png")
         if not out.parent.exists():
-            return _fail(f"--plot {out}: folder {out.parent} does not exist")
+            return fail(f"--plot {out}: folder {out.parent} does not exist")
+        if msg := refuse_existing([out], args.force, "--plot"):
+            return fail(msg)
     res = impulse_test(build_plant(cfg), fn1)
     if args.plot:
         tmp = out.with_suffix(".tmp.png")
@@ -231,14 +243,14 @@ def _cmd_bench(cfg, args) -> int:
     from rt.bench import bench_loop, bench_plant, format_loop, format_table
     if args.target == "loop":
         if args.steps < 1000:
-            return _fail(f"--steps {args.steps}: need at least 1000 steps")
+            return fail(f"--steps {args.steps}: need at least 1000 steps")
         res = bench_loop(cfg, n_steps=args.steps)
         print(json.dumps(res) if args.json else format_loop(res))
         return 0
     if args.steps < 100:
-        return _fail(f"--steps {args.steps}: need at least 100 steps for percentiles")
+        return fail(f"--steps {args.steps}: need at least 100 steps for percentiles")
     if any(p < 2 for p in args.pairs):
-        return _fail(f"--pairs {args.pairs}: every pair count must be >= 2")
+        return fail(f"--pairs {args.pairs}: every pair count must be >= 2")
     res = bench_plant(cfg, args.pairs, args.steps, progress=not args.json)
     print(json.dumps(res) if args.json else format_table(res))
     return 0
@@ -253,26 +265,29 @@ def _cmd_simulate(cfg, args) -> int:
     from rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
     from rt.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
-        return _fail(f"--seed {args.seed}: must be a non-negative integer")
+        return fail(f"--seed {args.seed}: must be a non-negative integer")
     if not args.ring > 0:
-        return _fail(f"--ring {args.ring:g} s: must be > 0 s")
+        return fail(f"--ring {args.ring:g} s: must be > 0 s")
     base = None
     if args.out:
         base = Path(args.out)
         if base.suffix in (".mcap", ".rrd"):
             base = base.with_suffix("")
         if not base.parent.exists():
-            return _fail(f"--out {args.out}: folder {base.parent} does not exist")
+            return fail(f"--out {args.out}: folder {base.parent} does not exist")
+        outputs = [base.with_name(base.name + s) for s in (".mcap", ".foxglove.json", *(() if args.no_rrd else (".rrd",)))]
+        if msg := refuse_existing(outputs, args.force):
+            return fail(msg)
     writer = None
     try:
         faults = schedule(args.fault, cfg)
         if not args.paced and any("cpu_stall" in f for f in args.fault):
-            return _fail("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced")
+            return fail("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced")
         loop = build_loop(cfg, args.law, args.estimator)
         n = check_run_input(loop, args.freq, args.amp, args.duration, ring=base is not None)  # --out: a ring
         late = [t for t, f in zip(args.fault, faults) if f[2] >= n]
         if late:
-            return _fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")
+            return fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")
         if base is not None:
             seed = cfg.rt.seed if args.seed is None else args.seed
             meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
@@ -285,16 +300,17 @@ def _cmd_simulate(cfg, args) -> int:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
                     writer=writer, faults=faults)
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     finally:
         if writer is not None:
             writer.finish()  # idempotent: closes the files also if the run never started
     if len(r.log) < 2:
-        return _fail("interrupted before the loop ran: nothing to summarise")
+        return fail("interrupted before the loop ran: nothing to summarise")
     s = summary(r)
     s["interrupted"] = r.interrupted or (writer is not None and writer.interrupted)
     if writer is not None:
-        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "dropped_blocks": writer.dropped_blocks,
+        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "foxglove_layout": writer.paths["foxglove"],
+              "dropped_blocks": writer.dropped_blocks,
               "unwritten_ticks": writer.unwritten_ticks}
     if args.json:
         print(json.dumps(s))
@@ -319,7 +335,8 @@ def _cmd_simulate(cfg, args) -> int:
     if s["trips"] and not s["faults"]:
         print("supervisor: " + ", ".join(f"{t['name']} (code {t['code']}) at tick {t['tick']}" for t in s["trips"]))
     if writer is not None:
-        print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}")
+        print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}; "
+              f"Foxglove layout {s['foxglove_layout']}")
     return 130 if s["interrupted"] else 0
 
 
@@ -331,7 +348,7 @@ def _cmd_replay(cfg, args) -> int:
     try:
         res = replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     code = 1 if res["bit_exact"] is False else (130 if res["interrupted"] else 0)
     if args.json:
         print(json.dumps(res))
@@ -363,13 +380,15 @@ def _cmd_compare(cfg, args) -> int:
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png" or not out.parent.exists():
-            return _fail(f"--plot {out}: give a .png file in an existing folder")
+            return fail(f"--plot {out}: give a .png file in an existing folder")
+        if msg := refuse_existing([out], args.force, "--plot"):
+            return fail(msg)
     try:
         n = check_run_input(build_loop(cfg, "passive"), args.freq, args.amp, args.duration)
         with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:
             runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update)
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     rows = table(runs)
     if args.plot:
         tmp = out.with_suffix(".tmp.png")
@@ -393,7 +412,7 @@ def _cmd_observer(cfg, args) -> int:
     try:
         d = design_observer(cfg).summary(cfg.tracking.F_max_N)
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     if args.json:
         print(json.dumps(d))
         return 0
@@ -411,7 +430,7 @@ def _cmd_observer(cfg, args) -> int:
 def _cmd_budget(cfg, args) -> int:
     from rt.budget import budget, format_budget
     if args.ticks < 1000 or args.paced_s <= 0:
-        return _fail(f"--ticks {args.ticks} / --paced-s {args.paced_s}: need >= 1000 ticks and a positive paced time")
+        return fail(f"--ticks {args.ticks} / --paced-s {args.paced_s}: need >= 1000 ticks and a positive paced time")
     res = budget(cfg, args.law, args.ticks, args.paced_s)
     print(json.dumps(res) if args.json else format_budget(res))
     return 0
@@ -426,11 +445,19 @@ COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse,
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    json_errors("--json" in argv)   # for this command line only (rt.cli_common)
+    try:
+        return _main(build_parser().parse_args(argv))
+    finally:
+        json_errors(False)
+
+
+def _main(args) -> int:
     try:
         cfg = load(args.config, args.sets)
     except ConfigError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     try:
         return COMMANDS[args.command](cfg, args)
     except RuntimeError as exc:  # a run that failed numerically: say so, no traceback

@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from rt.cli_common import add_out, fail
+
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
 V_cmd), calibrates E, mu, k_t, modal damping and c_v, fits each implemented effect of the library
 jointly with the calibration (structure: on the log-magnitude FRFs of both accelerometers at every
@@ -35,22 +37,21 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "--frf-files)")
     p.add_argument("--json", action="store_true", help="print one JSON object (named_effect, ranking, gap_before, "
                    "gap_after, fitted_parameters, ...)")
-    p.add_argument("--out", metavar="REPORT_DIR", help="write report.md, diagnose.json, model.toml (the updated "
-                   "model) and FRF/actuator overlay PNGs into this new folder")
+    add_out(p, "REPORT_DIR", "write report.md, diagnose.json, model.toml (the updated model) and FRF/actuator "
+                             "overlay PNGs into this new folder (a diagnosis is never replaced: no --force)")
     p.add_argument("--jobs", type=int, metavar="N", help="processes for the candidates' fits (default: the number "
                    "of cores; 1: in this process); the result is the same for any N")
     return p
 
 
 def cmd_diagnose(cfg, args) -> int:
-    from rt.cli import _fail
     from rt.diagnose import diagnose, public, summary
     from rt.diagnose_frf import diagnose_frf, is_frf_folder
     from pathlib import Path
     if args.out and Path(args.out).exists():
-        return _fail(f"diagnose --out {args.out}: exists; choose a new folder")
+        return fail(f"--out {args.out}: exists; a diagnosis is never replaced, give a new folder")
     if args.jobs is not None and args.jobs < 1:
-        return _fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
+        return fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
     say = None if args.json else lambda m: print(f"  {m}", file=sys.stderr)
     try:
         if is_frf_folder(args.folder):
@@ -58,7 +59,7 @@ def cmd_diagnose(cfg, args) -> int:
         else:
             res = diagnose(args.folder, cfg, progress=say, jobs=args.jobs)
     except ValueError as exc:
-        return _fail(f"diagnose: {exc}")
+        return fail(f"diagnose: {exc}")
     if args.out:
         from rt.diagnose_report import write_report
         write_report(res, args.out)

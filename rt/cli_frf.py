@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from rt.config import LAWS, Config, dumps
+from rt.cli_common import add_force, add_out, fail, refuse_existing
 
 DESCRIPTION = """Step-sine accelerance FRF H = a(x = 0.45 m) / F_exc [(m/s^2)/N] of the closed loop, as the
 paper measures it: at each frequency the loop runs in blocks of whole periods, the excitation force
@@ -71,7 +72,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="run the sweeps on this dask scheduler's workers instead (frictionrt installed there)")
     p.add_argument("--json", action="store_true", help="print the results as one JSON object (no progress bar)")
     p.add_argument("--plot", metavar="PATH.png", help="write |H| [dB] and phase [deg] against f [Hz] here (PNG)")
-    p.add_argument("--out", metavar="PATH.json", help="write the results as JSON here")
+    add_out(p, "PATH.json", "write the results as JSON here")
+    add_force(p)
     p.add_argument("--rrd", metavar="PATH.rrd", help="write the FRFs as a rerun recording here (|H| [dB], phase, "
                    "force amplitude against frequency; open with: rerun PATH.rrd)")
     return p
@@ -128,24 +130,25 @@ def _table(r) -> str:
 def cmd_frf(cfg: Config, args) -> int:
     """Run ``frictionrt frf``: validate, sweep every (law, amplitude) in parallel, print or write
     (JSON: dt_s, the resolved configuration as TOML, one ``StepSineResult.to_dict()`` per sweep)."""
-    from rt.cli import _fail  # at call time: rt.cli imports this module
     from rt.stepsine import Branch, Settle, plot_frfs, run_branches
     for a in args.amp:
         if not (math.isfinite(a) and a > 0.0):
-            return _fail(f"--amp {a:g} N: an FRF needs a finite force amplitude > 0 N")
+            return fail(f"--amp {a:g} N: an FRF needs a finite force amplitude > 0 N")
     if args.jobs is not None and args.jobs < 1:
-        return _fail(f"--jobs {args.jobs}: must be >= 1")
+        return fail(f"--jobs {args.jobs}: must be >= 1")
     paths = {}
     for option, value, suffix in (("--plot", args.plot, ".png"), ("--out", args.out, ".json"),
                                   ("--rrd", args.rrd, ".rrd")):
         if value:
             path = Path(value)
             if path.suffix.lower() != suffix or not path.parent.exists():
-                return _fail(f"{option} {value}: give a {suffix} file in an existing folder")
+                return fail(f"{option} {value}: give a {suffix} file in an existing folder")
+            if msg := refuse_existing([path], args.force, option):
+                return fail(msg)
             paths[option] = path
     rate = args.sweep_rate
     if rate is not None and not (math.isfinite(rate) and rate > 0.0):
-        return _fail(f"--sweep-rate {rate:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; --down for a down-sweep)")
+        return fail(f"--sweep-rate {rate:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; --down for a down-sweep)")
     try:
         freqs = _frequencies(cfg, args)
         settle = Settle(rel_tol=args.tol, max_s=args.max_time)
@@ -153,10 +156,10 @@ def cmd_frf(cfg: Config, args) -> int:
             settle.check(freqs, cfg.dt_s)
     except ValueError as exc:
         msg = str(exc).replace("settle.rel_tol", "--tol").replace("settle.max_s", "--max-time")
-        return _fail(msg)
+        return fail(msg)
     if rate is not None:
         if len(freqs) < 2:
-            return _fail("--sweep-rate: the frequency range is a single frequency; give two or more --freqs")
+            return fail("--sweep-rate: the frequency range is a single frequency; give two or more --freqs")
         freqs = [freqs[0], freqs[-1]]   # the range, in sweep order
         rate = -rate if args.down else rate
     branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle, sweep_rate_hz_s=rate)
@@ -164,9 +167,9 @@ def cmd_frf(cfg: Config, args) -> int:
     try:
         results = run_branches(branches, jobs=args.jobs, dask_address=args.dask, progress=not args.json)
     except ConnectionError as exc:
-        return _fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
+        return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     doc = {"dt_s": cfg.dt_s, "config": dumps(cfg), "results": [r.to_dict() for r in results]}
     if "--out" in paths:
         tmp = paths["--out"].with_suffix(".tmp.json")

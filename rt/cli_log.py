@@ -12,13 +12,16 @@ import json
 import time
 from pathlib import Path
 
+from rt.cli_common import add_force, fail
+
 RECOVER = """Recover a run log whose writer was killed (kill -9, power loss): `frictionrt simulate --out
 NAME` leaves NAME.mcap.part. Every complete chunk (each CRC-checked) is written to a new, finished
 and indexed MCAP file with the same schemas, channels and metadata records ("frictionrt":
 configuration, versions, seed, command line; "signals") plus a "frictionrt.recover" record;
 `frictionrt replay` and `frictionrt inspect` read it. Lost: the chunk the writer had open in memory
-(less than one chunk: chunk_ticks = 1210 ticks = 57.6 ms at 21 kHz for simulate's 82 signals) and the ticks it had
-not taken from the loop yet; a chunk cut short on disk is reported. Never overwrites."""
+(less than one chunk: chunk_ticks = 1088 ticks = 51.8 ms at 21 kHz for simulate's 85 signals) and the ticks it had
+not taken from the loop yet; a chunk cut short on disk is reported. An existing output is replaced only with
+--force (never the input)."""
 
 RECOVER_EXAMPLES = """examples:
   frictionrt recover logs/run.mcap.part -o logs/run.mcap
@@ -44,27 +47,28 @@ def add_parsers(subparsers, parents) -> None:
     r = subparsers.add_parser("recover", parents=parents, help="salvage a killed run's log (NAME.mcap.part)",
                               description=RECOVER, epilog=RECOVER_EXAMPLES, formatter_class=fmt)
     r.add_argument("src", metavar="BROKEN.mcap", help="the unfinished log, e.g. logs/run.mcap.part")
-    r.add_argument("-o", "--output", required=True, metavar="FIXED.mcap",
-                   help="the recovered log to write (must not exist; its folder must)")
+    r.add_argument("-o", "--out", "--output", required=True, metavar="FIXED.mcap", dest="out",
+                   help="the recovered log to write (its folder must exist; never the input)")
+    add_force(r)
     r.add_argument("--json", action="store_true",
                    help="one JSON object: input, output, ticks, first_tick, last_tick, missing_ticks, chunks, "
                         "chunk_ticks, finished, lost_bytes, lost_record, lost_chunk_ticks, stop, metadata, seconds")
     i = subparsers.add_parser("inspect", parents=parents, help="an MCAP log or measurement as .rrd for rerun",
                               description=INSPECT, epilog=INSPECT_EXAMPLES, formatter_class=fmt)
     i.add_argument("log", metavar="RUN.mcap", help="the MCAP log or measurement")
-    i.add_argument("-o", "--output", metavar="OUT.rrd", help="the recording (default: RUN.rrd next to the input)")
-    i.add_argument("--force", action="store_true", help="replace an existing output file")
+    i.add_argument("-o", "--out", "--output", metavar="OUT.rrd", dest="out",
+                   help="the recording (default: RUN.rrd next to the input)")
+    add_force(i)
     i.add_argument("--json", action="store_true",
                    help="one JSON object: input, output, ticks, first_tick, last_tick, topics, entities, seconds")
 
 
 def cmd_recover(cfg, args) -> int:
-    from rt.cli import _fail  # at call time: rt.cli imports this module
     from rt.recover import recover
     try:
-        r = recover(args.src, args.output)
+        r = recover(args.src, args.out, overwrite=args.force)
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     if args.json:
         print(json.dumps(r))
         return 0
@@ -85,23 +89,22 @@ def cmd_recover(cfg, args) -> int:
 
 
 def cmd_inspect(cfg, args) -> int:
-    from rt.cli import _fail
     from rt.rrd_log import mcap_to_rrd
     src = Path(args.log)
-    dst = Path(args.output) if args.output else src.with_suffix(".rrd")
+    dst = Path(args.out) if args.out else src.with_suffix(".rrd")
     if dst.suffix != ".rrd":
-        return _fail(f"-o {dst}: rerun opens .rrd files; give a name ending in .rrd")
+        return fail(f"-o {dst}: rerun opens .rrd files; give a name ending in .rrd")
     t0 = time.perf_counter()
     try:
         r = mcap_to_rrd(src, dst, overwrite=args.force)
     except ValueError as exc:
         msg = str(exc)
-        return _fail(msg + (TRUNCATED_HINT.replace("FILE", str(src)) if "truncated MCAP file" in msg else ""))
+        return fail(msg + (TRUNCATED_HINT.replace("FILE", str(src)) if "truncated MCAP file" in msg else ""))
     r["seconds"] = time.perf_counter() - t0
     if args.json:
         print(json.dumps(r))
         return 0
     span = "" if not r["ticks"] else f" (k = {r['first_tick']}..{r['last_tick']})"
     print(f"{r['output']}: {r['ticks']} ticks{span} of {', '.join(r['topics']) or 'no topic'}, "
-          f"{len(r['entities'])} signals, in {r['seconds']:.1f} s; open it with: rerun {r['output']}")
+          f"{len(r['entities'])} entities, in {r['seconds']:.1f} s; open it with: rerun {r['output']}")
     return 0

@@ -3,19 +3,20 @@ from __future__ import annotations
 
 import json
 
+from rt.cli_common import fail
+
 
 def cmd_replay_plant(cfg, args) -> int:
     """Replay the log's V_cmd and F_exc into actuator and plant and compare their outputs; exit 0
     when bit-exact (or nothing to compare), 1 when they differ, 2 for a bad file."""
-    from rt.cli import _fail
     from rt.design_record import describe
     from rt.replay_plant import replay_plant
     if args.paced:
-        return _fail("--plant with --paced: the plant replay runs offline only; drop --paced")
+        return fail("--plant with --paced: the plant replay runs offline only; drop --paced")
     try:
         res = replay_plant(args.log, fallback_cfg=cfg, sets=args.sets)
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     code = 1 if res["bit_exact"] is False else 0
     if args.json:
         print(json.dumps(res))

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from rt.config import Config
+from rt.cli_common import add_force, add_out, fail, refuse_existing
 
 DESCRIPTION = """Reproduce Becker & Gaul's experiments (SPEC section 6) and decide their claims C1..C6 on the
 numbers measured: an impulse test at F_N1 = 100 N (identified modal damping), amplitude-controlled
@@ -38,9 +39,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="modes 3 and 4, amplitudes 5 and 20 N, 9 points per mode, 2 refinement rounds, constant "
                         "F_N1 40, 150, 600 N (~20-40 s on 2 cores); default: modes 2-5, 5, 10, 20 N, 11 points, "
                         "4 rounds, F_N1 40, 80, 160, 320, 600 N")
-    p.add_argument("--out", metavar="DIR", default="logs/reproduce",
-                   help="folder for fig5.png, fig7.png, fig8.png, report.md, report.json (default logs/reproduce; "
-                        "created if missing, replaced as a whole if it exists)")
+    add_out(p, "DIR", "folder for fig5.png, fig7.png, fig8.png, report.md, report.json (default logs/reproduce; "
+                      "created if missing; an existing one is refused, or with --force replaced as a whole)",
+            default="logs/reproduce")
+    add_force(p)
     p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
                    help="estimate of u_rel, v_rel for the controlled laws: oracle (the plant's, band-limited) or "
                         "observer (Kalman-designed, on the tip accelerometer and the force cell)")
@@ -69,28 +71,27 @@ def _check_out(out: Path) -> str | None:
 
 def cmd_reproduce(cfg: Config, args) -> int:
     """Run ``frictionrt reproduce``: validate, measure, evaluate, write (rt.reproduce_report)."""
-    from rt.cli import _fail  # at call time: rt.cli imports this module
     from rt.reproduce import FULL, QUICK, measure
     from rt.reproduce_report import CLAIM_TEXT, jsonable, write_outputs
     if args.jobs is not None and args.jobs < 1:
-        return _fail(f"--jobs {args.jobs}: must be >= 1 (local worker processes)")
+        return fail(f"--jobs {args.jobs}: must be >= 1 (local worker processes)")
     out = Path(args.out)
-    problem = _check_out(out)
+    problem = _check_out(out) or refuse_existing([out], args.force)
     if problem:
-        return _fail(problem)
+        return fail(problem)
     plan = QUICK if args.quick else FULL
     say = (lambda text: None) if args.json else (lambda text: print(f"reproduce: {text}", file=sys.stderr))
     try:
         plan.check(cfg)
         result = measure(cfg, plan, args.estimator, args.jobs, args.dask, progress=not args.json, stage=say)
     except ConnectionError as exc:
-        return _fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
+        return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     try:
         write_outputs(out, result, cfg.impulse.f_max_hz)
     except OSError as exc:
-        return _fail(f"--out {out}: cannot write ({exc.strerror or exc}); give a folder you can write to")
+        return fail(f"--out {out}: cannot write ({exc.strerror or exc}); give a folder you can write to")
     report = jsonable(result["report"])
     if args.json:
         print(json.dumps(report))

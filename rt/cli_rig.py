@@ -6,6 +6,8 @@ import argparse
 import json
 import math
 
+from rt.cli_common import add_out, fail
+
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
 records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms, each end held 30 ms (structure at
@@ -45,13 +47,12 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "contact stuck, at each F_N1) instead of the time-series campaign (rt/rig_frf.py)")
     p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
                    "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
-    p.add_argument("-o", "--out", metavar="DIR", help="new campaign folder (must not exist or be empty)")
+    add_out(p, "DIR", "new campaign folder (must not exist or be empty: a campaign is never replaced, no --force)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
 
 
 def cmd_rig(cfg, args) -> int:
-    from rt.cli import _fail
     from rt.effects import EFFECTS, get
     if args.list:
         rows = [e.to_json() for e in EFFECTS.values()]
@@ -64,24 +65,24 @@ def cmd_rig(cfg, args) -> int:
                       f"bounds {r['bounds']}{state}")
         return 0
     if not args.effect or not args.out:
-        return _fail("rig: give --effect NAME (or none) and -o DIR, or --list")
+        return fail("rig: give --effect NAME (or none) and -o DIR, or --list")
     if args.effect != "none":
         try:
             eff = get(args.effect)
         except ValueError as exc:
-            return _fail(f"rig --effect: {exc}")
+            return fail(f"rig --effect: {exc}")
         if not eff.implemented:
-            return _fail(f"rig --effect {eff.name}: not implemented yet (needs new kernel code); implemented: "
+            return fail(f"rig --effect {eff.name}: not implemented yet (needs new kernel code); implemented: "
                          + ", ".join(n for n, e in EFFECTS.items() if e.implemented))
         p = eff.parameter
         if args.strength is not None and not (math.isfinite(args.strength) and p.lo <= args.strength <= p.hi):
-            return _fail(f"rig --strength {args.strength:g}: {eff.name} takes {p.name} in [{p.lo:g}, {p.hi:g}] {p.unit}")
+            return fail(f"rig --strength {args.strength:g}: {eff.name} takes {p.name} in [{p.lo:g}, {p.hi:g}] {p.unit}")
     elif args.strength is not None:
-        return _fail("rig --strength: --effect none takes no strength")
+        return fail("rig --strength: --effect none takes no strength")
     if not (math.isfinite(args.record_s) and 0.2 <= args.record_s <= 10.0):
-        return _fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
+        return fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
     if args.frf_files and (args.stepsine or args.record_s != 1.0):
-        return _fail("rig --frf-files: --stepsine and --record-s apply to the time-series campaign only; drop them")
+        return fail("rig --frf-files: --stepsine and --record-s apply to the time-series campaign only; drop them")
     from rt.rig import make_campaign
     from rt.rig_frf import make_frf_campaign
     try:
@@ -91,7 +92,7 @@ def cmd_rig(cfg, args) -> int:
             files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
                                   record_s=args.record_s, stepsine=args.stepsine)
     except ValueError as exc:
-        return _fail(f"rig -o: {exc}")
+        return fail(f"rig -o: {exc}")
     if args.json:
         print(json.dumps({"folder": args.out, "files": [str(f) for f in files]}))
     else:

@@ -13,6 +13,7 @@ import tempfile
 from pathlib import Path
 
 from rt.config import Config, ConfigError
+from rt.cli_common import add_force, add_out, fail, refuse_existing
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
 each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
@@ -58,8 +59,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT", help="run the sweeps on this dask scheduler's workers")
-    p.add_argument("--out", metavar="DIR", default=None,
-                   help="output folder (default logs/tune_LAW); created if missing, its tune files replaced")
+    add_out(p, "DIR", "output folder (default logs/tune_LAW); created if missing; an existing one is refused, or "
+                      "with --force its tune files are replaced")
+    add_force(p)
     p.add_argument("--json", action="store_true", help="print the result as one JSON object (no progress bar)")
     return p
 
@@ -109,19 +111,20 @@ def _write_outputs(res, out: Path) -> None:
 
 
 def cmd_tune(cfg: Config, args) -> int:
-    from rt.cli import _fail  # at call time: rt.cli imports this module
     from rt.cli_frf import _parse_list
     from rt.tune import DEFAULT_GRIDS, parse_grid, tune
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
-        return _fail(f"--out {out}: exists and is not a folder")
+        return fail(f"--out {out}: exists and is not a folder")
+    if msg := refuse_existing([out], args.force):
+        return fail(msg)
     parent = out if out.exists() else out.parent
     while not parent.exists():
         parent = parent.parent
     if not os.access(parent, os.W_OK):
-        return _fail(f"--out {out}: folder {parent} is not writable")
+        return fail(f"--out {out}: folder {parent} is not writable")
     if args.jobs is not None and args.jobs < 1:
-        return _fail(f"--jobs {args.jobs}: must be >= 1")
+        return fail(f"--jobs {args.jobs}: must be >= 1")
     try:
         grid = parse_grid(args.grid) if args.grid else DEFAULT_GRIDS[args.law]
         modes = _parse_list(args.modes, int, "--modes", "3,4")
@@ -129,11 +132,11 @@ def cmd_tune(cfg: Config, args) -> int:
                    estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs, dask_address=args.dask,
                    progress=not args.json)
     except ConfigError as exc:
-        return _fail(f"--grid: {exc}")
+        return fail(f"--grid: {exc}")
     except ConnectionError as exc:
-        return _fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
+        return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     _write_outputs(res, out)
     doc = res.to_dict()
     doc["out"] = str(out)

@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from rt.cli_common import fail
+
 DESCRIPTION = """Check an MCAP run log or measurement against the measurement format (docs/data-format.md):
 the metadata records "signals" (layout, rate [Hz]), "test" (kind, excitation point x [m], sensor positions
 [m], law and gains, excitation amplitude [N] and frequencies [Hz]) and, for simulation logs, "frictionrt";
@@ -35,12 +37,11 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 
 def cmd_validate(cfg, args) -> int:
-    from rt.cli import _fail
     from rt.data_format import validate
     try:
         problems = validate(args.file)
     except ValueError as exc:
-        return _fail(f"{exc} (validate reads MCAP files; a file cut short by a crash: frictionrt recover)")
+        return fail(f"{exc} (validate reads MCAP files; a file cut short by a crash: frictionrt recover)")
     if args.json:
         print(json.dumps({"file": str(args.file), "valid": not problems, "problems": [p.to_dict() for p in problems]}))
     elif problems:

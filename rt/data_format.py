@@ -1,18 +1,16 @@
 """The measurement format (docs/data-format.md): what a run log or a measurement must carry, and
 a validator that names what is missing or wrong.
 
-A file is an MCAP log in the layout of ``rt.mcap_log`` (topics per owning package, ros2msg
-schemas of float64 fields, CDR messages, one message per tick at log_time = (k 10^9) // rate_hz
-ns) with the metadata records "signals" (the layout), "test" (what was done: ``TEST_KEYS``)
-and, for the project's own runs, "frictionrt" (configuration, law, estimator, seed, versions,
-command line).
+A file is an MCAP log in the layout of ``rt.mcap_log`` (ROS 2 profile, topics per owning
+package, ros2msg schemas of stamp, tick and the signals' ROS 2 fields, CDR messages, one message
+per tick at log_time = start_ns + (k 10^9) // rate_hz ns) with the metadata records "signals"
+(the layout; optional, with defaults), "test" (what was done: ``TEST_KEYS``) and, for the
+project's own runs, "frictionrt" (configuration, law, estimator, seed, versions, command line).
 
-``SIGNALS`` is the registry of every signal the format knows: name (``<point>`` stands for a
-point name of plant.points, ``<j>`` for a contact pair index 0, 1, ...), unit, owner (topic
-/owner), the instant row k holds, and its meaning. tests/test_data_format.py checks it against
-the loop's own signal list (``rt.loop.loop_signals``) in both directions and checks that the
-tables of docs/data-format.md are ``signal_table()`` and ``required_table()`` verbatim
-(``python -m rt.data_format`` prints them).
+``SIGNALS`` (``rt.registry``) is the registry of every signal the format knows.
+tests/test_data_format.py checks it against the loop's own signal list (``rt.loop.loop_signals``)
+in both directions and checks that the tables of docs/data-format.md are ``signal_table()``,
+``required_table()`` and ``keys_table()`` verbatim (``python -m rt.data_format`` prints them).
 
 ``validate(path)`` returns the list of ``Problem`` s (empty: valid) and raises ValueError only
 for a file that cannot be read at all (not MCAP, truncated, corrupt).
@@ -21,84 +19,20 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import struct
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from rt.mcap_log import (CDR_LE, MAX_TICK, OWNERS, _check_framing, _chunk_messages, _iter_messages, field_names,
-                         schema_name, tick_time_ns)
+from rt.mcap_log import (MAX_TICK, Topic, _check_framing, _chunk_messages, _iter_messages, file_topics,
+                         parse_schema, payload_rows, tick_time_ns, ticks_of_times)
+from rt.registry import SIGNALS, entry_of, field_type, lower_rule, ros2_field
 
 
-class Entry(NamedTuple):
-    """One signal of the format."""
-    name: str      # field name; <point> = a plant point name, <j> = a contact pair index
-    unit: str
-    owner: str     # topic /owner
-    at: str        # the instant (or interval) row k holds
-    meaning: str
-
-
-SIGNALS = (
-    Entry("F_exc", "N", "rt", "[t_k, t_k+1)", "excitation force at test.excitation_x_m, +z (up), held over the tick"),
-    Entry("tick_ns", "ns", "rt", "tick k", "execution time of the loop's tick (simulation only)"),
-    Entry("late_ns", "ns", "rt", "tick k", "lateness of the tick's start against its deadline (paced runs; 0 offline)"),
-    Entry("fault_code", "-", "rt", "tick k", "supervisor: code of the first failing check of the tick, 0 none "
-          "(docs/reliability.md)"),
-    Entry("fault_latched", "-", "rt", "tick k", "supervisor: code of the latched fault, 0 while active"),
-    Entry("passive", "-", "rt", "tick k", "supervisor: 1 while it commands passive F_min instead of the law's F_set"),
-    Entry("a_tip_meas", "m/s^2", "sensors", "t_k", "accelerometer at test.sensor_positions_m.a_tip_meas (tip), "
-          "after anti-alias filter, noise and ADC"),
-    Entry("a_frf_meas", "m/s^2", "sensors", "t_k", "accelerometer at test.sensor_positions_m.a_frf_meas (FRF point), "
-          "after anti-alias filter, noise and ADC"),
-    Entry("v_tip_meas", "m/s", "sensors", "t_k", "tip velocity: the controller's leaky integral of a_tip_meas "
-          "(corner sensors.velocity_corner_hz)"),
-    Entry("F_strain", "N", "sensors", "t_k", "adaptive screw bolt force, strain gauge, after noise and ADC"),
-    Entry("F_cell", "N", "sensors", "t_k", "adaptive screw bolt force, piezo force cell, after noise and ADC"),
-    Entry("u_rel_hat", "m", "observer", "t_k", "estimated tangential relative displacement at the adaptive screw"),
-    Entry("v_rel_hat", "m/s", "observer", "t_k", "estimated relative velocity at the adaptive screw"),
-    Entry("innovation", "m/s", "observer", "t_k", "observer innovation (measured minus predicted tip velocity); "
-          "0 with the oracle"),
-    Entry("f_r_hat", "N", "observer", "t_k", "observer's friction force estimate; 0 with the oracle"),
-    Entry("F_set", "N", "tracking", "t_k", "the control law's bolt force setpoint F*"),
-    Entry("u0", "m", "tracking", "t_k+1", "RT1 amplitude of u_rel (hysteresis law; tracking.rt1)"),
-    Entry("F_set_filtered", "N", "tracking", "t_k", "F* after the setpoint prefilter: the force tracking's setpoint"),
-    Entry("V_cmd", "V", "tracking", "[t_k, t_k+1)", "voltage command to the DAC (amplifier input), held over the tick"),
-    Entry("saturated", "-", "tracking", "t_k", "+1 command at V_max, -1 at V_min, 0 inside"),
-    Entry("F_N1", "N", "actuator", "t_k+1", "adaptive screw force (true, simulation only)"),
-    Entry("V_dac", "V", "actuator", "[t_k, t_k+1)", "DAC output (16 bit, held)"),
-    Entry("v_f", "V", "actuator", "t_k+1", "output of the 30 kHz analog low-pass"),
-    Entry("V_a", "V", "actuator", "t_k+1", "piezo stack voltage (amplifier output)"),
-    Entry("i", "A", "actuator", "last substep", "piezo stack current, C dV_a/dt, mean over the last actuator "
-          "substep before t_k+1"),
-    Entry("P", "W", "actuator", "last substep", "amplifier output power V_a i, mean over the last substep"),
-    Entry("E", "J", "actuator", "t_k+1", "energy delivered by the amplifier since the start, integral of abs(V_a i) dt"),
-    Entry("F_strain_a", "N", "actuator", "t_k+1", "strain gauge analog output (before noise and ADC)"),
-    Entry("F_cell_a", "N", "actuator", "t_k+1", "force cell analog output (before noise and ADC)"),
-    Entry("w_<point>", "m", "plant", "t_k+1", "transverse displacement w at the point"),
-    Entry("v_<point>", "m/s", "plant", "t_k+1", "transverse velocity w' at the point"),
-    Entry("a_<point>", "m/s^2", "plant", "t_k+1", "transverse acceleration w'' at the point"),
-    Entry("u_rel", "m", "plant", "t_k+1", "tangential relative displacement at the adaptive screw"),
-    Entry("v_rel", "m/s", "plant", "t_k+1", "tangential relative velocity at the adaptive screw"),
-    Entry("g_n_<j>", "m", "plant", "t_k+1", "normal gap of contact pair j (j = 0 at interface.x_start_m)"),
-    Entry("g_t_<j>", "m", "plant", "t_k+1", "tangential relative displacement of contact pair j"),
-    Entry("f_n_<j>", "N", "plant", "t_k+1", "normal contact force of pair j"),
-    Entry("f_t_<j>", "N", "plant", "t_k+1", "tangential (Jenkins) force of pair j"),
-    Entry("E_fric", "J", "plant", "t_k+1", "energy dissipated by friction since the start"),
-    Entry("E_damp", "J", "plant", "t_k+1", "energy dissipated by structural and interface damping"),
-    Entry("W_exc", "J", "plant", "t_k+1", "work of the excitation force"),
-    Entry("W_screw", "J", "plant", "t_k+1", "work of the adaptive screw force"),
-    Entry("newton_iter", "-", "plant", "tick k", "contact Newton iterations of the tick (-1: a failed solve)"),
-    Entry("substep_fallbacks", "-", "plant", "tick k", "substeps redone on finer substeps in the tick"),
-    Entry("abar_<point>", "m/s^2", "plant", "[t_k, t_k+1]", "mean acceleration over the tick, what the "
-          "accelerometers sample"),
-)
 
 REQUIRED = ("F_exc", "a_tip_meas", "a_frf_meas", "v_tip_meas", "F_strain", "F_cell", "V_a", "i")
 """Signals every file must carry (run log or measurement)."""
@@ -145,21 +79,6 @@ class Problem:
         return asdict(self)
 
 
-def _pattern(name: str) -> re.Pattern:
-    rx = re.escape(name).replace("<point>", r"[A-Za-z0-9_]+").replace("<j>", r"[0-9]+")
-    return re.compile(rx + r"\Z")
-
-
-_EXACT = {(e.owner, e.name): e for e in SIGNALS if "<" not in e.name}
-_PATTERNS = [(e, _pattern(e.name)) for e in SIGNALS if "<" in e.name]
-
-
-def entry_of(owner: str, name: str) -> Entry | None:
-    """The registry entry of a signal: an exact name first (u_rel is not v_<point>), then a pattern."""
-    e = _EXACT.get((owner, name))
-    if e is not None:
-        return e
-    return next((e for e, rx in _PATTERNS if e.owner == owner and rx.match(name)), None)
 
 
 def _md_table(header: tuple[str, ...], rows) -> str:
@@ -170,8 +89,8 @@ def _md_table(header: tuple[str, ...], rows) -> str:
 
 def signal_table() -> str:
     """The signal table of docs/data-format.md (markdown), from ``SIGNALS``."""
-    return _md_table(("topic", "field", "unit", "row k holds", "meaning", "required"),
-                     ((f"/{e.owner}", f"`{e.name}`", e.unit, e.at, e.meaning,
+    return _md_table(("topic", "signal", "field", "type", "unit", "row k holds", "meaning", "required"),
+                     ((f"/{e.owner}", f"`{e.name}`", f"`{lower_rule(e.name)}`", e.type, e.unit, e.at, e.meaning,
                        "yes" if e.name in REQUIRED else ("with a law" if e.name in SETPOINTS else ""))
                       for e in SIGNALS))
 
@@ -181,8 +100,9 @@ def required_table() -> str:
     rows = []
     for name in REQUIRED + SETPOINTS:
         e = next(e for e in SIGNALS if e.name == name)
-        rows.append((f"/{e.owner}", f"`{e.name}`", e.unit, "always" if name in REQUIRED else "when test.law is not none"))
-    return _md_table(("topic", "field", "unit", "required"), rows)
+        rows.append((f"/{e.owner}", f"`{e.name}`", f"`{ros2_field(e.name)}`", e.type, e.unit,
+                     "always" if name in REQUIRED else "when test.law is not none"))
+    return _md_table(("topic", "signal", "field", "type", "unit", "required"), rows)
 
 
 def keys_table() -> str:
@@ -248,62 +168,34 @@ def _read(path: Path) -> tuple[dict, dict[str, _Topic]]:
                     tp = topics[channel.topic] = _Topic(schema, channel, [], [], [])
                 tp.times.append(times)
                 tp.seqs.append(seqs)
-                tp.data.extend(payloads if isinstance(payloads, list) else [payloads])
+                tp.data.append(payloads)
     except (McapError, zstandard.ZstdError, OSError, EOFError, struct.error, ValueError, KeyError, TypeError) as e:
         # KeyError, TypeError: mcap's reader on a corrupt summary (e.g. a message of an unlisted channel)
         raise ValueError(f"{path}: unreadable MCAP file ({type(e).__name__}: {e})") from None
-    for tp in topics.values():   # one array of times and sequences; payloads as bytes or rows
+    for tp in topics.values():   # one array of times and sequences; payloads in parts (rt.mcap_log.payload_rows)
         tp.times, tp.seqs = np.concatenate(tp.times), np.concatenate(tp.seqs)
-        tp.data = _payload_rows(tp.data)
     return meta, topics
 
 
-def _payload_rows(parts: list) -> np.ndarray | list[bytes]:
-    """A topic's payloads from its parts (arrays of equally long rows, or single payloads): one
-    (n, size) uint8 array if all rows have one size, else a list of bytes."""
-    if all(isinstance(p, np.ndarray) for p in parts) and len({p.shape[1] for p in parts}) == 1:
-        return np.concatenate(parts)
-    out: list[bytes] = []
-    for p in parts:
-        if isinstance(p, np.ndarray):
-            out.extend(row.tobytes() for row in p)
+def _layout(meta: dict, topics: dict[str, _Topic], problems: list[Problem]):
+    """(version, signals, rate [Hz], start [ns] or None, {topic: Topic}) of the file: its "signals"
+    record, or the defaults of a file without one (rt.mcap_log.file_topics); None with a problem
+    appended if neither gives a layout."""
+    schemas = {n: tp.schema for n, tp in topics.items() if tp.schema is not None and tp.schema.encoding == "ros2msg"}
+    try:
+        return file_topics(meta, schemas)
+    except (ValueError, KeyError, TypeError, json.JSONDecodeError) as e:
+        msg = f"{type(e).__name__}: {e}" if isinstance(e, (KeyError, TypeError, json.JSONDecodeError)) else str(e)
+        if "signals" not in meta:
+            problems.append(Problem("metadata signals", "missing", f"no 'signals' record and the schemas give no "
+                                    f"layout: {msg}"))
+        elif "rate_hz" in msg:
+            problems.append(Problem("metadata signals.rate_hz", "wrong rate", f"{msg}: must be a positive whole "
+                                    "number of Hz"))
         else:
-            out.append(bytes(p))
-    return out
-
-
-def _signals_of(meta: dict, problems: list[Problem]) -> tuple[tuple, int | None]:
-    """The layout and rate of the "signals" record (problems appended)."""
-    rec = meta.get("signals")
-    if rec is None:
-        problems.append(Problem("metadata signals", "missing", "no 'signals' record: the layout (names, units, "
-                                "topics) and rate are unknown"))
-        return (), None
-    try:
-        rows = json.loads(rec["signals"])
-        signals = tuple((str(r["name"]), str(r["unit"]), str(r["owner"])) for r in rows)
-        fields = [r["field"] for r in rows]
-    except (KeyError, TypeError, json.JSONDecodeError) as e:
-        problems.append(Problem("metadata signals.signals", "invalid", f"not the JSON list of {{name, field, unit, "
-                                f"owner, column}} ({type(e).__name__}: {e})"))
-        return (), None
-    if fields != list(field_names(signals)) or [r.get("column") for r in rows] != list(range(len(rows))):
-        problems.append(Problem("metadata signals.signals", "invalid", "fields or columns do not follow the "
-                                "naming rule of rt.mcap_log"))
-    for name, _, owner in signals:
-        if owner not in OWNERS:
-            problems.append(Problem(f"metadata signals {name}", "invalid", f"owner {owner!r} is not one of {list(OWNERS)}"))
-    rate = None
-    try:
-        r = float(rec["rate_hz"])
-        if math.isfinite(r) and r > 0 and r.is_integer():
-            rate = int(r)
-    except (KeyError, ValueError):
-        pass
-    if rate is None:
-        problems.append(Problem("metadata signals.rate_hz", "wrong rate",
-                                f"{rec.get('rate_hz')!r}: must be a positive whole number of Hz"))
-    return signals, rate
+            problems.append(Problem("metadata signals.signals", "invalid", f"{msg} (a JSON list of {{name, field, "
+                                    "type, unit, owner, column}})"))
+        return None
 
 
 def _float(rec: dict, key: str, problems: list[Problem], required: bool = True) -> float | None:
@@ -342,8 +234,9 @@ def _check_test(meta: dict, signals: tuple, rate: int | None, problems: list[Pro
     """Check the "test" record; returns its law ("none" if absent or unknown)."""
     rec = meta.get("test")
     if rec is None:
-        problems.append(Problem("metadata test", "missing", "no 'test' record (kind, excitation point, sensor "
-                                "positions, law): docs/data-format.md"))
+        problems.append(Problem("metadata test", "missing", "no 'test' record: what was done (kind, excitation "
+                                "point, sensor positions, law) has no default; add it with the MCAP writer's "
+                                "add_metadata(\"test\", {\"kind\": ..., ...}), keys in docs/data-format.md"))
         return "none"
     kind = rec.get("kind")
     if kind is None:
@@ -412,82 +305,75 @@ def _check_run(meta: dict, rate: int | None, plant_present: bool, problems: list
                                     f"{rate} Hz, but the stored configuration runs at rt.rate_hz = {cfg.rt.rate_hz:g} Hz"))
 
 
-def _parse_schema(text: bytes) -> list[tuple[str, str]] | None:
-    """(type, field) per line of a ros2msg schema, None if it is not of that form."""
-    try:
-        lines = [ln.split("#")[0].strip() for ln in text.decode().splitlines()]
-    except UnicodeDecodeError:
-        return None
-    out = []
-    for ln in filter(None, lines):
-        parts = ln.split()
-        if len(parts) != 2:
-            return None
-        out.append((parts[0], parts[1]))
-    return out
-
-
-def _check_topic(name: str, tp: _Topic, fields: list[tuple[str, str]], rate: int | None,
+def _check_topic(path: Path, name: str, raw: _Topic, tp: Topic, version: int, rate: int, start: int | None,
                  problems: list[Problem]) -> np.ndarray | None:
     """Schema, message sizes, times and values of one topic; returns its ticks (file order) if
-    their times lie on the tick grid, else None. fields: (signal name, field) of the topic."""
-    s, ch = tp.schema, tp.channel
+    they are known and their times lie on the tick grid, else None."""
+    s, ch = raw.schema, raw.channel
     if s is None or s.encoding != "ros2msg" or ch.message_encoding != "cdr":
         problems.append(Problem(name, "wrong type", "schema encoding must be ros2msg and message encoding cdr, got "
                                 f"{getattr(s, 'encoding', None)!r} / {ch.message_encoding!r}"))
         return None
-    if s.name != schema_name(name[1:]):
-        problems.append(Problem(name, "wrong type", f"schema name {s.name!r}, must be {schema_name(name[1:])!r}"))
-    parsed = _parse_schema(s.data)
-    if parsed is None:
-        problems.append(Problem(name, "wrong type", "the schema is not one 'TYPE FIELD' per line"))
+    if s.name != tp.schema_name:
+        problems.append(Problem(name, "wrong type", f"schema name {s.name!r}, must be {tp.schema_name!r}"))
+    try:
+        parsed = parse_schema(s.data)
+    except ValueError as e:
+        problems.append(Problem(name, "wrong type", str(e)))
         return None
-    types = dict((f, t) for t, f in parsed)
+    types = {f: t for t, f in parsed}
     ok = True
-    for sig, fld in fields:
+    for sig, fld in zip(tp.names, tp.fields):
+        want = field_type(sig, tp.owner) if version >= 1 else "float64"
         if fld not in types:
             problems.append(Problem(f"{name}.{sig}", "missing", f"field {fld} is in the 'signals' record but not in "
                                     "the schema"))
             ok = False
-        elif types[fld] != "float64":
-            problems.append(Problem(f"{name}.{sig}", "wrong type", f"{types[fld]}, must be float64"))
+        elif types[fld] != want:
+            problems.append(Problem(f"{name}.{sig}", "wrong type", f"{types[fld]} {fld}, must be {want}"))
             ok = False
-    if [f for _, f in parsed] != [f for _, f in fields] and ok:
-        problems.append(Problem(name, "invalid", "schema fields differ from the 'signals' record (order or extra "
-                                f"fields): {[f for _, f in parsed]}"))
+    if ok and parsed != tp.schema_fields:
+        problems.append(Problem(name, "invalid", "schema fields differ from the 'signals' record (order, stamp and "
+                                f"tick, or extra fields): {[f for _, f in parsed]}"))
         ok = False
-    if not ok or rate is None:
+    if not ok:
         return None
-    size = len(CDR_LE) + 8 * len(fields)
-    n = len(tp.data)
-    if isinstance(tp.data, np.ndarray):
-        rows = tp.data if tp.data.shape[1] == size else None
+    try:
+        rows = payload_rows(path, tp, raw.data)
+    except ValueError as e:
+        problems.append(Problem(name, "wrong type", str(e).removeprefix(f"{path}: ")))
+        return None
+    k, stamp, vals = tp.decode(rows)
+    t = raw.times.astype(np.int64) if raw.times.max(initial=0) < 2**63 else None
+    n = len(rows)
+    if t is None or (k is not None and (k.min(initial=0) < 0 or k.max(initial=0) > MAX_TICK)):
+        problems.append(Problem(name, "invalid", f"ticks or log times beyond the last representable tick "
+                                f"(k = {MAX_TICK} at {rate} Hz)"))
+        return None
+    if k is None:      # version 0: the tick is in the log time, checked against the sequence
+        k = ticks_of_times(raw.times, rate)
+        if k is None:
+            problems.append(Problem(name, "invalid", f"log times beyond the last representable tick (k = {MAX_TICK} "
+                                    f"at {rate} Hz, {int(tick_time_ns(MAX_TICK, rate))} ns)"))
+            return None
+        off = tick_time_ns(k, rate) != t
+        seq_bad = (k & 0xFFFFFFFF) != raw.seqs.astype(np.int64)
+        if seq_bad.any() and not off.any():
+            problems.append(Problem(name, "invalid", f"{int(seq_bad.sum())} sequence numbers are not k mod 2^32 "
+                                    f"(first at tick {int(k[seq_bad][0])})"))
+        rule = "log_time must be (k 10^9) // rate_hz (log format 0)"
     else:
-        buf = b"".join(tp.data)
-        ok_sizes = len(buf) == n * size and all(len(d) == size for d in tp.data)
-        rows = np.frombuffer(buf, np.uint8).reshape(n, size) if ok_sizes else None
-    if rows is None:
-        problems.append(Problem(name, "wrong type", f"messages must be {size} bytes (CDR header + {len(fields)} "
-                                "float64)"))
-        return None
-    if np.any(rows[:, :4] != np.frombuffer(CDR_LE, np.uint8)):
-        problems.append(Problem(name, "wrong type", "messages are not little-endian CDR (header 00 01 00 00)"))
-        return None
-    if max(tp.times) > tick_time_ns(MAX_TICK, rate):   # t rate would overflow int64
-        problems.append(Problem(name, "invalid", f"log times beyond the last representable tick (k = {MAX_TICK} at "
-                                f"{rate} Hz, {int(tick_time_ns(MAX_TICK, rate))} ns)"))
-        return None
-    t = np.array(tp.times, dtype=np.int64)
-    k = -((-t * rate) // 10**9)
-    off = tick_time_ns(k, rate) != t
+        t0 = start if start is not None else (int(t[0]) - int(tick_time_ns(k[0], rate)) if n else 0)
+        off = t0 + tick_time_ns(k, rate) != t
+        if (stamp != t).any():
+            bad = stamp != t
+            problems.append(Problem(name, "invalid", f"{int(bad.sum())} stamps differ from the log time (first at "
+                                    f"tick {int(k[bad][0])})"))
+        rule = "log_time must be start_ns + (tick 10^9) // rate_hz"
     if off.any():
         problems.append(Problem(name, "wrong rate", f"{int(off.sum())} of {n} log times are off the {rate} Hz tick "
-                                f"grid (first {int(t[off][0])} ns); log_time must be (k 10^9) // rate_hz"))
+                                f"grid (first {int(t[off][0])} ns); {rule}"))
         return None
-    seq_bad = (k & 0xFFFFFFFF) != np.array(tp.seqs, dtype=np.int64)
-    if seq_bad.any():
-        problems.append(Problem(name, "invalid", f"{int(seq_bad.sum())} sequence numbers are not k mod 2^32 "
-                                f"(first at tick {int(k[seq_bad][0])})"))
     dk = np.diff(k)
     if (dk < 0).any():
         problems.append(Problem(name, "non-monotonic time", f"{int((dk < 0).sum())} messages go back in time "
@@ -499,8 +385,7 @@ def _check_topic(name: str, tp: _Topic, fields: list[tuple[str, str]], rate: int
         step = int(np.median(dk[dk > 0]))
         problems.append(Problem(name, "wrong rate", f"messages come every {step} ticks: the data is at "
                                 f"{rate / step:g} Hz, the 'signals' record says {rate} Hz"))
-    vals = np.ascontiguousarray(rows[:, 4:]).view("<f8")
-    for j, (sig, _) in enumerate(fields):
+    for j, sig in enumerate(tp.names):
         bad = ~np.isfinite(vals[:, j])
         if bad.any():
             problems.append(Problem(f"{name}.{sig}", "NaN", f"{int(bad.sum())} of {n} samples are NaN or inf "
@@ -514,7 +399,8 @@ def validate(path) -> list[Problem]:
     path = Path(path)
     meta, topics = _read(path)
     problems: list[Problem] = []
-    signals, rate = _signals_of(meta, problems)
+    layout = _layout(meta, topics, problems)
+    version, signals, rate, start, tps = layout if layout is not None else (0, (), None, None, {})
     law = _check_test(meta, signals, rate, problems)
     _check_run(meta, rate, "/plant" in topics, problems)
     by_name = {n: (u, o) for n, u, o in signals}
@@ -526,22 +412,18 @@ def validate(path) -> list[Problem]:
     for n in required:
         want = next(e for e in SIGNALS if e.name == n)
         if n not in by_name:
-            problems.append(Problem(f"/{want.owner}.{n}", "missing", f"required ({want.meaning})"))
+            problems.append(Problem(f"/{want.owner}.{n}", "missing", f"required ({want.meaning}; field "
+                                    f"{ros2_field(n)})"))
         elif by_name[n][1] != want.owner:
             problems.append(Problem(f"/{want.owner}.{n}", "missing", f"recorded under /{by_name[n][1]} instead"))
-    fields = field_names(signals)
     ticks = {}
-    for owner in OWNERS:
-        name = "/" + owner
-        own = [(n, f) for (n, _, o), f in zip(signals, fields) if o == owner]
-        if not own:
-            continue
+    for name, tp in tps.items():
         if name not in topics:
-            if any(by_name[n][1] == owner for n in required if n in by_name):
+            if any(by_name[n][1] == tp.owner for n in required if n in by_name):
                 problems.append(Problem(name, "missing", "topic has no messages, but holds required fields "
-                                        f"({', '.join(n for n in required if by_name.get(n, ('', ''))[1] == owner)})"))
+                                        f"({', '.join(n for n in required if by_name.get(n, ('', ''))[1] == tp.owner)})"))
             continue
-        k = _check_topic(name, topics[name], own, rate, problems)
+        k = _check_topic(path, name, topics[name], tp, version, rate, start, problems)
         if k is not None:
             ticks[name] = k
     if len(ticks) > 1:

@@ -133,12 +133,12 @@ def _closed_copy(src: Path, s: Scan, tmp: Path) -> None:
         fo.write(rb.end() + MAGIC)
 
 
-def _tick(t_ns: int, rate_hz: int) -> int:
-    """k of a log time t = (k * 10**9) // rate_hz [ns] (rt.mcap_log's time rule)."""
-    return -((-t_ns * rate_hz) // 10**9)
+def _tick(t_ns: int, rec) -> int:
+    """k of a log time t = start_ns + (k * 10**9) // rate_hz [ns] of the log rec (rt.mcap_log's time rule)."""
+    return -((-(t_ns - rec.start_ns) * rec.rate_hz) // 10**9)
 
 
-def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
+def recover(src: str | os.PathLike, dst: str | os.PathLike, overwrite: bool = False) -> dict:
     """Recover the complete chunks of ``src`` (e.g. ``NAME.mcap.part`` after a kill) into a
     finished, indexed MCAP log ``dst`` (module docstring).
 
@@ -147,11 +147,13 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
     what the file shows), finished (src had been closed), lost_bytes (after the last good record),
     lost_record ("chunk", ..., or null), lost_chunk_ticks ([k0, k1] of a chunk cut short, or null),
     stop (why the walk ended), metadata (record names copied), seconds (wall time).
-    ValueError naming the file: dst exists, src missing or not MCAP, no complete chunk, not a
-    frictionrt log, topics missing."""
+    ValueError naming the file: dst exists (replaced only if ``overwrite``; never src), src missing
+    or not MCAP, no complete chunk, not a frictionrt log, topics missing."""
     t0 = time.perf_counter()
     src, dst = Path(src), Path(dst)
-    check_conversion(src, dst, "give a new file name (recover never overwrites)")
+    if dst.resolve() == src.resolve():
+        raise ValueError(f"{dst}: is the input; give another name for the recovered log")
+    check_conversion(src, dst, None if overwrite else "give a new file name or pass --force to replace it")
     s = scan(src)
     if s.chunks == 0:
         raise ValueError(f"{src}: no complete chunk in the file ({s.size} B; {s.stop or 'no data'}): nothing to "
@@ -169,14 +171,14 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike) -> dict:
     if missing:
         raise ValueError(f"{src}: topics {missing} of the 'signals' record are absent; recover rebuilds "
                          "complete run logs (frictionrt simulate --out) only")
-    chunk_ticks = [_tick(b, rec.rate_hz) - _tick(a, rec.rate_hz) + 1 for a, b in s.chunk_times_ns]
+    chunk_ticks = [_tick(b, rec) - _tick(a, rec) + 1 for a, b in s.chunk_times_ns]
     report = {
         "input": str(src), "output": str(dst), "ticks": len(rec.k),
         "first_tick": int(rec.k[0]), "last_tick": int(rec.k[-1]),
         "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - len(rec.k)), "chunks": s.chunks,
         "chunk_ticks": max(chunk_ticks), "finished": s.finished, "lost_bytes": s.lost_bytes,
         "lost_record": None if s.cut_opcode is None else _opcode_name(s.cut_opcode),
-        "lost_chunk_ticks": None if s.cut_times_ns is None else [_tick(t, rec.rate_hz) for t in s.cut_times_ns],
+        "lost_chunk_ticks": None if s.cut_times_ns is None else [_tick(t, rec) for t in s.cut_times_ns],
         "stop": s.stop if not s.finished else "",
         "metadata": [m.name for m in s.metadata if m.name != "signals"],
     }

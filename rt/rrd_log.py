@@ -2,23 +2,28 @@
 
 The recording (its own ``rr.RecordingStream``, never the global one; nothing is spawned) holds:
 
-    /<owner>/<name>   one entity per log column, ``rr.Scalars``, e.g. /plant/v_rel; a static
-                      ``unit`` (AnyValues) on each
+    /<owner>          one entity per topic of the MCAP log (/rt, /sensors, ..., /plant), its
+                      signals as one multi-series ``rr.Scalars`` row per tick in column order; a
+                      static ``rr.SeriesLines`` names the series by their ROS 2 fields (the MCAP
+                      field names, ``rt.registry.ros2_field``: /actuator f_n1) and a static
+                      ``unit`` (AnyValues, one unit per series) gives their units
     /hysteresis       ``rr.Points2D`` per tick at (u_rel [um], -F_t [N]) where
                       F_t = sum_j f_t_j is the interface's total tangential (friction) force: the
                       plant logs no tangential force at the adaptive screw itself, and u_rel is
                       the slip there. y is -F_t because rerun's 2-D view points y down, so the
                       loop appears with positive force up. Only if u_rel and f_t_* are logged.
-    timelines         "t": duration (k * 10**9) // rate_hz [ns] (the MCAP log_time, exact);
-                      "tick": sequence k
+    timelines         "t": duration (k * 10**9) // rate_hz [ns] (the MCAP log_time less the
+                      run's start, exact); "tick": sequence k
     properties        "frictionrt": the caller's metadata strings (configuration TOML, versions,
                       seed, ...), if given
 
-The default blueprint (embedded with ``blueprint=True``) has a "damper" tab with "F_N1 setpoint
-vs measured" (the law's F_set, the prefiltered setpoint F_set_filtered, the true F_N1 and the
-strain-gauge and force-cell readings F_strain, F_cell, whichever are logged) above the friction
-hysteresis (the last HYSTERESIS_WINDOW_S before the time cursor), and one time-series tab per
-owner.
+One entity per topic, not per signal: each entity costs its own row ids and timelines per row,
+so 85 entities made the .rrd 43.5 MB per simulated second (3.3 times the MCAP file); 6 make it
+about as large as the MCAP file (docs/data-format.md).
+
+The default blueprint (embedded with ``blueprint=True``) has the panels of ``rt.views``: a
+"damper" tab with "F_N1 setpoint vs measured" (the other series of its entities hidden) above
+the friction hysteresis, and one time-series tab per owner.
 
 ``write_frf_rrd`` writes step-sine and sweep FRFs (``frictionrt frf --rrd``) as their own recording:
 |H| [dB], phase and force amplitude per law, amplitude and direction against a frequency timeline.
@@ -37,38 +42,27 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.mcap_log import OWNERS, check_block, check_owners, check_rate, part_path, tick_runs, tick_time_ns
-
-SETPOINT_SIGNALS = ("F_set", "F_set_filtered", "F_N1", "F_strain", "F_cell")
-HYSTERESIS_WINDOW_S = 0.02   # [s] of the hysteresis view before the time cursor (4.5 periods at 224 Hz)
-
-
-def entity_path(name: str, owner: str) -> str:
-    """Entity of a log column: /<owner>/<name>."""
-    return f"/{owner}/{rr.escape_entity_path_part(name)}"
-
-
-def _hysteresis_columns(signals) -> tuple[int, np.ndarray] | None:
-    """(u_rel column, f_t_* columns) of the plant, or None if either is not logged."""
-    cols = {(o, n): c for c, (n, _, o) in enumerate(signals)}
-    u = cols.get(("plant", "u_rel"))
-    ft = [c for (o, n), c in cols.items() if o == "plant" and n.startswith("f_t_")]
-    return None if u is None or not ft else (u, np.array(ft, dtype=np.int64))
-
+from rt.mcap_log import check_block, check_owners, check_rate, part_path, tick_runs, tick_time_ns
+from rt.registry import field_names
+from rt.views import HYSTERESIS_WINDOW_S, SETPOINT_SIGNALS, SETPOINT_TITLE, hysteresis_columns, topic_columns
 
 def default_blueprint(signals) -> rrb.Blueprint:
     """Setpoint vs measured F_N1 and the friction hysteresis, then one time-series tab per owner."""
-    paths = {n: entity_path(n, o) for n, _, o in signals}
-    damper = [rrb.TimeSeriesView(origin="/", contents=[paths[n] for n in SETPOINT_SIGNALS if n in paths],
-                                 name="F_N1 setpoint vs measured")]
-    if _hysteresis_columns(signals) is not None:
+    setpoint = {}   # entity -> visible_series of its series
+    for entity, cols in topic_columns(signals):
+        shown = [signals[c][0] in SETPOINT_SIGNALS for c in cols]
+        if any(shown):
+            setpoint[entity] = shown
+    damper = [rrb.TimeSeriesView(origin="/", contents=list(setpoint), name=SETPOINT_TITLE,
+                                 overrides={e: rr.SeriesLines.from_fields(visible_series=v)
+                                            for e, v in setpoint.items()})]
+    if hysteresis_columns(signals) is not None:
         window = rrb.VisibleTimeRange("t", start=rrb.TimeRangeBoundary.cursor_relative(seconds=-HYSTERESIS_WINDOW_S),
                                       end=rrb.TimeRangeBoundary.cursor_relative())
         damper.append(rrb.Spatial2DView(origin="/hysteresis", name="friction hysteresis: F_t [N] up vs u_rel [um]",
                                         time_ranges=window))
-    owners = [o for o in OWNERS if any(s[2] == o for s in signals)]
     return rrb.Blueprint(rrb.Tabs(rrb.Vertical(*damper, name="damper"),
-                                  *[rrb.TimeSeriesView(origin=f"/{o}", name=o) for o in owners]))
+                                  *[rrb.TimeSeriesView(origin=e, name=e[1:]) for e, _ in topic_columns(signals)]))
 
 
 class RrdLogWriter:
@@ -90,15 +84,17 @@ class RrdLogWriter:
         self.signals = tuple(tuple(s) for s in signals)
         self.rate_hz = check_rate(self.path, rate_hz)
         check_owners(self.path, self.signals)
-        self._paths = [entity_path(n, o) for n, _, o in self.signals]
-        self._hysteresis = _hysteresis_columns(self.signals)
+        self._entities = topic_columns(self.signals)
+        fields = field_names(self.signals)
+        self._hysteresis = hysteresis_columns(self.signals)
         self._part = part_path(self.path)
         self._rec = rr.RecordingStream(app_id, recording_id=uuid.uuid4())
         self._rec.save(self._part, default_blueprint=default_blueprint(self.signals) if blueprint else None)
         if metadata:
             self._rec.send_property("frictionrt", rr.AnyValues(**metadata))
-        for p, (_, unit, _) in zip(self._paths, self.signals):
-            self._rec.log(p, rr.AnyValues(unit=unit), static=True)
+        for entity, cols in self._entities:
+            self._rec.log(entity, rr.SeriesLines(names=[fields[c] for c in cols]),
+                          rr.AnyValues(unit=[self.signals[c][1] for c in cols]), static=True)
         self._open = True
         self._k_next = 0
 
@@ -114,9 +110,9 @@ class RrdLogWriter:
         k = np.arange(k0, k0 + n, dtype=np.int64)
         index = [rr.TimeColumn("t", duration=tick_time_ns(k, self.rate_hz).astype("timedelta64[ns]")),
                  rr.TimeColumn("tick", sequence=k)]
-        cols = np.ascontiguousarray(block.T)
-        for p, x in zip(self._paths, cols):
-            self._rec.send_columns(p, indexes=index, columns=rr.Scalars.columns(scalars=x), strict=True)
+        for entity, cols in self._entities:
+            self._rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=block[:, cols]),
+                                   strict=True)
         if self._hysteresis is not None:
             u, ft = self._hysteresis
             with np.errstate(over="ignore", invalid="ignore"):  # a diverged run plots as inf
@@ -177,7 +173,7 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
         tmp.unlink(missing_ok=True)
     return {"input": str(src), "output": str(dst), "ticks": len(rec.k),
             "first_tick": int(rec.k[0]) if len(rec.k) else None, "last_tick": int(rec.k[-1]) if len(rec.k) else None,
-            "topics": list(rec.topics), "entities": [entity_path(n, o) for n, _, o in signals]}
+            "topics": list(rec.topics), "entities": [e for e, _ in topic_columns(signals)]}
 
 
 FRF_TIMELINE = "freq_mHz"   # rerun plots series against a timeline: the frequency in whole mHz

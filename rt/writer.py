@@ -53,9 +53,10 @@ tests/test_logging_loop.py against McapLogWriter, mcap's own reader with CRC val
 rerun's MCAP reader). McapLogWriter passes each message through mcap's Python ``Writer`` (one
 ``add_message`` call per message: 6 topics x 21000 messages per simulated second, 0.7-0.8 s
 CPU per simulated second), 15 times the loop's own cost. McapBlockWriter builds a chunk's
-records with numpy: a template of one tick's 6 message records (opcode, length, channel,
-CDR header: constant) is repeated over the chunk's rows once, then each block only copies its
-sequence numbers, log/publish times and the owners' float64 columns into place; the chunk is
+records with numpy: a template of one tick's 6 message records (opcode, length, channel:
+constant) is repeated over the chunk's rows once, then each block only copies its sequence
+numbers, log/publish times and the topics' CDR messages (``rt.mcap_log.Topic.encode``, one
+numpy structured array per topic and block) into place; the chunk is
 compressed with zstd at the fast level -1 (files 2 % larger than at levels 1-3 on this float64
 data, 2-4x faster) and its message indexes are numpy arrays as well: 0.05-0.06 s CPU per
 simulated second (docs/loop.md, "Logging and replay"). Schema and channel records are written
@@ -84,8 +85,8 @@ from mcap.opcode import Opcode
 from mcap.records import (Attachment, AttachmentIndex, Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
-from rt.mcap_log import (CDR_LE, CHUNK_BYTES, MAGIC, check_block, checked_layout, part_path, signals_record,
-                         tick_time_ns)
+from rt.mcap_log import (CHUNK_BYTES, MAGIC, PROFILE, check_block, checked_layout, encode_block, part_path,
+                         signals_record, stamps_ns)
 
 BLOCK_TICKS = 2100        # rows per block handed to the sinks (0.1 s simulated at 21 kHz)
 RING_S = 1.0              # default ring of a run with a writer [s of simulated time]
@@ -107,7 +108,8 @@ class McapBlockWriter:
     ``add_metadata(name, record)`` adds a metadata record at any time before close."""
 
     def __init__(self, path: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str]):
-        self.path, self.signals, self.rate_hz, self.topics = checked_layout(path, signals, rate_hz, metadata)
+        self.path, self.signals, self.rate_hz, self.topics, self.start_ns = \
+            checked_layout(path, signals, rate_hz, metadata)
         self._part = part_path(self.path)
         # one tick's records: per topic the message record; offsets of its variable fields
         self._rec_off, off = [], 0
@@ -120,7 +122,6 @@ class McapBlockWriter:
         for ch, (tp, o) in enumerate(zip(self.topics, self._rec_off), start=1):
             head = struct.pack("<BQH", Opcode.MESSAGE, _MSG_HEAD - 9 + tp.message_size, ch)
             template[o:o + 11] = np.frombuffer(head, np.uint8)
-            template[o + _MSG_HEAD:o + _MSG_HEAD + 4] = np.frombuffer(CDR_LE, np.uint8)
         self._buf = np.tile(template, (self.chunk_ticks, 1))   # the open chunk's records
         self._buf_k = np.empty(self.chunk_ticks, np.int64)     # its ticks
         self._fill = 0
@@ -139,12 +140,12 @@ class McapBlockWriter:
         self._file = open(self._part, "wb")
         try:
             rb = RecordBuilder()
-            Header(profile="", library="frictionrt").write(rb)
+            Header(profile=PROFILE, library="frictionrt").write(rb)
             for r in (*self._schemas, *self._channels):
                 r.write(rb)
             self._file.write(MAGIC + rb.end())
             self.add_metadata("frictionrt", dict(metadata))
-            self.add_metadata("signals", signals_record(self.signals, self.rate_hz))
+            self.add_metadata("signals", signals_record(self.signals, self.rate_hz, self.start_ns))
         except BaseException:
             self._file.close()
             raise
@@ -186,16 +187,15 @@ class McapBlockWriter:
         """Copy ticks k0.. (rows) into the open chunk's records."""
         m = rows.shape[0]
         a, b = self._fill, self._fill + m
-        k = np.arange(k0, k0 + m, dtype=np.int64)
-        t = tick_time_ns(k, self.rate_hz).astype("<u8").view(np.uint8).reshape(m, 8)
+        k, t, msgs = encode_block(self.path, self.topics, k0, rows, self.rate_hz, self.start_ns)
+        t = t.astype("<u8").view(np.uint8).reshape(m, 8)
         seq = (k & 0xFFFFFFFF).astype("<u4").view(np.uint8).reshape(m, 4)
         buf = self._buf
-        for tp, o in zip(self.topics, self._rec_off):
+        for tp, o, msg in zip(self.topics, self._rec_off, msgs):
             buf[a:b, o + 11:o + 15] = seq
             buf[a:b, o + 15:o + 23] = t
             buf[a:b, o + 23:o + 31] = t
-            v = np.ascontiguousarray(rows[:, tp.columns], dtype="<f8").view(np.uint8)
-            buf[a:b, o + _MSG_HEAD + 4:o + _MSG_HEAD + tp.message_size] = v
+            buf[a:b, o + _MSG_HEAD:o + _MSG_HEAD + tp.message_size] = msg
         self._buf_k[a:b] = k
         self._fill = b
 
@@ -206,7 +206,7 @@ class McapBlockWriter:
             return
         data = self._buf[:n].tobytes()
         comp = self._zstd.compress(data)
-        times = tick_time_ns(self._buf_k[:n], self.rate_hz)
+        times = stamps_ns(self._buf_k[:n], self.rate_hz, self.start_ns)
         t0, t1 = int(times[0]), int(times[-1])
         start = self._file.tell()
         body = struct.pack("<QQQI", t0, t1, len(data), zlib.crc32(data)) + struct.pack("<I", 4) + b"zstd" + \
@@ -476,10 +476,17 @@ class LogWriter:
 
 def open_run_log(base: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str], *,
                  rrd: bool = True, block_ticks: int = BLOCK_TICKS, ring_s: float | None = RING_S) -> LogWriter:
-    """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata``."""
+    """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata``; the
+    Foxglove layout of the log is written to BASE.foxglove.json (``rt.views``)."""
     from rt.rrd_log import RrdLogWriter
+    from rt.views import write_foxglove_layout
     base = Path(base)
     mcap = McapBlockWriter(base.with_name(base.name + ".mcap"), signals, rate_hz, metadata)
+    try:
+        layout = write_foxglove_layout(base.with_name(base.name + ".foxglove.json"), mcap.signals)
+    except BaseException:
+        mcap.close()
+        raise
     sinks = [mcap]
     if rrd:
         try:
@@ -489,7 +496,8 @@ def open_run_log(base: str | os.PathLike, signals, rate_hz: float, metadata: dic
             mcap.close()
             raise
     w = LogWriter(sinks, block_ticks=block_ticks, ring_s=ring_s, rate_hz=rate_hz, mcap=mcap)
-    w.paths = {"mcap": str(mcap.path), "rrd": str(base.with_name(base.name + ".rrd")) if rrd else None}
+    w.paths = {"mcap": str(mcap.path), "rrd": str(base.with_name(base.name + ".rrd")) if rrd else None,
+               "foxglove": str(layout)}
     return w
 
 

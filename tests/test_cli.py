@@ -92,3 +92,38 @@ def test_help_gives_units():
     assert "[N]" in out.stdout and "[Hz]" in out.stdout
     top = subprocess.run([sys.executable, "-m", "rt.cli", "--help"], capture_output=True, text=True)
     assert "SI" in top.stdout and "modes" in top.stdout
+
+
+def test_version_names_the_log_format(capsys):
+    from rt.mcap_log import FORMAT_VERSION
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip().endswith(f"(log format {FORMAT_VERSION})")
+
+
+def test_every_writing_verb_takes_o_for_out_and_force_where_it_replaces():
+    from rt.cli import build_parser
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices
+    writers = {name: p for name, p in sub.items() if any("--out" in a.option_strings for a in p._actions)}
+    assert set(writers) == {"simulate", "frf", "reproduce", "tune", "rig", "diagnose", "recover", "inspect"}
+    for name, p in writers.items():
+        out = next(a for a in p._actions if "--out" in a.option_strings)
+        assert "-o" in out.option_strings and out.dest == "out", name
+    forced = {name for name, p in sub.items() if any("--force" in a.option_strings for a in p._actions)}
+    # rig and diagnose write new folders only: a campaign or a diagnosis is never replaced
+    assert forced == set(writers) - {"rig", "diagnose"} | {"impulse", "compare"}
+
+
+def test_an_existing_output_is_refused_unless_force_and_errors_are_json_with_json(tmp_path, capsys):
+    args = ["simulate", "--freq", "196", "--amp", "5", "--duration", "0.005", "-o", str(tmp_path / "r"), "--no-rrd"]
+    assert _run(args + ["--json"], capsys)[0] == 0
+    before = (tmp_path / "r.mcap").read_bytes()
+    code, out, err = _run(args + ["--json"], capsys)
+    assert code == 2 and json.loads(out) == {"error": err.strip().removeprefix("frictionrt: error: "), "exit": 2}
+    assert "r.mcap: exists; pass --force" in err and (tmp_path / "r.mcap").read_bytes() == before
+    assert _run(args + ["--force"], capsys)[0] == 0
+    # argparse's own errors too
+    with pytest.raises(SystemExit) as e:
+        main(["simulate", "--freq", "x", "--amp", "5", "--json"])
+    out = capsys.readouterr().out
+    assert e.value.code == 2 and json.loads(out)["exit"] == 2 and "--freq" in json.loads(out)["error"]

@@ -20,6 +20,7 @@ from rt.mcap_log import CHUNK_BYTES, read_mcap, topics_of
 from rt.recover import scan
 from rt.writer import INTERRUPT_DRAIN_S
 from tests.cli_process import start_cli, wait_for_chunks
+from rt.cli_log import RECOVER
 from tests.test_logfiles import rrd_column
 from tests.test_logging_loop import clock_columns
 from tests.test_replay import _sensors_only_file
@@ -31,9 +32,9 @@ FULL_VIEWS = {"F_N1 setpoint vs measured", "friction hysteresis: F_t [N] up vs u
 
 def chunk_ticks(signals):
     """Ticks per chunk of McapBlockWriter: whole ticks in CHUNK_BYTES (1 MiB) of message records,
-    each 31 B of record header (MCAP spec: opcode, length, channel, sequence, two times) + 4 B CDR
-    header + 8 B per field (1210 for simulate's 82 signals)."""
-    return CHUNK_BYTES // sum(31 + 4 + 8 * len(tp.fields) for tp in topics_of(signals))
+    each 31 B of record header (MCAP spec: opcode, length, channel, sequence, two times) + the CDR
+    message (4 B header, 8 B stamp, 8 B tick, the aligned fields; 1088 for simulate's 85 signals)."""
+    return CHUNK_BYTES // sum(31 + tp.message_size for tp in topics_of(signals))
 
 
 def start_simulate(base):
@@ -152,7 +153,8 @@ def test_a_chunk_cut_short_is_reported_and_the_chunks_before_it_recovered(killed
     code, out, _ = cli(capsys, "recover", cut, "-o", tmp_path / "cut.mcap", "--json")
     r = json.loads(out)
     m = chunk_ticks(read_mcap(tmp_path / "cut.mcap").signals)
-    assert code == 0 and r["ticks"] == 2 * m and r["last_tick"] == 2 * m - 1
+    assert code == 0 and r["ticks"] == 2 * m and r["last_tick"] == 2 * m - 1 and r["chunk_ticks"] == m
+    assert f"chunk_ticks = {m} ticks = {1e3 * m / RATE:.1f} ms" in RECOVER   # the figure of recover --help
     assert r["lost_record"] == "chunk" and r["lost_chunk_ticks"] == [2 * m, 3 * m - 1]
     assert r["lost_bytes"] > len(c[2].data) // 2
     np.testing.assert_array_equal(read_mcap(tmp_path / "cut.mcap").log.view(np.uint64),
@@ -192,7 +194,7 @@ def test_sigint_leaves_a_finalised_mcap_and_a_valid_rrd_and_exits_promptly(tmp_p
     assert t_exit < 8.0 + INTERRUPT_DRAIN_S
     s = json.loads(stdout)
     assert s["interrupted"] and 0 < s["ticks"] < 20 * RATE and s["dropped_blocks"] == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["sig.mcap", "sig.rrd"]   # no .part left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sig.foxglove.json", "sig.mcap", "sig.rrd"]   # no .part left
     n = s["ticks"] - s["unwritten_ticks"]
     rec = read_mcap(tmp_path / "sig.mcap")
     assert n >= 3 * chunk_ticks(rec.signals)
@@ -222,7 +224,7 @@ def test_inspect_converts_a_run_log_with_the_default_blueprint(recovered, capsys
     rec = read_mcap(recovered)
     assert r["output"] == str(rrd) and r["ticks"] == len(rec.k) and len(r["topics"]) == 6
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks() if not c.is_static}
-    assert entities == {f"/{o}/{n}" for n, _, o in rec.signals} | {"/hysteresis"}
+    assert entities == {f"/{o}" for _, _, o in rec.signals} | {"/hysteresis"}
     assert view_names(rrd) == FULL_VIEWS
     k, _, v = rrd_column(rrd, "/plant/v_rel")
     np.testing.assert_array_equal(k, rec.k)
@@ -249,7 +251,7 @@ def test_inspect_converts_a_measurement_with_a_gap(recovered, tmp_path, capsys):
     assert code == 0, err
     assert json.loads(out)["topics"] == ["/sensors"]
     entities = {c.entity_path for c in RrdReader(tmp_path / "view.rrd").stream().to_chunks() if not c.is_static}
-    assert entities == {f"/sensors/{n}" for n, _, o in rec.signals if o == "sensors"}
+    assert entities == {"/sensors"}
     assert view_names(tmp_path / "view.rrd") == {"F_N1 setpoint vs measured", "damper", "sensors"}
     k, _, v = rrd_column(tmp_path / "view.rrd", "/sensors/F_cell")
     np.testing.assert_array_equal(k, rows)

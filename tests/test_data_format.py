@@ -14,7 +14,8 @@ from rt.cli import main
 from rt.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_table, signal_table,
                             keys_table, validate)
 from rt.loop import loop_signals
-from rt.mcap_log import CDR_LE, read_mcap, signals_record, topics_of
+from rt.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
+from rt.registry import field_type, ros2_field
 from tracking.force_tracking import design_force_tracking
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
@@ -71,11 +72,11 @@ def test_doc_required_fields_exist_in_the_loop(reduced):
     unit and topic, and every required field of the code is listed."""
     text = DOC.read_text()
     block = re.search(r"<!-- required-table -->\n(.*?)<!-- /required-table -->", text, re.S).group(1)
-    rows = re.findall(r"\| /(\w+) \| `(\w+)` \| ([^|]+) \|", block)
+    rows = re.findall(r"\| /(\w+) \| `(\w+)` \| `(\w+)` \| (\w+) \| ([^|]+) \|", block)
     sig = {n: (u, o) for n, u, o in loop_signals(reduced)}
-    assert {n for _, n, _ in rows} == set(REQUIRED + SETPOINTS)
-    for owner, name, unit in rows:
-        assert sig[name] == (unit.strip(), owner)
+    assert {n for _, n, _, _, _ in rows} == set(REQUIRED + SETPOINTS)
+    for owner, name, field, typ, unit in rows:
+        assert sig[name] == (unit.strip(), owner) and field == ros2_field(name) and typ == field_type(name, owner)
 
 
 # --- the project's logs -------------------------------------------------------------------------
@@ -114,7 +115,7 @@ def craft(path, src, *, drop_topics=(), drop_records=(), k=None, log=None, signa
     with open(src, "rb") as f:
         records = {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
     signals = rec.signals if signals is None else signals
-    records["signals"] = signals_record(signals, rec.rate_hz)
+    records["signals"] = signals_record(signals, rec.rate_hz, rec.start_ns)
     log = rec.log if log is None else log
     k = rec.k if k is None else np.asarray(k)
     with open(path, "wb") as f:
@@ -129,10 +130,11 @@ def craft(path, src, *, drop_topics=(), drop_records=(), k=None, log=None, signa
         for name, r in records.items():
             if name not in drop_records:
                 w.add_metadata(name, r)
-        for kk, row in zip(k, log):
-            t = int(kk) * 10**9 // rec.rate_hz
-            for ch, tp in chans:
-                w.add_message(ch, t, CDR_LE + row[tp.columns].astype("<f8").tobytes(), t, int(kk) % 2**32)
+        t = stamps_ns(k, rec.rate_hz, rec.start_ns)
+        msgs = [(ch, tp.encode(k, t, log)) for ch, tp in chans]
+        for i, kk in enumerate(k):
+            for ch, m in msgs:
+                w.add_message(ch, int(t[i]), m[i].tobytes(), int(t[i]), int(kk) % 2**32)
         w.finish()
     return path
 
@@ -182,7 +184,7 @@ def test_wrong_unit_type_and_rate_are_named(logs, capsys, tmp_path):
     found, _ = problems_of(capsys, craft(tmp_path / "u.mcap", logs["hysteresis"], signals=sig))
     assert found == {("/sensors.F_cell", "wrong unit")}
     tp = next(t for t in topics_of(rec.signals) if t.name == "/actuator")
-    text = tp.schema_text.replace(b"float64 V_a\n", b"float32 V_a\n")
+    text = tp.schema_text.replace(b"float64 v_a\n", b"float32 v_a\n")
     found, _ = problems_of(capsys, craft(tmp_path / "t.mcap", logs["hysteresis"], schema={"/actuator": text}))
     assert found == {("/actuator.V_a", "wrong type")}
     # declared 21000 Hz, recorded at 10500 Hz: every 2nd tick
@@ -210,4 +212,5 @@ def test_unreadable_files_exit_2_naming_the_file(logs, capsys, tmp_path, content
         f.write_bytes(content)
     code, out, err = validate_cli(capsys, f)
     lines = err.strip().splitlines()
-    assert code == 2 and out is None and len(lines) == 1 and str(f) in lines[0] and problem in lines[0]
+    assert code == 2 and len(lines) == 1 and str(f) in lines[0] and problem in lines[0]
+    assert out == {"error": lines[0].removeprefix("frictionrt: error: "), "exit": 2}   # --json: the error as JSON

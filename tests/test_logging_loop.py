@@ -14,7 +14,7 @@ from rt.config import load
 from rt.loop import build_loop, run
 from rt.mcap_log import McapLogWriter, read_mcap
 from rt.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
-from tests.test_logfiles import META, RATE, raw_messages, special_log
+from tests.test_logfiles import META, RATE, START_NS, raw_messages, special_log
 
 F3, AMP = 223.6, 5.0
 
@@ -41,7 +41,7 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
     s = simulate(tmp_path, "run", capsys=capsys)
     assert s["mcap"] == str(tmp_path / "run.mcap") and s["rrd"] == str(tmp_path / "run.rrd")
     assert s["dropped_blocks"] == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap", "run.rrd"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.foxglove.json", "run.mcap", "run.rrd"]
     rec = read_mcap(tmp_path / "run.mcap")
     assert rec.signals == loop.signals and rec.rate_hz == RATE
     assert rec.topics == ("/rt", "/sensors", "/observer", "/tracking", "/actuator", "/plant")
@@ -53,7 +53,8 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
     # log times straight from mcap's reader (CRCs validated): k * 1e9 // 21000, one message per topic and tick
     with open(tmp_path / "run.mcap", "rb") as f:
         times = [m.log_time for _, ch, m in make_reader(f, validate_crcs=True).iter_messages(topics=["/plant"])]
-    assert times == [k * 10**9 // RATE for k in range(4200)]
+    assert times == [rec.start_ns + k * 10**9 // RATE for k in range(4200)]
+    assert abs(rec.start_ns - time.time_ns()) < 600e9   # the run's UTC start: not 1970
     with open(tmp_path / "run.mcap", "rb") as f:
         writer_rec = {m.name: m.metadata for m in make_reader(f).iter_metadata()}["frictionrt.writer"]
     assert writer_rec["dropped_blocks"] == "0" and writer_rec["written_ticks"] == "4200"
@@ -68,9 +69,9 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
     assert (meta["seed"], meta["law"], meta["estimator"]) == ("3", "hysteresis", "oracle")
     assert float(meta["freq_hz"]) == F3 and float(meta["amp_n"]) == AMP and float(meta["duration_s"]) == 0.2
     assert meta["start_utc"].endswith("+00:00") and isinstance(json.loads(meta["command"]), list)
-    # rrd: one entity per signal, the same values; a blueprint
+    # rrd: one entity per topic, a series per signal named by its field, the same values; a blueprint
     entities = {c.entity_path for c in RrdReader(tmp_path / "run.rrd").stream().to_chunks() if not c.is_static}
-    assert {f"/{o}/{n}" for n, _, o in loop.signals} <= entities
+    assert entities == {f"/{o}" for _, _, o in loop.signals} | {"/hysteresis"}
     assert len(RrdReader(tmp_path / "run.rrd").blueprints()) == 1
     from tests.test_logfiles import rrd_column
     k, t, v = rrd_column(tmp_path / "run.rrd", "/tracking/V_cmd")
@@ -82,7 +83,7 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
 def test_same_seed_gives_identical_mcap_logs(tmp_path, loop, capsys):
     simulate(tmp_path, "a", "--no-rrd", capsys=capsys)
     simulate(tmp_path, "b", "--no-rrd", capsys=capsys)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mcap", "b.mcap"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.foxglove.json", "a.mcap", "b.foxglove.json", "b.mcap"]
     a, b = read_mcap(tmp_path / "a.mcap"), read_mcap(tmp_path / "b.mcap")
     keep = np.setdiff1d(np.arange(len(a.signals)), clock_columns(a.signals))
     assert np.array_equal(a.k, b.k)
@@ -92,7 +93,7 @@ def test_same_seed_gives_identical_mcap_logs(tmp_path, loop, capsys):
 def test_block_writer_writes_what_mcap_log_writer_writes(tmp_path, loop):
     # every float64 corner, ticks beyond 2**32 (sequence wraps), a gap, blocks across chunk borders
     sig = loop.signals
-    log = special_log(3000, len(sig), seed=11)
+    log = special_log(3000, sig, seed=11)
     k0 = 2**32 - 1000
     parts = [(0, 700), (700, 2000), (2600, 3000)]  # rows 2000..2599 dropped
     for cls, name in ((McapLogWriter, "slow.mcap"), (McapBlockWriter, "fast.mcap")):
@@ -125,7 +126,7 @@ def test_block_writer_writes_what_mcap_log_writer_writes(tmp_path, loop):
 def test_rerun_reads_the_block_writers_mcap_by_field_name(tmp_path, loop):
     from rerun.chunk import McapReader
 
-    log = special_log(2500, len(loop.signals), seed=12)
+    log = special_log(2500, loop.signals, seed=12)
     with McapBlockWriter(tmp_path / "a.mcap", loop.signals, RATE, META) as w:
         w.write_block(0, log)
     reader = McapReader(tmp_path / "a.mcap", timeline_type="duration_ns", decoders=["ros2_reflection"],
@@ -134,9 +135,9 @@ def test_rerun_reads_the_block_writers_mcap_by_field_name(tmp_path, loop):
     for c in reader.stream().to_chunks():
         rb = c.to_record_batch()
         t.append(rb.column("message_log_time").cast("int64").to_numpy())
-        v.append(rb.column("frictionrt.msg.Tracking:message").flatten().field("V_cmd").to_numpy())
+        v.append(rb.column("frictionrt.msg.Tracking:message").flatten().field("v_cmd").to_numpy())
     t, v = np.concatenate(t), np.concatenate(v)
-    np.testing.assert_array_equal(t, np.arange(2500) * 10**9 // RATE)
+    np.testing.assert_array_equal(t, START_NS + np.arange(2500) * 10**9 // RATE)
     np.testing.assert_array_equal(v.view(np.uint64), log[:, loop.column("V_cmd")].view(np.uint64))
 
 
@@ -262,7 +263,7 @@ def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp
     w = open_run_log(tmp_path / "run", loop.signals, RATE, META)
     with pytest.raises(KeyboardInterrupt):
         run(loop, F3, AMP, 30.0, progress=progress, writer=w)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap", "run.rrd"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.foxglove.json", "run.mcap", "run.rrd"]
     rec = read_mcap(tmp_path / "run.mcap")
     assert 0 < len(rec.k) < 30 * RATE and np.array_equal(rec.k, np.arange(len(rec.k)))
     assert not any(t.name in ("frictionrt-loop", "frictionrt-writer") for t in threading.enumerate())

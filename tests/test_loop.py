@@ -164,4 +164,4 @@ def test_paced_run_interrupted_keeps_its_log(tmp_path):
     data = read_mcap(str(out) + ".mcap")  # finalised and indexed; paced: whole blocks may be dropped
     assert data.log.shape[0] == s["ticks"] - BLOCK_TICKS * s["dropped_blocks"] and np.all(np.isfinite(data.log))
     assert data.k[-1] == s["ticks"] - 1
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["paced.mcap", "paced.rrd"]  # no .part left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["paced.foxglove.json", "paced.mcap", "paced.rrd"]  # no .part left

@@ -80,17 +80,17 @@ def _sensors_only_file(path, rec):
     measurement converter would)."""
     from mcap.writer import CompressionType, Writer
 
-    from rt.mcap_log import CDR_LE, signals_record, topics_of
+    from rt.mcap_log import signals_record, stamps_ns, topics_of
     tp = next(t for t in topics_of(rec.signals) if t.name == "/sensors")
     with open(path, "wb") as f:
         w = Writer(f, compression=CompressionType.ZSTD)
         w.start()
         ch = w.register_channel(tp.name, "cdr", w.register_schema(tp.schema_name, "ros2msg", tp.schema_text))
         w.add_metadata("frictionrt", rec.metadata)
-        w.add_metadata("signals", signals_record(rec.signals, rec.rate_hz))
-        for k, row in zip(rec.k, rec.log[:, tp.columns]):
-            t = int(k) * 10**9 // rec.rate_hz
-            w.add_message(ch, t, CDR_LE + row.astype("<f8").tobytes(), t, int(k))
+        w.add_metadata("signals", signals_record(rec.signals, rec.rate_hz, rec.start_ns))
+        t = stamps_ns(rec.k, rec.rate_hz, rec.start_ns)
+        for k, tk, msg in zip(rec.k, t, tp.encode(rec.k, t, rec.log)):
+            w.add_message(ch, int(tk), msg.tobytes(), int(tk), int(k))
         w.finish()
     return path
 
@@ -112,5 +112,5 @@ def test_bad_files_exit_2_naming_the_file(logs, capsys, tmp_path, content, probl
         f.write_bytes(content)
     code, out, err = replay(capsys, f)
     lines = err.strip().splitlines()
-    assert code == 2 and out is None and len(lines) == 1
+    assert code == 2 and len(lines) == 1 and out == {"error": lines[0].removeprefix("frictionrt: error: "), "exit": 2}
     assert str(f) in lines[0] and problem in lines[0]

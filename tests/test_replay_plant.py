@@ -95,7 +95,8 @@ def test_unsuitable_files_exit_2_naming_the_problem(logs, capsys, tmp_path):
     with McapBlockWriter(f, [rec.signals[i] for i in keep], rec.rate_hz, rec.metadata) as w:
         w.write_block(0, np.ascontiguousarray(rec.log[:, keep]))
     code, out, err = replay(capsys, f)
-    assert code == 2 and out is None and str(f) in err and "V_cmd" in err and len(err.strip().splitlines()) == 1
+    assert code == 2 and out["exit"] == 2 and str(f) in out["error"] and "V_cmd" in err
+    assert len(err.strip().splitlines()) == 1
     late = tmp_path / "late.mcap"
     with McapBlockWriter(late, rec.signals, rec.rate_hz, rec.metadata) as w:
         w.write_block(5, rec.log[5:])
