@@ -289,7 +289,7 @@ def test_force_sensors_from_the_actuator_vs_sampled_F_N1(cfg):
     raw = np.where(np.sin(2 * np.pi * 230 * t) > 0, 150.0, 0.0)
     b, a = ss.butter(2, 1000, fs=1 / c.dt_s)
     _, Ya = run_actuator(pa, ss.lfilter(b, a, raw - 75) + 75, act_initial(pa, 75.0))
-    F, Fs_a, Fc_a = Ya[:, ai["F_N1"]], Ya[:, ai["F_strain_a"]], Ya[:, ai["F_cell_a"]]
+    F, Fs_a, Fc_a = Ya[:, ai["F_stack"]], Ya[:, ai["F_strain_a"]], Ya[:, ai["F_cell_a"]]
     z = np.zeros(n)
     x0 = initial_state(ps, 0.0, 0.0, F[0])
     _, Y4 = run_sensors(ps, np.column_stack([z, z, Fs_a, Fc_a]), new_rng(0), x0)
