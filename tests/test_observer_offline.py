@@ -74,17 +74,37 @@ def test_ukf_linear_noise_free_converges_to_the_true_state(design):
     w = _energy_weights(design)
     late = slice(nt // 2, nt)  # after settling: the initial error (~40 %) is gone after ~10 ms
     ref = np.sqrt(np.mean((Z[late] * w) ** 2))
-    for name, z in (("filter", est.z_filt), ("smoother", est.z_smooth)):
-        rel = np.sqrt(np.mean(((z[late] - Z[late]) * w) ** 2)) / ref
-        print(f"{name}: state error {rel:.2e} of the state's rms (energy norm), last 50 ms")
-        # measured 1.5e-3: the remainder is the error pole at -0.05 1/s (a direction of the
-        # modal states the velocity measurement hardly sees), which decays in ~20 s, not 0.1 s
-        assert rel < 0.01
+    # the filtered error obeys e_k+1|k+1 = (I - M C) A_d e_k|k: a direction whose error pole does
+    # not decay within the record (the pole at -0.05 1/s: modal states the velocity measurement
+    # hardly sees, 20 s) keeps its share of the initial error, which depends on the last bits of
+    # P and the draw (1.5e-3 of the state on one machine, 2.0e-2 on another); the filter must
+    # converge in every other direction
+    F = (np.eye(len(p.M)) - np.outer(p.M, p.C_meas)) @ p.A_d
+    lam, V = np.linalg.eig(F)
+    slow = np.abs(lam) ** (nt // 2) > 0.5
+    assert slow.sum() == 1 and abs(np.log(np.abs(lam[slow][0])) / design.dt + 0.05) < 0.01
+    keep = np.linalg.solve(V, np.eye(len(lam)))
+    keep[slow] = 0.0
+    fast = np.real(V @ keep)   # the error without its slow component: e - V_slow c_slow
+
+    def rel(e):
+        return np.sqrt(np.mean((e * w) ** 2)) / ref
+    e_f, e_s = est.z_filt[late] - Z[late], est.z_smooth[late] - Z[late]
+    print(f"state error (energy norm, last 50 ms, of the state's rms): filter {rel(e_f):.2e}, in its decaying "
+          f"directions {rel(e_f @ fast.T):.2e}; smoother {rel(e_s):.2e}")
+    assert rel(e_f @ fast.T) < 0.01   # measured 3.7e-4
+    # the smoother cannot see the slow direction either; its backward pass adds no error of its own
+    assert rel(e_s) <= 1.05 * rel(e_f)   # measured 0.0195 against 0.0198
     # and the outputs the laws use
     u_hat, v_hat = ukf_estimate(design, y, 0.0, smooth=False, progress=False)
     u_true, v_true = outputs(design, Z, np.zeros(nt))
-    assert np.sqrt(np.mean((v_hat[late] - v_true[late]) ** 2) / np.mean(v_true[late] ** 2)) < 0.01
-    assert np.sqrt(np.mean((u_hat[late] - u_true[late]) ** 2) / np.mean(u_true[late] ** 2)) < 0.01
+    np.testing.assert_allclose(v_hat - v_true, (est.z_filt - Z) @ p.C_v, rtol=0, atol=1e-12 * np.abs(v_true).max())
+    np.testing.assert_allclose(u_hat - u_true, (est.z_filt - Z) @ p.C_u, rtol=0, atol=1e-12 * np.abs(u_true).max())
+    # in the decaying directions (the slow one holds 1.0 % of v_rel here): measured 1.8e-3 (v_rel), 6.1e-4 (u_rel)
+    for C, x in ((p.C_v, v_true), (p.C_u, u_true)):
+        r = np.sqrt(np.mean((e_f @ fast.T @ C) ** 2) / np.mean(x[late] ** 2))
+        print(f"output error in the decaying directions {r:.2e}")
+        assert r < 0.01
 
 
 def test_ukf_rts_linear_equals_numpy_kalman_rts(design):

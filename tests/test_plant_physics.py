@@ -43,8 +43,13 @@ def test_reduced_matches_full_stuck_frequencies_below_2khz(full, reduced):
     n = int(np.sum(f_full < 2000.0))
     assert n >= 8  # modes 1..8 of the assembly lie below 2 kHz
     err = np.abs(f_red[:n] - f_full[:n]) / f_full[:n]
-    # Craig-Bampton only stiffens (Rayleigh-Ritz): reduced >= full, and SPEC asks 0.5 %
-    assert np.all(f_red[:n] >= f_full[:n] * (1 - 1e-9))
+    # Craig-Bampton only stiffens (Rayleigh-Ritz): reduced >= full up to the eigensolver's round-off,
+    # |d lambda| <= c eps ||K|| (mass-normalised), i.e. df/f <= c eps lambda_max / (2 lambda_i) with
+    # c = 64; the stiff contact puts lambda_max near (2 pi 1 MHz)^2, so mode 1 (9.8 Hz) is known to
+    # ~1e-6 only (measured 8e-8 below the full model's on one machine); SPEC asks 0.5 %
+    lam_max = np.max(np.linalg.eigvalsh(stuck_stiffness(full)))
+    tol = 64 * np.finfo(float).eps * lam_max / (2 * (2 * np.pi * f_full[:n]) ** 2)
+    assert np.all(f_red[:n] >= f_full[:n] * (1 - tol))
     assert err.max() < 5e-3, f"largest error {100 * err.max():.3f} %"
 
 
@@ -259,15 +264,17 @@ def test_identification_matches_linear_theory(cfg, reduced):
 
 
 def test_contact_solve_falls_back_to_fine_substeps():
-    """A step whose contact Newton stalls (a pair's solution at first touch; without interface
-    damping, k_t = 5e8, F_N1 = 40 N, 500 N hammer: step 2138 stalls at |r| ~ 2e-8 m) is redone
-    on fine substeps; the run completes and the energy balance still closes."""
-    cfg = load(sets=["plant.interface.k_t=5e8", "plant.interface.tau_s=0"])
+    """A step whose contact Newton stalls is redone on fine substeps; the run completes and the
+    energy balance still closes. Without interface damping (k_t = 5e8, F_N1 = 40 N, 500 N hammer)
+    and with Newton limited to 6 iterations, the steps in which several pairs change state stall
+    (384 of 6300 here; with the default 40 iterations a stall is a rare event, one step on one
+    machine and none on another, so the mechanism is tested where it is frequent)."""
+    cfg = load(sets=["plant.interface.k_t=5e8", "plant.interface.tau_s=0", "plant.newton_max_iter=6"])
     m = build_plant(cfg)
     n = int(round(0.3 / cfg.dt_s))
     x0 = m.initial_state(40.0)
     Y, x, _ = run(m, hammer_force(n, cfg.dt_s, 500.0, 0.5e-3), 40.0, x0=x0)
-    assert Y[:, m.output_index()["substep_fallbacks"]].sum() >= 1
+    assert Y[:, m.output_index()["substep_fallbacks"]].sum() >= 50
     b = balance(m, x0, x)
     assert abs(b["residual"]) < 1e-6 * b["W_exc"]
 
