@@ -152,7 +152,7 @@ class Plant:
     frf_point: str = "frf"
     element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False, doc="largest FE element")
     modal_damping: float = param(0.001, "-", lo=0.0, hi=1.0, doc="zeta of the bare beams (A)")
-    quasi_static_hz: float = param(5000.0, "Hz", lo=0.0, lo_inclusive=False,
+    quasi_static_hz: float = param(10500.0, "Hz", lo=0.0, lo_inclusive=False,
                                    doc="modes of the bolted assembly above this frequency respond quasi-statically "
                                        "(no inertia; docs/plant.md 2.7): the fixed step does not resolve them")
     cb_cutoff_hz: float = param(15000.0, "Hz", lo=0.0, lo_inclusive=False,

@@ -301,24 +301,26 @@ def sensors_step(k: int, x: np.ndarray, u: np.ndarray, p: SensorParams, x_next: 
 
 @numba.njit(cache=True, nogil=True)
 def _sensors_run(x0, U, p, rng, X, Y):
-    """Step the sensors over the input rows U (n, 3 or 4) from x0: X (n + 1, 11), Y (n, 5) filled."""
+    """Step the sensors over the input rows U (n, 3, 4 or 5) from x0: X (n + 1, 11), Y (n, 5) filled."""
     X[0] = x0
     for k in range(U.shape[0]):
         _sensors_step(k, X[k], U[k], p, X[k + 1], Y[k], rng)
 
 
 def run_sensors(p: SensorParams, U: np.ndarray, rng: np.ndarray, x0: np.ndarray | None = None):
-    """Offline run over input rows U (n, 4) = (a_tip, a_frf, F_strain_a, F_cell_a) or
-    (n, 3) = (a_tip, a_frf, F_N1), one per tick; rng advanced.
+    """Offline run over input rows U (n, 5) = (a_tip, a_frf, F_strain_a, F_cell_a, dF_N1), (n, 4)
+    without dF_N1, or (n, 3) = (a_tip, a_frf, F_N1), one per tick; rng advanced (x0 default: the
+    steady state of the first row, the sampled-force filters at dF_N1 for 5 columns).
 
     Returns (X (n + 1, 11) states, Y (n, 5) readings)."""
     U = np.ascontiguousarray(U, dtype=np.float64)
-    if U.ndim != 2 or U.shape[1] not in (3, 4):
-        raise ValueError(f"U must have shape (n, 4) = (a_tip, a_frf, F_strain_a, F_cell_a) or (n, 3) = "
-                         f"(a_tip, a_frf, F_N1), got {U.shape}")
+    if U.ndim != 2 or U.shape[1] not in (3, 4, 5):
+        raise ValueError(f"U must have shape (n, 5) = (a_tip, a_frf, F_strain_a, F_cell_a, dF_N1), (n, 4) without "
+                         f"dF_N1 or (n, 3) = (a_tip, a_frf, F_N1), got {U.shape}")
     _check_rng(rng)
     if x0 is None:
-        x0 = initial_state(p, *U[0, :3]) if len(U) else np.zeros(len(SENSOR_SLOTS))
+        x0 = initial_state(p, U[0, 0], U[0, 1], U[0, 4] if U.shape[1] == 5 else U[0, 2]) if len(U) else \
+            np.zeros(len(SENSOR_SLOTS))
     X = np.empty((len(U) + 1, len(SENSOR_SLOTS)))
     Y = np.empty((len(U), len(SENSOR_OUTPUTS)))
     _sensors_run(np.ascontiguousarray(x0, dtype=np.float64), U, p, rng, X, Y)
