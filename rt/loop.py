@@ -237,7 +237,8 @@ def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing
         yf[0] = min(max((yq[0] - ft_p.F0) * ft_p.inv_c_v, ft_p.V_min), ft_p.V_max)
         yf[1] = 0.0
         xf_n[0] = 0.0
-    _supervise_after(k, sv, yq[0] - uf[1], yf, sv_p, ysv)
+    # a held stack does not track: no tracking error for the supervisor's check
+    _supervise_after(k, sv, 0.0 if (law_p.hold_voltage and not passive) else yq[0] - uf[1], yf, sv_p, ysv)
     t4 = _now_ns(ts) if timing else 0
     return t2, t3, t3s, t4
 
