@@ -17,7 +17,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 demo: $(STAMP)
 	$(BIN)/frictionrt modes
 	$(BIN)/frictionrt impulse --fn1 100 --plot logs/impulse_fn1_100.png --force
-	$(BIN)/frictionrt compare --freq 196 --amp 5 --duration 1 --plot logs/compare_laws.png --force
+	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 --plot logs/compare_laws.png --force
 	$(BIN)/frictionrt reproduce --quick --out logs/reproduce_quick --force
 
 test: $(STAMP)

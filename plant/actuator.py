@@ -132,9 +132,11 @@ V_a [V], screw elongation x [m] and its rate x' [m/s], analog strain-gauge and f
 outputs [N], delivered energy E [J], piezo hysteresis state h [V] (0 without hysteresis),
 creep states q_0..q_{K-1} [V] (0 without creep)."""
 
-ACTUATOR_OUTPUTS = (("F_N1", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V"),
+ACTUATOR_OUTPUTS = (("F_stack", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V"),
                     ("i", "A"), ("P", "W"), ("E", "J"), ("F_strain_a", "N"), ("F_cell_a", "N"))
-"""Output slots (name, unit) of ``_actuator_step``'s y, values at t_{k+1} (V_dac: held over
+"""Output slots (name, unit) of ``_actuator_step``'s y, values at t_{k+1} (F_stack: the adaptive
+screw's force F0 + k_screw x with the beams' separation at zero, the input of the plant's bolt,
+which adds k (g - g_ref): plant output F_N1, docs/plant.md 1.4; V_dac: held over
 [t_k, t_{k+1}); i, P: means over the last substep; F_strain_a, F_cell_a: the force sensors'
 analog outputs, before their noise and ADC in ``rt.sensors``)."""
 

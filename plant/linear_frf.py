@@ -12,8 +12,9 @@ and the accelerance at output point j is
 
     H_j(Omega) = -Omega^2 r_j^T (K - Omega^2 I + i Omega C)^{-1} b_exc   [(m/s^2)/N].
 
-The plant's step is the trapezoidal rule on this system: per substep h, with the inputs held
-over the tick and the contact forces as means over the substep,
+The plant's step is the trapezoidal rule on this system (the quasi-static modes above
+plant.quasi_static_hz: their static response to the substep's mean load, docs/plant.md 2.6):
+per substep h, with the inputs held over the tick and the contact forces as means over the substep,
 
     v1 - v0 = h (b_exc F - C (v0 + v1)/2 - K (x0 + x1)/2),   x1 - x0 = h (v0 + v1)/2,
 
@@ -57,6 +58,8 @@ class StuckModel(NamedTuple):
     C_c: np.ndarray    # (n, n) interface dashpots G^T C_c G [1/s]
     b: np.ndarray      # (n,) modal load of a unit excitation force
     r: np.ndarray      # (n,) modal -> displacement at the output point
+    dyn: np.ndarray    # (n,) 1 for a mode stepped by Newmark, 0 for a quasi-static one (PlantParams.dyn)
+    omega2: np.ndarray  # (n,) omega^2 of the modes [1/s^2]
 
 
 def stuck_model(model: PlantModel, point: str, F_N1: float | None = None) -> StuckModel:
@@ -71,7 +74,7 @@ def stuck_model(model: PlantModel, point: str, F_N1: float | None = None) -> Stu
     C = stuck_damping(model, pairs, np.maximum(-x0[model.state_slots()["g"]][0::2], 0.0))
     C_m = np.diag(p.c)
     return StuckModel(K=stuck_stiffness(model, pairs), C_m=C_m, C_c=C - C_m, b=p.b_exc,
-                      r=p.out_rows[names.index(point)])
+                      r=p.out_rows[names.index(point)], dyn=p.dyn.copy(), omega2=p.omega2.copy())
 
 
 def continuous_accelerance(lin: StuckModel, freq_hz) -> np.ndarray:
@@ -91,11 +94,20 @@ def _substep_maps(lin: StuckModel, dt: float, substeps: int):
     n = len(lin.b)
     h = dt / substeps
     eye = np.eye(n)
-    C = lin.C_m + lin.C_c
-    M1 = np.block([[eye, -0.5 * h * eye], [0.5 * h * lin.K, eye + 0.5 * h * C]])
-    M0 = np.block([[eye, 0.5 * h * eye], [-0.5 * h * lin.K, eye - 0.5 * h * C]])
+    K, Cm, Cc = lin.K, lin.C_m, lin.C_c
+    # dynamic modes: the trapezoid (the dashpots as C_c (x1 - x0) / h, their mean force);
+    # quasi-static modes (docs/plant.md 2.6): omega^2 x1 = b F + the contact's mean force, v = 0
+    Kc = K - np.diag(lin.omega2)
+    M1 = np.block([[eye, -0.5 * h * eye], [0.5 * h * K + Cc, eye + 0.5 * h * Cm]])
+    M0 = np.block([[eye, 0.5 * h * eye], [-0.5 * h * K + Cc, eye - 0.5 * h * Cm]])
+    u = np.concatenate([np.zeros(n), h * lin.b])
+    for i in np.flatnonzero(lin.dyn == 0):
+        M1[i] = np.concatenate([lin.omega2[i] * eye[i] + 0.5 * Kc[i] + Cc[i] / h, np.zeros(n)])
+        M0[i] = np.concatenate([-0.5 * Kc[i] + Cc[i] / h, np.zeros(n)])
+        M1[n + i], M0[n + i] = np.concatenate([np.zeros(n), eye[i]]), 0.0
+        u[i], u[n + i] = lin.b[i], 0.0
     Phi_s = np.linalg.solve(M1, M0)
-    Gam_s = np.linalg.solve(M1, np.concatenate([np.zeros(n), h * lin.b]))
+    Gam_s = np.linalg.solve(M1, u)
     Phi, Gam = np.eye(2 * n), np.zeros(2 * n)     # over substeps - 1 substeps, then the last
     for _ in range(substeps - 1):
         Phi, Gam = Phi_s @ Phi, Phi_s @ Gam + Gam_s
@@ -123,5 +135,5 @@ def discrete_accelerance(lin: StuckModel, freq_hz, dt: float, substeps: int = 1)
         x_last = (Phi @ s_k + Gam)[:n]                             # at the last substep's start
         x1, v1 = s_1[:n], s_1[n:]
         a = lin.b - lin.C_m @ v1 - lin.K @ x1 - lin.C_c @ (x1 - x_last) / h
-        out.append(lin.r @ a)
+        out.append(lin.r @ (lin.dyn * a))   # a quasi-static mode has no acceleration
     return np.array(out)

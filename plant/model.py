@@ -74,6 +74,10 @@ class PlantModel:
         lab += [("E_fric", "J"), ("E_damp", "J"), ("W_exc", "J"), ("W_screw", "J"), ("newton_iter", "-"),
                 ("substep_fallbacks", "-")]
         lab += [(f"abar_{s}", "m/s^2") for s in pts]
+        st = self.structure
+        for b, name in enumerate(st.bolt_names):
+            lab += [(f"g_bolt_{name}", "m"), ("F_N1" if b == st.adaptive else f"F_bolt_{name}", "N")]
+        lab += [("dF_N1", "N")]
         return lab
 
     def output_index(self) -> dict[str, int]:
@@ -125,43 +129,56 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     check_codegen()  # the kernels' fixed code-generation target (rt/codegen.py)
     reduced = cfg.plant.reduced if reduced is None else reduced
     st = build_structure(cfg)
-    blocks, omegas = [], []
-    for sub in st.subs:
-        if reduced:
-            T, _ = craig_bampton(sub.K, sub.M, sub.boundary, cfg.plant.cb_cutoff_hz)
-        else:
-            T = np.eye(sub.n)
-        om, Phi_s = _modal_basis(sub.K, sub.M, T)
-        blocks.append(Phi_s)
-        omegas.append(om)
-    Phi = sla.block_diag(*blocks)
-    omega = np.concatenate(omegas)
+    T = sla.block_diag(*[craig_bampton(sub.K, sub.M, sub.boundary, cfg.plant.cb_cutoff_hz)[0] if reduced
+                         else np.eye(sub.n) for sub in st.subs])
+    # the bolts couple the beams: one modal basis of the bolted assembly (contact open)
+    K = sla.block_diag(*[sub.K for sub in st.subs]) + st.bolt_stiffness()
+    omega, Phi = _modal_basis(K, sla.block_diag(*[sub.M for sub in st.subs]), T)
     # rigid-body modes of free substructures (numerically ~0): exactly 0, undamped
     omega = np.where(omega < RIGID_BODY_RAD_S, 0.0, omega)
-    zeta = np.where(omega > 0.0, cfg.plant.modal_damping, 0.0)
-    c = 2.0 * zeta * omega
+    # modes above plant.quasi_static_hz have no inertia (docs/plant.md 2.7): the step would only
+    # ring them at Nyquist (the trapezoidal rule's amplification tends to -1 for omega h >> 1)
+    dyn = (omega <= 2 * np.pi * cfg.plant.quasi_static_hz).astype(float)
+    c = np.where(omega > 0.0, 2.0 * cfg.plant.modal_damping * omega, 0.0) * dyn
     h = cfg.dt_s / cfg.plant.substeps
-    s2 = 2.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2)
     h_fine = h / cfg.plant.fallback_split
-    s2_fine = 2.0 / (omega**2 + 2.0 / h_fine * c + 4.0 / h_fine**2)
+    s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c + 4.0 / hh**2), 1.0 / np.maximum(omega, 1.0)**2)
+                   for hh in (h, h_fine))
     G = np.ascontiguousarray(st.gap_rows @ Phi)
     out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
-        omega2=omega**2, c=c, s2=s2, G=G,
+        omega2=omega**2, dyn=dyn, c=c, s2=s2, G=G,
         W=np.ascontiguousarray((G * s2) @ G.T),
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
-        out_rows=out_rows, out_G=np.ascontiguousarray(out_rows @ G.T),
+        out_rows=out_rows, out_G=np.ascontiguousarray((out_rows * dyn) @ G.T),
         k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(),
         c_n=st.k_n * cfg.plant.interface.tau_s, c_t=st.k_t * cfg.plant.interface.tau_s,
         dashpot_depth=float(cfg.plant.interface.dashpot_depth_m), h=float(h),
         substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
         h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter), static_excess=float(cfg.plant.interface.static_excess),
-        stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s), **iwan_fractions(cfg))
+        stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s), **iwan_fractions(cfg),
+        bolt_rows=np.ascontiguousarray(st.bolt_rows @ Phi), bolt_k=st.bolt_k.copy(), bolt_F=st.bolt_F.copy(),
+        bolt_ref=np.zeros(len(st.bolt_k)), bolt_adaptive=int(st.adaptive))
+    model = PlantModel(cfg, st, params, Phi, omega, reduced)
+    params = _with_bolt_reference(model, cfg.actuator.F0_N)
     for a in params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
     return PlantModel(cfg, st, params, Phi, omega, reduced)
+
+
+def _with_bolt_reference(model: PlantModel, F_N1: float) -> PlantParams:
+    """The bolts' reference separations g_ref (docs/plant.md 1.4): the screws are tightened to
+    their preloads F_N (the adaptive one to F_N1 [N], the stack at 0 V) in the assembled static
+    state, so each bolt's force F_b = F_N + k_b (g_b - g_ref_b) equals its preload there. That state
+    is the equilibrium of the preloads and the contact without the bolt springs (the spring terms
+    vanish at g = g_ref); the constant k_b g_ref_b enters f_const."""
+    p = model.params
+    K_free = np.diag(p.omega2) - (p.bolt_rows.T * p.bolt_k) @ p.bolt_rows
+    q, _, _ = static_equilibrium(model, F_N1, K=K_free)
+    g_ref = p.bolt_rows @ q
+    return p._replace(bolt_ref=g_ref, f_const=p.f_const + p.bolt_rows.T @ (p.bolt_k * g_ref))
 
 
 def iwan_fractions(cfg: Config) -> dict[str, np.ndarray]:
@@ -195,13 +212,14 @@ def contact_forces(model: PlantModel, g: np.ndarray, w_old: np.ndarray):
     return lam, w_new, D
 
 
-def static_equilibrium(model: PlantModel, F_N1: float, max_iter: int = 100):
-    """Static state under the screws: omega^2 q = f_const + b_N1 F_N1 + G^T lambda(G q, w = 0).
+def static_equilibrium(model: PlantModel, F_N1: float, max_iter: int = 100, K: np.ndarray | None = None):
+    """Static state under the screws: K q = f_const + b_N1 F_N1 + G^T lambda(G q, w = 0), with the
+    modal stiffness K = diag(omega^2) (the bolted assembly) unless given.
 
     Newton from the all-closed, all-stuck linear solution. Returns (q, w, g).
     """
     p = model.params
-    K = np.diag(model.omega**2)
+    K = np.diag(model.omega**2) if K is None else K
     f = p.f_const + p.b_N1 * F_N1
     m = p.G.shape[0]
     k_all = np.zeros(m)

@@ -35,11 +35,40 @@ def adaptive_screw_k_T(model: PlantModel, F_N1: float | None = None) -> float:
     return float(1.0 / (b @ np.linalg.solve(K, b)))
 
 
+def sliding_joint_hz(model: PlantModel, F_N1: float | None = None) -> np.ndarray:
+    """Eigenfrequencies [Hz] of the preloaded model (closed pairs stuck) with the pairs in the
+    adaptive screw's pressure cone free to slide (no tangential stiffness): the linear picture of
+    the passive damper, where the joint at the adaptive screw slips through most of each cycle.
+    The passive step-sine resonances lie near these (mode 3: 205.1 against 199.2 Hz at 5 N; mode
+    4: 380.1 against 381.1 Hz), which is how tests and the demo place their excitation from the
+    plant's own modes. Rigid-body modes excluded."""
+    from plant.bolts import pressure_weights
+    from plant.structure import screw_cone_radius
+    cfg = model.cfg
+    screw = next(s for s in cfg.plant.screws if s.adaptive)
+    cone = pressure_weights(model.structure.x_pairs, screw.x_m, screw_cone_radius(cfg, screw)) > 0
+    p = model.params
+    closed = preloaded_pairs(model, F_N1)
+    k_all = np.zeros(p.G.shape[0])
+    k_all[0::2] = p.k_n * closed
+    k_all[1::2] = p.k_t * (closed & ~cone)
+    f = np.sqrt(np.maximum(sla.eigvalsh(np.diag(p.omega2) + (p.G.T * k_all) @ p.G), 0.0)) / (2 * np.pi)
+    return f[f > 1e-3]
+
+
+def passive_resonance_hz(cfg: Config, mode: int) -> float:
+    """Where the passive damper's mode ``mode`` (1-based) resonates, from the model's own modes
+    (``sliding_joint_hz`` at F_N1 = tracking.F_min_N), rounded to 0.1 Hz."""
+    f = sliding_joint_hz(build_plant(cfg), cfg.tracking.F_min_N)
+    return round(float(f[mode - 1]), 1)
+
+
 def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     """Eigenfrequencies of the bare beam, the full and the Craig-Bampton model (contact stuck).
 
     Keys: bare_cantilever_hz, full_stuck_hz, reduced_stuck_hz (all pairs stuck, modes below
-    f_max_hz), preloaded_stuck_hz (only the pairs the screws close), n_dof_full,
+    f_max_hz), preloaded_stuck_hz (only the pairs the screws close), sliding_joint_hz (those,
+    with the adaptive screw's pairs sliding, at F_N1 = F_min: ``sliding_joint_hz``), n_dof_full,
     n_dof_reduced, closed_pairs, k_T_adaptive_N_per_m, contact (k_n, k_t, mu).
     """
     full = build_plant(cfg, reduced=False)
@@ -49,12 +78,14 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     n = int(np.sum(f_full < f_max_hz))
     closed = preloaded_pairs(red)
     f_pre = stuck_frequencies_hz(red, closed)
+    f_sl = sliding_joint_hz(red, cfg.tracking.F_min_N)
     itf = cfg.plant.interface
     return {
         "bare_cantilever_hz": [round(float(f), 4) for f in bare_beam_bending_hz(full, itf.lower)],
         "full_stuck_hz": [round(float(f), 4) for f in f_full[:n]],
         "reduced_stuck_hz": [round(float(f), 4) for f in f_red[:n]],
         "preloaded_stuck_hz": [round(float(f), 4) for f in f_pre[f_pre < f_max_hz]],
+        "sliding_joint_hz": [round(float(f), 4) for f in f_sl[f_sl < f_max_hz]],
         "n_dof_full": int(full.n),
         "n_dof_reduced": int(red.n),
         "n_pairs": int(red.n_pairs),

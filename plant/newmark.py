@@ -65,6 +65,7 @@ TRANSITION = -2  # contact code of a pair that opens or closes within the step
 class PlantParams(NamedTuple):
     """Constant arrays of the plant step (built by ``plant.model.build_plant``)."""
     omega2: np.ndarray     # (n,) omega^2 [1/s^2]
+    dyn: np.ndarray        # (n,) 1.0 for a mode stepped by Newmark, 0.0 for a quasi-static one (no inertia)
     c: np.ndarray          # (n,) 2 zeta omega [1/s]
     s2: np.ndarray         # (n,) 2 / (omega^2 + 2c/h + 4/h^2) [s^2]
     G: np.ndarray          # (2p, n) modal -> gaps (g_n, g_t interleaved) [m]
@@ -92,6 +93,11 @@ class PlantParams(NamedTuple):
     stribeck_v: float      # Stribeck velocity v_s [m/s]
     iwan_k: np.ndarray     # (N,) element stiffness fractions k_i / k_t (N = 1: [1], the Jenkins element)
     iwan_q: np.ndarray     # (N,) element slip-limit fractions q_i / (mu f_n)
+    bolt_rows: np.ndarray  # (n_b, n) modal -> the beams' separation at each screw [m] (docs/plant.md 1.4)
+    bolt_k: np.ndarray     # (n_b,) bolt axial stiffness [N/m] (in omega2: the modes are the bolted assembly's)
+    bolt_F: np.ndarray     # (n_b,) preload of each ordinary bolt [N] (the adaptive screw's: the input F_N1)
+    bolt_ref: np.ndarray   # (n_b,) separation at which a bolt carries its preload [m]
+    bolt_adaptive: int     # index of the adaptive screw among the bolts
 
 
 class PlantWork(NamedTuple):
@@ -409,7 +415,7 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     W_screw). Returns the Newton iterations, or -1 with the state untouched if the contact
     solve did not converge. RT-safe.
     """
-    b_exc, b_N1, f_const, omega2, G, c, k_t = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c, p.k_t
+    b_exc, b_N1, f_const, omega2, G, c, k_t, dyn = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c, p.k_t, p.dyn
     q_pred, g_pred, g0, f_c, qdd_lin = wk.q_pred, wk.g_pred, wk.g0, wk.f_c, wk.qdd_lin
     lam1, lam, lamd, code, w_new = wk.lam1, wk.lam, wk.lamd, wk.code, wk.w_new
     n = q.shape[0]
@@ -448,15 +454,17 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
                 f_c[i] += G[2 * j, i] * ln + G[2 * j + 1, i] * lt
     for i in range(n):
         dq = q_pred[i] - q[i] + s2[i] * f_c[i]
-        qd_new = a2 * dq - qd[i]
+        qd_new = (a2 * dq - qd[i]) * dyn[i]   # a quasi-static mode (dyn 0) keeps qd = 0
         v_mid = 0.5 * (qd[i] + qd_new)
-        dE_damp += h * c[i] * v_mid * v_mid
+        # a quasi-static mode (dyn 0) is the implicit Euler of its static equilibrium: the load does
+        # 1/2 omega^2 dq^2 more work than its potential energy gains (booked as damping, >= 0)
+        dE_damp += h * c[i] * v_mid * v_mid + (1.0 - dyn[i]) * 0.5 * omega2[i] * dq * dq
         dW_exc += b_exc[i] * dq
         f_screw = b_N1[i] * F_N1 + f_const[i]
         dW_screw += f_screw * dq
         q[i] += dq
         qd[i] = qd_new
-        qdd_lin[i] = b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]
+        qdd_lin[i] = (b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]) * dyn[i]
     dE_fric = 0.0
     kf = p.iwan_k
     ne = kf.shape[0]
@@ -499,7 +507,9 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         substep fallbacks; abar at points [m/s^2]: the mean acceleration over the step,
         (w'(t_k+1) - w'(t_k)) / dt, which is what an anti-aliased accelerometer sees (the
         end-point accelerations carry the contact's impacts and unresolved modes as sampled
-        spikes: their mean is not the mean of the motion, +1.5 m/s^2 at the tip in a 5 N run).
+        spikes: their mean is not the mean of the motion, +1.5 m/s^2 at the tip in a 5 N run);
+        per bolt its separation g_b [m] and force F_b [N] (the adaptive screw's F_N1 with the held
+        stack force u[1]); the adaptive bolt's separation force k (g - g_ref) [N].
 
     Returns the Newton iterations summed over the substeps, or -1 if a solve did not converge
     even on the fine substeps. RT-safe.
@@ -569,4 +579,18 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         y[o + i] = en[i]
     y[o + N_ENERGY] = iters
     y[o + N_ENERGY + 1] = fallbacks
+    # --- the bolts at t_{k+1}: separation g_b and force F_b = F_pre + k_b (g_b - g_ref_b), the
+    # adaptive one's preload the held input F_N1; last its separation force k (g - g_ref) alone
+    bolt_rows, bolt_k, bolt_ref = p.bolt_rows, p.bolt_k, p.bolt_ref
+    o = o_bar + n_pts
+    nb = bolt_k.shape[0]
+    for b in range(nb):
+        gb = 0.0
+        for i in range(n):
+            gb += bolt_rows[b, i] * q[i]
+        dF = bolt_k[b] * (gb - bolt_ref[b])
+        y[o + 2 * b] = gb
+        y[o + 2 * b + 1] = p.bolt_F[b] + dF + (F_N1 if b == p.bolt_adaptive else 0.0)
+        if b == p.bolt_adaptive:
+            y[o + 2 * nb] = dF
     return iters

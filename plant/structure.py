@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, mesh_nodes
 from rt.config import Beam, Config
 
@@ -54,6 +55,11 @@ class Structure:
       u_rel_row      = tangential relative displacement at the adaptive screw [m]
     Load vectors give nodal forces for a unit input [N]:
       b_exc  (excitation force, +z), b_N1 (adaptive screw force), f_const (the other screws).
+    Bolts (one per screw, config order; docs/plant.md 1.4): bolt_rows[b] the normal gap at the
+    screw (the beams' separation under it, > 0 open) [m], bolt_k[b] its axial stiffness [N/m]
+    (ordinary bolt: the screw's stiffness_N_m; adaptive screw: k_stack, k_screw in series),
+    bolt_F[b] its preload [N] (the adaptive screw's comes from the actuator: 0 here),
+    bolt_names[b] the screw names, adaptive the index of the adaptive screw.
     """
     subs: tuple[Substructure, ...]
     x_pairs: np.ndarray
@@ -68,6 +74,15 @@ class Structure:
     k_n: np.ndarray
     k_t: np.ndarray
     mu: np.ndarray
+    bolt_rows: np.ndarray
+    bolt_k: np.ndarray
+    bolt_F: np.ndarray
+    bolt_names: tuple[str, ...]
+    adaptive: int
+
+    def bolt_stiffness(self) -> np.ndarray:
+        """The bolts' springs on the stacked physical vector: sum_b k_b r_b r_b^T [N/m]."""
+        return (self.bolt_rows.T * self.bolt_k) @ self.bolt_rows
 
     @property
     def n_pairs(self) -> int:
@@ -113,7 +128,8 @@ def build_structure(cfg: Config) -> Structure:
             return int(np.argmin(np.abs(x_nodes - x)))
 
         add_lumped(K, M, node_of, [(pt.x_m, pt.mass_kg) for pt in p.points if pt.beam == b.name]
-                   + [(s.x_m, s.mass_kg) for s in screws if b.name == itf.upper],
+                   + [(s.x_m, s.mass_kg + (cfg.actuator.moving_mass_kg if s.adaptive else 0.0))
+                      for s in screws if b.name == itf.upper],
                    [(c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name])
         fixed = {DOFS_PER_NODE * node_of(c.x_m) + d for c in p.clamps if c.beam == b.name
                  for d in ((U, W) if c.rot_compliance_rad_per_Nm > 0 else (U, W, THETA))}
@@ -146,20 +162,32 @@ def build_structure(cfg: Config) -> Structure:
     b_exc = np.zeros(n)
     b_exc[by_name[exc.beam].dof(exc.x_m, W)] = 1.0
 
-    # a screw pulls the upper beam down and the lower beam up: nodal forces -F and +F,
-    # i.e. -F times the normal-gap row
-    b_N1 = np.zeros(n)
-    f_const = np.zeros(n)
-    adaptive = next(s for s in screws if s.adaptive)
-    for s in screws:
-        if s.adaptive:
-            b_N1 -= normal_row(s.x_m)
-        else:
-            f_const -= s.F_N * normal_row(s.x_m)
     n_p = len(x_pairs)
+    a = cfg.actuator
+    k_adaptive = a.k_stack * a.k_screw / (a.k_stack + a.k_screw)
+    bolt_rows = np.array([pressure_weights(x_pairs, s.x_m, screw_cone_radius(cfg, s)) @ gap_rows[0::2]
+                          for s in screws])
+    bolt_k = np.array([k_adaptive if s.adaptive else s.stiffness_N_m for s in screws])
+    bolt_F = np.array([0.0 if s.adaptive else s.F_N for s in screws])
+    # a bolt pulls the upper beam down and the lower beam up at the pairs of its cone: nodal
+    # forces -F times its (weighted) normal-gap row
+    adaptive = next(s for s in screws if s.adaptive)
+    i_a = screws.index(adaptive)
+    b_N1 = -bolt_rows[i_a]
+    f_const = -(bolt_F @ bolt_rows)
     return Structure(tuple(subs), x_pairs, gap_rows, tuple(pt.name for pt in p.points), point_rows,
                      tangential_row(adaptive.x_m), b_exc, b_N1, f_const, adaptive.F_N,
-                     np.full(n_p, itf.k_n), np.full(n_p, itf.k_t), np.full(n_p, itf.mu))
+                     np.full(n_p, itf.k_n), np.full(n_p, itf.k_t), np.full(n_p, itf.mu),
+                     bolt_rows, bolt_k, bolt_F, tuple(s.name for s in screws), i_a)
+
+
+def screw_cone_radius(cfg: Config, screw) -> float:
+    """Radius [m] of the screw's pressure cone at the interface (plant/bolts.py): VDI 2230's cone
+    angle for the clamp length of both beams and their width, through the upper beam."""
+    beams = {b.name: b for b in cfg.plant.beams}
+    up, lo = beams[cfg.plant.interface.upper], beams[cfg.plant.interface.lower]
+    tan_phi = vdi_cone_tan(screw.head_diameter_m, up.height_m + lo.height_m, min(up.width_m, lo.width_m))
+    return cone_radius(screw.head_diameter_m, up.height_m, tan_phi)
 
 
 def interface_rows(cfg: Config, subs: tuple[Substructure, ...] | list[Substructure], x: float

@@ -121,10 +121,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     q = sub.add_parser("compare", parents=[common], help="the three laws at one excitation: table and plot",
                        description="Run passive, hysteresis-optimal and Lyapunov with the same sine excitation "
-                                   "(--amp [N] at --freq [Hz], --duration [s]); print the acceleration amplitude at "
+                                   "(--amp [N] at --freq [Hz] or at the passive resonance of --mode, --duration [s]); "
+                                   "print the acceleration amplitude at "
                                    "x = 0.45 m [m/s^2], its reduction against passive [%], mean F_N1 [N] and "
                                    "actuator energy [J]; optionally plot displacement and F_N1 (PNG).")
-    q.add_argument("--freq", type=float, default=223.6, metavar="HZ", help="excitation frequency [Hz] (223.6)")
+    fm = q.add_mutually_exclusive_group()
+    fm.add_argument("--freq", type=float, metavar="HZ", help="excitation frequency [Hz]")
+    fm.add_argument("--mode", type=int, metavar="M", default=3,
+                    help="excite at the passive resonance of mode M, from the model's own modes (the "
+                         "adaptive joint sliding, plant.modes.passive_resonance_hz; default 3)")
     q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
     q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
     q.add_argument("--plot", metavar="FILE", help="write the time histories here (PNG)")
@@ -198,10 +203,12 @@ def _cmd_modes(cfg, args) -> int:
         print(json.dumps(s))
         return 0
     print(f"bare cantilever (bending) [Hz]: {', '.join(f'{f:.2f}' for f in s['bare_cantilever_hz'])}")
-    print(f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15}")
+    print(f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15} "
+          f"{'adaptive joint sliding [Hz]':>28}")
     for k, (a, r) in enumerate(zip(s["full_stuck_hz"], s["reduced_stuck_hz"])):
         pre = s["preloaded_stuck_hz"][k] if k < len(s["preloaded_stuck_hz"]) else float("nan")
-        print(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f}")
+        sl = s["sliding_joint_hz"][k] if k < len(s["sliding_joint_hz"]) else float("nan")
+        print(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f} {sl:>28.2f}")
     print(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
           f"closed by the screws {s['closed_pairs']}; k_T at the adaptive screw {s['k_T_adaptive_N_per_m']:.3g} N/m")
     return 0
@@ -383,6 +390,11 @@ def _cmd_compare(cfg, args) -> int:
             return fail(f"--plot {out}: give a .png file in an existing folder")
         if msg := refuse_existing([out], args.force, "--plot"):
             return fail(msg)
+    if args.freq is None:
+        from plant.modes import passive_resonance_hz
+        if not 1 <= args.mode <= 9:
+            return fail(f"--mode {args.mode}: give a bending mode 1..9")
+        args.freq = passive_resonance_hz(cfg, args.mode)
     try:
         n = check_run_input(build_loop(cfg, "passive"), args.freq, args.amp, args.duration)
         with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:

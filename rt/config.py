@@ -21,6 +21,7 @@ from typing import Any, get_args, get_origin, get_type_hints
 
 
 LAWS = ("passive", "hysteresis", "lyapunov")
+PASSIVE_MODES = ("voltage", "tracking")
 INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
 
@@ -73,7 +74,16 @@ class Screw:
     F_N: float = param(6000.0, "N", lo=0.0, doc="clamping force (initial value if adaptive)")
     adaptive: bool = param(False, doc="true: F_N1, set by the piezo stack (a step input)")
     mass_kg: float = param(0.0, "kg", lo=0.0, doc="lumped mass on the upper beam at x: screw head, "
-                           "washers, the stack's moving part (A: 0)")
+                           "washers (A: 0); the adaptive screw's stack adds actuator.moving_mass_kg")
+    stiffness_N_m: float = param(4.0e8, "N/m", lo=0.0,
+                                 doc="axial stiffness of an ordinary bolt (shank, head and engaged thread) "
+                                     "acting on the beams' separation at x: F = F_N + k (g - g_ref) (A: VDI "
+                                     "2230 for an M8 bolt clamping 16 mm, 4e8); 0 = a constant force. The "
+                                     "adaptive screw is actuator.k_stack in series with actuator.k_screw")
+    head_diameter_m: float = param(0.013, "m", lo=0.0, lo_inclusive=False,
+                                   doc="bearing diameter of the head (or stack) on the upper beam: with the "
+                                       "beams' thickness and width it sets the VDI 2230 pressure cone over "
+                                       "which the bolt acts on the pairs (plant/bolts.py; A: M8 hex head)")
 
 
 @dataclass(frozen=True)
@@ -95,15 +105,16 @@ class Interface:
     x_end_m: float = param(0.625, "m", doc="last contact pair")
     pitch_m: float = param(0.020, "m", lo=0.0, lo_inclusive=False, doc="pair spacing")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
-    k_n: float = param(1.0e9, "N/m", lo=0.0, lo_inclusive=False,
-                      doc="normal penalty stiffness per pair (calibrated, see docs/plant.md)")
+    k_n: float = param(1.6e9, "N/m", lo=0.0, lo_inclusive=False,
+                      doc="normal penalty stiffness per pair, calibrated to the paper's mode-3 peak at 230 Hz "
+                          "(python -m benchmarks.calibrate_contact; docs/plant.md 6)")
     tau_s: float = param(2e-6, "s", lo=0.0, hi=1e-3,
                          doc="interface damping: Kelvin-Voigt dashpots c = k tau on the pairs (A); "
                              "damps the contact modes the 21 kHz step cannot resolve")
     dashpot_depth_m: float = param(1e-8, "m", lo=0.0, lo_inclusive=False,
                                    doc="penetration over which the tangential dashpot fades in (A)")
-    k_t: float = param(8.0e8, "N/m", lo=0.0, lo_inclusive=False,
-                      doc="Jenkins tangential stiffness per pair (Mindlin ratio 0.82 k_n)")
+    k_t: float = param(1.32e9, "N/m", lo=0.0, lo_inclusive=False,
+                      doc="Jenkins tangential stiffness per pair (Mindlin ratio 2 (1 - nu) / (2 - nu) = 0.82 k_n)")
     static_excess: float = param(0.0, "-", lo=0.0, hi=1.0,
                                  doc="Stribeck friction: static excess s, mu(v) = mu (1 + s exp(-(v/v_s)^2)), "
                                      "mu_s = (1 + s) mu; 0 = Coulomb")
@@ -141,6 +152,9 @@ class Plant:
     frf_point: str = "frf"
     element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False, doc="largest FE element")
     modal_damping: float = param(0.001, "-", lo=0.0, hi=1.0, doc="zeta of the bare beams (A)")
+    quasi_static_hz: float = param(10500.0, "Hz", lo=0.0, lo_inclusive=False,
+                                   doc="modes of the bolted assembly above this frequency respond quasi-statically "
+                                       "(no inertia; docs/plant.md 2.7): the fixed step does not resolve them")
     cb_cutoff_hz: float = param(15000.0, "Hz", lo=0.0, lo_inclusive=False,
                                 doc="Craig-Bampton fixed-interface modes kept up to this frequency")
     reduced: bool = param(True, doc="false: step the full FE model instead of Craig-Bampton")
@@ -166,6 +180,10 @@ class Tracking:
     F_max_N: float = param(600.0, "N", lo=0.0, lo_inclusive=False)
     law: str = param("passive", doc="passive | hysteresis | lyapunov")
     F_passive_N: float = param(40.0, "N", lo=0.0, doc="constant F_N1 of the passive law")
+    passive_mode: str = param("voltage", doc="the passive law: voltage = the stack held at the voltage of "
+                              "F_passive_N (the paper's 'minimal possible force', docs/tracking.md), tracking = "
+                              "the force-tracking loop at the constant set-point (it fights the bolt's "
+                              "response to the structure's vibration)")
     K_f: float = param(2.5e7, "N/m", lo=0.0, lo_inclusive=False, doc="hysteresis-optimal gain, F_N = K_f u0 (Eq. 3)")
     T1_s: float = param(0.020, "s", lo=0.0, lo_inclusive=False, doc="RT1 amplitude filter time constant (Eq. 4)")
     eps_m_s: float = param(0.010, "m/s", lo=0.0, lo_inclusive=False, doc="Lyapunov boundary layer")
@@ -616,6 +634,8 @@ def validate(cfg: Config) -> None:
     t = cfg.tracking
     if t.law not in LAWS:
         raise ConfigError(f"tracking.law = {t.law!r}: must be one of {', '.join(LAWS)}")
+    if t.passive_mode not in PASSIVE_MODES:
+        raise ConfigError(f"tracking.passive_mode = {t.passive_mode!r}: must be one of {', '.join(PASSIVE_MODES)}")
     if cfg.supervisor.recovery not in RECOVERY:
         raise ConfigError(f"supervisor.recovery = {cfg.supervisor.recovery!r}: must be one of {', '.join(RECOVERY)}")
     a = cfg.actuator

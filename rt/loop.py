@@ -3,8 +3,9 @@
 One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order:
 
     1 sensors    mean accelerations of the plant over the last tick (plant outputs abar_*) and the
-                 bolt-force sensors' analog outputs
-                 (integrated inside the actuator, exact between samples) -> ADC readings
+                 bolt-force sensors' analog outputs of the stack force
+                 (integrated inside the actuator, exact between samples) plus the bolt's response
+                 to the beams' separation (plant output dF_N1) -> ADC readings of the bolt force
     2 estimator  oracle: the plant's true u_rel, v_rel at t_k, band-limited (observer.oracle),
                  or observer: the Kalman-designed nonlinear observer on the measured tip
                  velocity and the force cell's F_N (observer.step)
@@ -15,7 +16,9 @@ One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order
     5s shaker    (with shaker.armature_mass_kg > 0) the excitation generator's drive through the
                  armature and stinger (rt.shaker): F_exc = the stinger force, mean over the tick,
                  from the plant's excitation-point motion at t_k; otherwise F_exc = drive
-    6 plant      over [t_k, t_k+1]: F_exc(t_k) held, F_N1 = mean of its values at t_k, t_k+1
+    6 plant      over [t_k, t_k+1]: F_exc(t_k) held, the stack force F_stack = mean of its values
+                 at t_k, t_k+1 as the adaptive bolt's preload; the bolts' springs act implicitly
+                 on the separation (docs/plant.md 1.4), so F_N1 = F_stack + k (g - g_ref)
     7 log        every signal of the tick into row k of the preallocated log (with a log writer: a
                  ring of R rows, row (k - k_start) mod R; ``run``, rt/writer.py)
 
@@ -166,8 +169,8 @@ def _copy(src, dst):
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
 def _actuate(k, F_exc, V_cmd, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p, plant_wk, timing, ts):
     """Stages 5 and 6 of tick k: the actuator over [t_k, t_k+1] on the command V_cmd [V], then
-    the plant over [t_k, t_k+1] with F_exc [N] held and F_N1 = (F_N1(t_k) + F_N1(t_k+1)) / 2
-    (ya[0] on entry is F_N1(t_k)). ya, yp receive the outputs at t_k+1; the next states go to
+    the plant over [t_k, t_k+1] with F_exc [N] held and the stack force (F_stack(t_k) +
+    F_stack(t_k+1)) / 2 as the adaptive bolt's preload (ya[0] on entry is F_stack(t_k)). ya, yp receive the outputs at t_k+1; the next states go to
     xa_n, xp_n. The loop and the plant replay (``rt.replay_plant``) both call this. Returns
     (the plant's Newton iterations, -1 on a failed solve; the clock [ns] after the actuator
     if timing, else 0). RT-safe."""
@@ -230,7 +233,12 @@ def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing
     _force_tracking_step(k, xf, uf, ft_p, xf_n, yf)
     if passive:
         xf_n[0] = 0.0
-    _supervise_after(k, sv, yq[0] - uf[1], yf, sv_p, ysv)
+    elif law_p.hold_voltage:  # the passive law holds the stack at the feedforward voltage of F*
+        yf[0] = min(max((yq[0] - ft_p.F0) * ft_p.inv_c_v, ft_p.V_min), ft_p.V_max)
+        yf[1] = 0.0
+        xf_n[0] = 0.0
+    # a held stack does not track: no tracking error for the supervisor's check
+    _supervise_after(k, sv, 0.0 if (law_p.hold_voltage and not passive) else yq[0] - uf[1], yf, sv_p, ysv)
     t4 = _now_ns(ts) if timing else 0
     return t2, t3, t3s, t4
 
@@ -246,7 +254,7 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
                xa, xa_n, ya, ua, act_p,
                xp, xp_n, yp, up, plant_p, plant_wk,
                shake, xsh, xsh_n, ush, ysh, sh_p,
-               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_w_exc, col_v_exc,
+               col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_dF, col_w_exc, col_v_exc,
                log, comp_ns):
     """Run ticks k0 <= k < k1 (see the module docstring); states are advanced in place.
 
@@ -287,6 +295,7 @@ def _run_ticks(k0, k1, dt, exc_amp, exc_omega, force_col, timing, paced, period_
         us[1] = yp[col_a_frf]
         us[2] = ya[col_strain]
         us[3] = ya[col_cell]
+        us[4] = yp[col_dF]   # the bolt's response to the beams' separation: the sensors read F_N1
         _copy(ys, ys_prev)
         _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
         _inject_sensors(k, faults, ys, ys_prev, sens_p)
@@ -401,7 +410,8 @@ def initial_loop_state(loop: Loop, seed: int) -> LoopState:
     ys = np.zeros(len(SENSOR_OUTPUTS))
     si = sensor_output_index()
     ys[si["F_strain"]] = ys[si["F_cell"]] = ya[0]  # the readings at rest (noise-free)
-    return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=ya[0]), ys=ys,
+    # the sensors' sampled-force filters carry dF_N1 in the loop's form: 0 at rest (g = g_ref)
+    return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=0.0), ys=ys,
                      xo=rest_state(loop.oracle, (0.0, 0.0)), xe=np.zeros(loop.observer.M.shape[0]), xl=np.zeros(len(LAWS_SLOTS)),
                      yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
                      xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)),
@@ -531,7 +541,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             rows = slice(k, k1) if n_rows == n_ticks else slice(None)
             failed[0] += _run_ticks(st.k + k, st.k + k1, *args_fixed,
                                     st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys),
-                                    np.zeros(4), loop.sensors, st.rng,
+                                    np.zeros(5), loop.sensors, st.rng,
                                     loop.estimator == "observer", st.xo, np.empty_like(st.xo),
                                     np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle, st.xe,
                                     np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2),
@@ -545,7 +555,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                                     cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1),
                                     loop.shaker,
                                     oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"],
-                                    ai["F_strain_a"], ai["F_cell_a"], oi[f"w_{exc}"], oi[f"v_{exc}"],
+                                    ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"], oi[f"w_{exc}"], oi[f"v_{exc}"],
                                     log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 

@@ -1,7 +1,8 @@
 """The signals the file format knows and their names at the file boundary.
 
 ``SIGNALS`` is the registry of every signal: the paper's symbol (``<point>`` stands for a point
-name of plant.points, ``<j>`` for a contact pair index 0, 1, ...), unit, owner (topic /owner),
+name of plant.points, ``<screw>`` for a screw name of plant.screws, ``<j>`` for a contact pair
+index 0, 1, ...), unit, owner (topic /owner),
 the instant row k holds, its meaning and its ROS 2 field type. Inside the project (numpy
 columns, the ``signals`` tuples, the kernels) a signal is named by its symbol; in a file (MCAP
 fields, .rrd series, JSON keys of a log's layout) by its ROS 2 field name, one rule both ways:
@@ -66,7 +67,7 @@ SIGNALS = (
     Entry("F_set_filtered", "N", "tracking", "t_k", "F* after the setpoint prefilter: the force tracking's setpoint"),
     Entry("V_cmd", "V", "tracking", "[t_k, t_k+1)", "voltage command to the DAC (amplifier input), held over the tick"),
     Entry("saturated", "-", "tracking", "t_k", "+1 command at V_max, -1 at V_min, 0 inside", "int8"),
-    Entry("F_N1", "N", "actuator", "t_k+1", "adaptive screw force (true, simulation only)"),
+    Entry("F_stack", "N", "actuator", "t_k+1", "the stack's force at zero separation of the beams (simulation only)"),
     Entry("V_dac", "V", "actuator", "[t_k, t_k+1)", "DAC output (16 bit, held)"),
     Entry("v_f", "V", "actuator", "t_k+1", "output of the 30 kHz analog low-pass"),
     Entry("V_a", "V", "actuator", "t_k+1", "piezo stack voltage (amplifier output)"),
@@ -93,11 +94,18 @@ SIGNALS = (
     Entry("substep_fallbacks", "-", "plant", "tick k", "substeps redone on finer substeps in the tick", "int32"),
     Entry("abar_<point>", "m/s^2", "plant", "[t_k, t_k+1]", "mean acceleration over the tick, what the "
           "accelerometers sample"),
+    Entry("g_bolt_<screw>", "m", "plant", "t_k+1", "the beams' separation at the screw (> 0 opening)"),
+    Entry("F_N1", "N", "plant", "t_k+1", "adaptive screw (bolt) force: F_stack (held) + k (g - g_ref) "
+          "(true, simulation only)"),
+    Entry("F_bolt_<screw>", "N", "plant", "t_k+1", "force of an ordinary bolt, F_N + k (g - g_ref)"),
+    Entry("dF_N1", "N", "plant", "t_k+1", "the adaptive bolt's response to the separation, k (g - g_ref)"),
 )
 
 
 def _pattern(name: str) -> re.Pattern:
-    rx = re.escape(name).replace("<point>", r"[A-Za-z0-9_]+").replace("<j>", r"[0-9]+")
+    rx = re.escape(name)
+    for token, part in (("<point>", r"[A-Za-z0-9_]+"), ("<screw>", r"[A-Za-z0-9_]+"), ("<j>", r"[0-9]+")):
+        rx = rx.replace(re.escape(token), part)
     return re.compile(rx + r"\Z")
 
 

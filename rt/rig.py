@@ -113,7 +113,7 @@ def measure_impulse(model: PlantModel, F_exc: np.ndarray, V_cmd: float, seed: in
     pa, ps = _chain(cfg)
     _, Ya = run_actuator(pa, np.full(n, V_cmd), initial_state(pa, V=V_cmd))
     ia = output_index()
-    F_N1 = float(Ya[0, ia["F_N1"]])
+    F_N1 = float(Ya[0, ia["F_stack"]])
     Y, _, _ = run(model, F_exc, F_N1)
     io = model.output_index()
     U = np.empty((n, 4))

@@ -7,10 +7,14 @@
     F_N1 --strain gauge (1st order, strain_bandwidth_hz)--> F_strain_a --+ noise--ADC (0..force_range_N)--> F_strain
     F_N1 --piezo force cell (1st order, cell_bandwidth_hz)--> F_cell_a --+ noise--ADC--> F_cell
 
-Two input forms (the kernel tells them apart by len(u)):
-    u = (a_tip, a_frf, F_strain_a, F_cell_a)   recommended: the force sensors' analog outputs,
-        integrated exactly with the piezo stack by ``plant.actuator`` (its outputs
-        F_strain_a, F_cell_a); here only noise and ADC are added;
+Three input forms (the kernel tells them apart by len(u)):
+    u = (a_tip, a_frf, F_strain_a, F_cell_a, dF_N1)   the loop's: the force sensors' analog
+        outputs of the stack force, integrated exactly with the piezo stack by ``plant.actuator``,
+        plus the bolt's response to the beams' separation dF_N1 = F_N1 - F_stack (a plant
+        output, docs/plant.md 1.4), filtered here on its samples and added, so that the sensors
+        measure the bolt force and see the structure's vibration;
+    u = (a_tip, a_frf, F_strain_a, F_cell_a)   the same without dF_N1 (here only noise and ADC
+        are added);
     u = (a_tip, a_frf, F_N1)   the force sensors' filters run here on the 21 kHz samples of F_N1
         (first-order hold, below). F_N1 rings at the stack's 7.1 kHz between samples, which
         the samples do not resolve: 0.6-0.7 N rms error against the exact analog outputs on a
@@ -64,10 +68,11 @@ SENSOR_SLOTS = ("acc_tip_y", "acc_tip_r", "acc_frf_y", "acc_frf_r", "a_tip_in", 
                 "v_tip", "a_tip_meas_in", "F_strain_y", "F_cell_y", "F_N1_in")
 """State slots: Butterworth output and rate (r = y'/w) of each accelerometer [m/s^2], previous
 plant samples a_tip, a_frf [m/s^2], integrator output v_tip [m/s], previous measured tip
-acceleration [m/s^2], strain-gauge and force-cell filter outputs [N], previous F_N1 sample [N]."""
+acceleration [m/s^2], strain-gauge and force-cell filter outputs of a sampled force [N] and its
+previous sample [N] (``_sensors_read``: F_N1 samples, or the bolt's separation force dF_N1)."""
 
-SENSOR_INPUTS = (("a_tip", "m/s^2"), ("a_frf", "m/s^2"), ("F_strain_a", "N"), ("F_cell_a", "N"))
-"""Inputs (recommended form); the alternative (a_tip, a_frf, F_N1) is described above."""
+SENSOR_INPUTS = (("a_tip", "m/s^2"), ("a_frf", "m/s^2"), ("F_strain_a", "N"), ("F_cell_a", "N"), ("dF_N1", "N"))
+"""Inputs of the loop's form; the alternatives (without dF_N1; a_tip, a_frf, F_N1) are described above."""
 SENSOR_OUTPUTS = (("a_tip_meas", "m/s^2"), ("a_frf_meas", "m/s^2"), ("v_tip_meas", "m/s"),
                   ("F_strain", "N"), ("F_cell", "N"))
 
@@ -197,8 +202,11 @@ def _sensors_read(k, x, u, p, x_next, y, rng):
     ----------
     k : int64 tick (time-invariant; kept for the uniform step signature)
     x : (11,) state at t_{k-1}, slots ``SENSOR_SLOTS`` (read only)
-    u : (4,) a_tip, a_frf [m/s^2] (plant outputs at x = 0.765 m and x = 0.45 m), F_strain_a,
-        F_cell_a [N] (the actuator's analog force-sensor outputs; used as they are), or
+    u : (5,) a_tip, a_frf [m/s^2] (plant outputs at x = 0.765 m and x = 0.45 m), F_strain_a,
+        F_cell_a [N] (the actuator's analog force-sensor outputs of the stack force F_stack) and
+        dF_N1 [N] (the plant's bolt force response to the beams' separation, F_N1 - F_stack:
+        filtered here on its samples, added: the sensors measure the bolt force F_N1), or
+        (4,) without dF_N1 (a bolt that does not see the structure), or
         (3,) a_tip, a_frf, F_N1 [N] (force sensors filtered here on the F_N1 samples)
     p : SensorParams
     x_next : (11,) state at t_k (written; slots v_tip, a_tip_meas_in by ``_tip_velocity``)
@@ -208,7 +216,10 @@ def _sensors_read(k, x, u, p, x_next, y, rng):
 
     Each filter: z_k = Phi z_{k-1} + G0 u_{k-1} + G1 (u_k - u_{k-1}) (exact first-order hold);
     readings = ADC(filter output + sigma N(0, 1)).
-    With u of length 4 the force filter slots take F_strain_a, F_cell_a and F_N1_in is kept.
+    The force filter slots F_strain_y, F_cell_y, F_N1_in hold the filtered sampled force and its
+    previous sample: F_N1 (length 3), dF_N1 (length 5), or F_strain_a, F_cell_a with F_N1_in kept
+    (length 4). The filters are linear, so the 5-input form's readings are the filtered bolt force
+    F_N1 = F_stack + dF_N1 (exact for F_stack, first-order hold for the smooth dF_N1).
     RT-safe (no allocation; the only side effect is advancing rng).
     """
     # NamedTuple fields and coefficients into locals
@@ -233,16 +244,24 @@ def _sensors_read(k, x, u, p, x_next, y, rng):
     a_tip_m = _adc(yt + p.acc_sigma * n_tip, acc_inv, acc_lsb, acc_lo, acc_hi)
     a_frf_m = _adc(yf + p.acc_sigma * n_frf, acc_inv, acc_lsb, acc_lo, acc_hi)
     # --- bolt force sensors
-    if u.shape[0] >= 4:  # analog outputs from the actuator's exact integration
-        Fs = u[2]
-        Fc = u[3]
+    if u.shape[0] == 5:  # the actuator's analog outputs plus the bolt's separation force, filtered here
+        F_in = u[4]
+        u0 = x[10]
+        du = F_in - u0
+        ys = F1[1, 0] * x[8] + F1[1, 1] * u0 + F1[1, 2] * du
+        yc = F1[2, 0] * x[9] + F1[2, 1] * u0 + F1[2, 2] * du
+        Fs = u[2] + ys
+        Fc = u[3] + yc
+    elif u.shape[0] == 4:  # analog outputs from the actuator's exact integration
+        Fs = ys = u[2]
+        Fc = yc = u[3]
         F_in = x[10]
     else:  # F_N1 samples, filtered here
         F_in = u[2]
         u0 = x[10]
         du = F_in - u0
-        Fs = F1[1, 0] * x[8] + F1[1, 1] * u0 + F1[1, 2] * du
-        Fc = F1[2, 0] * x[9] + F1[2, 1] * u0 + F1[2, 2] * du
+        Fs = ys = F1[1, 0] * x[8] + F1[1, 1] * u0 + F1[1, 2] * du
+        Fc = yc = F1[2, 0] * x[9] + F1[2, 1] * u0 + F1[2, 2] * du
     F_s_m = _adc(Fs + p.strain_sigma * n_strain, f_inv, f_lsb, f_lo, f_hi)
     F_c_m = _adc(Fc + p.cell_sigma * n_cell, f_inv, f_lsb, f_lo, f_hi)
 
@@ -252,8 +271,8 @@ def _sensors_read(k, x, u, p, x_next, y, rng):
     x_next[3] = rf
     x_next[4] = a_tip
     x_next[5] = a_frf
-    x_next[8] = Fs
-    x_next[9] = Fc
+    x_next[8] = ys
+    x_next[9] = yc
     x_next[10] = F_in
     y[0] = a_tip_m
     y[1] = a_frf_m
@@ -268,9 +287,9 @@ def sensors_step(k: int, x: np.ndarray, u: np.ndarray, p: SensorParams, x_next: 
     if x.shape != (n,) or x_next.shape != (n,):
         raise ValueError(f"sensor state must have shape ({n},) (slots {SENSOR_SLOTS}), got {x.shape}, "
                          f"{x_next.shape}")
-    if u.shape not in ((3,), (4,)):
-        raise ValueError("sensor input must be (a_tip [m/s^2], a_frf [m/s^2], F_strain_a [N], F_cell_a [N]) "
-                         f"or (a_tip, a_frf, F_N1 [N]), got shape {u.shape}")
+    if u.shape not in ((3,), (4,), (5,)):
+        raise ValueError("sensor input must be (a_tip [m/s^2], a_frf [m/s^2], F_strain_a [N], F_cell_a [N]"
+                         f"[, dF_N1 [N]]) or (a_tip, a_frf, F_N1 [N]), got shape {u.shape}")
     if y.shape != (len(SENSOR_OUTPUTS),):
         raise ValueError(f"sensor output must have shape ({len(SENSOR_OUTPUTS)},), got {y.shape}")
     for a in (x, u, x_next, y):
@@ -282,24 +301,26 @@ def sensors_step(k: int, x: np.ndarray, u: np.ndarray, p: SensorParams, x_next: 
 
 @numba.njit(cache=True, nogil=True)
 def _sensors_run(x0, U, p, rng, X, Y):
-    """Step the sensors over the input rows U (n, 3 or 4) from x0: X (n + 1, 11), Y (n, 5) filled."""
+    """Step the sensors over the input rows U (n, 3, 4 or 5) from x0: X (n + 1, 11), Y (n, 5) filled."""
     X[0] = x0
     for k in range(U.shape[0]):
         _sensors_step(k, X[k], U[k], p, X[k + 1], Y[k], rng)
 
 
 def run_sensors(p: SensorParams, U: np.ndarray, rng: np.ndarray, x0: np.ndarray | None = None):
-    """Offline run over input rows U (n, 4) = (a_tip, a_frf, F_strain_a, F_cell_a) or
-    (n, 3) = (a_tip, a_frf, F_N1), one per tick; rng advanced.
+    """Offline run over input rows U (n, 5) = (a_tip, a_frf, F_strain_a, F_cell_a, dF_N1), (n, 4)
+    without dF_N1, or (n, 3) = (a_tip, a_frf, F_N1), one per tick; rng advanced (x0 default: the
+    steady state of the first row, the sampled-force filters at dF_N1 for 5 columns).
 
     Returns (X (n + 1, 11) states, Y (n, 5) readings)."""
     U = np.ascontiguousarray(U, dtype=np.float64)
-    if U.ndim != 2 or U.shape[1] not in (3, 4):
-        raise ValueError(f"U must have shape (n, 4) = (a_tip, a_frf, F_strain_a, F_cell_a) or (n, 3) = "
-                         f"(a_tip, a_frf, F_N1), got {U.shape}")
+    if U.ndim != 2 or U.shape[1] not in (3, 4, 5):
+        raise ValueError(f"U must have shape (n, 5) = (a_tip, a_frf, F_strain_a, F_cell_a, dF_N1), (n, 4) without "
+                         f"dF_N1 or (n, 3) = (a_tip, a_frf, F_N1), got {U.shape}")
     _check_rng(rng)
     if x0 is None:
-        x0 = initial_state(p, *U[0, :3]) if len(U) else np.zeros(len(SENSOR_SLOTS))
+        x0 = initial_state(p, U[0, 0], U[0, 1], U[0, 4] if U.shape[1] == 5 else U[0, 2]) if len(U) else \
+            np.zeros(len(SENSOR_SLOTS))
     X = np.empty((len(U) + 1, len(SENSOR_SLOTS)))
     Y = np.empty((len(U), len(SENSOR_OUTPUTS)))
     _sensors_run(np.ascontiguousarray(x0, dtype=np.float64), U, p, rng, X, Y)

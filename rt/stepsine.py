@@ -543,31 +543,16 @@ def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5)) -> dict[int,
     linearised about its preloaded state (the pairs the screws close, at the configured F_N1)
 
     * f_stuck: those pairs stuck (``plant.model.stuck_frequencies_hz(model, preloaded_pairs)``;
-      index i is mode i + 1: 9.8, 73.8, 223.6, 388.8, 616.5 Hz for the default configuration),
-    * f_slip: the same with the pairs nearest the adaptive screw (nearer to it than to any other
-      screw) free to slide tangentially (normal contact kept): 9.8, 71.1, 198.4, 369.0, 609.2 Hz.
+      index i is mode i + 1),
+    * f_slip: the same with the pairs in the adaptive screw's pressure cone free to slide
+      tangentially (normal contact kept; ``plant.modes.sliding_joint_hz``).
 
-    A friction-affected resonance lies near f_slip or between the two: the passive 5 N step-sine
-    peaks are at 70.3, 196-198, 367.6 and 612.8 Hz (modes 2-5); larger forces slide further
-    (passive 20 N mode 3: below 190 Hz, docs/loop.md)."""
-    import scipy.linalg as sla
-
-    from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
+    A friction-affected resonance lies near f_slip or between the two (docs/experiments.md)."""
+    from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+    from plant.modes import sliding_joint_hz
     model = build_plant(cfg)
-    closed = preloaded_pairs(model)
-    f_stuck = stuck_frequencies_hz(model, closed)
-    x_screws = np.array([s.x_m for s in cfg.plant.screws])
-    adaptive = next(i for i, s in enumerate(cfg.plant.screws) if s.adaptive)
-    nearest = np.argmin(np.abs(model.structure.x_pairs[:, None] - x_screws[None, :]), axis=1)
-    sliding = closed & (nearest == adaptive)
-    p = model.params
-    K = stuck_stiffness(model, closed)
-    for j in np.nonzero(sliding)[0]:
-        g_t = p.G[2 * j + 1]
-        K = K - p.k_t[j] * np.outer(g_t, g_t)
-    lam = sla.eigvalsh(K)
-    f_slip = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
-    f_slip = f_slip[f_slip > 1e-3]
+    f_stuck = stuck_frequencies_hz(model, preloaded_pairs(model))
+    f_slip = sliding_joint_hz(model)
     for m in modes:
         if not 1 <= m <= min(len(f_stuck), len(f_slip)):
             raise ValueError(f"mode {m}: the model has bending modes 1..{min(len(f_stuck), len(f_slip))}")

@@ -163,8 +163,10 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0
 # --- the plant step ---------------------------------------------------------------------------
 
 def newmark_compliance(P, h):
-    """s2 = 2 / (omega^2 + (2/h) c + 4/h^2) per mode [s^2] and W = G diag(s2) G^T [m/N]."""
-    s2 = 2.0 / (P.omega2 + (2.0 / h) * P.c + 4.0 / h**2)
+    """s2 = 2 / (omega^2 + (2/h) c + 4/h^2) per dynamic mode, 1 / omega^2 per quasi-static one
+    (P.dyn = 0) [s^2], and W = G diag(s2) G^T [m/N]."""
+    dyn = P.dyn > 0
+    s2 = np.where(dyn, 2.0 / (P.omega2 + (2.0 / h) * P.c + 4.0 / h**2), 1.0 / np.where(dyn, 1.0, P.omega2))
     return s2, (P.G * s2) @ P.G.T
 
 
@@ -174,7 +176,9 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     s2, W = newmark_compliance(P, h)
     f_screw = P.b_N1 * F_N1 + P.f_const
     f = P.b_exc * F_exc + f_screw
-    q_pred = q + s2 * (f + (2.0 / h) * qd - P.omega2 * q)
+    dyn = P.dyn > 0
+    # dynamic modes: the mean form; quasi-static ones: the static response to the held load
+    q_pred = np.where(dyn, q + s2 * (f + (2.0 / h) * qd - P.omega2 * q), s2 * f)
     g_pred = P.G @ q_pred
     cn_h, ct_h = P.c_n / h, P.c_t / h
     g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu, cn_h, ct_h, P.dashpot_depth)
@@ -182,11 +186,13 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
                                                              P.dashpot_depth)
     q1 = q_pred + s2 * (P.G.T @ Lam)
     dq = q1 - q
-    qd1 = (2.0 / h) * dq - qd
+    qd1 = np.where(dyn, (2.0 / h) * dq - qd, 0.0)
     f_t0 = P.k_t * (g[1::2] - w)          # spring force at the start
     f_t1 = -lam1[1::2]                     # and at the end
     E["E_fric"] += float(np.sum(0.5 * (f_t0 + f_t1) * (w1 - w)))
-    E["E_damp"] += float(h * np.sum(P.c * (0.5 * (qd + qd1)) ** 2)) - float(Ld @ (g1 - g))
+    # the quasi-static modes' surplus work: load (= omega^2 q1) . dq minus the potential's gain
+    surplus = np.where(dyn, 0.0, P.omega2 * q1 * dq - 0.5 * P.omega2 * (q1**2 - q**2))
+    E["E_damp"] += float(h * np.sum(P.c * (0.5 * (qd + qd1)) ** 2)) - float(Ld @ (g1 - g)) + float(surplus.sum())
     E["W_exc"] += F_exc * float(P.b_exc @ dq)
     E["W_screw"] += float(f_screw @ dq)
     info = {"state": state, "moved": moved, "res": res, "gq_mismatch": float(np.max(np.abs(P.G @ q1 - g1)))}
@@ -236,7 +242,8 @@ def plant_step(x, u, P, slots, labels, split=None):
         x_next[slots[nm]] = val
 
     f = P.b_exc * F_exc + P.b_N1 * F_N1 + P.f_const
-    acc = f - P.c * qd - P.omega2 * q + P.G.T @ lam_acc   # modal acceleration at the end point
+    # modal acceleration at the end point (none for a quasi-static mode)
+    acc = np.where(P.dyn > 0, f - P.c * qd - P.omega2 * q + P.G.T @ lam_acc, 0.0)
     disp, vel, accel = P.out_rows @ q, P.out_rows @ qd, P.out_rows @ acc
     names = [nm for nm, _ in labels]
     y = np.full(len(names), np.nan)
@@ -255,6 +262,17 @@ def plant_step(x, u, P, slots, labels, split=None):
         y[names.index(f"f_t_{j}")] = -lam1[2 * j + 1]
     for nm, val in E.items():
         y[names.index(nm)] = val
+    # bolts: separation and force F_pre + k (g - g_ref), the adaptive one's preload the input F_N1
+    gb = P.bolt_rows @ q
+    dF = P.bolt_k * (gb - P.bolt_ref)
+    force = P.bolt_F + dF
+    force[P.bolt_adaptive] += F_N1
+    bolt_g = [nm for nm in names if nm.startswith("g_bolt_")]
+    bolt_f = [nm for nm in names if nm == "F_N1" or nm.startswith("F_bolt_")]
+    for b, (ng, nf) in enumerate(zip(bolt_g, bolt_f)):
+        y[names.index(ng)] = gb[b]
+        y[names.index(nf)] = force[b]
+    y[names.index("dF_N1")] = dF[P.bolt_adaptive]
     return x_next, y, info
 
 

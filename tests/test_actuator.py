@@ -273,7 +273,7 @@ def test_regime_changes_against_ode(cfg, p):
         T = truth_run(cfg, Y[:, OUT["V_dac"]], model_state(cfg, x0))
         F_ref = a.F0_N + a.k_screw * T[1:, 3]
         swing = np.ptp(F_ref)
-        err = np.abs(Y[:, OUT["F_N1"]] - F_ref).max() / swing
+        err = np.abs(Y[:, OUT["F_stack"]] - F_ref).max() / swing
         assert err <= tol, f"F_N1 vs DOP853: {err:.2e} of the {swing:.0f} N swing"
         assert np.abs(X[:, 2] - T[:, 2]).max() <= tol * 150
         # the force sensors' analog outputs, integrated with the stack
@@ -304,7 +304,7 @@ def test_amplifier_is_held_at_its_rails(cfg):
         F_truth = a.F0_N + a.k_screw * T[1:, 3]
         F_lin = a.F0_N + a.k_screw * S_lin[1:, 3]
         assert np.abs(F_lin - F_truth).max() > 0.1                       # the rail matters here
-        assert np.abs(Y[:, OUT["F_N1"]] - F_truth).max() <= 5e-4
+        assert np.abs(Y[:, OUT["F_stack"]] - F_truth).max() <= 5e-4
         assert np.abs(X[:, 2] - T[:, 2]).max() <= 1e-6
         assert np.all((X[:, 2] >= 0.0) & (X[:, 2] <= 150.0))
 
@@ -357,7 +357,7 @@ def test_static_gain(cfg, p):
     for V in (0.0, 0.5, 37.5, 100.0, 123.456, 150.0):
         _, Y = run_actuator(p, np.full(n, V), initial_state(p, 0.0))
         Vd = dac_grid(p, V)
-        F = Y[-1, OUT["F_N1"]]
+        F = Y[-1, OUT["F_stack"]]
         assert F == pytest.approx(a.F0_N + a.c_v * Vd, rel=1e-9, abs=1e-9 * a.F0_N)
         assert Y[-1, OUT["V_a"]] == pytest.approx(Vd, rel=1e-12, abs=1e-12)
     # 150 V gives 600 N - 0.5 N (SPEC 3: F_0 = 40 N, c_v = 3.73 N/V)
@@ -377,7 +377,7 @@ def test_stack_resonance_from_step_response(cfg, p):
     V0 = dac_grid(p, 50.0)
     V1 = dac_grid(p, 52.0)
     _, Y = run_actuator(p, np.full(80, V1), initial_state(p, V0))
-    e = Y[10:, OUT["F_N1"]] - (a.F0_N + a.c_v * V1)
+    e = Y[10:, OUT["F_stack"]] - (a.F0_N + a.c_v * V1)
     A = np.column_stack([e[1:-1], e[:-2]])
     a1, a2 = np.linalg.lstsq(A, e[2:], rcond=None)[0]
     z = np.roots([1, -a1, -a2])[0]
@@ -404,7 +404,7 @@ def test_force_sensor_outputs_exact(cfg, p):
     _, _, S = ss.lsim((A, B[:, None], np.eye(7), np.zeros((7, 1))), np.full(n + 1, V1), t,
                       X0=model_state(cfg, x0), interp=False)
     step = a.c_v * (V1 - V0)
-    for out, ref in (("F_N1", a.F0_N + a.k_screw * S[1:, 3]), ("F_strain_a", a.F0_N + S[1:, 5]),
+    for out, ref in (("F_stack", a.F0_N + a.k_screw * S[1:, 3]), ("F_strain_a", a.F0_N + S[1:, 5]),
                      ("F_cell_a", a.F0_N + S[1:, 6])):
         assert np.abs(Y[:, OUT[out]] - ref).max() <= 1e-9 * step, out
     # the cell sees the 7.1 kHz ringing, the 1 kHz strain gauge hardly
@@ -413,7 +413,7 @@ def test_force_sensor_outputs_exact(cfg, p):
 
     assert ring(Y[:, OUT["F_cell_a"]]) > 5 * ring(Y[:, OUT["F_strain_a"]])
     _, Y = run_actuator(p, np.full(int(0.05 / cfg.dt_s), V1), x0)
-    for out in ("F_N1", "F_strain_a", "F_cell_a"):
+    for out in ("F_stack", "F_strain_a", "F_cell_a"):
         assert Y[-1, OUT[out]] == pytest.approx(a.F0_N + a.c_v * V1, rel=1e-9), out
 
 
@@ -612,7 +612,7 @@ def test_checked_wrapper_and_slots(p):
         initial_state(p, V=200.0)
     actuator_step(0, x, np.array([x[2]]), p, xn, y)
     # at rest on a DAC code? 100 N is not one: the chain moves by less than one LSB of force
-    assert abs(y[OUT["F_N1"]] - 100.0) < 3.73 * p.lsb
+    assert abs(y[OUT["F_stack"]] - 100.0) < 3.73 * p.lsb
 
 
 def test_kernels_are_cached_nogil_without_refcounting():
@@ -684,7 +684,7 @@ def _triangle_loop(w: float):
     n = int(round(0.2 / cfg.dt_s))
     V = np.concatenate([np.linspace(0.0, 150.0, n), np.linspace(150.0, 0.0, n)])
     _, Y = run_actuator(build_actuator(cfg), V)
-    return cfg, n, Y[:, OUT["V_a"]], Y[:, OUT["F_N1"]]
+    return cfg, n, Y[:, OUT["V_a"]], Y[:, OUT["F_stack"]]
 
 
 def test_hysteresis_loop_width_and_area_match_the_quasi_static_bouc_wen_solution():
@@ -711,7 +711,7 @@ def test_hysteresis_loop_width_and_area_match_the_quasi_static_bouc_wen_solution
     n = int(round(0.02 / cfg.dt_s))
     V = np.concatenate([np.linspace(0.0, 150.0, n), np.linspace(150.0, 0.0, n)])
     _, Y = run_actuator(build_actuator(cfg), V)
-    Va, F = Y[:, OUT["V_a"]], Y[:, OUT["F_N1"]]
+    Va, F = Y[:, OUT["V_a"]], Y[:, OUT["F_stack"]]
     width = np.interp(75.0, Va[n:][::-1], F[n:][::-1]) - np.interp(75.0, Va[:n], F[:n])
     assert width / (cfg.actuator.c_v * 150.0) == pytest.approx(0.1, abs=2e-3)
 
@@ -727,7 +727,7 @@ def _creep_step(c: float, n_sub: int, V1: float = 150.0, sets=(), T: float = 2.0
     V = np.full(n, V1)
     V[:20] = 0.0
     X, Y = run_actuator(p, V, initial_state(p, 0.0))
-    return cfg, p, (np.arange(n) + 1) * cfg.dt_s, Y[:, OUT["V_a"]], Y[:, OUT["F_N1"]], X
+    return cfg, p, (np.arange(n) + 1) * cfg.dt_s, Y[:, OUT["V_a"]], Y[:, OUT["F_stack"]], X
 
 
 def test_creep_after_a_step_follows_the_log_law():
@@ -774,5 +774,5 @@ def test_creep_states_start_at_rest_and_keep_the_static_gain():
     assert x0[9:] == pytest.approx(p.creep_g * V, rel=1e-15)
     X, Y = run_actuator(p, np.full(4000, V), x0)
     F = cfg.actuator.F0_N + cfg.actuator.c_v * V
-    assert np.abs(Y[:, OUT["F_N1"]] - F).max() < 1e-9 * F
+    assert np.abs(Y[:, OUT["F_stack"]] - F).max() < 1e-9 * F
     assert np.abs(X[-1, 9:] - x0[9:]).max() < 1e-12 * V

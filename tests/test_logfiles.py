@@ -377,6 +377,6 @@ def test_rrd_writer_closes_after_an_exception(tmp_path, signals):
         w.write_block(0, log)
         raise RuntimeError("crash")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.rrd"]
-    k, _, v = rrd_column(tmp_path / "a.rrd", "/actuator/F_N1")
+    k, _, v = rrd_column(tmp_path / "a.rrd", "/actuator/F_stack")
     np.testing.assert_array_equal(k, np.arange(100))
-    np.testing.assert_array_equal(v, log[:, [n for n, _, _ in signals].index("F_N1")])
+    np.testing.assert_array_equal(v, log[:, [n for n, _, _ in signals].index("F_stack")])

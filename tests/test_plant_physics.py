@@ -161,13 +161,17 @@ def test_energy_balance_on_transient(cfg, reduced, peak, fn1):
 
 # --- check 5 -------------------------------------------------------------------------------
 
-def test_step_size_convergence_second_order_on_stuck_case():
-    """dt, dt/2, dt/4 against dt/32 on a smooth case where no pair slips or opens: errors fall
-    by 4 per halving (average acceleration is second order)."""
+@pytest.mark.parametrize("quasi_static_hz, lo, hi, err_dt", [(1e9, 1.8, 2.2, 5e-4), (10500.0, 0.9, 1.3, 2e-3)])
+def test_step_size_convergence_on_stuck_case(quasi_static_hz, lo, hi, err_dt):
+    """dt, dt/2, dt/4 against dt/32 on a smooth case where no pair slips or opens. With every
+    mode stepped (quasi_static_hz beyond the basis) errors fall by 4 per halving: average
+    acceleration is second order (measured 3.7e-4 of the rms at dt). With the default quasi-static
+    modes above 10.5 kHz they fall by 2: their static response to the step's mean load lags by
+    h/2 (docs/plant.md 2.6; measured 1.0e-3 at dt)."""
     errs = []
     ref = None
     for m_sub in (32, 1, 2, 4):
-        cfg = load(sets=[f"plant.substeps={m_sub}", "plant.interface.mu=2.0"])
+        cfg = load(sets=[f"plant.substeps={m_sub}", "plant.interface.mu=2.0", f"plant.quasi_static_hz={quasi_static_hz}"])
         model = build_plant(cfg)
         n = int(round(0.02 / cfg.dt_s))
         F = hammer_force(n, cfg.dt_s, 1.0, 4e-3)  # smooth 4 ms pulse, 1 N: stays stuck
@@ -178,9 +182,10 @@ def test_step_size_convergence_second_order_on_stuck_case():
         if ref is None:
             ref = w
         else:
-            errs.append(np.sqrt(np.mean((w - ref) ** 2)))
+            errs.append(np.sqrt(np.mean((w - ref) ** 2)) / np.sqrt(np.mean(ref ** 2)))
     order = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
-    assert np.all((order > 1.8) & (order < 2.2)), f"observed orders {order}"
+    assert np.all((order > lo) & (order < hi)), f"observed orders {order}"
+    assert errs[0] < err_dt
 
 
 # --- check 6 -------------------------------------------------------------------------------
@@ -195,8 +200,10 @@ def test_normal_contact_opens_and_closes_without_nan(cfg, reduced):
     f_n = _pairs(m, Y, "f_n")
     closed = g_n < 0
     changes = np.abs(np.diff(closed.astype(int), axis=0)).sum(axis=0)
+    # away from the screws (> 30 mm) the interface is open under preload or lightly closed: the
+    # hammer closes and opens some of those pairs repeatedly (measured 20, 4, 28 events)
     far = [j for j in range(m.n_pairs) if min(abs(m.structure.x_pairs[j] - s.x_m) for s in cfg.plant.screws) > 0.03]
-    assert far and all(changes[j] >= 2 for j in far[:2]), f"open/close events per pair {changes}"
+    assert sum(changes[j] >= 2 for j in far) >= 2, f"open/close events per pair {changes}"
     # penetration only as deep as the penalty law with the forces that act: f_n = k_n (-g_n),
     # and the contact forces stay within a dynamic factor 3 of screw + hammer forces
     k_n = cfg.plant.interface.k_n
@@ -224,8 +231,9 @@ def test_passive_damper_identified_modes(reduced, capsys):
 def test_identification_matches_linear_theory(cfg, reduced):
     """On a linear response (10 N hammer: nothing slips) the identified frequencies and
     damping ratios equal the eigenvalues of the linearised damped system, mapped exactly
-    through the integrator; sdypy-EMA's LSCF, an independent identification, agrees too."""
-    m = reduced
+    through the integrator (every mode stepped: the trapezoid's exact pole map); sdypy-EMA's
+    LSCF, an independent identification, agrees too."""
+    m = build_plant(load(sets=["plant.quasi_static_hz=1e9"]))
     x0 = m.initial_state(100.0)
     closed = preloaded_pairs(m, 100.0)
     p = m.params
@@ -265,29 +273,49 @@ def test_identification_matches_linear_theory(cfg, reduced):
 
 def test_contact_solve_falls_back_to_fine_substeps():
     """A step whose contact Newton stalls is redone on fine substeps; the run completes and the
-    energy balance still closes. Without interface damping (k_t = 5e8, F_N1 = 40 N, 500 N hammer)
-    and with Newton limited to 6 iterations, the steps in which several pairs change state stall
-    (384 of 6300 here; with the default 40 iterations a stall is a rare event, one step on one
-    machine and none on another, so the mechanism is tested where it is frequent)."""
-    cfg = load(sets=["plant.interface.k_t=5e8", "plant.interface.tau_s=0", "plant.newton_max_iter=6"])
+    energy balance still closes. Without interface damping (F_N1 = 40 N, 500 N hammer) and with
+    Newton limited to 6 iterations, the steps in which several pairs change state stall (68 of
+    6300 here, redone on 8 substeps; with the default 40 iterations a stall is a rare event, one
+    step on one machine and none on another, so the mechanism is tested where it is frequent)."""
+    cfg = load(sets=["plant.interface.tau_s=0", "plant.newton_max_iter=6", "plant.fallback_split=8"])
     m = build_plant(cfg)
     n = int(round(0.3 / cfg.dt_s))
     x0 = m.initial_state(40.0)
     Y, x, _ = run(m, hammer_force(n, cfg.dt_s, 500.0, 0.5e-3), 40.0, x0=x0)
-    assert Y[:, m.output_index()["substep_fallbacks"]].sum() >= 50
+    assert Y[:, m.output_index()["substep_fallbacks"]].sum() >= 20
     b = balance(m, x0, x)
     assert abs(b["residual"]) < 1e-6 * b["W_exc"]
 
 
+def test_quasi_static_modes_add_little_damping_to_the_linear_modes():
+    """The quasi-static modes' h/2 lag damps the linear modes a little (docs/plant.md 2.6): on the
+    10 N hammer at F_N1 = 100 N (nothing slips) modes 2..5 identify at most 0.25 % damping
+    above the model with every mode stepped (measured +0.013, +0.120, +0.192, +0.145 %), their
+    frequencies within 0.05 %."""
+    out = {}
+    for qs in (1e9, 10500.0):
+        m = build_plant(load(sets=[f"plant.quasi_static_hz={qs}"]))
+        n = int(round(2.0 / m.cfg.dt_s))
+        F = hammer_force(n, m.cfg.dt_s, 10.0, 0.5e-3)
+        Y, _, _ = run(m, F, 100.0, x0=m.initial_state(100.0))
+        freq, H = accelerance_frf(F, _series(m, Y, "a_frf"), m.cfg.dt_s, 0.5)
+        f0 = stuck_frequencies_hz(m, preloaded_pairs(m, 100.0))[[k - 1 for k in MODES]]
+        out[qs] = identify(freq, H, f0, 0.5)
+    (f_all, z_all), (f_qs, z_qs) = out[1e9], out[10500.0]
+    np.testing.assert_allclose(f_qs, f_all, rtol=5e-4)
+    assert np.all(z_qs >= z_all - 1e-5) and np.all(z_qs - z_all < 2.5e-3), (z_all, z_qs)
+
+
 def test_one_substep_is_converged_with_interface_damping():
     """Stick-slip every cycle (5 N sine at 223.6 Hz, F_N1 = 40 N): one substep per controller
-    step gives the first harmonic of 16 substeps within 0.5 % (measured 0.02 %), and the
-    acceleration is not swamped by unresolved contact modes (without interface damping 97 %
-    of its energy lay above 5 kHz and the run was not converged)."""
+    step (the default: modes above 10.5 kHz quasi-static) gives the first harmonic of 16
+    substeps with every mode stepped within 2 % (measured 1.3 %: the quasi-static modes' h/2 lag,
+    docs/plant.md 2.6), and the acceleration is not swamped by unresolved modes (without
+    interface damping 97 % of its energy lay above 5 kHz and the run was not converged)."""
     from rt.loop import first_harmonic_amplitude
     res = {}
     for sub in (1, 16):
-        cfg = load(sets=[f"plant.substeps={sub}"])
+        cfg = load(sets=[f"plant.substeps={sub}"] + (["plant.quasi_static_hz=1e9"] if sub > 1 else []))
         m = build_plant(cfg)
         n = int(round(1.0 / cfg.dt_s))
         F = 5.0 * np.sin(2 * np.pi * 223.6 * np.arange(n) * cfg.dt_s)
@@ -300,4 +328,4 @@ def test_one_substep_is_converged_with_interface_damping():
             A = np.abs(np.fft.rfft(a))
             f = np.fft.rfftfreq(len(a), cfg.dt_s)
             assert (A[f > 5000] ** 2).sum() / (A**2).sum() < 0.3
-    assert res[1] == pytest.approx(res[16], rel=5e-3)
+    assert res[1] == pytest.approx(res[16], rel=2e-2)

@@ -44,7 +44,7 @@ def test_plant_replay_of_a_fresh_run_is_bit_exact(logs, capsys, law, reduced):
     assert code == 0 and r["bit_exact"] is True and r["max_abs_diff"] == 0.0 and r["first_mismatch_tick"] is None
     assert r["ticks"] == 2100 and r["missing_ticks"] == 0 and r["failed_solves"] == 0 and r["law"] == law
     expected = [n for n, _ in ACTUATOR_OUTPUTS] + [n for n, _ in reduced.output_labels()]
-    assert r["signals_compared"] == expected and len(expected) == 65
+    assert r["signals_compared"] == expected and len(expected) == 70   # 9 actuator, 61 plant (5 of the bolts)
     # not vacuous: the structure moved and the stack was driven (passive: 0 V throughout; hysteresis:
     # F_N1 swings 0.65 N in 0.1 s while RT1 (T1 = 20 ms) builds up; Lyapunov: tens of N)
     assert r["outputs"]["abar_tip"]["max"] > 1.0

@@ -15,7 +15,7 @@ import pytest
 import scipy.signal as ss
 import scipy.stats as st
 
-from rt.config import load
+from rt.config import load, with_sets
 from tests.nrt_probe import assert_no_allocation_per_step
 from rt.noise import _fill_u64, new_rng, normals, splitmix64
 from rt.sensors import (
@@ -289,7 +289,7 @@ def test_force_sensors_from_the_actuator_vs_sampled_F_N1(cfg):
     raw = np.where(np.sin(2 * np.pi * 230 * t) > 0, 150.0, 0.0)
     b, a = ss.butter(2, 1000, fs=1 / c.dt_s)
     _, Ya = run_actuator(pa, ss.lfilter(b, a, raw - 75) + 75, act_initial(pa, 75.0))
-    F, Fs_a, Fc_a = Ya[:, ai["F_N1"]], Ya[:, ai["F_strain_a"]], Ya[:, ai["F_cell_a"]]
+    F, Fs_a, Fc_a = Ya[:, ai["F_stack"]], Ya[:, ai["F_strain_a"]], Ya[:, ai["F_cell_a"]]
     z = np.zeros(n)
     x0 = initial_state(ps, 0.0, 0.0, F[0])
     _, Y4 = run_sensors(ps, np.column_stack([z, z, Fs_a, Fc_a]), new_rng(0), x0)
@@ -494,7 +494,7 @@ def test_checked_wrapper(p):
     with pytest.raises(ValueError, match="a_tip"):
         sensors_step(0, x, np.zeros(2), p, xn, y, new_rng(0))
     with pytest.raises(ValueError, match="a_tip"):
-        sensors_step(0, x, np.zeros(5), p, xn, y, new_rng(0))
+        sensors_step(0, x, np.zeros(6), p, xn, y, new_rng(0))
     with pytest.raises(ValueError, match="uint64"):
         sensors_step(0, x, np.zeros(3), p, xn, y, np.zeros(4))
     sensors_step(0, x, np.zeros(3), p, xn, y, new_rng(0))
@@ -559,3 +559,24 @@ def test_step_time(p):
     timed(*args)
     timed(*args)
     assert np.median(ns) < 2000, f"median sensor step {np.median(ns):.0f} ns"
+
+
+def test_the_bolt_force_readings_add_the_filtered_separation_force(cfg):
+    """5-input form (the loop's): the readings are those of the actuator's analog outputs plus the
+    strain gauge's and force cell's filters run on the dF_N1 samples (the 3-input form's filters,
+    linear), i.e. the sensors read the bolt force F_N1 = F_stack + dF_N1 (noise off; 1 ADC LSB)."""
+    q = build_sensors(with_sets(cfg, ["sensors.strain_noise_N=0.0", "sensors.cell_noise_N=0.0"]))
+    n = 400
+    t = np.arange(n) * cfg.dt_s
+    dF = 30.0 * np.sin(2 * np.pi * 380.0 * t) + 5.0 * np.sin(2 * np.pi * 3000.0 * t)
+    F_a = 100.0 + 20.0 * np.sin(2 * np.pi * 200.0 * t)
+    z = np.zeros(n)
+    U5 = np.column_stack([z, z, F_a, F_a, dF])
+    _, Y5 = run_sensors(q, U5, new_rng(1))
+    _, Y3 = run_sensors(q, np.column_stack([z, z, dF + 300.0]), new_rng(1))   # the filters alone (offset: ADC >= 0)
+    oi = output_index()
+    for name in ("F_strain", "F_cell"):
+        expected = F_a + (Y3[:, oi[name]] - 300.0)
+        assert np.max(np.abs(Y5[:, oi[name]] - expected)) <= 2 * q.force_lsb + 1e-9, name
+    # not vacuous: the strain gauge's 1 kHz filter attenuates the 3 kHz part the cell passes
+    assert np.std(Y5[:, oi["F_strain"]] - F_a) < np.std(Y5[:, oi["F_cell"]] - F_a)

@@ -10,6 +10,7 @@ from plant.linear_frf import continuous_accelerance, discrete_accelerance, stuck
 from plant.model import build_plant
 from rt.cli import _add_common
 from rt.cli_frf import add_parser, cmd_frf
+from plant.modes import passive_resonance_hz
 from rt.config import load
 from rt.loop import build_loop, first_harmonic_amplitude, run
 from rt.stepsine import (Branch, Settle, harmonics, phase_continuous_step, resonance_grid, run_branches, settle_point,
@@ -17,7 +18,10 @@ from rt.stepsine import (Branch, Settle, harmonics, phase_continuous_step, reson
 
 DT = 1.0 / 21000
 AMP = 5.0
-FREQS = (190.0, 193.0, 196.0, 199.0, 205.0)  # around the passive 5 N mode-3 peak (196 Hz, docs/loop.md)
+# around the passive 5 N mode-3 peak, placed from the model's own modes (the adaptive joint
+# sliding: 205.1 Hz; the step-sine peak lies at 201.5 Hz)
+F3 = passive_resonance_hz(load(), 3)
+FREQS = tuple(round(F3 + d, 1) for d in (-13.0, -9.0, -5.0, -1.0, 3.0))
 FAST = Settle(max_s=1.0)  # the detector's defaults, a shorter give-up time
 
 
@@ -113,11 +117,13 @@ def test_up_sweep_settles_holds_the_force_and_continues(upsweep):
     # each point starts where the previous one ended: ticks (and every state) continue
     assert r.k_start[0] == 0 and np.array_equal(r.k_start[1:], r.k_end[:-1])
     assert np.allclose(r.settle_s, (r.k_end - r.k_start) * DT)
-    assert np.allclose(r.F_N1_mean, 40.0, atol=1.0) and np.all(r.energy_j > 0)
+    # the bolt force: the stack's 40 N plus the bolt's response to the beams' separation (docs/plant.md 1.4)
+    # the passive law holds the stack's voltage (docs/tracking.md 2.1): no actuator energy
+    assert np.all((r.F_N1_mean >= 39.5) & (r.F_N1_mean < 50.0)) and np.all(r.energy_j == 0.0)
 
 
 def test_ideal_force_converges_in_one_update(passive):
-    p, final = settle_point(passive, 196.0, AMP, settle=FAST)
+    p, final = settle_point(passive, F3, AMP, settle=FAST)
     assert p.F_meas_blocks[0] == pytest.approx(AMP, rel=1e-9)       # measured = commanded = target
     assert np.allclose(p.F_cmd_blocks, AMP, rtol=1e-9)              # so every update keeps it
     assert final.k == p.k_end and p.settled
@@ -127,8 +133,8 @@ def test_peak_and_level_agree_with_direct_long_runs(passive, upsweep):
     # direct 1.5 s runs from rest, first harmonic of the last 0.3 s
     direct = np.array([first_harmonic_amplitude(run(passive, f, AMP, 1.5).signal("a_frf")[-6300:], f, DT)
                        for f in FREQS]) / AMP
-    assert np.argmax(upsweep.H_abs) == np.argmax(direct) == FREQS.index(196.0)
-    i = FREQS.index(196.0)
+    i = int(np.argmax(direct))
+    assert np.argmax(upsweep.H_abs) == i and 0 < i < len(FREQS) - 1   # the peak inside the grid
     assert upsweep.H_abs[i] == pytest.approx(direct[i], rel=0.02)
     # the phase passes -90 deg (accelerance through a resonance) between the first and last point
     assert np.degrees(upsweep.phase_rad[0]) > -90.0 > np.degrees(upsweep.phase_rad[-1])
@@ -157,8 +163,10 @@ def test_stuck_contact_step_sine_equals_the_linear_frf_of_the_reduced_model():
 def test_discrete_frf_tends_to_the_continuous_one_at_first_order():
     # the force held over the tick is a half-tick delay, O(dt) in the complex FRF (the trapezoidal
     # warping alone would be O(dt^2)): halving dt must at least halve the gap (measured 2.0-2.2x
-    # at 380 Hz, 8.6 % at 21 kHz down to 1.0 % at 168 kHz)
-    model = build_plant(load(None, ["tracking.F_min_N=600", "plant.screws.adaptive.F_N=600"]))
+    # at 380 Hz, 8.6 % at 21 kHz down to 1.0 % at 168 kHz); every mode stepped (quasi-static modes
+    # are a model difference that no step size removes)
+    model = build_plant(load(None, ["tracking.F_min_N=600", "plant.screws.adaptive.F_N=600",
+                                    "plant.quasi_static_hz=1e9"]))
     lin = stuck_model(model, "frf", 600.0)
     f = np.array([380.0])
     gap = [abs(discrete_accelerance(lin, f, DT / n)[0] / continuous_accelerance(lin, f)[0] - 1) for n in (1, 2, 4, 8)]
@@ -196,7 +204,7 @@ def test_slow_sweep_off_the_peak_equals_the_linear_frf():
 
 @pytest.fixture(scope="module")
 def sweeps_5n(passive):
-    return slow_sweep(passive, 188.0, 202.0, AMP, 2.0), slow_sweep(passive, 202.0, 186.0, AMP, -2.0)
+    return slow_sweep(passive, F3 - 15.0, F3 + 1.0, AMP, 2.0), slow_sweep(passive, F3 + 1.0, F3 - 17.0, AMP, -2.0)
 
 
 def test_slow_up_sweep_reads_the_step_sine_peak(passive, sweeps_5n):
@@ -205,19 +213,24 @@ def test_slow_up_sweep_reads_the_step_sine_peak(passive, sweeps_5n):
     # reads 7.49 at 194.9 Hz (-3.6 %, 1.9 Hz late: the sweep's lag; 0.5 Hz/s: 7.56 at 194.6 Hz)
     up, _ = sweeps_5n
     j = int(np.argmax(up.H_abs))
-    s = sweep(passive, [188.0, 190.0, 192.0, 193.0, 194.0, 195.0, 196.0], AMP, settle=Settle(max_s=2.0))
+    s = sweep(passive, list(F3 + np.arange(-9.0, 0.5, 1.0)), AMP, settle=Settle(max_s=2.0))
     i = int(np.argmax(s.H_abs))
     assert up.H_abs[j] == pytest.approx(s.H_abs[i], rel=0.05)
-    assert 0.0 <= up.freq_hz[j] - s.freq_hz[i] < 2.5
+    assert -1.0 <= up.freq_hz[j] - s.freq_hz[i] < 2.5   # the step-sine's 1 Hz grid, the sweep's lag
 
 
-def test_down_sweep_follows_the_softened_branch(sweeps_5n):
-    # friction softens the joint: sweeping down stays on the large-amplitude branch further
-    # (measured: up 7.43 at 195.0 Hz, down 11.4 at 189 Hz): the jump phenomenon
+def test_down_sweep_follows_the_softened_branch(sweeps_5n, capsys):
+    # friction softens the joint: sweeping down reaches the peak no lower and no later in frequency
+    # than sweeping up. With the bolted joint at 5 N the two branches nearly coincide (measured:
+    # up 7.23, down 7.34 (m/s^2)/N); the rattling joint before issue 15 showed a jump (11.4 at
+    # 189 Hz against 7.43 at 195 Hz)
     up, down = sweeps_5n
+    f_up, f_down = up.freq_hz[np.argmax(up.H_abs)], down.freq_hz[np.argmax(down.H_abs)]
+    with capsys.disabled():
+        print(f"\n[sweep] up {up.H_abs.max():.2f} at {f_up:.2f} Hz, down {down.H_abs.max():.2f} at {f_down:.2f} Hz", end="")
     assert down.direction == "down" and np.all(np.diff(down.freq_hz) < 0)
-    assert down.H_abs.max() > 1.3 * up.H_abs.max()
-    assert down.freq_hz[np.argmax(down.H_abs)] < up.freq_hz[np.argmax(up.H_abs)] - 3.0
+    assert down.H_abs.max() >= 0.99 * up.H_abs.max()
+    assert f_down <= f_up + 0.5
 
 
 # --- backends ---------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from rt.cli import main
+from plant.modes import passive_resonance_hz
 from rt.config import load
 from rt.faults import schedule
 from rt.loop import build_loop, first_harmonic_amplitude, run, summary
@@ -57,19 +58,22 @@ def response(r, k0, freq, dt):
 @pytest.mark.parametrize("est", ["oracle", "observer"])
 @pytest.mark.parametrize("law", ["passive", "hysteresis", "lyapunov"])
 def test_normal_runs_never_trip(cfg, loops, law, est):
-    """5 and 20 N near modes 3 and 4 (196, 370 Hz): no check fails in any tick, and the bounded
-    signals stay inside their bounds with margin (the defaults', docs/reliability.md)."""
+    """5 and 20 N at the passive resonances of modes 3 and 4 (the model's own, 205.1 and 380.1 Hz):
+    no check fails in any tick, and the bounded signals stay inside their bounds with margin (the
+    defaults', docs/reliability.md). The passive law holds the stack's voltage: it does not track,
+    and its force error (the bolt's response to the structure, up to 115 N at 20 N) is no fault."""
     L = loops(law, est)
     s = cfg.supervisor
     for amp in (5.0, 20.0):
-        for freq in (196.0, 370.0):
+        for freq in (passive_resonance_hz(cfg, 3), passive_resonance_hz(cfg, 4)):
             r = run(L, freq, amp, 0.5)
             assert summary(r)["trips"] == []
             assert not r.signal("fault_code").any() and not r.signal("passive").any()
             f_meas = r.signal("F_cell" if L.force_sensor == "cell" else "F_strain")
             # measured max 99 N on one machine, 110 N on another (the rattling joint at F_min:
             # the last bits decide its spikes); the bound leaves 1.3x
-            assert np.abs(r.signal("F_set_filtered") - f_meas).max() < s.tracking_error_N / 1.3
+            if law != "passive":
+                assert np.abs(r.signal("F_set_filtered") - f_meas).max() < s.tracking_error_N / 1.3
             assert np.abs(r.signal("F_strain") - r.signal("F_cell")).max() < 4 * s.force_disagree_N
             if est == "observer":
                 assert np.abs(r.signal("innovation")).max() < s.innovation_bound_m_s / 3

@@ -43,6 +43,7 @@ class LawParams(NamedTuple):
     K_f: float         # [N/m]
     eps: float         # boundary layer [m/s]
     rt1: RT1Params
+    hold_voltage: bool  # passive law with tracking.passive_mode "voltage": the stack held at V_ff(F*)
 
 
 def build_laws(cfg: Config, law: str | None = None) -> LawParams:
@@ -53,7 +54,7 @@ def build_laws(cfg: Config, law: str | None = None) -> LawParams:
         raise ValueError(f"law = {name!r}: must be one of {', '.join(LAWS)} (tracking.law)")
     return LawParams(law=LAW_CODES[name], F_min=float(t.F_min_N), F_max=float(t.F_max_N),
                      F_passive=float(t.F_passive_N), K_f=float(t.K_f), eps=float(t.eps_m_s),
-                     rt1=build_rt1(cfg))
+                     rt1=build_rt1(cfg), hold_voltage=bool(name == "passive" and t.passive_mode == "voltage"))
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)

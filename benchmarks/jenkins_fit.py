@@ -1,0 +1,90 @@
+"""The adaptive screw's joint as the paper's control design sees it: a Jenkins element fitted to
+the model's own hysteresis loops F_t(u_rel) (docs/plant.md 6, issue 15 item 4).
+
+    python -m benchmarks.jenkins_fit [--freq HZ] [--forces 40 100 300] [--amps 5 20] [--plot F.png]
+
+For each constant F_N1 (the stack held at its voltage) and excitation amplitude, a closed-loop
+run of 1 s at ``--freq`` (default: the passive mode-3 resonance); over the last 10 cycles the
+tangential force of the pairs inside the adaptive screw's pressure cone, F_t = sum f_t,j, against
+u_rel. Fitted per loop: the slip force F_s = (max F_t - min F_t) / 2, the stuck stiffness k_T
+= the slope of F_t over the first 20 % of each branch after a reversal (least squares), the loop
+energy W = closed integral of F_t du_rel, and the Jenkins energy 4 F_s (u0 - F_s / k_T) it
+implies; mu_eff = F_s / F_N1. Eq. 3's optimal gain for the fitted joint is K_f = k_T / (2 mu_eff).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from plant.bolts import pressure_weights
+from plant.structure import screw_cone_radius
+from rt.config import load
+from rt.loop import build_loop, run
+
+
+def loop_fit(u: np.ndarray, F: np.ndarray) -> dict:
+    """Jenkins parameters of one steady loop (module docstring)."""
+    u0 = 0.5 * (u.max() - u.min())
+    F_s = 0.5 * (F.max() - F.min())
+    du = np.diff(u)
+    s = np.sign(du)
+    rev = np.flatnonzero(s[1:] != s[:-1]) + 1   # reversal indices
+    slopes = []
+    for a, b in zip(rev[:-1], rev[1:]):
+        n = max(3, int(0.2 * (b - a)))
+        uu, ff = u[a:a + n], F[a:a + n]
+        if np.ptp(uu) > 0:
+            slopes.append(np.polyfit(uu, ff, 1)[0])
+    k_T = float(np.median(slopes)) if slopes else float("nan")
+    W = abs(float(np.sum(0.5 * (F[1:] + F[:-1]) * du)))   # the loop's area: energy dissipated per 10 cycles
+    return {"u0_m": float(u0), "F_s_N": float(F_s), "k_T_N_per_m": k_T, "W_J": W,
+            "W_jenkins_J": float(4 * F_s * max(0.0, u0 - F_s / k_T)) if k_T > 0 else float("nan")}
+
+
+def fit(cfg, F_N1: float, amp: float, freq: float) -> dict:
+    """The fitted loop of a passive run with the stack held at F_N1 [N] (cfg's tracking.F_passive_N)."""
+    loop = build_loop(cfg, "passive", "oracle")
+    r = run(loop, freq, amp, 1.0)
+    st = loop.plant.structure
+    screw = next(s for s in loop.cfg.plant.screws if s.adaptive)
+    w = pressure_weights(st.x_pairs, screw.x_m, screw_cone_radius(loop.cfg, screw))
+    pairs = np.flatnonzero(w > 0)
+    n = int(round(10 / freq / loop.cfg.dt_s))
+    u = r.signal("u_rel")[-n:]
+    F = sum(r.signal(f"f_t_{j}")[-n:] for j in pairs)
+    out = loop_fit(u, F)
+    out |= {"F_N1_N": F_N1, "amp_n": amp, "freq_hz": freq, "pairs": [int(j) for j in pairs],
+            "mu_eff": out["F_s_N"] / F_N1, "F_N1_mean_N": float(np.mean(r.signal("F_N1")[-n:]))}
+    return out
+
+
+def main(argv=None) -> int:
+    from rt.config import with_sets
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--freq", type=float, required=True, help="excitation frequency [Hz] (a resonance)")
+    ap.add_argument("--forces", type=float, nargs="+", default=[40.0, 100.0, 300.0])
+    ap.add_argument("--amps", type=float, nargs="+", default=[5.0, 20.0])
+    ap.add_argument("--set", action="append", default=[], dest="sets")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    base = load(None, args.sets)
+    rows = []
+    for F in args.forces:
+        for a in args.amps:
+            cfg = with_sets(base, [f"tracking.F_passive_N={float(F)!r}"])
+            r = fit(cfg, F, a, args.freq)
+            rows.append(r)
+            if not args.json:
+                print(f"F_N1 {F:5.0f} N, {a:4.0f} N at {args.freq:g} Hz: u0 {r['u0_m'] * 1e6:7.3f} um, F_s {r['F_s_N']:7.2f} N "
+                      f"(mu_eff {r['mu_eff']:.3f}), k_T {r['k_T_N_per_m']:.3g} N/m, W {r['W_J'] * 1e6:.3f} uJ "
+                      f"(Jenkins {r['W_jenkins_J'] * 1e6:.3f}), K_f = k_T/(2 mu) {r['k_T_N_per_m'] / (2 * r['mu_eff']):.3g} N/m",
+                      flush=True)
+    if args.json:
+        print(json.dumps(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
