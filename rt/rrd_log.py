@@ -5,7 +5,7 @@ The recording (its own ``rr.RecordingStream``, never the global one; nothing is 
     /<owner>          one entity per topic of the MCAP log (/rt, /sensors, ..., /plant), its
                       signals as one multi-series ``rr.Scalars`` row per tick in column order; a
                       static ``rr.SeriesLines`` names the series by their ROS 2 fields (the MCAP
-                      field names, ``rt.registry.ros2_field``: /actuator f_n1) and a static
+                      field names, ``rt.registry.ros2_field``: /plant f_n1) and a static
                       ``unit`` (AnyValues, one unit per series) gives their units
     /hysteresis       ``rr.Points2D`` per tick at (u_rel [um], -F_t [N]) where
                       F_t = sum_j f_t_j is the interface's total tangential (friction) force: the

@@ -196,7 +196,7 @@ def test_simulate_writes_a_foxglove_layout_of_the_blueprints_panels(run_log):
     for topic, f in fields.items():
         assert {p["value"] for p in plots[f"Plot!{topic[1:]}"]["paths"]} == {f"{topic}.{x}" for x in f}
     assert [p["value"] for p in plots["Plot!setpoint"]["paths"]] == [
-        "/tracking.f_set", "/tracking.f_set_filtered", "/actuator.f_n1", "/sensors.f_strain", "/sensors.f_cell"]
+        "/tracking.f_set", "/tracking.f_set_filtered", "/plant.f_n1", "/sensors.f_strain", "/sensors.f_cell"]
     assert plots["Plot!hysteresis"]["xAxisPath"]["value"] == "/plant.u_rel"
 
 
