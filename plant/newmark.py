@@ -1,9 +1,10 @@
-"""The plant step: Newmark average acceleration on decoupled substructure modes with Newton
+"""The plant step: Newmark average acceleration on the modes of the bolted assembly with Newton
 iterations on the contact gaps (SPEC section 2, "Time integration"). RT-safe, allocation-free.
 
-Condensation. Each substructure's (Craig-Bampton reduced or full) linear part is diagonalised
-once at design time: M = I, D = diag(c), K = diag(omega^2) in modal coordinates q, with
-c = 2 zeta omega. Average-acceleration Newmark (beta = 1/4, gamma = 1/2) is the trapezoidal
+Condensation. The beams' (Craig-Bampton reduced or full) linear part with the bolts' springs is
+diagonalised once at design time: M = I, D = diag(c), K = diag(omega^2) in modal coordinates q,
+with c = 2 zeta omega; modes with dyn = 0 are quasi-static (no inertia: q1 = their static
+response to the step's mean load, s2 = 1/omega^2, qd = 0; docs/plant.md 2.6). Average-acceleration Newmark (beta = 1/4, gamma = 1/2) is the trapezoidal
 rule; in its mean form over a step of length h, with dq = q1 - q0,
 
     (qd1 - qd0)/h + c (qd0 + qd1)/2 + omega^2 (q0 + q1)/2 = f_mean + (G^T Lambda)_i,
