@@ -18,8 +18,7 @@ import json
 
 import numpy as np
 
-from plant.bolts import pressure_weights
-from plant.structure import screw_cone_radius
+from plant.structure import adaptive_cone_pairs
 from rt.config import load
 from rt.loop import build_loop, run
 
@@ -47,10 +46,7 @@ def fit(cfg, F_N1: float, amp: float, freq: float) -> dict:
     """The fitted loop of a passive run with the stack held at F_N1 [N] (cfg's tracking.F_passive_N)."""
     loop = build_loop(cfg, "passive", "oracle")
     r = run(loop, freq, amp, 1.0)
-    st = loop.plant.structure
-    screw = next(s for s in loop.cfg.plant.screws if s.adaptive)
-    w = pressure_weights(st.x_pairs, screw.x_m, screw_cone_radius(loop.cfg, screw))
-    pairs = np.flatnonzero(w > 0)
+    pairs = np.flatnonzero(adaptive_cone_pairs(loop.cfg, loop.plant.structure.x_pairs))
     n = int(round(10 / freq / loop.cfg.dt_s))
     u = r.signal("u_rel")[-n:]
     F = sum(r.signal(f"f_t_{j}")[-n:] for j in pairs)

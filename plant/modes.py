@@ -6,6 +6,7 @@ import scipy.linalg as sla
 
 from plant.fe_beam import U, W
 from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
+from plant.structure import adaptive_cone_pairs
 from rt.config import Config
 
 N_BARE = 6  # bending modes of the bare cantilever reported
@@ -39,14 +40,10 @@ def sliding_joint_hz(model: PlantModel, F_N1: float | None = None) -> np.ndarray
     """Eigenfrequencies [Hz] of the preloaded model (closed pairs stuck) with the pairs in the
     adaptive screw's pressure cone free to slide (no tangential stiffness): the linear picture of
     the passive damper, where the joint at the adaptive screw slips through most of each cycle.
-    The passive step-sine resonances lie near these (mode 3: 205.1 against 199.2 Hz at 5 N; mode
-    4: 380.1 against 381.1 Hz), which is how tests and the demo place their excitation from the
+    The passive step-sine resonances lie near these (mode 3: 205.1 against 201.5 Hz at 5 N; mode
+    4: 380.1 against 374.2 Hz), which is how tests and the demo place their excitation from the
     plant's own modes. Rigid-body modes excluded."""
-    from plant.bolts import pressure_weights
-    from plant.structure import screw_cone_radius
-    cfg = model.cfg
-    screw = next(s for s in cfg.plant.screws if s.adaptive)
-    cone = pressure_weights(model.structure.x_pairs, screw.x_m, screw_cone_radius(cfg, screw)) > 0
+    cone = adaptive_cone_pairs(model.cfg, model.structure.x_pairs)
     p = model.params
     closed = preloaded_pairs(model, F_N1)
     k_all = np.zeros(p.G.shape[0])

@@ -190,6 +190,12 @@ def screw_cone_radius(cfg: Config, screw) -> float:
     return cone_radius(screw.head_diameter_m, up.height_m, tan_phi)
 
 
+def adaptive_cone_pairs(cfg: Config, x_pairs: np.ndarray) -> np.ndarray:
+    """Boolean mask of the pairs inside the adaptive screw's pressure cone (plant/bolts.py)."""
+    screw = next(s for s in cfg.plant.screws if s.adaptive)
+    return pressure_weights(x_pairs, screw.x_m, screw_cone_radius(cfg, screw)) > 0
+
+
 def interface_rows(cfg: Config, subs: tuple[Substructure, ...] | list[Substructure], x: float
                    ) -> tuple[np.ndarray, np.ndarray]:
     """(normal row, tangential row) of the interface at x [m] on the stacked physical vector:
