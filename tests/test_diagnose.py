@@ -66,10 +66,14 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
 def test_stribeck_is_not_a_friction_coefficient_change(diagnosed):
     """Calibration alone (mu free within +-40 %) cannot make Stribeck friction: the pairs break away
     at mu_s but slide at mu_k, so a higher mu that matches the joint modes' shift leaves their
-    damping too low. Measured on seed 5: FRF gap 3.06 dB, calibrated 1.31 dB, with stribeck 0.16 dB;
-    the fit returns the campaign's own mu scatter (0.9315 for 0.9338) beside s = 0.3003."""
+    damping too low. Measured on seed 5, FRF gap nominal / calibrated / with stribeck [dB]: AMD
+    EPYC (Zen 5) 3.06 / 1.31 / 0.16, Intel Xeon 3.06 / 0.95 / 0.37 (the design's BLAS kernels
+    differ by CPU and the joint's slip amplifies last bits). The bound: calibration leaves at least
+    twice the effect's gap and at least half a dB (the scatter of one impulse FRF's gap between the
+    two machines is ~0.4 dB); the fit returns the campaign's own mu scatter (0.9315 for 0.9338)."""
     res = diagnosed("stribeck")
-    assert res["gap_calibrated"]["structure_frf_db"] >= 3.0 * res["gap_after"]["structure_frf_db"]
+    calibrated, after = res["gap_calibrated"]["structure_frf_db"], res["gap_after"]["structure_frf_db"]
+    assert calibrated >= 2.0 * after and calibrated >= 0.5, (calibrated, after)
     true_mu = scatter_sets(np.random.default_rng(SEED))["mu"]
     assert res["fitted_parameters"]["mu"] == pytest.approx(true_mu, rel=0.03)
 
