@@ -539,15 +539,18 @@ def test_plant_step_one_step_matches_reference(request, key, name):
         assert counts[naive.STICK] > 0 and counts[naive.SLIP_POS] + counts[naive.SLIP_NEG] > 0
 
 
-@pytest.mark.parametrize("key,name", [("undamped", "sine"), ("small_undamped", "sine100")])
-def test_plant_step_fallback_matches_reference(request, key, name):
-    """The fallback path: with p.max_iter = 5 some substeps' contact solves give up and are
-    redone as p.fine_split substeps of h / fine_split (>= 10 steps in each run); the reference
-    redoes the same substeps (with W and s2 of the fine step computed by itself) and every
-    step the kernel completed, started from the kernel's state, agrees to RTOL. (A step whose
-    fine substeps fail too reports -1 and is not compared.)"""
+@pytest.mark.parametrize("key,name,max_iter", [("undamped", "sine", 5), ("small_undamped", "sine100", 4)])
+def test_plant_step_fallback_matches_reference(request, key, name, max_iter):
+    """The fallback path: with p.max_iter = max_iter some substeps' contact solves give up and are
+    redone as p.fine_split substeps of h / fine_split; the reference redoes the same substeps
+    (with W and s2 of the fine step computed by itself) and every step the kernel completed,
+    started from the kernel's state, agrees to RTOL. (A step whose fine substeps fail too reports
+    -1 and is not compared.) How many solves give up depends on the last bits of the design,
+    i.e. on the CPU's BLAS kernels: completed fallback steps on an Intel Xeon 7 (undamped, 5
+    iterations) and 23 (small_undamped, 4; with 5 only 4, where an AMD EPYC had >= 5), all
+    or 95.5 % of the steps completed; at least 5 are required."""
     m = request.getfixturevalue(key)
-    r = runs(m, key, name, TIGHT_TOL, max_iter=5)
+    r = runs(m, key, name, TIGHT_TOL, max_iter=max_iter)
     ok = r["iters"] >= 0
     fb = r["fallbacks"]
     assert np.sum(ok & (fb > 0)) >= 5, f"only {np.sum(ok & (fb > 0))} completed fallback steps: path not exercised"

@@ -104,8 +104,13 @@ def test_the_previous_format_is_still_read(tmp_path, capsys):
     assert rec.topics == ("/rt", "/sensors", "/observer", "/tracking", "/actuator", "/plant")
     assert rec.column("F_N1") > 0 and np.isfinite(rec.log).all()
     assert validate(FIXTURE_V0) == []
+    # a format-0 log carries no design record: the replay rebuilds the design here, whose BLAS
+    # decides its last bits (docs/determinism.md), so the controller agrees to round-off only:
+    # bit-exact on the machine that wrote it, 3.6e-15 V in V_cmd on an Intel Xeon
     code, out, err = cli(capsys, "replay", FIXTURE_V0, "--json")
-    assert code == 0 and json.loads(out)["bit_exact"] is True, err
+    res = json.loads(out)
+    assert res["design"]["source"] == "rebuilt" and code in (0, 1), err
+    assert res["bit_exact"] is True or res["max_abs_diff"] < 1e-9, res["max_abs_diff_by_signal"]
     code, out, err = cli(capsys, "inspect", FIXTURE_V0, "-o", tmp_path / "v0.rrd", "--json")
     assert code == 0 and json.loads(out)["ticks"] == 420, err
 
