@@ -1,2 +1,2 @@
 """Observer: the Kalman-designed nonlinear observer (frictionrt)."""
-import rt  # noqa: F401  (sets numba's source-keyed cache directory before any kernel compiles)
+import rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)

@@ -1,2 +1,2 @@
 """Plant: FE beams, contact and friction, Craig-Bampton, Newmark/Newton step (frictionrt)."""
-import rt  # noqa: F401  (sets numba's source-keyed cache directory before any kernel compiles)
+import rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)

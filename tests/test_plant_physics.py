@@ -10,7 +10,7 @@ from plant.impulse import MODES, accelerance_frf, fit_mode, hammer_force, impuls
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.modes import bare_beam_bending_hz
 from plant.simulate import run
-from rt.config import load
+from rt.common.config import load
 
 # Euler-Bernoulli cantilever, L = 0.775 m, h = 8 mm, steel (issue 2, check 1)
 ANALYTIC_BARE_HZ = np.array([11.13, 69.74, 195.28, 382.67, 632.58, 944.97])
@@ -312,7 +312,7 @@ def test_one_substep_is_converged_with_interface_damping():
     substeps with every mode stepped within 2 % (measured 1.3 %: the quasi-static modes' h/2 lag,
     docs/plant.md 2.6), and the acceleration is not swamped by unresolved modes (without
     interface damping 97 % of its energy lay above 5 kHz and the run was not converged)."""
-    from rt.loop import first_harmonic_amplitude
+    from rt.loop.core import first_harmonic_amplitude
     res = {}
     for sub in (1, 16):
         cfg = load(sets=[f"plant.substeps={sub}"] + (["plant.quasi_static_hz=1e9"] if sub > 1 else []))

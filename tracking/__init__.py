@@ -1,2 +1,2 @@
 """Tracking: control laws, RT1 filter, force tracking, output low-pass (frictionrt)."""
-import rt  # noqa: F401  (sets numba's source-keyed cache directory before any kernel compiles)
+import rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)
