@@ -9,7 +9,7 @@ checks any layout of the code): simulate (three laws, oracle and observer), repl
 both, modes, impulse, and (without --quick) reproduce --quick. Every MCAP log is decoded with
 the ROS 2 decoder (mcap_ros2, not the project's reader) and each field of each topic is hashed
 (SHA-256 of its float64/int64 bytes); the JSON outputs are hashed after removing what is
-wall-clock by nature (tick_ns, late_ns, start_utc, timings, command lines, paths). The output
+wall-clock by nature (tick_ns, late_ns, stamp, start_utc, timings, command lines, paths). The output
 maps every item to its hash; ``--compare`` prints the items that differ and exits 1 if any.
 """
 from __future__ import annotations
@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-WALL_CLOCK_FIELDS = {"tick_ns", "late_ns"}
+WALL_CLOCK_FIELDS = {"tick_ns", "late_ns", "stamp"}  # stamp: start_utc + k dt
 WALL_CLOCK_KEYS = {"start_utc", "timing_s", "timings", "wall_s", "elapsed_s", "command", "argv",
                    "run_s", "tick_us", "tick_median_us", "tick_p99_us", "tick_max_us", "seconds",
                    "out", "path", "folder", "report", "files", "recording_id", "overruns",
-                   "late_max_us", "time_s"}
+                   "late_max_us", "time_s", "realtime_factor"}
 
 
 def _frictionrt() -> str:
@@ -103,8 +103,14 @@ def digest(work: Path, quick: bool) -> dict[str, str]:
     return out
 
 
+def _without_wall_clock(d: dict[str, str]) -> dict[str, str]:
+    """A digest without the fields that are wall-clock by nature (a digest written before a
+    field joined ``WALL_CLOCK_FIELDS`` compares too)."""
+    return {k: v for k, v in d.items() if k.rsplit("/", 1)[-1] not in WALL_CLOCK_FIELDS}
+
+
 def compare(before: Path, after: Path) -> int:
-    a, b = json.loads(before.read_text()), json.loads(after.read_text())
+    a, b = (_without_wall_clock(json.loads(p.read_text())) for p in (before, after))
     differ = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
     for k in differ:
         print(f"differs: {k}: {a.get(k)} -> {b.get(k)}")

@@ -20,7 +20,7 @@ import numpy as np
 
 from plant.structure import adaptive_cone_pairs
 from rt.common.config import load
-from rt.loop.core import build_loop, run
+from rt.loop import build_loop, run
 
 
 def loop_fit(u: np.ndarray, F: np.ndarray) -> dict:

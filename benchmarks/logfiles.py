@@ -23,7 +23,7 @@ def benchmark(seconds: float, block: int, out: Path) -> dict:
     """Figures per simulated second: sim_s, {mcap,rrd}_write_s, {mcap,rrd}_write_cpu_s, {mcap,rrd}_MB,
     mcap_read_s."""
     from rt.common.config import load
-    from rt.loop.core import build_loop, run
+    from rt.loop import build_loop, run
     from rt.log.mcap_log import McapLogWriter, read_mcap
     from rt.log.rrd_log import RrdLogWriter
 

@@ -38,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     from observer.kalman import design_observer  # after the sys.path fix above
     from observer.offline import compare_on_run
     from rt.common.config import load
-    from rt.loop.core import build_loop, run
+    from rt.loop import build_loop, run
 
     cfg = load()
     design = design_observer(cfg)

@@ -18,7 +18,7 @@ import json
 import numpy as np
 
 from rt.common.config import load
-from rt.loop.core import build_loop, run
+from rt.loop import build_loop, run
 
 HARMONICS = 10      # the excitation frequency and its first 9 harmonics
 BAND = 0.05         # +-5 % around each

@@ -15,7 +15,7 @@ from mcap.stream_reader import StreamReader
 
 from rt.cli import main
 from rt.common.config import load
-from rt.loop.core import build_loop, run
+from rt.loop import build_loop, run
 from rt.log.mcap_log import CHUNK_BYTES, read_mcap, topics_of
 from rt.log.recover import scan
 from rt.log.writer import INTERRUPT_DRAIN_S

@@ -13,7 +13,7 @@ from mcap.writer import CompressionType, Writer
 from rt.cli import main
 from rt.log.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_table, signal_table,
                             keys_table, validate)
-from rt.loop.core import loop_signals
+from rt.loop import loop_signals
 from rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
 from rt.log.registry import field_type, ros2_field
 from tracking.force_tracking import design_force_tracking

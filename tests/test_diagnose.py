@@ -14,7 +14,8 @@ from rt.log.data_format import validate
 from rt.discrepancy.diagnose import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
 from rt.discrepancy.diagnose_structure import SENSORS, prepare, run_shape
 from rt.discrepancy.effects import EFFECTS, get, implemented
-from rt.discrepancy.rig import make_campaign, scaled, scatter_sets
+from rt.discrepancy.chain import scaled
+from rt.discrepancy.rig import make_campaign, scatter_sets
 
 SEED = 5
 

@@ -226,7 +226,7 @@ def cfg_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def warm():
     """Import what ``simulate`` imports once, outside the per-example deadline."""
-    for name in ("rt.loop.core", "rt.log.writer", "tqdm"):
+    for name in ("rt.loop.driver", "rt.log.writer", "tqdm"):
         importlib.import_module(name)
 
 

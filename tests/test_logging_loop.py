@@ -11,7 +11,7 @@ from mcap.reader import make_reader
 
 from rt.cli import main
 from rt.common.config import load
-from rt.loop.core import build_loop, run
+from rt.loop import build_loop, run
 from rt.log.mcap_log import McapLogWriter, read_mcap
 from rt.log.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
 from tests.test_logfiles import META, RATE, START_NS, raw_messages, special_log
@@ -196,7 +196,7 @@ def test_ring_run_allocates_the_ring_and_writes_every_tick(tmp_path, loop):
     holds every tick and equals the file of the same run without a ring (but the wall clock),
     and the summary's whole-run figures come out as without a ring."""
     from rt.loop.faults import schedule
-    from rt.loop.core import summary
+    from rt.loop import summary
     from rt.log.writer import open_run_log
 
     faults = schedule(["sensor_bias/F_strain@1.0"], loop.cfg)   # latched at 1.002 s: force_disagree

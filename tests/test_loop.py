@@ -6,7 +6,7 @@ import pytest
 
 from rt.cli import main
 from rt.common.config import load
-from rt.loop.core import COMPONENTS, build_loop, run, summary
+from rt.loop import COMPONENTS, build_loop, run, summary
 from rt.log.mcap_log import read_mcap
 from rt.log.writer import BLOCK_TICKS
 

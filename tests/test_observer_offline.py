@@ -11,7 +11,7 @@ from observer.kalman import design_observer, zoh
 from observer.offline import compare_on_run, outputs, process_noise, ukf_estimate, ukf_run
 from observer.step import _observer_step
 from rt.common.config import load
-from rt.loop.core import build_loop, run
+from rt.loop import build_loop, run
 
 
 @pytest.fixture(scope="module")

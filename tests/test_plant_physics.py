@@ -312,7 +312,7 @@ def test_one_substep_is_converged_with_interface_damping():
     substeps with every mode stepped within 2 % (measured 1.3 %: the quasi-static modes' h/2 lag,
     docs/plant.md 2.6), and the acceleration is not swamped by unresolved modes (without
     interface damping 97 % of its energy lay above 5 kHz and the run was not converged)."""
-    from rt.loop.core import first_harmonic_amplitude
+    from rt.loop import first_harmonic_amplitude
     res = {}
     for sub in (1, 16):
         cfg = load(sets=[f"plant.substeps={sub}"] + (["plant.quasi_static_hz=1e9"] if sub > 1 else []))

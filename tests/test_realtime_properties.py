@@ -79,7 +79,7 @@ def test_numba_cache_is_keyed_on_the_kernel_sources():
     from plant import newmark, simulate
     from rt.common import jit_cache
     names = {f.relative_to(jit_cache.ROOT).as_posix() for f in jit_cache.kernel_sources()}
-    assert {"plant/newmark.py", "rt/loop/core.py", "rt/loop/replay.py", "rt/common/config.py", "rt/common/noise.py",
+    assert {"plant/newmark.py", "rt/loop/tick.py", "rt/loop/pacing.py", "rt/loop/replay.py", "rt/common/config.py", "rt/common/noise.py",
             "tracking/laws.py"} <= names
     assert not names & {"rt/cli/app.py", "rt/log/mcap_log.py", "rt/experiments/stepsine.py", "rt/log/writer.py"}
     if os.environ.get("NUMBA_CACHE_DIR"):
@@ -100,6 +100,6 @@ def test_editing_a_kernel_in_a_sub_package_changes_the_cache_key(tmp_path):
     cli = tmp_path / "rt" / "cli" / "main.py"
     cli.write_text(cli.read_text() + "\n# not a kernel\n")
     assert jit_cache.source_hash(tmp_path) == key
-    tick = tmp_path / "rt" / "loop" / "core.py"
+    tick = tmp_path / "rt" / "loop" / "pacing.py"
     tick.write_text(tick.read_text() + "\n# edited kernel\n")
     assert jit_cache.source_hash(tmp_path) != key

@@ -122,7 +122,7 @@ def test_merge_sorts_the_points_of_several_sweeps():
 
 
 def test_loop_at_fn1_is_the_loop_built_for_that_constant_force():
-    from rt.loop.core import build_loop
+    from rt.loop import build_loop
     cfg = load()
     ref = build_loop(with_constant_fn1(cfg, 250.0), "passive")
     got = loop_at_fn1(build_loop(cfg, "passive"), 250.0)

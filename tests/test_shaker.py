@@ -11,7 +11,7 @@ from plant.linear_frf import continuous_accelerance, stuck_model
 from plant.model import build_plant
 from plant.modes import sliding_joint_hz
 from rt.common.config import Config, with_sets
-from rt.loop.core import build_loop, run
+from rt.loop import build_loop, run
 from plant.shaker import coupled_spectral_radius, force_ratio
 from rt.experiments.stepsine import settle_point
 

@@ -12,7 +12,7 @@ from rt.cli import main
 from plant.modes import passive_resonance_hz
 from rt.common.config import load
 from rt.loop.faults import schedule
-from rt.loop.core import build_loop, first_harmonic_amplitude, run, summary
+from rt.loop import build_loop, first_harmonic_amplitude, run, summary
 from rt.loop.supervisor import FAULT_CODES
 
 T, K0 = 0.6, 4200          # run length [s]; faults injected at 0.2 s = tick 4200

@@ -24,7 +24,7 @@ from rt.cli import diagnose as cli_diagnose
 from rt.cli import rig as cli_rig
 from rt.cli.log import add_parsers as add_log_parsers
 from rt.cli.log import cmd_inspect, cmd_recover
-from rt.cli.common import Parser, add_force, add_out, fail, json_errors, refuse_existing
+from rt.cli.common import Parser, add_common, add_force, add_out, fail, json_errors, refuse_existing
 from rt.common.config import ConfigError, dumps, load, to_dict
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
@@ -38,17 +38,6 @@ examples:
   frictionrt bench plant --json"""
 
 
-def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
-    """--config and --set, accepted before or after the subcommand. The subcommands' copies
-    default to SUPPRESS so they never overwrite what was given before the subcommand."""
-    dflt = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
-    p.add_argument("--config", metavar="FILE", default=dflt(None),
-                   help="TOML file overriding the defaults (SPEC values)")
-    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
-                   help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
-                        "(list elements by name); repeatable")
-
-
 def version_text() -> str:
     """frictionrt's version and the log format it writes."""
     from importlib.metadata import version
@@ -59,12 +48,12 @@ def version_text() -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
-    _add_common(common, top=False)
+    add_common(common, top=False)
     ap = Parser(
         prog="frictionrt", epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Real-time emulation of semi-actively controlled friction dampers (Becker & Gaul).")
     ap.add_argument("--version", action="version", version=version_text())
-    _add_common(ap, top=True)
+    add_common(ap, top=True)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     c = sub.add_parser("config", parents=[common], help="print the resolved configuration",
@@ -270,7 +259,7 @@ def _cmd_simulate(cfg, args) -> int:
     from rt.log.data_format import run_test_record
     from rt.loop.faults import schedule, to_json
     from rt.log.design_record import DESIGN_ATTACHMENT, MEDIA_TYPE, design_arrays, to_npz
-    from rt.loop.core import build_loop, check_run_input, initial_loop_state, run, summary
+    from rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
     from rt.log.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
         return fail(f"--seed {args.seed}: must be a non-negative integer")
@@ -384,7 +373,7 @@ def _cmd_compare(cfg, args) -> int:
     from tqdm import tqdm
 
     from rt.experiments.compare import compare, plot, table
-    from rt.loop.core import build_loop, check_run_input
+    from rt.loop import build_loop, check_run_input
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png" or not out.parent.exists():

@@ -4,6 +4,7 @@
   code 2; with ``--json`` the same error is also one JSON object on stdout,
   ``{"error": MSG, "exit": 2}`` (``json_errors`` switches it on for the command line being run;
   ``Parser`` does the same for argparse's own usage errors).
+- Options: ``--config``/``--set`` on every verb (``add_common``), comma-separated lists (``parse_list``).
 - Output: ``-o``/``--out`` names where a verb writes (``add_out``); an existing output is refused
   unless ``--force`` (``add_force``, ``refuse_existing``).
 """
@@ -59,3 +60,26 @@ def refuse_existing(paths, force: bool, option: str = "--out") -> str | None:
         if p.exists():
             return f"{option} {p}: exists; pass --force to replace it, or give another name"
     return None
+
+
+def add_common(p: argparse.ArgumentParser, top: bool) -> None:
+    """--config and --set, accepted before or after the subcommand. The subcommands' copies
+    default to SUPPRESS so they never overwrite what was given before the subcommand."""
+    dflt = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
+    p.add_argument("--config", metavar="FILE", default=dflt(None),
+                   help="TOML file overriding the defaults (SPEC values)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
+                   help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
+                        "(list elements by name); repeatable")
+
+
+def parse_list(text: str, kind, option: str, example: str) -> list:
+    """The comma-separated values of an option (``kind`` each, e.g. float); ValueError naming
+    the option and an example when one is not a number or the list is empty."""
+    try:
+        values = [kind(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: give comma-separated numbers, e.g. {example}") from None
+    if not values:
+        raise ValueError(f"{option} {text!r}: empty list; give at least one value, e.g. {example}")
+    return values

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from rt.common.config import LAWS, Config, dumps
-from rt.cli.common import add_force, add_out, fail, refuse_existing
+from rt.cli.common import add_common, add_force, add_out, fail, parse_list, refuse_existing
 
 DESCRIPTION = """Step-sine accelerance FRF H = a(x = 0.45 m) / F_exc [(m/s^2)/N] of the closed loop, as the
 paper measures it: at each frequency the loop runs in blocks of whole periods, the excitation force
@@ -30,10 +30,9 @@ EXAMPLES = """examples:
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     """Register ``frf`` on an argparse subparsers object; parents default to frictionrt's
     --config/--set parser (so they are accepted after the subcommand too)."""
-    from rt.cli.app import _add_common  # at call time: rt.cli.app imports this module
     if parents is None:
         common = argparse.ArgumentParser(add_help=False)
-        _add_common(common, top=False)
+        add_common(common, top=False)
         parents = [common]
     p = subparsers.add_parser("frf", parents=parents, help="step-sine FRF [(m/s^2)/N] per law and force amplitude",
                               description=DESCRIPTION, epilog=EXAMPLES,
@@ -79,27 +78,17 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     return p
 
 
-def _parse_list(text: str, kind, option: str, example: str) -> list:
-    try:
-        values = [kind(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"{option} {text!r}: give comma-separated numbers, e.g. {example}") from None
-    if not values:
-        raise ValueError(f"{option} {text!r}: empty list; give at least one value, e.g. {example}")
-    return values
-
-
 def _frequencies(cfg: Config, args) -> list[float]:
     """The sweep's frequencies [Hz], in sweep order; ValueError naming the option."""
     from rt.experiments.stepsine import mode_bands_hz, resonance_grid
     nyq = 0.5 / cfg.dt_s
     if args.freqs is not None:
-        freqs = _parse_list(args.freqs, float, "--freqs", "190,195,200")
+        freqs = parse_list(args.freqs, float, "--freqs", "190,195,200")
         for f in freqs:
             if not (math.isfinite(f) and 0.0 < f < nyq):
                 raise ValueError(f"--freqs {f:g} Hz: must lie in (0, {nyq:g}) Hz (below the Nyquist frequency)")
     else:
-        modes = _parse_list(args.around_modes, int, "--around-modes", "2,3,4,5")
+        modes = parse_list(args.around_modes, int, "--around-modes", "2,3,4,5")
         if args.points < 2:
             raise ValueError(f"--points {args.points}: need at least 2 frequencies per mode")
         if not 0.0 < args.half_width < 1.0:
@@ -130,7 +119,8 @@ def _table(r) -> str:
 def cmd_frf(cfg: Config, args) -> int:
     """Run ``frictionrt frf``: validate, sweep every (law, amplitude) in parallel, print or write
     (JSON: dt_s, the resolved configuration as TOML, one ``StepSineResult.to_dict()`` per sweep)."""
-    from rt.experiments.stepsine import Branch, Settle, plot_frfs, run_branches
+    from rt.experiments.branches import Branch, run_branches
+    from rt.experiments.stepsine import Settle, plot_frfs
     for a in args.amp:
         if not (math.isfinite(a) and a > 0.0):
             return fail(f"--amp {a:g} N: an FRF needs a finite force amplitude > 0 N")

@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 from rt.common.config import Config, ConfigError
-from rt.cli.common import add_force, add_out, fail, refuse_existing
+from rt.cli.common import add_force, add_out, fail, parse_list, refuse_existing
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
 each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
@@ -111,7 +111,6 @@ def _write_outputs(res, out: Path) -> None:
 
 
 def cmd_tune(cfg: Config, args) -> int:
-    from rt.cli.frf import _parse_list
     from rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
@@ -127,7 +126,7 @@ def cmd_tune(cfg: Config, args) -> int:
         return fail(f"--jobs {args.jobs}: must be >= 1")
     try:
         grid = parse_grid(args.grid) if args.grid else DEFAULT_GRIDS[args.law]
-        modes = _parse_list(args.modes, int, "--modes", "3,4")
+        modes = parse_list(args.modes, int, "--modes", "3,4")
         res = tune(cfg, args.law, grid, modes, args.amp, points=args.points, half_width_rel=args.half_width,
                    estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs, dask_address=args.dask,
                    progress=not args.json)

@@ -8,6 +8,10 @@ points) are addressed by their ``name`` in ``--set`` keys, e.g.
 
 Each numeric field carries its unit and allowed range in its metadata; ``validate`` refuses
 values outside it with a message that names the key, the value and the range.
+
+Length: the one typed configuration of the project (every physical parameter, gain and
+assumption with its SPEC default, unit and bounds) is kept in one file on purpose, so that a
+reader finds every parameter in one place; the loading and override code is a third of it.
 """
 from __future__ import annotations
 

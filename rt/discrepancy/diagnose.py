@@ -59,7 +59,7 @@ from rt.discrepancy.diagnose_stepsine import prepare as prepare_stepsine
 from rt.discrepancy.diagnose_stepsine import residuals as stepsine_residuals
 from rt.discrepancy.effects import Effect, get, implemented
 from rt.log.mcap_log import read_mcap
-from rt.discrepancy.rig import measure_actuator, quiet, scaled
+from rt.discrepancy.chain import measure_actuator, quiet, scaled
 
 BAND_HZ = (50.0, 1200.0)         # FRF gap band [Hz]
 NAME_THRESHOLD = 10.0            # BIC margin over calibration alone to name an effect
@@ -122,10 +122,6 @@ def load_campaign(folder: str | Path) -> list[Test]:
 
 # --- features (rt.discrepancy.diagnose_structure) ------------------------------------------------------------
 
-def _fn1(t: Test) -> float:
-    return float(np.mean(t.data["F_cell"]))
-
-
 def frf(t: Test, a: np.ndarray):
     """(freq [Hz], H) of accelerance a / F_exc, the force windowed around the hammer pulse, the
     response exponentially (tau = T / 4): rt.discrepancy.diagnose_structure.windowed_frf."""
@@ -149,8 +145,9 @@ def frf_gap_db(t: Test, a_model: np.ndarray) -> float:
     return float(np.sqrt(np.mean((20 * np.log10(np.abs(Hm[sel]) / np.abs(Hs[sel]))) ** 2)))
 
 
-def nrmse(meas: np.ndarray, model: np.ndarray) -> float:
-    """||meas - model|| / ||meas - mean(meas)||."""
+def nrmse_std(meas: np.ndarray, model: np.ndarray) -> float:
+    """||meas - model|| / ||meas - mean(meas)||: the residual normalised by the measurement's
+    variation about its mean (observer.accuracy.nrmse normalises by the truth's rms instead)."""
     return float(np.linalg.norm(meas - model) / np.linalg.norm(meas - np.mean(meas)))
 
 
@@ -158,10 +155,10 @@ def gaps(imp: list[Test], act: list[Test], a_frf: list, aruns: list[dict]) -> di
     """Gap metrics per test and their summaries (mean FRF dB over impulse tests, mean NRMSE)."""
     out = {}
     for t, a in zip(imp, a_frf):
-        out[t.name] = {"frf_db": round(frf_gap_db(t, a), 4), "nrmse_a_frf": round(nrmse(t.data["a_frf_meas"], a), 5)}
+        out[t.name] = {"frf_db": round(frf_gap_db(t, a), 4), "nrmse_a_frf": round(nrmse_std(t.data["a_frf_meas"], a), 5)}
     for t, r in zip(act, aruns):
-        out[t.name] = {"nrmse_F_cell": round(nrmse(t.data["F_cell"], r["F_cell"]), 5),
-                       "nrmse_V_a": round(nrmse(t.data["V_a"], r["V_a"]), 5)}
+        out[t.name] = {"nrmse_F_cell": round(nrmse_std(t.data["F_cell"], r["F_cell"]), 5),
+                       "nrmse_V_a": round(nrmse_std(t.data["V_a"], r["V_a"]), 5)}
     out["structure_frf_db"] = round(float(np.mean([out[t.name]["frf_db"] for t in imp])), 4)
     out["actuator_nrmse"] = round(float(np.mean([out[t.name]["nrmse_F_cell"] for t in act])), 5) if act else None
     return out

@@ -3,7 +3,7 @@ folder of FRF files (rt.log.frf_files: accelerances at several F_N1, CSV or UFF 
 nominal model of any structure (--config) instead of a time-series campaign.
 
 The model of an FRF file is the linear one: the plant with the contact stuck at the test's F_N1,
-its continuous accelerance at the sensors (plant.frf_model.point_accelerances, the linearisation of
+its continuous accelerance at the sensors (plant.linear_frf.point_accelerances, the linearisation of
 plant.linear_frf). It has no friction limit, so mu cannot act: calibration is E, k_t and the
 modal damping (rt.discrepancy.diagnose_structure.CAL: bounds, priors), alone or with each implemented
 structural candidate of rt.discrepancy.effects.
@@ -47,8 +47,8 @@ from rt.discrepancy.diagnose_structure import (
     MAX_SIGMA,
     MODES,
     SENSORS,
-    _bounds,
-    _prior,
+    bounds,
+    prior,
     fit_frequencies,
     gauss_newton_broyden,
     identify_modes,
@@ -57,8 +57,8 @@ from rt.discrepancy.diagnose_structure import (
 )
 from rt.discrepancy.effects import Effect, implemented
 from rt.log.frf_files import FRFTest, frf_files, load_frf_folder
-from plant.frf_model import point_accelerances
-from rt.discrepancy.rig import quiet
+from plant.linear_frf import point_accelerances
+from rt.discrepancy.chain import quiet
 from rt.discrepancy.rig_frf import sensor_points
 
 NOISE_LINES = 31                 # running-median window of the noise estimate [lines]
@@ -166,12 +166,12 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
     step fails)."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
-    lo, hi = _bounds(names, effect)
+    lo, hi = bounds(names, effect)
     steps = np.array([CAL[k][3] if k in CAL else EFFECT_STEP * effect.parameter.default for k in names])
 
     def evaluate(x):
         ch, H = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return (ch, H), np.concatenate([*ch.values(), _prior(names, x)])
+        return (ch, H), np.concatenate([*ch.values(), prior(names, x)])
 
     stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies)
     x = np.clip([stage1.get(k, 1.0) for k in names], lo, hi)
@@ -179,7 +179,7 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     J = None
     if calibrated is not None and effect is not None:
         x_cal = np.array([calibrated.theta.get(k, effect.nominal) for k in names])
-        r_cal = np.concatenate([*calibrated.channels.values(), _prior(names, x_cal)])
+        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal)])
         if r_cal @ r_cal < r @ r:
             x, run, r = x_cal, (calibrated.channels, calibrated.H), r_cal
             J = np.column_stack([calibrated.J[k] for k in names[:-1]]

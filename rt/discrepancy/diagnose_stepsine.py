@@ -50,9 +50,10 @@ import numpy as np
 from rt.common.config import Config, with_sets
 from rt.discrepancy.effects import Effect
 from rt.log.frf_files import FRFTest, frf_files, load_frf_folder
-from rt.discrepancy.rig import quiet
+from rt.discrepancy.chain import quiet
 from plant.shaker import force_ratio
-from rt.experiments.stepsine import Branch, Settle, run_branches
+from rt.experiments.branches import Branch, run_branches
+from rt.experiments.stepsine import Settle
 
 CHANNEL = "stepsine F_amp/drive"
 SIGMA = 0.01             # [-] relative: the floor of sigma_k (a well-conditioned line)

@@ -43,7 +43,7 @@ from plant.impulse import accelerance_frf, identify
 from plant.model import build_plant, preloaded_pairs, stuck_stiffness
 from rt.common.config import Config
 from rt.discrepancy.effects import Effect
-from rt.discrepancy.rig import hold_voltage, measure_impulse, quiet, scaled
+from rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scaled
 
 SENSORS = ("a_frf_meas", "a_tip_meas")
 MODES = (1, 2, 3, 4, 5, 6, 7, 8)        # bending modes whose frequencies start the fit (stage 1)
@@ -175,13 +175,13 @@ def struct_cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
     return cfg
 
 
-def _bounds(names, effect):
+def bounds(names, effect):
     lo = [CAL[k][0] if k in CAL else effect.parameter.lo for k in names]
     hi = [CAL[k][1] if k in CAL else effect.parameter.hi for k in names]
     return np.array(lo), np.array(hi)
 
 
-def _prior(names, x) -> np.ndarray:
+def prior(names, x) -> np.ndarray:
     return np.array([(v - 1.0) / CAL[k][2] for k, v in zip(names, x) if k in CAL])
 
 
@@ -201,9 +201,9 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
         model = build_plant(quiet(struct_cfg(nominal, dict(zip(names, x)), effect)))
         fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
         r = ((meas - fm) / meas / SIGMA_F)[ok]
-        return np.concatenate([r, _prior(names, x)])
+        return np.concatenate([r, prior(names, x)])
 
-    lo, hi = _bounds(names, effect)
+    lo, hi = bounds(names, effect)
     x_scale = [0.01] + ([effect.parameter.default] if effect else [])
     best = None
     starts = [[1.0]] if effect is None else [[1.0, effect.parameter.default]]
@@ -258,18 +258,18 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     start = start if start is not None else fit_frequencies(nominal, data, effect)
     names = ["E", "k_t", "mu", "modal_damping"] + ([effect.name] if effect else [])
     x = np.array([start.get(k, 1.0) for k in names])
-    lo, hi = _bounds(names, effect)
+    lo, hi = bounds(names, effect)
     steps = np.array([CAL[k][3] if k in CAL else EFFECT_STEP * effect.parameter.default for k in names])
 
     def evaluate(x):
         run = run_shape(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return run, np.concatenate([*run.r.values(), _prior(names, x)])
+        return run, np.concatenate([*run.r.values(), prior(names, x)])
 
     run, r = evaluate(x)
     J = None
     if calibrated is not None and effect is not None:
         x_cal = np.array([calibrated.theta.get(k, effect.nominal) for k in names])
-        r_cal = np.concatenate([*calibrated.run.r.values(), _prior(names, x_cal)])
+        r_cal = np.concatenate([*calibrated.run.r.values(), prior(names, x_cal)])
         # the calibration with the effect at its default strength too: an effect even in its strength
         # (micro_slip: the Iwan spread changes the loop by O(a^2)) has no gradient at the nominal
         # strength, and stage 1 cannot see one that leaves the stuck plant alone

@@ -6,7 +6,7 @@ docs/data-format.md "FRF files"), from the same "true" structure as ``rig`` writ
 One test per F_N1 level (default 40, 100, 300 N): the stack holds F_N1 within ``HOLD_REL``
 (relative rms; the sidecar gives the held value, as a lab's load-cell mean); the accelerances of
 both accelerometers are the continuous FRF of the stuck linearised plant at that F_N1
-(plant.linear_frf's model, plant.frf_model.point_accelerances: the physical structure, no time
+(plant.linear_frf's model, plant.linear_frf.point_accelerances: the physical structure, no time
 step), on the lines
 ``FREQ_HZ`` (0.25 Hz from 4 to 1600 Hz, 6385 lines, like an analyser's 6400-line zoom), with
 complex Gaussian noise per line of rms ``NOISE_REL`` |H| (the random error of an H1 estimate with
@@ -30,8 +30,9 @@ from rt.common.config import Config
 from rt.discrepancy.effects import get
 from rt.log.data_format import ACCELEROMETER_POINTS
 from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
-from plant.frf_model import point_accelerances
-from rt.discrepancy.rig import FN1_LEVELS_N, _point, new_folder, true_structure
+from plant.linear_frf import point_accelerances
+from rt.discrepancy.chain import sensor_point
+from rt.discrepancy.rig import FN1_LEVELS_N, new_folder, true_structure
 
 FREQ_HZ = 4.0 + 0.25 * np.arange(6385)   # [Hz] 4 .. 1600 Hz
 NOISE_REL = 0.01                         # complex noise rms relative to |H|
@@ -42,7 +43,7 @@ FORCE_N = 1.0                            # [N] excitation force amplitude (low l
 
 def sensor_points(cfg: Config) -> dict[str, str]:
     """Plant point of each accelerometer of the measurement format."""
-    return {s: _point(cfg, role) for s, role in ACCELEROMETER_POINTS.items()}
+    return {s: sensor_point(cfg, role) for s, role in ACCELEROMETER_POINTS.items()}
 
 
 def frf_meta(cfg: Config, F_N1: float, description: str) -> dict:

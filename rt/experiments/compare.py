@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rt.common.config import LAWS, Config
-from rt.loop.core import Run, build_loop, run, summary
+from rt.loop import Run, build_loop, run, summary
 
 
 def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, progress=None) -> dict[str, Run]:

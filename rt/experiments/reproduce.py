@@ -43,8 +43,9 @@ import numpy as np
 
 from rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db
 from rt.common.config import Config
-from rt.loop.core import Loop, build_loop
-from rt.experiments.stepsine import Branch, Settle, StepSineResult, mode_bands_hz, resonance_grid, run_branches
+from rt.loop import Loop, build_loop
+from rt.experiments.branches import Branch, run_branches
+from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
 # half width of each mode's grid, relative to its centre: modes 3 and 4 slide over a wide band

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rt.common.config import Config, ConfigError, check_key, dumps, with_sets
-from rt.experiments.stepsine import Branch, Settle, StepSineResult, mode_bands_hz, resonance_grid, run_branches
+from rt.experiments.branches import Branch, run_branches
+from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 TUNED_LAWS = ("hysteresis", "lyapunov")
 

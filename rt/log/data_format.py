@@ -8,7 +8,7 @@ per tick at log_time = start_ns + (k 10^9) // rate_hz ns) with the metadata reco
 project's own runs, "frictionrt" (configuration, law, estimator, seed, versions, command line).
 
 ``SIGNALS`` (``rt.log.registry``) is the registry of every signal the format knows.
-tests/test_data_format.py checks it against the loop's own signal list (``rt.loop.core.loop_signals``)
+tests/test_data_format.py checks it against the loop's own signal list (``rt.loop.build.loop_signals``)
 in both directions and checks that the tables of docs/data-format.md are ``signal_table()``,
 ``required_table()`` and ``keys_table()`` verbatim (``python -m rt.log.data_format`` prints them).
 
@@ -28,7 +28,7 @@ import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from rt.log.mcap_log import (MAX_TICK, Topic, _check_framing, _chunk_messages, _iter_messages, file_topics,
+from rt.log.mcap_log import (MAX_TICK, Topic, check_framing, chunk_messages, iter_messages, file_topics,
                          parse_schema, payload_rows, tick_time_ns, ticks_of_times)
 from rt.log.registry import SIGNALS, entry_of, field_type, lower_rule, ros2_field
 
@@ -152,7 +152,7 @@ def _read(path: Path) -> tuple[dict, dict[str, _Topic]]:
     order. ValueError for an unreadable file."""
     if not path.is_file():
         raise ValueError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
-    _check_framing(path)
+    check_framing(path)
     topics: dict[str, _Topic] = {}
     try:
         with open(path, "rb") as f:
@@ -161,8 +161,8 @@ def _read(path: Path) -> tuple[dict, dict[str, _Topic]]:
             summary = reader.get_summary()
             fast = summary is not None and summary.chunk_indexes and \
                 all(ci.compression in ("zstd", "") for ci in summary.chunk_indexes)
-            for (schema, channel), (payloads, times, seqs) in (_chunk_messages(f, summary) if fast
-                                                              else _iter_messages(reader)):
+            for (schema, channel), (payloads, times, seqs) in (chunk_messages(f, summary) if fast
+                                                              else iter_messages(reader)):
                 tp = topics.get(channel.topic)
                 if tp is None:
                     tp = topics[channel.topic] = _Topic(schema, channel, [], [], [])

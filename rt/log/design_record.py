@@ -38,7 +38,7 @@ MEDIA_TYPE = "application/x-npz"
 PARTS = (("plant", "plant.params"), ("actuator", "actuator"), ("sensors", "sensors"), ("oracle", "oracle"),
          ("observer", "observer"), ("prefilter", "prefilter"), ("law", "law_params"),
          ("tracking", "design.params"), ("supervisor", "supervisor"), ("shaker", "shaker"))
-# the initial-state slots of rt.loop.core.LoopState each part owns
+# the initial-state slots of rt.loop.build.LoopState each part owns
 STATE = {"plant": ("xp", "yp"), "actuator": ("xa", "ya"), "sensors": ("xs", "ys"), "oracle": ("xo",),
          "observer": ("xe",), "law": ("xl", "yl"), "prefilter": ("xq",), "tracking": ("xf", "yf"),
          "supervisor": ("sv",), "shaker": ("xsh",)}

@@ -2,7 +2,7 @@
 numpy in blocks. Log format version ``FORMAT_VERSION`` (docs/data-format.md).
 
 A run's log is a float64 array (ticks, n_sig) whose columns are ``signals`` = (name, unit, owner)
-(``rt.loop.core.loop_signals``), named by the paper's symbols. The file holds:
+(``rt.loop.build.loop_signals``), named by the paper's symbols. The file holds:
 
     header     profile "ros2", library "frictionrt"
     topics     /rt /sensors /observer /tracking /actuator /plant (those owning a column), in that
@@ -48,8 +48,12 @@ propagates. Only a killed process leaves a ``.part`` file behind (``frictionrt r
 rt/log/recover.py, salvages its complete chunks).
 
 ``read_mcap`` walks each chunk's records by their length prefixes and gathers the message
-headers and payloads with numpy (``_chunk_messages``; files without chunk indexes go through the
+headers and payloads with numpy (``chunk_messages``; files without chunk indexes go through the
 mcap library's reader), then decodes each topic with one structured view over its payload rows.
+
+Length: the MCAP format both ways (schemas, layout and encoding for the writers, framing
+checks and the chunk reader for the readers) in one file, so that writing and reading cannot
+drift apart; the writer thread is rt/log/writer.py.
 """
 from __future__ import annotations
 
@@ -440,7 +444,7 @@ class McapLog:
         return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
 
 
-def _check_framing(path: Path) -> None:
+def check_framing(path: Path) -> None:
     """ValueError unless the file starts and ends with the MCAP magic."""
     size = path.stat().st_size
     with open(path, "rb") as f:
@@ -580,8 +584,8 @@ def file_topics(meta: dict, schemas: dict[str, object]):
     return version, signals, rate, start, {tp.name: tp for tp in topics}
 
 
-def _iter_messages(reader):
-    """The mcap library's message iteration (any valid MCAP), as ``_chunk_messages`` parts."""
+def iter_messages(reader):
+    """The mcap library's message iteration (any valid MCAP), as ``chunk_messages`` parts."""
     for schema, channel, msg in reader.iter_messages(log_time_order=False):
         yield (schema, channel), ([msg.data], np.array([msg.log_time], np.uint64),
                                   np.array([msg.sequence], np.uint64))
@@ -598,7 +602,7 @@ def _gather(buf: np.ndarray, offsets: np.ndarray, nbytes: int) -> np.ndarray:
     return buf[offsets[:, None] + np.arange(nbytes)]
 
 
-def _chunk_messages(f, summary):
+def chunk_messages(f, summary):
     """Per chunk of a finished file (its summary's chunk indexes), per channel: ((schema,
     channel), (payloads (n, size) uint8, log_times uint64, sequences uint64)).
 
@@ -674,7 +678,7 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
     Topics other than OWNERS' are ignored; a topic of the "signals" record may be absent (its
     columns come back NaN, ``McapLog.topics`` lists the present ones)."""
     path = Path(path)
-    _check_framing(path)
+    check_framing(path)
     try:
         with open(path, "rb") as f:
             reader = make_reader(f, validate_crcs=True)
@@ -682,7 +686,7 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
             summary = reader.get_summary()
             fast = summary is not None and summary.chunk_indexes and \
                 all(ci.compression in ("zstd", "") for ci in summary.chunk_indexes)
-            parts = _chunk_messages(f, summary) if fast else _iter_messages(reader)
+            parts = chunk_messages(f, summary) if fast else iter_messages(reader)
             known = {"/" + o for o in OWNERS}
             data: dict[str, tuple[list, list, list]] = {}
             schemas: dict[str, object] = {}

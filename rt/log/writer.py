@@ -1,6 +1,6 @@
 """The log writer of a run: a thread that drains the loop's log in blocks to MCAP and .rrd.
 
-The loop (``rt.loop.core.run``) writes tick k into row (k - k0) mod R of its log and then
+The loop (``rt.loop.driver.run``) writes tick k into row (k - k0) mod R of its log and then
 increments ``clk[CLK_TICKS]``; ticks below k0 + that counter are complete. The writer thread
 (``LogWriter``, started by ``run(..., writer=...)``) polls the counter every ``POLL_S``, copies
 complete rows out in blocks of ``block_ticks`` (default 2100 ticks = 0.1 s simulated), folds
@@ -19,7 +19,7 @@ writer sets ``clk[CLK_WRITTEN]`` to the tick after it (the rows before may be ov
   (nogil, re-reading the count around a clock call) while k - ``clk[CLK_WRITTEN]`` >= R, so an
   offline run proceeds at the writer's pace once it is R ticks ahead; when the loop is done the
   writer writes the rest before ``finish()`` returns. A writer that stops (an error, the end of
-  its thread) sets the count to ``rt.loop.core.NO_WAIT`` so that the loop never waits for it again.
+  its thread) sets the count to ``rt.common.clock.NO_WAIT`` so that the loop never waits for it again.
 - paced: a real-time loop never waits. Row i is overwritten once the loop has begun tick
   i + R; a block whose first row is (the loop's count - i >= R, or R + 1 once the loop has
   ended) is skipped and counted (``dropped_blocks``), checked before copying and again after the
@@ -63,6 +63,10 @@ simulated second (docs/loop.md, "Logging and replay"). Schema and channel record
 in the data section before the first chunk (valid MCAP; McapLogWriter puts them inside the
 first chunk) and repeated in the summary. The file's bytes do not depend on how the ticks
 were split into blocks (chunks hold a fixed number of ticks).
+
+Length: the writer thread, its ring protocol with the loop (the CLK_WRITTEN handshake), the
+crash-safe finishing and the run's metadata belong together; about 30 lines over the ~500 line
+guide.
 """
 from __future__ import annotations
 
@@ -343,7 +347,7 @@ class LogWriter:
         ``frictionrt.writer`` (dropped blocks, block and ring size, ticks written, ticks left
         unwritten after a Ctrl-C).
 
-    ``rt.loop.core.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced)`` before the loop and
+    ``rt.loop.driver.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced)`` before the loop and
     ``w.finish()`` after it in every case; ``finish()`` is idempotent and also closes the sinks
     of a writer that never started.
     """
@@ -385,7 +389,7 @@ class LogWriter:
         close the sinks, join the thread. After a Ctrl-C (the loop's stop flag, or one during
         this call, which it absorbs) at most ``INTERRUPT_DRAIN_S`` more of writing. Errors are
         kept in ``error``."""
-        from rt.loop.core import CLK_STOP
+        from rt.common.clock import CLK_STOP
         if self._thread is None:
             self._close()
             return
@@ -404,7 +408,7 @@ class LogWriter:
 
     # --- the thread ------------------------------------------------------------------------
     def _main(self) -> None:
-        from rt.loop.core import CLK_TICKS
+        from rt.common.clock import CLK_TICKS
         try:
             if self._paced and WRITER_NICE:  # on a shared core the scheduler prefers the loop
                 os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WRITER_NICE)
@@ -419,14 +423,14 @@ class LogWriter:
         except BaseException as exc:  # kept for the caller; the loop is never disturbed
             self.error = exc
         finally:
-            from rt.loop.core import CLK_WRITTEN, NO_WAIT
+            from rt.common.clock import CLK_WRITTEN, NO_WAIT
             self._clk[CLK_WRITTEN] = NO_WAIT   # an offline loop must not wait for a writer that stopped
             self._close()
 
     def _step(self, done: int, final: bool) -> bool:
         """Drop the blocks the loop has overwritten (paced), then take one block out of the
         ring, fold it into the digest and write it, if there is one (none once aborted)."""
-        from rt.loop.core import CLK_TICKS, CLK_WRITTEN
+        from rt.common.clock import CLK_TICKS, CLK_WRITTEN
         if self._abort.is_set():
             return False
         ring = len(self._log)

@@ -149,7 +149,8 @@ def bench_loop(cfg: Config, law: str = "lyapunov", n_steps: int = 21000, n_pc: i
     import control
 
     from rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
-    from rt.loop.core import build_loop, run
+    from rt.loop.build import build_loop
+    from rt.loop.driver import run
     loop = build_loop(cfg, law)
     run(loop, EXC_FREQ_HZ, EXC_AMP_N, 0.01)
     total = _stats_us(run(loop, EXC_FREQ_HZ, EXC_AMP_N, n_steps * cfg.dt_s).signal("tick_ns"))

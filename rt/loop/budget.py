@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from rt.common.config import Config
-from rt.loop.core import COMPONENTS, build_loop, run
+from rt.loop.build import COMPONENTS, build_loop
+from rt.loop.driver import run
 
 EXC_FREQ_HZ, EXC_AMP_N = 223.6, 5.0  # mode-3 resonance, moderate amplitude: stick-slip every cycle
 

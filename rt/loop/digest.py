@@ -1,6 +1,6 @@
 """Whole-run figures of a ring run, folded block by block as the writer takes rows out of the ring.
 
-A run with a ring (``rt.loop.core.run``) keeps only its last R ticks in memory, but ``rt.loop.core.summary``
+A run with a ring (``rt.loop.driver.run``) keeps only its last R ticks in memory, but ``rt.loop.results.summary``
 reports some figures over the whole run. The writer (``rt.log.writer.LogWriter``) hands every block
 it copies out of the ring to ``RunDigest.add``, which keeps, exactly and in memory independent of
 the run's length (but for the number of distinct values and changes):
@@ -26,7 +26,7 @@ STEP_SIGNALS = ("fault_latched", "fault_code", "passive")  # piecewise-constant 
 
 
 class RunDigest:
-    """Folds blocks of a run's log (columns in ``signals`` order, ``rt.loop.core.loop_signals``)."""
+    """Folds blocks of a run's log (columns in ``signals`` order, ``rt.loop.build.loop_signals``)."""
 
     def __init__(self, signals):
         names = [n for n, _, _ in signals]

@@ -3,7 +3,7 @@
 ``replay(path)`` reads an MCAP log (``rt.log.mcap_log.read_mcap``), rebuilds the loop from the
 configuration TOML, law and estimator in its "frictionrt" metadata record (``build_loop``),
 starts every controller state as a run does (``initial_loop_state``) and feeds, tick by tick,
-what the controller read at that tick in the loop (``rt.loop.core._run_ticks``, stage 1 onward):
+what the controller read at that tick in the loop (``rt.loop.tick._run_ticks``, stage 1 onward):
 
     sensors     row k of /sensors (a_tip_meas, a_frf_meas, v_tip_meas, F_strain, F_cell): the
                 loop logs the readings its sensor stage produced at tick k and the controller
@@ -12,7 +12,7 @@ what the controller read at that tick in the loop (``rt.loop.core._run_ticks``, 
                 previous tick are what the oracle reads at tick k; before the first tick the
                 rest state's, zero); only when the estimator was the oracle
     estimator -> law -> supervisor -> prefilter -> force tracking: the loop's own controller
-                tick (``rt.loop.core._controller_tick``, ``_replay_ticks``), with the run's fault
+                tick (``rt.loop.tick._controller_tick``, ``_replay_ticks``), with the run's fault
                 schedule (metadata "faults": the observer-stage faults act here; the sensor
                 faults are in the recorded readings) and its overruns (paced runs: tick_ns +
                 late_ns of the tick before)
@@ -34,12 +34,13 @@ import numba
 import numpy as np
 
 from observer.step import OBSERVER_OUTPUTS
-from rt.common.clock import _now_ns
 from rt.common.config import ConfigError, load, loads
 from rt.log.design_record import use_logged
 from rt.loop.faults import from_json
-from rt.loop.core import (CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, ESTIMATORS, _controller_tick, _copy, _put,
-                     build_loop, initial_loop_state)
+from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
+from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
+from rt.loop.pacing import _next_deadline, _wait_for_deadline
+from rt.loop.tick import _controller_tick, _copy, _put
 from rt.log.mcap_log import read_mcap
 from plant.sensors import SENSOR_OUTPUTS
 from rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
@@ -53,29 +54,25 @@ SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
-def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, paced, period_ns, clk, ts, yc,
-                  xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p,
-                  xl, xl_n, yl, ul, law_p,
-                  sv, ysv, sv_p,
-                  xq, xq_n, yq, uq, pre_p,
-                  xf, xf_n, yf, uf, ft_p):
-    """The loop's controller tick (``rt.loop.core._controller_tick``: estimator, law, supervisor,
+def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, yc, est, law, sup, trk):
+    """The loop's controller tick (``rt.loop.tick._controller_tick``: estimator, law, supervisor,
     force tracking) for the ticks ks: sens[i] the sensor readings (``SENSOR_OUTPUTS`` order),
     uv[i] the plant's (u_rel, v_rel) the oracle reads at tick ks[i], overran[i] whether the
     tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the
     law's, the prefilter's, the force tracking's and the supervisor's outputs (``COMMANDED``
-    order). Paced: absolute deadlines as in the loop."""
-    est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p)
-    law = (xl, xl_n, yl, ul, law_p)
-    sup = (sv, ysv, sv_p)
-    trk = (xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p)
+    order). pace = (paced, period_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
+    takes them. Paced: the loop's deadlines (rt/loop/pacing.py)."""
+    paced, period_ns, clk, ts = pace
+    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
+    xl, xl_n, yl, ul, law_p = law
+    sv, ysv, sv_p = sup
+    xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
     for i in range(ks.shape[0]):
         if clk[CLK_STOP]:
             break
         k = ks[i]
         if paced:
-            while _now_ns(ts) < clk[CLK_DEADLINE]:
-                pass
+            _wait_for_deadline(clk, ts)
         sv[S_OVERRAN] = overran[i]
         _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
         c = _put(out, i, 0, ye)
@@ -92,12 +89,7 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, paced,
         _copy(xf_n, xf)
         clk[CLK_TICKS] += 1
         if paced:
-            clk[CLK_DEADLINE] += period_ns
-            t_end = _now_ns(ts)
-            if t_end > clk[CLK_DEADLINE]:
-                missed = (t_end - clk[CLK_DEADLINE]) // period_ns + 1
-                clk[CLK_OVERRUNS] += missed
-                clk[CLK_DEADLINE] += missed * period_ns
+            _next_deadline(clk, period_ns, _now_ns(ts))
 
 
 def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
@@ -112,7 +104,7 @@ def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
         raise ValueError(f"{path}: {exc}") from None
 
 
-def _seed_of(path: Path, meta: dict[str, str], cfg) -> int:
+def seed_of(path: Path, meta: dict[str, str], cfg) -> int:
     """The sensor-noise seed stored in the log (``rt.seed`` if none): a non-negative 64-bit
     integer, ValueError naming the file otherwise."""
     text = meta.get("seed")
@@ -190,7 +182,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     if not np.all(np.isfinite(sens)):
         bad = int(rec.k[~np.all(np.isfinite(sens), axis=1)][0])
         raise ValueError(f"{path}: /sensors has missing or non-finite readings (first at tick {bad})")
-    st = initial_loop_state(loop, _seed_of(path, meta, cfg))
+    st = initial_loop_state(loop, seed_of(path, meta, cfg))
     loop, st, design = use_logged(path, loop, st, sets, meta=meta)
     n = len(rec.k)
     uv = np.zeros((n, 2))
@@ -213,23 +205,23 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
         raise ValueError(f"{path}: the stored faults are unreadable ({exc})") from None
     errors: list[BaseException] = []
 
-    states = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
-              st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer,
-              st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params,
-              st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor,
-              st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
-              st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
-    fixed = (force_col, estimator == "observer", faults, paced, period_ns, clk, np.zeros(2, np.int64),
-             np.empty(len(SENSORS)))
-    _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed, *states)  # compile or load: not timed
+    est = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
+           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
+    law_ = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
+    sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
+    trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
+           st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+    fixed = (force_col, estimator == "observer", faults, (paced, period_ns, clk, np.zeros(2, np.int64)),
+             np.empty(len(SENSORS)), est, law_, sup, trk)
+    _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed)  # compile or load: not timed
 
     def worker():
         try:
-            _replay_ticks(rec.k, sens, uv, overran, out, *fixed, *states)
+            _replay_ticks(rec.k, sens, uv, overran, out, *fixed)
         except BaseException as exc:
             errors.append(exc)
 
-    # as rt.loop.core.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
+    # as rt.loop.driver.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
     t0 = time.perf_counter()
     clk[CLK_DEADLINE] = _now_ns(np.zeros(2, np.int64)) + period_ns
     thread = threading.Thread(target=worker, name="frictionrt-replay", daemon=True)

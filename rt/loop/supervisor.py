@@ -2,7 +2,7 @@
 controller.
 
 Every tick, after the estimator and the law and before the force tracking
-(``rt.loop.core._controller_tick``), ``_supervise`` checks, in this order (the first failing check
+(``rt.loop.tick._controller_tick``), ``_supervise`` checks, in this order (the first failing check
 gives the tick's ``fault_code``):
 
     1 sensor_nonfinite     a reading (a_tip_meas, a_frf_meas, F_strain, F_cell) is NaN or Inf
