@@ -97,7 +97,7 @@ def test_editing_a_kernel_in_a_sub_package_changes_the_cache_key(tmp_path):
         shutil.copytree(jit_cache.ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     key = jit_cache.source_hash(tmp_path)
     assert key == jit_cache.source_hash()
-    cli = tmp_path / "rt" / "cli" / "main.py"
+    cli = tmp_path / "rt" / "cli" / "app.py"
     cli.write_text(cli.read_text() + "\n# not a kernel\n")
     assert jit_cache.source_hash(tmp_path) == key
     tick = tmp_path / "rt" / "loop" / "pacing.py"
