@@ -8,7 +8,7 @@ by Mindlin's ratio for steel, k_t = 2 (1 - nu) / (2 - nu) k_n = 0.82 k_n, the on
 k_n per pair: the script runs the simulated hammer test (plant.impulse, 50 N) on a log grid of
 k_n, interpolates log k_n at the target frequency and checks the result by one more test. Nothing
 the model is then to predict (the claims C2..C6, the laws' reductions, the Jenkins parameters at
-the adaptive screw) enters. The printed value is rt/config.py's default.
+the adaptive screw) enters. The printed value is rt/common/config.py's default.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from plant.impulse import impulse_test
 from plant.model import build_plant
-from rt.config import load
+from rt.common.config import load
 
 MINDLIN = 2 * (1 - 0.3) / (2 - 0.3)   # k_t / k_n for nu = 0.3
 F_N1 = 100.0

@@ -11,7 +11,7 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from rt.config import load
+from rt.common.config import load
 from rt.loop import build_loop, run, summary
 
 LAWS = ("passive", "hysteresis", "lyapunov")

@@ -1,5 +1,5 @@
 """Confusion table of the discrepancy workflow (docs/discrepancy.md): for every implemented effect
-of rt.effects at its moderate (default) strength and at half of it (half its departure from the
+of rt.discrepancy.effects at its moderate (default) strength and at half of it (half its departure from the
 nominal value: current_limit 1 A -> 0.65 A), and for no effect, a rig campaign (seed SEED) is
 diagnosed; printed as a markdown table (hidden effect, strength, named effect, fitted strength and
 its error, dBIC and RSS reduction of the best candidate, runner-up, structure FRF gap and actuator
@@ -21,9 +21,9 @@ from pathlib import Path
 
 from joblib import Parallel, delayed
 
-from rt.diagnose import diagnose
-from rt.effects import get, implemented
-from rt.rig import make_campaign
+from rt.discrepancy.diagnose import diagnose
+from rt.discrepancy.effects import get, implemented
+from rt.discrepancy.rig import make_campaign
 
 
 def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool) -> tuple[dict, float]:

@@ -19,7 +19,7 @@ import json
 import numpy as np
 
 from plant.structure import adaptive_cone_pairs
-from rt.config import load
+from rt.common.config import load
 from rt.loop import build_loop, run
 
 
@@ -57,7 +57,7 @@ def fit(cfg, F_N1: float, amp: float, freq: float) -> dict:
 
 
 def main(argv=None) -> int:
-    from rt.config import with_sets
+    from rt.common.config import with_sets
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--freq", type=float, required=True, help="excitation frequency [Hz] (a resonance)")
     ap.add_argument("--forces", type=float, nargs="+", default=[40.0, 100.0, 300.0])

@@ -13,7 +13,7 @@ from pathlib import Path
 
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
-from rt.config import load  # noqa: E402
+from rt.common.config import load  # noqa: E402
 from rt.loop import build_loop, run, summary  # noqa: E402
 
 MODES_HZ = {2: 70.0, 3: 196.0, 4: 370.0, 5: 608.0}

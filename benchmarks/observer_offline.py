@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     from observer.kalman import design_observer  # after the sys.path fix above
     from observer.offline import compare_on_run
-    from rt.config import load
+    from rt.common.config import load
     from rt.loop import build_loop, run
 
     cfg = load()

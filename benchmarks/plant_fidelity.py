@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from rt.config import load
+from rt.common.config import load
 from rt.loop import build_loop, run
 
 HARMONICS = 10      # the excitation frequency and its first 9 harmonics

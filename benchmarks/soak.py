@@ -11,7 +11,7 @@ JSON summary and from the files themselves:
 * timing: overruns, and the lateness of each tick's start against its deadline (the logged
   /rt.late_ns) as p50 / p99 / p99.9 / max [us], read chunk by chunk;
 * logging: dropped log blocks, unwritten ticks, file sizes;
-* readability: the MCAP's summary and every chunk decoded (rt.mcap_log's chunk walker, one chunk
+* readability: the MCAP's summary and every chunk decoded (rt.log.mcap_log's chunk walker, one chunk
   in memory at a time: a 10-minute log is ~8 GB), ticks strictly increasing and every value finite.
 
 Run it on a quiet machine: the paced loop shares two cores with the log writer.
@@ -41,7 +41,7 @@ def _scan_mcap(path: Path) -> dict:
     """Chunk-by-chunk check of a (large) run log: ticks increasing, values finite, late_ns stats."""
     from mcap.reader import make_reader
 
-    from rt.mcap_log import _chunk_messages, file_topics, payload_rows
+    from rt.log.mcap_log import chunk_messages, file_topics, payload_rows
     late, n_msgs, last_k, bad_ticks, nonfinite = [], 0, {}, 0, 0
     with open(path, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
@@ -49,7 +49,7 @@ def _scan_mcap(path: Path) -> dict:
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
         _, signals, _, _, topics = file_topics(meta, {})
         late_col = next(i for i, (n, _, _) in enumerate(signals) if n == "late_ns")
-        for (_, channel), (payloads, times, seqs) in _chunk_messages(f, summary):
+        for (_, channel), (payloads, times, seqs) in chunk_messages(f, summary):
             tp = topics[channel.topic]
             k, _, vals = tp.decode(payload_rows(path, tp, [payloads]))
             n_msgs += len(vals)

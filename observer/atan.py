@@ -6,7 +6,7 @@ atan, and glibc picks an FMA-compiled variant of it on CPUs that have FMA: the s
 can give a result one unit in the last place apart on two machines (measured here with
 ``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA``: a replay 8.9e-16 off at tick 789). This is the
 Sun/FreeBSD algorithm (error < 1 ulp) in plain IEEE double arithmetic without fastmath, so on the
-generic x86-64 target (rt/codegen.py) it computes the same bits everywhere.
+generic x86-64 target (rt/common/codegen.py) it computes the same bits everywhere.
 
     |x| < 7/16                 atan(x) = x - x (s1 + s2)            (odd polynomial in x^2)
     7/16 .. 11/16 .. 19/16 .. 39/16 .. 2^66

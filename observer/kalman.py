@@ -35,7 +35,7 @@ import numpy as np
 from scipy.signal import cont2discrete
 
 from observer.model import ObserverModel, build_observer_model
-from rt.config import Config
+from rt.common.config import Config
 
 
 class ObserverParams(NamedTuple):

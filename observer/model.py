@@ -40,7 +40,7 @@ import scipy.linalg as sla
 
 from plant.model import PlantModel, build_plant, preloaded_pairs
 from plant.structure import build_structure, interface_rows
-from rt.config import Config
+from rt.common.config import Config
 
 
 @dataclass(frozen=True)

@@ -256,7 +256,7 @@ def fundamental_error(x_hat: np.ndarray, x_true: np.ndarray, freq_hz: float, dt:
 
 def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, design: ObserverDesign | None = None,
                    progress: bool | None = None) -> dict:
-    """NRMSE of v_rel and u_rel on a closed-loop Run (``rt.loop.run``) for
+    """NRMSE of v_rel and u_rel on a closed-loop Run (``rt.loop.driver.run``) for
 
     * ``rt``: the real-time observer's logged estimates (``v_rel_hat``, ``u_rel_hat``; needs a
       run with ``--estimator observer``),
@@ -270,11 +270,11 @@ def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, desig
 
     Two alignments of the truth:
 
-    * ``v_rel_nrmse``, ``u_rel_nrmse``: row by row, as ``rt.loop.summary`` reports the estimation
+    * ``v_rel_nrmse``, ``u_rel_nrmse``: row by row, as ``rt.loop.results.summary`` reports the estimation
       error (comparable with ``frictionrt simulate``);
     * ``v_rel_nrmse_aligned``, ``u_rel_nrmse_aligned``: at the same instant. Row k of a run's
       log holds the estimates at t_k but the plant's outputs after its step, at t_k+1
-      (``rt.loop``, ``plant.newmark._plant_step``): the estimate of row k+1 is compared with
+      (``rt.loop.tick``, ``plant.newmark._plant_step``): the estimate of row k+1 is compared with
       the truth of row k. The row-by-row figures carry one tick of lag (3.4 deg at 196 Hz,
       6.5 deg at 378 Hz): a perfect estimate of a sine would show 2 sin(pi f dt) (0.06 at
       196 Hz, 0.11 at 378 Hz).

@@ -1,2 +1,25 @@
-"""Plant: FE beams, contact and friction, Craig-Bampton, Newmark/Newton step (frictionrt)."""
-import rt  # noqa: F401  (sets numba's source-keyed cache directory before any kernel compiles)
+"""Plant: FE beams, contact and friction, Craig-Bampton, Newmark/Newton step, the piezo stack, the
+sensors and the shaker (frictionrt).
+
+Modules: ``fe_beam``, ``structure`` (the assembly, bolts and contact pairs), ``bolts`` (VDI 2230
+cone), ``contact`` (Jenkins pairs), ``craig_bampton``, ``model`` (``build_plant``), ``newmark``
+(the step kernel), ``simulate``, ``energy``, ``modes``, ``impulse``, ``linear_frf`` (the stuck
+linear reference), ``actuator``, ``sensors``, ``shaker``. A leading underscore marks a compiled
+kernel (``_plant_step``): kernels are imported from their modules. The names below are imported
+on first use (rt/common/face.py).
+"""
+import rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)
+from rt.common.face import lazy_face  # noqa: E402
+
+_EXPORTS = {
+    "PlantModel": "plant.model", "build_plant": "plant.model", "preloaded_pairs": "plant.model", "stuck_frequencies_hz": "plant.model", "stuck_stiffness": "plant.model",
+    "build_structure": "plant.structure",
+    "impulse_test": "plant.impulse",
+    "modes_summary": "plant.modes", "passive_resonance_hz": "plant.modes", "sliding_joint_hz": "plant.modes",
+    "stuck_model": "plant.linear_frf", "point_accelerances": "plant.linear_frf",
+    "build_actuator": "plant.actuator",
+    "build_sensors": "plant.sensors",
+    "build_shaker": "plant.shaker",
+}
+__all__ = list(_EXPORTS)
+__getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

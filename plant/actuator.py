@@ -55,9 +55,9 @@ long), so runs at constant V stay at rest. c = 0 builds the 7-state chain: runs 
 The bolt force sensors' analog parts (w_s = 2 pi sensors.strain_bandwidth_hz, w_c = 2 pi
 sensors.cell_bandwidth_hz) are integrated here, with the stack, because F_N1(t) is only known
 inside this continuous integration: filtering the 21 kHz samples of F_N1 afterwards (as
-rt.sensors does when given F_N1) misses the stack's 7.1 kHz ringing between samples (0.6-0.7 N
+plant.sensors does when given F_N1) misses the stack's 7.1 kHz ringing between samples (0.6-0.7 N
 rms error on a 230 Hz bang-bang command through a 1 kHz setpoint filter, against a 0.05 N cell
-noise). rt.sensors adds noise and the ADC to F_strain_a and F_cell_a.
+noise). plant.sensors adds noise and the ADC to F_strain_a and F_cell_a.
 
 Discretisation (design time, exact). The 30 kHz corner lies above the controller's Nyquist
 frequency (10.5 kHz), so the filter is never a discrete 21 kHz filter: the whole chain is
@@ -91,6 +91,10 @@ substep. |P| and not P: the amplifier is linear (not regenerative), so the charg
 out of the stack is burnt in its output stage instead of recovered; integral P dt would only be
 the change of the stored energy C V_a^2 / 2 and vanish over a cycle, hiding the control effort
 (SPEC claim C6 compares the actuator power of the two laws).
+
+Length: the actuator chain (DAC, low-pass, amplifier, piezo stack with hysteresis and creep,
+the bolt force sensors) is one compiled step over one state vector, with its design and its
+equations' derivations in the docstrings; each stage is a short inlined kernel here.
 """
 from __future__ import annotations
 
@@ -102,7 +106,7 @@ import numba
 import numpy as np
 import scipy.linalg as sla
 
-from rt.config import Config
+from rt.common.config import Config
 
 # Substeps per controller step and fine substeps per regime change (module docstring). The
 # linear, slewing and held regimes are exact at any n_sub; n_sub and N_FINE set how finely the
@@ -138,7 +142,7 @@ ACTUATOR_OUTPUTS = (("F_stack", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V")
 screw's force F0 + k_screw x with the beams' separation at zero, the input of the plant's bolt,
 which adds k (g - g_ref): plant output F_N1, docs/plant.md 1.4; V_dac: held over
 [t_k, t_{k+1}); i, P: means over the last substep; F_strain_a, F_cell_a: the force sensors'
-analog outputs, before their noise and ADC in ``rt.sensors``)."""
+analog outputs, before their noise and ADC in ``plant.sensors``)."""
 
 N_STATE = 7  # continuous states without creep (all slots but E, h, q_j)
 Q0 = 9       # slot of q_0

@@ -18,8 +18,8 @@ from plant.contact import _jenkins_pair
 from plant.craig_bampton import craig_bampton
 from plant.newmark import N_ENERGY, PlantParams, PlantWork, _plant_step
 from plant.structure import Structure, build_structure
-from rt.codegen import check as check_codegen
-from rt.config import Config
+from rt.common.codegen import check as check_codegen
+from rt.common.config import Config
 
 RIGID_BODY_RAD_S = 2 * np.pi * 0.1  # below 0.1 Hz a substructure mode is a rigid-body mode
 
@@ -126,7 +126,7 @@ def _modal_basis(K: np.ndarray, M: np.ndarray, T: np.ndarray) -> tuple[np.ndarra
 
 def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``)."""
-    check_codegen()  # the kernels' fixed code-generation target (rt/codegen.py)
+    check_codegen()  # the kernels' fixed code-generation target (rt/common/codegen.py)
     reduced = cfg.plant.reduced if reduced is None else reduced
     st = build_structure(cfg)
     T = sla.block_diag(*[craig_bampton(sub.K, sub.M, sub.boundary, cfg.plant.cb_cutoff_hz)[0] if reduced

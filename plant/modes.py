@@ -7,7 +7,7 @@ import scipy.linalg as sla
 from plant.fe_beam import U, W
 from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.structure import adaptive_cone_pairs
-from rt.config import Config
+from rt.common.config import Config
 
 N_BARE = 6  # bending modes of the bare cantilever reported
 

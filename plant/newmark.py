@@ -33,6 +33,10 @@ work over a step is F * (b . dq).
 State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), sliders w (p N:
 N = 1 Jenkins element per pair, or the N elements of an Iwan element, pair-major),
 gaps g (2p), then E_fric, E_damp, W_exc, W_screw [J].
+
+Length: the plant's step kernel and the contact solve it inlines (Newton, the fallback split,
+the substeps) are one unit of numerics compiled together; splitting them would only move the
+inlined helpers away from the one function that uses them.
 """
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from plant.model import PlantModel
 from plant.newmark import _plant_step
-from rt.clock import _now_ns
+from rt.common.clock import _now_ns
 
 
 @numba.njit(cache=True, nogil=True)

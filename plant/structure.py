@@ -15,7 +15,7 @@ import numpy as np
 
 from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, mesh_nodes
-from rt.config import Beam, Config
+from rt.common.config import Beam, Config
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,16 @@
-"""Real-time loop, configuration, CLI, timing (frictionrt)."""
-from rt.codegen import configure as _configure_codegen
+"""frictionrt's real-time side: the loop, logging, experiments, the discrepancy workflow, the CLI.
 
-_configure_codegen()  # before numba is imported: the kernels' fixed code-generation target (rt/codegen.py)
+The rooms (docs/architecture in README.md, "Layout"), each a sub-package whose ``__init__``
+lists what the others may use:
 
-from rt.jit_cache import configure as _configure_jit_cache  # noqa: E402  (imports numba)
+- ``rt.common``: configuration, clock slots, noise, the kernels' code generation and cache
+- ``rt.log``: MCAP / rrd logs, the writer thread, the measurement format, FRF files
+- ``rt.loop``: the fixed-step loop (build, tick, pacing, driver), supervisor, replay, budget
+- ``rt.experiments``: step-sine FRFs, the paper's reproduction and claims, tuning
+- ``rt.discrepancy``: the virtual rig and the diagnosis
+- ``rt.cli``: the ``frictionrt`` command, one module per verb
 
-_configure_jit_cache()
+Importing any of them first runs ``rt.common`` (numba's target and cache directory are set
+before a kernel compiles).
+"""
+import rt.common  # noqa: F401

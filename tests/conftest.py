@@ -2,7 +2,7 @@
 import pytest
 
 from plant.model import build_plant
-from rt.config import load
+from rt.common.config import load
 
 
 @pytest.fixture(scope="session")

@@ -29,7 +29,7 @@ from plant.actuator import (
     run_actuator,
     stack_constants,
 )
-from rt.config import load
+from rt.common.config import load
 
 RTOL = 1e-12   # kernel vs NumPy reference, relative to each quantity's scale
 OUT = output_index()
@@ -629,7 +629,7 @@ def test_actuator_step_does_not_allocate():
     assert_no_allocation_per_step("""
         import numba, numpy as np
         from plant.actuator import _actuator_step, build_actuator, initial_state
-        from rt.config import load
+        from rt.common.config import load
 
         @numba.njit
         def many(x, xn, V, p, y, u):
@@ -654,7 +654,7 @@ def test_step_time(p):
     # docs/actuator_sensors.md
     import numba
 
-    from rt.clock import _now_ns
+    from rt.common.clock import _now_ns
 
     @numba.njit
     def timed(x, xn, V, p, y, u, ns, ts):

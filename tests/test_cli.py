@@ -95,14 +95,14 @@ def test_help_gives_units():
 
 
 def test_version_names_the_log_format(capsys):
-    from rt.mcap_log import FORMAT_VERSION
+    from rt.log.mcap_log import FORMAT_VERSION
     with pytest.raises(SystemExit) as e:
         main(["--version"])
     assert e.value.code == 0 and capsys.readouterr().out.strip().endswith(f"(log format {FORMAT_VERSION})")
 
 
 def test_every_writing_verb_takes_o_for_out_and_force_where_it_replaces():
-    from rt.cli import build_parser
+    from rt.cli.app import build_parser
     sub = next(a for a in build_parser()._actions if a.dest == "command").choices
     writers = {name: p for name, p in sub.items() if any("--out" in a.option_strings for a in p._actions)}
     assert set(writers) == {"simulate", "frf", "reproduce", "tune", "rig", "diagnose", "recover", "inspect"}

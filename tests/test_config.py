@@ -4,7 +4,7 @@ import tomllib
 
 import pytest
 
-from rt.config import ConfigError, dumps, load, to_dict
+from rt.common.config import ConfigError, dumps, load, to_dict
 
 
 def test_defaults_are_the_spec_values():

@@ -9,7 +9,7 @@ from plant.contact import _jenkins_pair, _stribeck_mu
 from plant.energy import balance
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from rt.config import load
+from rt.common.config import load
 
 S, V_S, MU_K = 0.3, 1e-3, 0.4
 

@@ -1,4 +1,4 @@
-"""The measurement format (rt.data_format, docs/data-format.md, frictionrt validate): the registry
+"""The measurement format (rt.log.data_format, docs/data-format.md, frictionrt validate): the registry
 agrees with the loop's signals in both directions, the doc's tables are the generated ones, the
 project's logs validate clean with their test record, and crafted files with one defect each are
 named (topic/field/metadata and kind); unreadable files exit 2."""
@@ -11,11 +11,11 @@ import pytest
 from mcap.writer import CompressionType, Writer
 
 from rt.cli import main
-from rt.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_table, signal_table,
+from rt.log.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_table, signal_table,
                             keys_table, validate)
 from rt.loop import loop_signals
-from rt.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
-from rt.registry import field_type, ros2_field
+from rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
+from rt.log.registry import field_type, ros2_field
 from tracking.force_tracking import design_force_tracking
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
@@ -46,7 +46,7 @@ def test_registry_matches_the_loop_signals_both_ways(reduced):
     sig = loop_signals(reduced)
     for name, unit, owner in sig:  # every logged signal is documented, with its unit
         e = entry_of(owner, name)
-        assert e is not None, f"/{owner}.{name} is not in rt.data_format.SIGNALS"
+        assert e is not None, f"/{owner}.{name} is not in rt.log.data_format.SIGNALS"
         assert e.unit == unit, (name, e.unit, unit)
     used = {entry_of(o, n) for n, _, o in sig}
     assert set(SIGNALS) == used  # and every documented signal is logged
@@ -64,7 +64,7 @@ def test_doc_tables_are_the_generated_ones(marker, table):
     text = DOC.read_text()
     m = re.search(rf"<!-- {marker}[^>]*-->\n(.*?)<!-- /{marker} -->", text, re.S)
     assert m, f"docs/data-format.md lacks the {marker} block"
-    assert m.group(1) == table(), f"regenerate the {marker} of docs/data-format.md: python -m rt.data_format"
+    assert m.group(1) == table(), f"regenerate the {marker} of docs/data-format.md: python -m rt.log.data_format"
 
 
 def test_doc_required_fields_exist_in_the_loop(reduced):

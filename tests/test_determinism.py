@@ -1,7 +1,7 @@
 """The determinism guarantee of docs/determinism.md, on the committed fixture (tests/fixtures).
 
 The fixture was written on another machine with the default code generation (generic x86-64,
-rt/codegen.py). Replayed here, the controller and the plant must reproduce it bit for bit; with
+rt/common/codegen.py). Replayed here, the controller and the plant must reproduce it bit for bit; with
 this machine's BLAS replaced by OpenBLAS's oldest kernels and glibc's FMA variants masked (a
 machine that computes differently at design time and in libm) still bit for bit, because the
 log carries its design arrays and the kernels call no CPU-dependent libm on the replay path;
@@ -15,10 +15,10 @@ import sys
 
 import pytest
 
-from rt.codegen import compiled_target
-from rt.mcap_log import read_mcap
-from rt.replay import replay
-from rt.replay_plant import replay_plant
+from rt.common.codegen import compiled_target
+from rt.log.mcap_log import read_mcap
+from rt.loop.replay import replay
+from rt.loop.replay_plant import replay_plant
 from tests.fixtures.make_fixtures import FIXTURE
 
 # another code generation: each /plant and /actuator signal within this fraction of its range over
@@ -48,7 +48,7 @@ def explain(res: dict) -> str:
 def replay_in_subprocess(env_extra: dict, plant: bool) -> dict:
     env = dict(os.environ, **env_extra)
     if env.get("FRICTIONRT_CPU") == "host":
-        env.pop("NUMBA_CPU_NAME", None)   # rt/codegen.py put it into this process's environment
+        env.pop("NUMBA_CPU_NAME", None)   # rt/common/codegen.py put it into this process's environment
     cmd = [sys.executable, "-m", "rt.cli", "replay", str(FIXTURE), "--json"] + (["--plant"] if plant else [])
     p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
     assert p.returncode in (0, 1), p.stderr

@@ -1,5 +1,5 @@
-"""The discrepancy workflow on campaigns with a hidden effect (issue 7): rt.rig writes the campaign,
-rt.diagnose must name the effect, fit its strength and close the gap; --effect none names nothing;
+"""The discrepancy workflow on campaigns with a hidden effect (issue 7): rt.discrepancy.rig writes the campaign,
+rt.discrepancy.diagnose must name the effect, fit its strength and close the gap; --effect none names nothing;
 the files validate and do not reveal the effect. Seed 5 was not used while developing the method
 (development used seeds 3, 11 and 17; seed 5 was run once, after)."""
 import json
@@ -9,12 +9,13 @@ import pytest
 from mcap.reader import make_reader
 
 from rt.cli import main
-from rt.config import Config, with_sets
-from rt.data_format import validate
-from rt.diagnose import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
-from rt.diagnose_structure import SENSORS, prepare, run_shape
-from rt.effects import EFFECTS, get, implemented
-from rt.rig import make_campaign, scaled, scatter_sets
+from rt.common.config import Config, with_sets
+from rt.log.data_format import validate
+from rt.discrepancy.diagnose import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
+from rt.discrepancy.diagnose_structure import SENSORS, prepare, run_shape
+from rt.discrepancy.effects import EFFECTS, get, implemented
+from rt.discrepancy.chain import scaled
+from rt.discrepancy.rig import make_campaign, scatter_sets
 
 SEED = 5
 
@@ -169,8 +170,8 @@ def test_list_json_shows_every_effect(capsys):
 
 def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
     """rig --stepsine: six FRF files (2 amplitudes x 3 F_N1 levels) with measured force and drive
-    amplitudes, readable by rt.frf_files; the shaker shows only as F_amp_N != drive_amp_N."""
-    from rt.frf_files import load_frf_folder
+    amplitudes, readable by rt.log.frf_files; the shaker shows only as F_amp_N != drive_amp_N."""
+    from rt.log.frf_files import load_frf_folder
     folder = campaigns("shaker_interaction")
     tests = load_frf_folder(folder)
     assert len(tests) == 6 and all(t.meta["kind"] == "stepsine" and len(t.freq_hz) >= 10 for t in tests)
@@ -182,7 +183,7 @@ def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
 
 
 def test_parallel_fits_give_the_serial_result(tmp_path):
-    """diagnose's candidate fits in worker processes (rt.diagnose.fit_in_parallel, diagnose --jobs) give
+    """diagnose's candidate fits in worker processes (rt.discrepancy.diagnose.fit_in_parallel, diagnose --jobs) give
     the serial result to the bit: each fit is a pure function of its inputs. Two actuator candidates
     of a short clean campaign (the structural fits go through the same function)."""
     folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3)[0].parent

@@ -11,13 +11,14 @@ import pytest
 from plant.linear_frf import continuous_accelerance, stuck_model
 from plant.model import build_plant
 from rt.cli import main
-from rt.config import Config, load, with_sets
-from rt.diagnose_frf import diagnose_frf, prepare, residuals
-from rt.effects import get, implemented
-from rt.frf_files import load_frf_folder
-from rt.frf_model import modal_accelerance
-from rt.rig import scaled, scatter_sets
-from rt.rig_frf import FREQ_HZ, make_frf_campaign
+from rt.common.config import Config, load, with_sets
+from rt.discrepancy.diagnose_frf import diagnose_frf, prepare, residuals
+from rt.discrepancy.effects import get, implemented
+from rt.log.frf_files import load_frf_folder
+from plant.linear_frf import modal_accelerance
+from rt.discrepancy.chain import scaled
+from rt.discrepancy.rig import scatter_sets
+from rt.discrepancy.rig_frf import FREQ_HZ, make_frf_campaign
 
 SEED = 5
 LAP_JOINT = Path(__file__).resolve().parents[1] / "configs" / "lap_joint.toml"
@@ -36,7 +37,7 @@ def campaigns(tmp_path_factory):
 
 
 def test_modal_accelerance_is_the_linear_frf():
-    """rt.frf_model (one eigen decomposition) against plant.linear_frf's per-line solve, at a
+    """plant.linear_frf.modal_accelerance (one eigen decomposition) against plant.linear_frf's per-line solve, at a
     low and a high F_N1 (other pairs closed), both accelerometer points."""
     model = build_plant(with_sets(Config(), []))
     f = FREQ_HZ[::97]

@@ -1,4 +1,4 @@
-"""FRF files (rt.frf_files): round trips of CSV (bit-exact) and UFF (to its ASCII precision), and
+"""FRF files (rt.log.frf_files): round trips of CSV (bit-exact) and UFF (to its ASCII precision), and
 the readers' messages on bad files (file named, problem, fix)."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rt.frf_files import (
+from rt.log.frf_files import (
     FORMAT,
     FRFTest,
     load_frf_folder,

@@ -18,7 +18,7 @@ A clean end is exit code 2 with exactly one stderr line "frictionrt: error: ..."
 bytes that are valid TOML, a bit flip in an unchecked byte), a normal run (exit 0 or 1, one JSON
 object on stdout, nothing on stderr). Never a traceback, never a hang (hypothesis deadline plus a
 SIGALRM watchdog), never a partly written output (the output folder is checked after each run).
-    FRF files       a small CSV and a small UFF file (rt.frf_files) truncated, bit-flipped, overwritten
+    FRF files       a small CSV and a small UFF file (rt.log.frf_files) truncated, bit-flipped, overwritten
                     in part, empty, replaced by garbage, and their JSON sidecar likewise, fed to
                     diagnose (their sidecar places the excitation off the model's point, so a file
                     that survives the damage stops at that check, exit 2, instead of a 10 s fit)
@@ -51,8 +51,8 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from rt.cli import main
-from rt.config import LAWS, Config, dumps, load, to_dict
-from rt.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
+from rt.common.config import LAWS, Config, dumps, load, to_dict
+from rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
 
 # --- settings ---------------------------------------------------------------------------------
 
@@ -226,7 +226,7 @@ def cfg_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def warm():
     """Import what ``simulate`` imports once, outside the per-example deadline."""
-    for name in ("rt.loop", "rt.writer", "tqdm"):
+    for name in ("rt.loop.driver", "rt.log.writer", "tqdm"):
         importlib.import_module(name)
 
 
@@ -603,7 +603,7 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
 def frf_sources(tmp_path_factory):
     """{suffix: (data bytes, sidecar bytes)} of a 40-line test of both accelerometers, CSV and UFF,
     whose sidecar places the excitation 0.1 m from the model's (a valid file stops at that check)."""
-    from rt.frf_files import FORMAT, FRFTest, sidecar_path, write_frf_csv, write_frf_uff
+    from rt.log.frf_files import FORMAT, FRFTest, sidecar_path, write_frf_csv, write_frf_uff
     d = tmp_path_factory.mktemp("frf_src")
     f = 100.0 + 0.25 * np.arange(40)
     H = {s: (1.0 + 0.1j) * f / (s.startswith("a_tip") + 1.0) for s in ("a_frf_meas", "a_tip_meas")}

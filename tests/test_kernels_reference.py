@@ -34,8 +34,8 @@ from plant.impulse import hammer_force
 from plant.model import build_plant
 from plant.newmark import ROUNDOFF, _contact_newton, _lu_factor, _lu_solve, _plant_step
 from plant.simulate import _run
-from rt.clock import _now_ns
-from rt.config import load
+from rt.common.clock import _now_ns
+from rt.common.config import load
 from tests import naive
 
 RTOL = 1e-12          # issue check 8

@@ -13,9 +13,9 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from rt.cli import main
-from rt.data_format import validate
-from rt.mcap_log import FORMAT_VERSION, read_mcap, tick_time_ns, topics_of
-from rt.registry import field_names
+from rt.log.data_format import validate
+from rt.log.mcap_log import FORMAT_VERSION, read_mcap, tick_time_ns, topics_of
+from rt.log.registry import field_names
 
 FIXTURE_V0 = Path(__file__).parent / "fixtures" / "log_v0.mcap"
 """420 ticks of `frictionrt simulate --law lyapunov --freq 196 --amp 5 --duration 0.02 --seed 1
@@ -89,8 +89,8 @@ def test_simulate_logs_decode_with_the_ros2_decoder(run_log, capsys):
 
 
 def test_rig_campaign_and_recovered_logs_decode_with_the_ros2_decoder(tmp_path, capsys, run_log):
-    from rt.config import load
-    from rt.rig import make_campaign
+    from rt.common.config import load
+    from rt.discrepancy.rig import make_campaign
     files = make_campaign(tmp_path / "camp", record_s=0.01, levels_n=(100.0,), ramps_s=(3e-3,), cfg=load())
     assert files and all(check_ros2_decode(f) > 0 for f in files)
     code, _, err = cli(capsys, "recover", run_log, "-o", tmp_path / "rec.mcap")
@@ -167,9 +167,9 @@ def test_a_file_written_with_mcap_ros2_is_validated_and_replayed(run_log, tmp_pa
 
 
 def test_diagnose_reads_a_campaign_written_with_mcap_ros2(tmp_path):
-    from rt.config import load
-    from rt.diagnose import load_campaign
-    from rt.rig import make_campaign
+    from rt.common.config import load
+    from rt.discrepancy.diagnose import load_campaign
+    from rt.discrepancy.rig import make_campaign
     files = make_campaign(tmp_path / "camp", record_s=0.01, levels_n=(100.0,), ramps_s=(3e-3,), cfg=load())
     (tmp_path / "lab").mkdir()
     for p in files:

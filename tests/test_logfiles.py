@@ -1,4 +1,4 @@
-"""Log files: MCAP (rt.mcap_log) bit-exact round trip, time rule, layout and errors; rrd (rt.rrd_log)."""
+"""Log files: MCAP (rt.log.mcap_log) bit-exact round trip, time rule, layout and errors; rrd (rt.log.rrd_log)."""
 import struct
 import subprocess
 import sys
@@ -10,10 +10,10 @@ from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from rt.loop import loop_signals
-from rt.mcap_log import (CDR_LE, FORMAT_VERSION, McapLogWriter, read_mcap, signals_record, stamps_ns, tick_time_ns,
+from rt.log.mcap_log import (CDR_LE, FORMAT_VERSION, McapLogWriter, read_mcap, signals_record, stamps_ns, tick_time_ns,
                          topics_of)
-from rt.registry import FIELD_RE, field_names, field_type, ros2_field, signal_name
-from rt.rrd_log import RrdLogWriter, write_rrd
+from rt.log.registry import FIELD_RE, field_names, field_type, ros2_field, signal_name
+from rt.log.rrd_log import RrdLogWriter, write_rrd
 
 RATE = 21000
 META = {"config": "[rt]\nrate_hz = 21000.0  # Hz\n", "versions": "numpy 2.4, mcap 1.6.0", "seed": "7",
@@ -73,9 +73,9 @@ def test_round_trip_is_bit_exact(tmp_path, signals):
 
 
 def test_chunk_reader_equals_the_mcap_library_reader(tmp_path, signals, monkeypatch):
-    # read_mcap's numpy chunk walk (rt.mcap_log._chunk_messages) against the library's own
+    # read_mcap's numpy chunk walk (rt.log.mcap_log.chunk_messages) against the library's own
     # message iteration on the same file: bit-identical values and ticks, several chunks
-    import rt.mcap_log as mcap_log
+    import rt.log.mcap_log as mcap_log
     log = special_log(12000, signals, seed=3)
     write(tmp_path / "a.mcap", signals, log, block=997)
     with open(tmp_path / "a.mcap", "rb") as f:
@@ -83,8 +83,8 @@ def test_chunk_reader_equals_the_mcap_library_reader(tmp_path, signals, monkeypa
     fast = read_mcap(tmp_path / "a.mcap")
     def library(f, summary):
         f.seek(0)
-        return mcap_log._iter_messages(make_reader(f))
-    monkeypatch.setattr(mcap_log, "_chunk_messages", library)
+        return mcap_log.iter_messages(make_reader(f))
+    monkeypatch.setattr(mcap_log, "chunk_messages", library)
     slow = read_mcap(tmp_path / "a.mcap")
     np.testing.assert_array_equal(fast.k, slow.k)
     np.testing.assert_array_equal(fast.log.view(np.uint64), slow.log.view(np.uint64))
@@ -199,8 +199,8 @@ def test_metadata_round_trip(tmp_path, signals):
 
 
 def test_every_loop_signal_maps_to_a_unique_ros2_field_and_back(signals, full):
-    # the rule (rt.registry): lower-casing plus the exceptions; both plant models, so that a new
-    # plant or actuator signal is covered once it is in rt.loop.loop_signals
+    # the rule (rt.log.registry): lower-casing plus the exceptions; both plant models, so that a new
+    # plant or actuator signal is covered once it is in rt.loop.build.loop_signals
     for sig in (signals, loop_signals(full)):
         fields = field_names(sig)
         assert len(set(zip(fields, (o for _, _, o in sig)))) == len(sig)

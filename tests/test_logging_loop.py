@@ -1,4 +1,4 @@
-"""The loop's log writer (rt.writer): simulate --out writes MCAP and rrd while the loop runs,
+"""The loop's log writer (rt.log.writer): simulate --out writes MCAP and rrd while the loop runs,
 the numpy chunk writer writes what McapLogWriter writes, paced runs drop and count, errors and
 interrupts leave valid files (the SIGINT test is tests/test_loop.py's paced interrupt test)."""
 import json
@@ -10,10 +10,10 @@ import pytest
 from mcap.reader import make_reader
 
 from rt.cli import main
-from rt.config import load
+from rt.common.config import load
 from rt.loop import build_loop, run
-from rt.mcap_log import McapLogWriter, read_mcap
-from rt.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
+from rt.log.mcap_log import McapLogWriter, read_mcap
+from rt.log.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
 from tests.test_logfiles import META, RATE, START_NS, raw_messages, special_log
 
 F3, AMP = 223.6, 5.0
@@ -195,9 +195,9 @@ def test_ring_run_allocates_the_ring_and_writes_every_tick(tmp_path, loop):
     """5 s offline with a 0.2 s ring: the loop's log is 4200 rows (not 105000), the MCAP file
     holds every tick and equals the file of the same run without a ring (but the wall clock),
     and the summary's whole-run figures come out as without a ring."""
-    from rt.faults import schedule
+    from rt.loop.faults import schedule
     from rt.loop import summary
-    from rt.writer import open_run_log
+    from rt.log.writer import open_run_log
 
     faults = schedule(["sensor_bias/F_strain@1.0"], loop.cfg)   # latched at 1.002 s: force_disagree
     runs = {}
@@ -255,7 +255,7 @@ def test_writer_thread_is_not_a_daemon_and_finish_is_idempotent(tmp_path, loop):
 def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp_path, loop):
     """Ctrl-C outside the loop's own handler (here: raised by the progress callback) propagates,
     but only after the loop has stopped and the writer has closed valid files."""
-    from rt.writer import open_run_log
+    from rt.log.writer import open_run_log
 
     def progress(_):
         raise KeyboardInterrupt

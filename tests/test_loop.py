@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from rt.cli import main
-from rt.config import load
+from rt.common.config import load
 from rt.loop import COMPONENTS, build_loop, run, summary
-from rt.mcap_log import read_mcap
-from rt.writer import BLOCK_TICKS
+from rt.log.mcap_log import read_mcap
+from rt.log.writer import BLOCK_TICKS
 
 BUDGET_US = 1e6 / 21000
 F3, AMP = 223.6, 5.0  # mode-3 resonance (preloaded, linearised) and a moderate force

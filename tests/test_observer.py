@@ -14,7 +14,7 @@ from observer.model import build_observer_model
 from observer.step import _observer_step
 from plant.structure import build_structure, interface_rows
 from plant.modes import passive_resonance_hz
-from rt.config import load
+from rt.common.config import load
 from rt.loop import COMPONENTS, build_loop, run, summary
 
 BUDGET_US = 1e6 / 21000

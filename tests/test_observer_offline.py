@@ -10,7 +10,7 @@ import scipy.optimize as so
 from observer.kalman import design_observer, zoh
 from observer.offline import compare_on_run, outputs, process_noise, ukf_estimate, ukf_run
 from observer.step import _observer_step
-from rt.config import load
+from rt.common.config import load
 from rt.loop import build_loop, run
 
 

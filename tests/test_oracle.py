@@ -4,9 +4,9 @@ import pytest
 import scipy.signal as ss
 
 from observer.oracle import ORACLE_SLOTS, build_oracle
-from rt.biquad import _biquad_step as _oracle_step
-from rt.biquad import rest_state
-from rt.config import load
+from tracking.lowpass import _biquad_step as _oracle_step
+from tracking.lowpass import rest_state
+from rt.common.config import load
 
 
 def test_oracle_equals_scipy_sosfilt():

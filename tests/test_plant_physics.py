@@ -10,7 +10,7 @@ from plant.impulse import MODES, accelerance_frf, fit_mode, hammer_force, impuls
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.modes import bare_beam_bending_hz
 from plant.simulate import run
-from rt.config import load
+from rt.common.config import load
 
 # Euler-Bernoulli cantilever, L = 0.775 m, h = 8 mm, steel (issue 2, check 1)
 ANALYTIC_BARE_HZ = np.array([11.13, 69.74, 195.28, 382.67, 632.58, 944.97])

@@ -1,5 +1,6 @@
 """Run-time properties of the plant step: no heap allocation, determinism, cached compilation."""
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ def test_plant_step_does_not_allocate():
         from plant.impulse import hammer_force
         from plant.model import build_plant
         from plant.newmark import _plant_step
-        from rt.config import load
+        from rt.common.config import load
 
         @numba.njit
         def many(x, x_next, U, p, y, wk):
@@ -73,15 +74,32 @@ def test_checked_step_wrapper(reduced):
 
 def test_numba_cache_is_keyed_on_the_kernel_sources():
     # numba only re-checks a cached function's own file; a source-hash directory makes an
-    # edit to any kernel source start a fresh cache (rt/jit_cache.py); CLI and logging
+    # edit to any kernel source start a fresh cache (rt/common/jit_cache.py); CLI and logging
     # modules are not kernel sources, so editing them keeps the compiled kernels
     from plant import newmark, simulate
-    from rt import jit_cache
-    names = {f"{f.parent.name}/{f.name}" for f in jit_cache.kernel_sources()}
-    assert {"plant/newmark.py", "rt/loop.py", "rt/replay.py", "rt/config.py", "tracking/laws.py"} <= names
-    assert not names & {"rt/cli.py", "rt/mcap_log.py", "rt/stepsine.py", "rt/writer.py"}
+    from rt.common import jit_cache
+    names = {f.relative_to(jit_cache.ROOT).as_posix() for f in jit_cache.kernel_sources()}
+    assert {"plant/newmark.py", "rt/loop/tick.py", "rt/loop/pacing.py", "rt/loop/replay.py", "rt/common/config.py", "rt/common/noise.py",
+            "tracking/laws.py"} <= names
+    assert not names & {"rt/cli/app.py", "rt/log/mcap_log.py", "rt/experiments/stepsine.py", "rt/log/writer.py"}
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
     for f in (newmark._plant_step, simulate._run):
         assert Path(f._cache._cache_path).is_relative_to(jit_cache.cache_dir())
     assert len(jit_cache.source_hash()) == 16
+
+
+def test_editing_a_kernel_in_a_sub_package_changes_the_cache_key(tmp_path):
+    # the key must see kernels below rt/'s sub-packages (rt/loop/, rt/common/), not only
+    # top-level files: a copy of the tree, one kernel file edited, gives another key
+    from rt.common import jit_cache
+    for pkg in jit_cache.PACKAGES:
+        shutil.copytree(jit_cache.ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    key = jit_cache.source_hash(tmp_path)
+    assert key == jit_cache.source_hash()
+    cli = tmp_path / "rt" / "cli" / "app.py"
+    cli.write_text(cli.read_text() + "\n# not a kernel\n")
+    assert jit_cache.source_hash(tmp_path) == key
+    tick = tmp_path / "rt" / "loop" / "pacing.py"
+    tick.write_text(tick.read_text() + "\n# edited kernel\n")
+    assert jit_cache.source_hash(tmp_path) != key

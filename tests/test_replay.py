@@ -1,4 +1,4 @@
-"""HIL-style replay (rt.replay, frictionrt replay): a fresh run's log replayed through the
+"""HIL-style replay (rt.loop.replay, frictionrt replay): a fresh run's log replayed through the
 controller stack is bit-exact (oracle and observer), a measurement with only /sensors replays
 without comparison, a changed command is found, bad files exit 2 naming the file."""
 import json
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from rt.cli import main
-from rt.mcap_log import read_mcap
-from rt.replay import COMMANDED, replay_outputs
-from rt.writer import McapBlockWriter
+from rt.log.mcap_log import read_mcap
+from rt.loop.replay import COMMANDED, replay_outputs
+from rt.log.writer import McapBlockWriter
 
 F3, AMP = 223.6, 5.0
 
@@ -80,7 +80,7 @@ def _sensors_only_file(path, rec):
     measurement converter would)."""
     from mcap.writer import CompressionType, Writer
 
-    from rt.mcap_log import signals_record, stamps_ns, topics_of
+    from rt.log.mcap_log import signals_record, stamps_ns, topics_of
     tp = next(t for t in topics_of(rec.signals) if t.name == "/sensors")
     with open(path, "wb") as f:
         w = Writer(f, compression=CompressionType.ZSTD)

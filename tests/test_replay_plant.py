@@ -1,4 +1,4 @@
-"""Open-loop plant replay (rt.replay_plant, frictionrt replay --plant): a fresh run's V_cmd and
+"""Open-loop plant replay (rt.loop.replay_plant, frictionrt replay --plant): a fresh run's V_cmd and
 F_exc replayed into actuator and plant reproduce every /actuator and /plant signal bit for bit
 (each law); a changed friction coefficient is found in the plant and nowhere in the actuator
 (one-way coupling); a measurement without simulation topics is replayed without comparison;
@@ -10,9 +10,9 @@ import pytest
 
 from plant.actuator import ACTUATOR_OUTPUTS
 from rt.cli import main
-from rt.mcap_log import read_mcap
-from rt.replay_plant import replay_plant_outputs
-from rt.writer import McapBlockWriter
+from rt.log.mcap_log import read_mcap
+from rt.loop.replay_plant import replay_plant_outputs
+from rt.log.writer import McapBlockWriter
 
 DURATION = "0.1"  # 2100 ticks
 

@@ -1,4 +1,4 @@
-"""frictionrt reproduce (rt.reproduce, rt.claims, rt.reproduce_report, rt.cli_reproduce): the claim
+"""frictionrt reproduce (rt.experiments.reproduce, rt.experiments.claims, rt.experiments.reproduce_report, rt.cli.reproduce): the claim
 functions on synthetic numbers (a claim that should fail fails), the peak refinement, and the
 --quick run end to end (files, a claims table with finite numbers, reductions = 20 log10 of peaks)."""
 import json
@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from rt.claims import (claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db)
+from rt.experiments.claims import (claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db)
 from rt.cli import main
-from rt.config import load
-from rt.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
+from rt.common.config import load
+from rt.experiments.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
 
 
 # --- claims on synthetic numbers ----------------------------------------------------------------
@@ -108,7 +108,7 @@ def test_refine_points_halves_towards_the_peak_until_resolved():
 
 
 def test_merge_sorts_the_points_of_several_sweeps():
-    from rt.stepsine import Settle, StepSineResult
+    from rt.experiments.stepsine import Settle, StepSineResult
     def res(freqs):
         n = len(freqs)
         z = np.zeros(n)

@@ -1,4 +1,4 @@
-"""Sensors (rt/sensors.py) and the seeded noise source (rt/noise.py): filters against closed-form
+"""Sensors (plant/sensors.py) and the seeded noise source (rt/common/noise.py): filters against closed-form
 responses, the leaky integrator against 1/(i w + w_c), ADC steps and clipping, noise statistics
 within their standard errors, determinism, and the kernels against plain NumPy / Python
 references.
@@ -15,10 +15,10 @@ import pytest
 import scipy.signal as ss
 import scipy.stats as st
 
-from rt.config import load, with_sets
+from rt.common.config import load, with_sets
 from tests.nrt_probe import assert_no_allocation_per_step
-from rt.noise import _fill_u64, new_rng, normals, splitmix64
-from rt.sensors import (
+from rt.common.noise import _fill_u64, new_rng, normals, splitmix64
+from plant.sensors import (
     SENSOR_OUTPUTS,
     SENSOR_SLOTS,
     _sensors_run,
@@ -408,7 +408,7 @@ def test_same_seed_bit_identical_other_seed_only_noise(cfg, p):
 # --- kernel vs plain NumPy reference ----------------------------------------------------------
 
 def reference_run(cfg, U, seed, x0):
-    """The sensor chain written from rt/sensors.py's docstring with NumPy and the Python-integer
+    """The sensor chain written from plant/sensors.py's docstring with NumPy and the Python-integer
     generator: filters by scipy.signal.cont2discrete('foh') state-space recursions, noise from
     normals_ref, ADC clip(rint(v / LSB), n_lo, n_hi) LSB."""
     s = cfg.sensors
@@ -504,7 +504,8 @@ def test_checked_wrapper(p):
 
 
 def test_kernels_are_cached_nogil_without_refcounting():
-    from rt import noise, sensors
+    from plant import sensors
+    from rt.common import noise
     for f in (sensors._sensors_step, sensors._adc, noise._next_u64, noise._uniform, noise._normal_pair,
               noise._fill_normal, noise._fill_u64):
         assert f.targetoptions.get("nogil") is True, f.__name__
@@ -517,9 +518,9 @@ def test_sensor_step_does_not_allocate():
     # 10 vs 3000 compiled steps under numba's allocation counters (tests/nrt_probe.py)
     assert_no_allocation_per_step("""
         import numba, numpy as np
-        from rt.config import load
-        from rt.noise import new_rng
-        from rt.sensors import _sensors_step, build_sensors, initial_state
+        from rt.common.config import load
+        from rt.common.noise import new_rng
+        from plant.sensors import _sensors_step, build_sensors, initial_state
 
         @numba.njit
         def many(x, xn, U, p, y, rng):
@@ -542,7 +543,7 @@ def test_step_time(p):
     # loose bound (noisy shared machine); measured figure in docs/actuator_sensors.md
     import numba
 
-    from rt.clock import _now_ns
+    from rt.common.clock import _now_ns
 
     @numba.njit
     def timed(x, xn, U, p, y, rng, ns, ts):

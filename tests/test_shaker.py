@@ -1,4 +1,4 @@
-"""The shaker stage of the loop (rt/shaker.py): its force ratio F_exc / drive in the closed loop
+"""The shaker stage of the loop (plant/shaker.py): its force ratio F_exc / drive in the closed loop
 against the closed-form two-port of armature + stinger on the stuck structure's driving point
 (plant.linear_frf, an independent linear solve), the ideal source when off, and the design-time
 refusal of a coupling that would be unstable."""
@@ -10,10 +10,10 @@ import pytest
 from plant.linear_frf import continuous_accelerance, stuck_model
 from plant.model import build_plant
 from plant.modes import sliding_joint_hz
-from rt.config import Config, with_sets
+from rt.common.config import Config, with_sets
 from rt.loop import build_loop, run
-from rt.shaker import coupled_spectral_radius, force_ratio
-from rt.stepsine import settle_point
+from plant.shaker import coupled_spectral_radius, force_ratio
+from rt.experiments.stepsine import settle_point
 
 # every mode stepped: the driving point is then the stuck model's at the trapezoid's warped frequency
 STUCK = ["shaker.armature_mass_kg=0.1", "tracking.F_passive_N=300.0", "plant.screws.adaptive.F_N=300.0",

@@ -1,4 +1,4 @@
-"""Step-sine FRF engine (rt.stepsine, rt.cli_frf): harmonic fit, amplitude control, settling,
+"""Step-sine FRF engine (rt.experiments.stepsine, rt.cli.frf): harmonic fit, amplitude control, settling,
 sweep continuity, the FRF against direct long runs, backends giving identical numbers, the CLI."""
 import argparse
 import json
@@ -8,13 +8,13 @@ import pytest
 
 from plant.linear_frf import continuous_accelerance, discrete_accelerance, stuck_model
 from plant.model import build_plant
-from rt.cli import _add_common
-from rt.cli_frf import add_parser, cmd_frf
+from rt.cli.common import add_common
+from rt.cli.frf import add_parser, cmd_frf
 from plant.modes import passive_resonance_hz
-from rt.config import load
+from rt.common.config import load
 from rt.loop import build_loop, first_harmonic_amplitude, run
-from rt.stepsine import (Branch, Settle, harmonics, phase_continuous_step, resonance_grid, run_branches, settle_point,
-                         slow_sweep, steady, sweep, sweep_direction, update_amplitude)
+from rt.experiments.branches import Branch, run_branches
+from rt.experiments.stepsine import Settle, harmonics, phase_continuous_step, resonance_grid, settle_point, slow_sweep, steady, sweep, sweep_direction, update_amplitude
 
 DT = 1.0 / 21000
 AMP = 5.0
@@ -264,7 +264,7 @@ def test_dask_cluster_bit_identical_to_sequential(branches, sequential):
 def _parser():
     """frictionrt's top level (--config, --set) with only the frf subcommand."""
     ap = argparse.ArgumentParser(prog="frictionrt")
-    _add_common(ap, top=True)
+    add_common(ap, top=True)
     add_parser(ap.add_subparsers(dest="command"))
     return ap
 

@@ -7,7 +7,7 @@ from plant.energy import balance
 from plant.impulse import hammer_force
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from plant.simulate import run
-from rt.config import load
+from rt.common.config import load
 
 LAP_JOINT = Path(__file__).resolve().parents[1] / "configs" / "lap_joint.toml"
 MOVED_DAMPER = ["plant.beams.damper.x0_m=0.30", "plant.interface.x_start_m=0.30", "plant.interface.x_end_m=0.46",

@@ -1,4 +1,4 @@
-"""The run-time supervisor and fault injection (rt/supervisor.py, rt/faults.py, docs/reliability.md):
+"""The run-time supervisor and fault injection (rt/loop/supervisor.py, rt/loop/faults.py, docs/reliability.md):
 normal runs never trip; every fault kind is detected within its stated bound, the loop is passive
 in the tick of detection, no NaN reaches the actuator or plant, and the structure's response
 over the fault window is never worse than the passive F_min run by more than MARGIN; latch and
@@ -10,10 +10,10 @@ import pytest
 
 from rt.cli import main
 from plant.modes import passive_resonance_hz
-from rt.config import load
-from rt.faults import schedule
+from rt.common.config import load
+from rt.loop.faults import schedule
 from rt.loop import build_loop, first_harmonic_amplitude, run, summary
-from rt.supervisor import FAULT_CODES
+from rt.loop.supervisor import FAULT_CODES
 
 T, K0 = 0.6, 4200          # run length [s]; faults injected at 0.2 s = tick 4200
 MARGIN = 0.05              # response over the fault window at most 5 % above passive F_min's

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from rt.config import load
+from rt.common.config import load
 from tracking import force_tracking as ft
 from tracking.laws import LAW_CODES, LAWS_SLOTS, _laws_step, build_laws, laws_step
 from tracking.rt1 import RT1_SLOTS, _rt1_step, build_rt1, rt1_step

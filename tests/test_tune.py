@@ -1,4 +1,4 @@
-"""Gain tuning (rt.tune, rt.cli_tune): the Pareto front and the choice of the best candidate on
+"""Gain tuning (rt.experiments.tune, rt.cli.tune): the Pareto front and the choice of the best candidate on
 known points, grid parsing and refusal, a small real tune of the hysteresis gain, the CLI files."""
 import json
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from rt.cli import main
-from rt.config import ConfigError, load
-from rt.tune import candidates, pareto_front, parse_grid, select_best, tune
+from rt.common.config import ConfigError, load
+from rt.experiments.tune import candidates, pareto_front, parse_grid, select_best, tune
 
 
 def test_pareto_front_and_best_on_known_points():

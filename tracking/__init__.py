@@ -1,2 +1,18 @@
-"""Tracking: control laws, RT1 filter, force tracking, output low-pass (frictionrt)."""
-import rt  # noqa: F401  (sets numba's source-keyed cache directory before any kernel compiles)
+"""Tracking: control laws, RT1 filter, force tracking, the biquad low-passes (frictionrt).
+
+Modules: ``laws`` (passive, hysteresis-optimal, Lyapunov), ``rt1``, ``prefilter``,
+``force_tracking`` (PID + feedforward), ``lowpass`` (the biquad the prefilter and the oracle
+use). The names below are imported on first use (rt/common/face.py).
+"""
+import rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)
+from rt.common.face import lazy_face  # noqa: E402
+
+_EXPORTS = {
+    "build_laws": "tracking.laws",
+    "build_rt1": "tracking.rt1",
+    "build_prefilter": "tracking.prefilter",
+    "design_force_tracking": "tracking.force_tracking",
+    "BiquadParams": "tracking.lowpass", "build_butter2": "tracking.lowpass",
+}
+__all__ = list(_EXPORTS)
+__getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from rt.config import LAWS, Config
+from rt.common.config import LAWS, Config
 from tracking.rt1 import RT1_SLOTS, RT1Params, _rt1_step, build_rt1
 
 LAW_CODES = {name: i for i, name in enumerate(LAWS)}  # passive 0, hysteresis 1, lyapunov 2

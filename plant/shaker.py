@@ -1,0 +1,171 @@
+"""The shaker stage of the loop (docs/loop.md, "The shaker"): an electrodynamic shaker is not an
+ideal force source. Between the excitation generator and the plant:
+
+    drive (the generator's signal) -> coil force F_coil = drive [N]
+    armature:  m_a x_a'' + c_a x_a' + k_a x_a = F_coil - F_exc
+    stinger:   F_exc = k_s (x_a - w_exc) + c_s (x_a' - w_exc')      (the force transducer at its tip)
+
+w_exc [m] is the structure's displacement at the excitation point (``plant.excitation_point``),
+x_a [m] the armature's, both from rest; F_exc pushes the structure in +w. ``armature_mass_kg`` = 0
+(the default) is the ideal source F_exc = drive: the stage is not run (``Shaker.on``).
+
+Coupling: over tick k the plant holds one force, so the stage gives it the mean stinger force over
+[t_k, t_k+1]. The structure's motion over the tick is extrapolated from its state at t_k,
+w(t_k + s) = w_k + v_k s (the plant's outputs w_exc, v_exc at t_k): the structure responds to
+this tick's force one tick late (explicit coupling). With that input the armature's linear ODE is
+integrated exactly (matrix exponential of the system augmented by drive, w, w' and the force's
+integral, ``build_shaker``), so one tick is a 3 x 5 matrix-vector product (``_shaker_step``).
+
+Stability (``coupled_spectral_radius``): a one-tick lag on a stiff spring feeds energy in, as a
+negative damping of about k_s dt / 2 at the stinger mode for a zero-order lag, much less with the
+linear extrapolation. At design time the coupled linear map (the stuck plant's exact one-tick map
+of ``plant.linear_frf.discrete_map``, the stage, the lag) is formed and its spectral radius
+checked: ``build_shaker`` refuses a shaker whose coupled loop would not be stable with a margin.
+
+Defaults (``rt.common.config.Shaker``, a small modal shaker, 45-100 N class): flexure resonance 20 Hz,
+5 % damping (k_a = m (2 pi 20 Hz)^2: 1.6e3 N/m at 0.1 kg; given as a frequency, so that the whole
+shaker vanishes continuously as m -> 0: the ratio below -> 1 / (1 + 0) ); stinger 5e6 N/m (a 2 mm
+steel rod, ~130 mm long: E A / L = 210e9 * 3.14e-6 / 0.13) and 20 N s/m (~1.4 % of critical at
+0.1 kg: armature-on-stinger resonance ~1.1 kHz, 1.2 kHz coupled to the beam).
+
+Closed form (``force_ratio``): for a harmonic drive at omega, with the driving-point receptance
+R = w_exc / F_exc of the structure,
+
+    drive / F_exc = 1 + D_a / k~ + D_a R,    D_a = k_a + i omega c_a - m_a omega^2,  k~ = k_s + i omega c_s,
+    (plant.shaker.suspension: k_a, c_a proportional to m_a)
+
+so F_exc / drive drops where |R| is large (the structure's resonances: force drop-out) and rises
+near the zero of D_a (1 + D_a / k~) + D_a R (the armature on the stinger against the structure).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from rt.common.config import Config
+
+N_IN = 5  # x_a, x_a', drive, w_exc, w_exc' at t_k
+
+
+class ShakerParams(NamedTuple):
+    """Constants of ``_shaker_step`` (``build_shaker``)."""
+    P: np.ndarray   # (3, N_IN): rows x_a(t_k+1), x_a'(t_k+1), mean F_exc over the tick, per input
+
+
+def continuous_matrices(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of the armature, state [x_a, x_a'], input [drive, w_exc, w_exc']; the stinger force is
+    F_exc = [k_s, c_s] x + [0, -k_s, -c_s] u. Requires armature_mass_kg > 0."""
+    s = cfg.shaker
+    m, ks, cs = s.armature_mass_kg, s.stinger_N_per_m, s.stinger_damping_Ns_per_m
+    ka, ca = suspension(cfg)
+    A = np.array([[0.0, 1.0], [-(ka + ks) / m, -(ca + cs) / m]])
+    B = np.array([[0.0, 0.0, 0.0], [1.0 / m, ks / m, cs / m]])
+    return A, B
+
+
+def suspension(cfg: Config) -> tuple[float, float]:
+    """(k_a [N/m], c_a [N s/m]) of the armature's flexure: k_a = m w_a^2, c_a = 2 zeta_a m w_a,
+    w_a = 2 pi shaker.suspension_hz (a shaker is specified by its flexure resonance, so that the
+    whole shaker vanishes continuously as m -> 0)."""
+    s = cfg.shaker
+    w_a = 2 * np.pi * s.suspension_hz
+    return s.armature_mass_kg * w_a * w_a, 2.0 * s.suspension_zeta * s.armature_mass_kg * w_a
+
+
+def build_shaker(cfg: Config) -> ShakerParams:
+    """The exact one-tick map of the armature with the drive held and the structure's motion
+    extrapolated linearly (module docstring). Augmented state z = [x_a, x_a', drive, w, w', I],
+    I = integral of F_exc over the tick from 0:
+
+        z' = M z,  z(dt) = expm(M dt) z(0);  rows of P: x_a(dt), x_a'(dt), I(dt) / dt.
+
+    With the shaker off (``cfg.shaker.on`` false) P is zero (the loop does not call the stage)."""
+    import scipy.linalg as sla
+    P = np.zeros((3, N_IN))
+    if not cfg.shaker.on:
+        return ShakerParams(P)
+    s = cfg.shaker
+    A, B = continuous_matrices(cfg)
+    M = np.zeros((6, 6))
+    M[:2, :2] = A
+    M[:2, 2:5] = B
+    M[3, 4] = 1.0                                          # w' = w'_k (held slope)
+    M[5, :5] = [s.stinger_N_per_m, s.stinger_damping_Ns_per_m, 0.0, -s.stinger_N_per_m,
+                -s.stinger_damping_Ns_per_m]               # I' = F_exc
+    dt = cfg.dt_s
+    E = sla.expm(M * dt)
+    P[0] = E[0, :5]
+    P[1] = E[1, :5]
+    P[2] = E[5, :5] / dt
+    return ShakerParams(np.ascontiguousarray(P))
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _shaker_step(k, x, u, p, x_next, y):
+    """Tick k of the shaker: x = [x_a, x_a'] at t_k, u = [drive [N], w_exc [m], w_exc' [m/s]] at
+    t_k; x_next = the state at t_k+1, y[0] = F_exc [N], the mean stinger force over the tick (what
+    the plant holds and the force transducer reads). RT-safe: 15 multiply-adds."""
+    P = p.P
+    for i in range(3):
+        acc = P[i, 0] * x[0] + P[i, 1] * x[1] + P[i, 2] * u[0] + P[i, 3] * u[1] + P[i, 4] * u[2]
+        if i < 2:
+            x_next[i] = acc
+        else:
+            y[0] = acc
+
+
+def force_ratio(cfg: Config, freq_hz, R) -> np.ndarray:
+    """F_exc / drive [-] (complex) of the shaker on a structure with driving-point receptance
+    R [m/N] (complex, per frequency) at freq_hz [Hz] (module docstring); 1 with the shaker off."""
+    f = np.atleast_1d(np.asarray(freq_hz, float))
+    R = np.broadcast_to(np.asarray(R, complex), f.shape)
+    s = cfg.shaker
+    if not s.on:
+        return np.ones(f.shape, complex)
+    w = 2 * np.pi * f
+    k_a, c_a = suspension(cfg)
+    D_a = k_a + 1j * w * c_a - s.armature_mass_kg * w * w
+    k_s = s.stinger_N_per_m + 1j * w * s.stinger_damping_Ns_per_m
+    return 1.0 / (1.0 + D_a / k_s + D_a * R)
+
+
+def coupled_spectral_radius(cfg: Config, model=None, F_N1: float | None = None) -> float:
+    """Spectral radius of the loop's linear one-tick map with the shaker coupled as the loop couples
+    it, on the plant linearised stuck at F_N1 [N] (``plant.linear_frf.stuck_model`` at the
+    excitation point): the plant's exact tick map s' = Phi s + Gam F (s = [q, q'] modal), the
+    shaker's P on [x_a, x_a', 0, r.q, r.q'] of t_k. < 1: the coupled loop is stable (the linear
+    part; the contact's slip only adds dissipation). 0 with the shaker off."""
+    if not cfg.shaker.on:
+        return 0.0
+    from plant.linear_frf import discrete_map, stuck_model
+    from plant.model import build_plant
+    model = build_plant(cfg) if model is None else model
+    lin = stuck_model(model, cfg.plant.excitation_point, F_N1)
+    Phi, Gam = discrete_map(lin, cfg.dt_s, cfg.plant.substeps)
+    n = len(lin.b)
+    P = build_shaker(cfg).P
+    # F_k = P2 . [x_a, v_a, 0, r q_k, r q'_k];  state [q, q', x_a, v_a]
+    row_F = np.concatenate([P[2, 3] * lin.r, P[2, 4] * lin.r, P[2, :2]])
+    T = np.zeros((2 * n + 2, 2 * n + 2))
+    T[:2 * n, :2 * n] = Phi
+    T[:2 * n] += np.outer(Gam, row_F)
+    T[2 * n:, :2 * n] = np.outer(P[:2, 3], np.concatenate([lin.r, np.zeros(n)])) + \
+        np.outer(P[:2, 4], np.concatenate([np.zeros(n), lin.r]))
+    T[2 * n:, 2 * n:] = P[:2, :2]
+    return float(np.max(np.abs(np.linalg.eigvals(T))))
+
+
+def check_shaker(cfg: Config, model=None) -> None:
+    """ValueError naming the stinger if the loop with this shaker would be unstable (spectral
+    radius of ``coupled_spectral_radius`` >= 1, on the plant stuck at its initial F_N1); nothing
+    with the shaker off. The defaults leave every eigenvalue's damping at or above the plant's own
+    (docs/loop.md); a stinger of 5e7 N/m at 0.1 kg is refused."""
+    if not cfg.shaker.on:
+        return
+    rho = coupled_spectral_radius(cfg, model)
+    if not rho < 1.0:
+        raise ValueError(f"shaker.stinger_N_per_m = {cfg.shaker.stinger_N_per_m:g} N/m: the loop's one-tick "
+                         f"coupling of this shaker to the plant is unstable (spectral radius {rho:.6f} >= 1); "
+                         "use a softer stinger, more stinger damping, or a higher rt.rate_hz")

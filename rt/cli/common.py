@@ -1,0 +1,85 @@
+"""What every ``frictionrt`` verb does the same way (below the verbs; rt/cli/app.py collects them).
+
+- Errors: ``fail(msg)`` prints one line ``frictionrt: error: MSG`` on stderr and returns exit
+  code 2; with ``--json`` the same error is also one JSON object on stdout,
+  ``{"error": MSG, "exit": 2}`` (``json_errors`` switches it on for the command line being run;
+  ``Parser`` does the same for argparse's own usage errors).
+- Options: ``--config``/``--set`` on every verb (``add_common``), comma-separated lists (``parse_list``).
+- Output: ``-o``/``--out`` names where a verb writes (``add_out``); an existing output is refused
+  unless ``--force`` (``add_force``, ``refuse_existing``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+_json_errors = False
+
+
+def json_errors(on: bool) -> None:
+    """Errors of the command being run also as a JSON object on stdout (its --json)."""
+    global _json_errors
+    _json_errors = bool(on)
+
+
+def fail(msg: str) -> int:
+    """Report a bad input or a failed precondition: one stderr line (and the JSON object with
+    --json); returns the exit code 2."""
+    print(f"frictionrt: error: {msg}", file=sys.stderr)
+    if _json_errors:
+        print(json.dumps({"error": msg, "exit": 2}))
+    return 2
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors follow ``fail`` (JSON on stdout if --json was given)."""
+
+    def error(self, message: str):
+        if _json_errors:
+            print(json.dumps({"error": f"{self.prog}: {message}", "exit": 2}))
+        super().error(message)
+
+
+def add_out(p: argparse.ArgumentParser, metavar: str, help: str, **kw) -> None:
+    """-o/--out: where the verb writes."""
+    p.add_argument("-o", "--out", metavar=metavar, help=help, **kw)
+
+
+def add_force(p: argparse.ArgumentParser) -> None:
+    """--force: replace an existing output."""
+    p.add_argument("--force", action="store_true", help="replace existing output files (otherwise refused)")
+
+
+def refuse_existing(paths, force: bool, option: str = "--out") -> str | None:
+    """The error message if one of ``paths`` exists and not ``force``, else None."""
+    if force:
+        return None
+    for p in map(Path, paths):
+        if p.exists():
+            return f"{option} {p}: exists; pass --force to replace it, or give another name"
+    return None
+
+
+def add_common(p: argparse.ArgumentParser, top: bool) -> None:
+    """--config and --set, accepted before or after the subcommand. The subcommands' copies
+    default to SUPPRESS so they never overwrite what was given before the subcommand."""
+    dflt = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
+    p.add_argument("--config", metavar="FILE", default=dflt(None),
+                   help="TOML file overriding the defaults (SPEC values)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
+                   help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
+                        "(list elements by name); repeatable")
+
+
+def parse_list(text: str, kind, option: str, example: str) -> list:
+    """The comma-separated values of an option (``kind`` each, e.g. float); ValueError naming
+    the option and an example when one is not a number or the list is empty."""
+    try:
+        values = [kind(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: give comma-separated numbers, e.g. {example}") from None
+    if not values:
+        raise ValueError(f"{option} {text!r}: empty list; give at least one value, e.g. {example}")
+    return values

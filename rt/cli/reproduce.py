@@ -1,0 +1,105 @@
+"""``frictionrt reproduce``: the paper's figures and claims C1..C6 in one command (rt.experiments.reproduce).
+
+``add_parser(subparsers, parents)`` registers the subcommand, ``cmd_reproduce(cfg, args)`` runs it
+and returns the exit code (0 done, 2 bad input with one line on stderr).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from rt.common.config import Config
+from rt.cli.common import add_force, add_out, fail, refuse_existing
+
+DESCRIPTION = """Reproduce Becker & Gaul's experiments (SPEC section 6) and decide their claims C1..C6 on the
+numbers measured: an impulse test at F_N1 = 100 N (identified modal damping), amplitude-controlled
+step-sine FRFs [(m/s^2)/N] around the resonances for passive (F_N1 = F_min), hysteresis-optimal and
+Lyapunov control at several excitation force amplitudes [N], and the passive law at several constant
+F_N1 [N] (the best constant clamping force: the fair baseline). Writes into --out: fig5.png (impulse
+FRF), fig7.png (hysteresis vs passive), fig8.png (Lyapunov vs passive), report.md (claims table,
+peak reduction [dB], best constant F_N1, actuator energy [J]) and report.json; all files appear at
+once when the run has finished. Full run: modes 2-5 at 5, 10, 20 N; --quick: modes 3, 4 at 5, 20 N
+on a coarse grid (docs/experiments.md)."""
+
+EXAMPLES = """examples:
+  frictionrt reproduce --quick
+  frictionrt reproduce --out logs/reproduce_full --jobs 2
+  frictionrt reproduce --quick --json --estimator observer
+  frictionrt reproduce --dask tcp://10.0.0.5:8786"""
+
+
+def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
+    """Register ``reproduce`` (parents: frictionrt's --config/--set parser)."""
+    p = subparsers.add_parser("reproduce", parents=parents or [], help="the paper's figures and claims C1..C6",
+                              description=DESCRIPTION, epilog=EXAMPLES,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true",
+                   help="modes 3 and 4, amplitudes 5 and 20 N, 9 points per mode, 2 refinement rounds, constant "
+                        "F_N1 40, 150, 600 N (~20-40 s on 2 cores); default: modes 2-5, 5, 10, 20 N, 11 points, "
+                        "4 rounds, F_N1 40, 80, 160, 320, 600 N")
+    add_out(p, "DIR", "folder for fig5.png, fig7.png, fig8.png, report.md, report.json (default logs/reproduce; "
+                      "created if missing; an existing one is refused, or with --force replaced as a whole)",
+            default="logs/reproduce")
+    add_force(p)
+    p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
+                   help="estimate of u_rel, v_rel for the controlled laws: oracle (the plant's, band-limited) or "
+                        "observer (Kalman-designed, on the tip accelerometer and the force cell)")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="local worker processes (default: the number of cores)")
+    p.add_argument("--dask", metavar="tcp://HOST:PORT",
+                   help="run the step-sine sweeps on this dask scheduler's workers instead (frictionrt installed there)")
+    p.add_argument("--json", action="store_true", help="print report.json's content as one JSON object (no progress)")
+    return p
+
+
+def _check_out(out: Path) -> str | None:
+    """None if the report can be written to out (its parent folders created, a probe file written
+    and removed there), else the problem."""
+    import tempfile
+    if out.exists() and not out.is_dir():
+        return f"--out {out}: exists and is not a folder; give a folder"
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out.parent):
+            pass
+    except OSError as exc:
+        return f"--out {out}: cannot write in {out.parent} ({exc.strerror or exc}); give a folder you can write to"
+    return None
+
+
+def cmd_reproduce(cfg: Config, args) -> int:
+    """Run ``frictionrt reproduce``: validate, measure, evaluate, write (rt.experiments.reproduce_report)."""
+    from rt.experiments.reproduce import FULL, QUICK, measure
+    from rt.experiments.reproduce_report import CLAIM_TEXT, jsonable, write_outputs
+    if args.jobs is not None and args.jobs < 1:
+        return fail(f"--jobs {args.jobs}: must be >= 1 (local worker processes)")
+    out = Path(args.out)
+    problem = _check_out(out) or refuse_existing([out], args.force)
+    if problem:
+        return fail(problem)
+    plan = QUICK if args.quick else FULL
+    say = (lambda text: None) if args.json else (lambda text: print(f"reproduce: {text}", file=sys.stderr))
+    try:
+        plan.check(cfg)
+        result = measure(cfg, plan, args.estimator, args.jobs, args.dask, progress=not args.json, stage=say)
+    except ConnectionError as exc:
+        return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
+    except ValueError as exc:
+        return fail(str(exc))
+    try:
+        write_outputs(out, result, cfg.impulse.f_max_hz)
+    except OSError as exc:
+        return fail(f"--out {out}: cannot write ({exc.strerror or exc}); give a folder you can write to")
+    report = jsonable(result["report"])
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print(f"{'claim':>5} {'holds':>5}  statement")
+    for c, v in report["claims"].items():
+        print(f"{c:>5} {'yes' if v['holds'] else 'NO':>5}  {CLAIM_TEXT[c]}")
+    print(f"peak reduction [dB] (law: mode: amplitude): {json.dumps(report['peak_reduction_db'])}")
+    print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}")
+    print(f"report: {out / 'report.md'}; figures: {out / 'fig5.png'}, {out / 'fig7.png'}, {out / 'fig8.png'}")
+    return 0

@@ -1,0 +1,155 @@
+"""``frictionrt tune``: grid search of a law's gains (rt.experiments.tune) with a table, a Pareto plot and the
+best configuration as TOML.
+
+``add_parser(subparsers, parents)`` registers the subcommand, ``cmd_tune(cfg, args)`` runs it and
+returns the exit code (0 done, 2 bad input with one line on stderr).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from rt.common.config import Config, ConfigError
+from rt.cli.common import add_force, add_out, fail, parse_list, refuse_existing
+
+DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
+each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
+  1. the mean peak reduction against the passive law (constant F_N1 = tracking.F_passive_N) [dB], and
+  2. the mean actuator power during the measurements [W].
+The candidates that no other beats on both are the Pareto front. The best (largest reduction, within
+--max-power if given) is written as a full configuration that every command takes with --config.
+
+Writes into --out DIR: table.csv and table.md (one row per candidate), pareto.png, best.toml, tune.json.
+Default grids: hysteresis K_f x T1 (5 x 3), lyapunov eps (5). Any numeric configuration key can be
+swept, e.g. the force-tracking loop (tracking.pid_bandwidth_hz, tracking.pid_phase_margin_deg,
+tracking.setpoint_filter_hz) or, with --estimator observer, the observer's noise covariances
+(observer.exc_noise_N, observer.fric_noise_N, observer.meas_noise_m_s)."""
+
+EXAMPLES = """examples:
+  frictionrt tune --law hysteresis --modes 3,4 --amp 5 20
+  frictionrt tune --law lyapunov --grid tracking.eps_m_s=0.003,0.01,0.03 --grid tracking.pid_bandwidth_hz=150,300
+  frictionrt tune --law hysteresis --estimator observer --grid observer.fric_noise_N=100,300,1000 --out logs/tune_obs
+  frictionrt --config logs/tune_hysteresis/best.toml frf --law hysteresis --amp 5 --around-modes 3"""
+
+
+def add_parser(subparsers, parents) -> argparse.ArgumentParser:
+    """Register ``tune`` on an argparse subparsers object (parents: frictionrt's --config/--set)."""
+    p = subparsers.add_parser("tune", parents=parents, help="grid search of a law's gains: table, Pareto plot, best TOML",
+                              description=DESCRIPTION, epilog=EXAMPLES,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--law", choices=["hysteresis", "lyapunov"], required=True, help="the law to tune")
+    p.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2,...",
+                   help="a configuration key and its values (SI units, as in frictionrt config --show); "
+                        "repeatable, the candidates are all combinations (default: the law's own gains)")
+    p.add_argument("--modes", default="3,4", metavar="M1,M2,...",
+                   help="bending modes whose peaks are scored (default 3,4; mode 1 is at 9.8 Hz)")
+    p.add_argument("--amp", nargs="+", type=float, default=[5.0], metavar="N",
+                   help="excitation force amplitude(s) [N], held on the measured force (default 5)")
+    p.add_argument("--points", type=int, default=9, metavar="N",
+                   help="step-sine frequencies per mode over +/- --half-width (default 9)")
+    p.add_argument("--half-width", type=float, default=0.15, metavar="REL",
+                   help="half width of each mode's band, relative to its centre (default 0.15)")
+    p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
+                   help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed observer")
+    p.add_argument("--max-power", type=float, default=None, metavar="W",
+                   help="pick the best candidate among those using at most this mean actuator power [W]")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="local worker processes (default: the number of cores)")
+    p.add_argument("--dask", metavar="tcp://HOST:PORT", help="run the sweeps on this dask scheduler's workers")
+    add_out(p, "DIR", "output folder (default logs/tune_LAW); created if missing; an existing one is refused, or "
+                      "with --force its tune files are replaced")
+    add_force(p)
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object (no progress bar)")
+    return p
+
+
+def _markdown(rows: list[dict], keys) -> str:
+    head = list(keys) + ["reduction [dB]", "power [W]", "Pareto", "best", "refused"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        red = "" if r["reduction_db"] is None else f"{r['reduction_db']:.2f}"
+        pw = "" if r["power_w"] is None else f"{r['power_w']:.3g}"
+        lines.append("| " + " | ".join([f"{r[k]:g}" for k in keys] + [red, pw, "yes" if r["pareto"] else "",
+                                                                      "**best**" if r["best"] else "", r["error"]])
+                     + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _csv(rows: list[dict], keys) -> str:
+    import csv
+    import io
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(list(keys) + ["reduction_db", "power_w", "pareto", "best", "error"])
+    for r in rows:
+        w.writerow([r[k] for k in keys] + ["" if r["reduction_db"] is None else r["reduction_db"],
+                                           "" if r["power_w"] is None else r["power_w"], r["pareto"], r["best"],
+                                           r["error"]])
+    return buf.getvalue()
+
+
+def _write_outputs(res, out: Path) -> None:
+    """Write the files into a temporary folder beside out, then move them in (never half-written)."""
+    from rt.experiments.tune import best_toml, plot_pareto
+    out.mkdir(parents=True, exist_ok=True)
+    rows = res.rows()
+    with tempfile.TemporaryDirectory(dir=out, prefix=".tune-") as tmp:
+        t = Path(tmp)
+        (t / "table.csv").write_text(_csv(rows, res.keys))
+        (t / "table.md").write_text(_markdown(rows, res.keys))
+        (t / "tune.json").write_text(json.dumps(res.to_dict(), indent=1))
+        plot_pareto(res, str(t / "pareto.png"))
+        if res.best >= 0:
+            (t / "best.toml").write_text(best_toml(res))
+        for f in t.iterdir():
+            os.replace(f, out / f.name)
+    if res.best < 0 and (out / "best.toml").exists():
+        (out / "best.toml").unlink()  # an older run's best must not pass for this one's
+
+
+def cmd_tune(cfg: Config, args) -> int:
+    from rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
+    out = Path(args.out or f"logs/tune_{args.law}")
+    if out.exists() and not out.is_dir():
+        return fail(f"--out {out}: exists and is not a folder")
+    if msg := refuse_existing([out], args.force):
+        return fail(msg)
+    parent = out if out.exists() else out.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not os.access(parent, os.W_OK):
+        return fail(f"--out {out}: folder {parent} is not writable")
+    if args.jobs is not None and args.jobs < 1:
+        return fail(f"--jobs {args.jobs}: must be >= 1")
+    try:
+        grid = parse_grid(args.grid) if args.grid else DEFAULT_GRIDS[args.law]
+        modes = parse_list(args.modes, int, "--modes", "3,4")
+        res = tune(cfg, args.law, grid, modes, args.amp, points=args.points, half_width_rel=args.half_width,
+                   estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs, dask_address=args.dask,
+                   progress=not args.json)
+    except ConfigError as exc:
+        return fail(f"--grid: {exc}")
+    except ConnectionError as exc:
+        return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
+    except ValueError as exc:
+        return fail(str(exc))
+    _write_outputs(res, out)
+    doc = res.to_dict()
+    doc["out"] = str(out)
+    if args.json:
+        print(json.dumps(doc))
+        return 0
+    print(f"tune {res.law}: {len(res.values)} candidates, modes {list(res.modes)}, amplitudes {list(res.amps_n)} N; "
+          f"passive peaks [(m/s^2)/N]: {', '.join(f'{v:.3g}' for v in res.passive_peak.ravel())}")
+    print(_markdown(res.rows(), res.keys), end="")
+    if res.best < 0:
+        print("no candidate qualifies (all refused, or none within --max-power); best.toml not written")
+    else:
+        print(f"best: {out / 'best.toml'}")
+        for key in res.best_on_edge():
+            print(f"note: the best {key} is at the end of its grid; the optimum may lie beyond it (extend --grid {key})")
+    print(f"files: {out}/table.csv, table.md, pareto.png, tune.json")
+    return 0

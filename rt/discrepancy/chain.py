@@ -1,0 +1,119 @@
+"""The measurement chain that the virtual rig and the diagnosis share: plant -> sensors.
+
+The rig (rt.discrepancy.rig) runs it on the true structure with the sensors' noise, the
+diagnosis (rt.discrepancy.diagnose*) on the nominal model with the noise switched off
+(``quiet``), so that model and measurement go through the same filters. ``measure_impulse``
+and ``measure_actuator`` give the channels of an impulse and of an actuator test
+(``SIGNALS``); the noise of the channels that plant.sensors does not model is given here
+(``FORCE_NOISE_N``, ``V_NOISE_V``, ``I_NOISE_A``) and added by the rig.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from plant.actuator import build_actuator, initial_state, output_index, run_actuator
+from plant.model import PlantModel
+from plant.sensors import build_sensors, run_sensors
+from plant.simulate import run
+from rt.common.config import Config, with_sets
+from rt.common.noise import new_rng
+
+FORCE_NOISE_N = 0.02                  # [N] rms, hammer force transducer
+V_NOISE_V = 0.02                      # [V] rms, stack voltage monitor
+I_NOISE_A = 1e-3                      # [A] rms, current monitor
+
+SIGNALS = (("F_exc", "N", "rt"), ("a_tip_meas", "m/s^2", "sensors"), ("a_frf_meas", "m/s^2", "sensors"),
+           ("v_tip_meas", "m/s", "sensors"), ("F_strain", "N", "sensors"), ("F_cell", "N", "sensors"),
+           ("V_cmd", "V", "tracking"), ("V_a", "V", "actuator"), ("i", "A", "actuator"))
+"""The recorded channels of every file of a campaign (name, unit, owner)."""
+SENSOR_FIELDS = ("a_tip_meas", "a_frf_meas", "v_tip_meas", "F_strain", "F_cell")   # plant.sensors outputs
+
+
+def scaled(cfg: Config, factors: dict[str, float]) -> Config:
+    """``cfg`` with its nominal parameters multiplied by ``factors`` (keys E, mu, k_t,
+    modal_damping, c_v: the rig's ``SCATTER``; E scales every beam)."""
+    sets = []
+    for key, f in factors.items():
+        f = float(f)
+        if key == "E":
+            sets += [f"plant.beams.{b.name}.E={b.E * f!r}" for b in cfg.plant.beams]
+        elif key in ("mu", "k_t"):
+            sets.append(f"plant.interface.{key}={getattr(cfg.plant.interface, key) * f!r}")
+        elif key == "modal_damping":
+            sets.append(f"plant.modal_damping={cfg.plant.modal_damping * f!r}")
+        elif key == "c_v":
+            sets.append(f"actuator.c_v={cfg.actuator.c_v * f!r}")
+        else:
+            raise KeyError(key)
+    return with_sets(cfg, sets)
+
+
+def quiet(cfg: Config) -> Config:
+    """``cfg`` with the sensor noise switched off (the model side of a comparison)."""
+    return with_sets(cfg, ["sensors.acc_noise_rms=0.0", "sensors.strain_noise_N=0.0", "sensors.cell_noise_N=0.0"])
+
+
+def hold_voltage(cfg: Config, F_N1: float) -> float:
+    """V_cmd [V] that holds F_N1 [N] statically: F_N1 = F0 + c_v V."""
+    a = cfg.actuator
+    return min(max((F_N1 - a.F0_N) / a.c_v, a.V_min), a.V_max)
+
+
+def measure_impulse(model: PlantModel, F_exc: np.ndarray, V_cmd: float, seed: int) -> dict[str, np.ndarray]:
+    """The channels of an impulse test: the plant at the F_N1 the stack holds at V_cmd [V], driven by
+    F_exc [N] per tick, read by the sensors of ``model.cfg`` (their noise from ``seed``).
+
+    /sensors row k is the reading at t_k of the plant output of tick k - 1 (docs/data-format.md);
+    V_a, i are the actuator's outputs at rest. Returns {signal name: array (n,)}, without F_exc."""
+    cfg = model.cfg
+    n = len(F_exc)
+    pa, ps = _chain(cfg)
+    _, Ya = run_actuator(pa, np.full(n, V_cmd), initial_state(pa, V=V_cmd))
+    ia = output_index()
+    F_N1 = float(Ya[0, ia["F_stack"]])
+    Y, _, _ = run(model, F_exc, F_N1)
+    io = model.output_index()
+    U = np.empty((n, 4))
+    U[0, :2] = 0.0
+    U[1:, 0] = Y[:-1, io[f"abar_{sensor_point(cfg, 'tip')}"]]
+    U[1:, 1] = Y[:-1, io[f"abar_{sensor_point(cfg, 'frf')}"]]
+    U[:, 2] = Ya[:, ia["F_strain_a"]]
+    U[:, 3] = Ya[:, ia["F_cell_a"]]
+    _, Ys = run_sensors(ps, U, new_rng(seed))
+    out = dict(zip(SENSOR_FIELDS, Ys.T))
+    out.update(V_cmd=np.full(n, V_cmd), V_a=Ya[:, ia["V_a"]], i=Ya[:, ia["i"]])
+    return out
+
+
+_CHAINS: dict = {}
+
+
+def _chain(cfg: Config):
+    """(build_actuator(cfg), build_sensors(cfg)), memoised on what they read (cfg.actuator,
+    cfg.sensors, cfg.rt): the diagnosis runs the chain for many plant parameters with one actuator."""
+    key = (cfg.actuator, cfg.sensors, cfg.rt)
+    if key not in _CHAINS:
+        if len(_CHAINS) >= 16:
+            _CHAINS.clear()
+        _CHAINS[key] = (build_actuator(cfg), build_sensors(cfg))
+    return _CHAINS[key]
+
+
+def measure_actuator(cfg: Config, V_cmd: np.ndarray, seed: int) -> dict[str, np.ndarray]:
+    """The channels of an actuator test (structure at rest): the chain driven by V_cmd [V] per tick,
+    the bolt force sensors read by plant.sensors (noise from ``seed``). Returns {name: array (n,)}."""
+    pa, ps = _chain(cfg)
+    _, Ya = run_actuator(pa, V_cmd, initial_state(pa, V=float(V_cmd[0])))
+    ia = output_index()
+    U = np.zeros((len(V_cmd), 4))
+    U[:, 2] = Ya[:, ia["F_strain_a"]]
+    U[:, 3] = Ya[:, ia["F_cell_a"]]
+    _, Ys = run_sensors(ps, U, new_rng(seed))
+    out = dict(zip(SENSOR_FIELDS, Ys.T))
+    out.update(V_cmd=np.asarray(V_cmd, float), V_a=Ya[:, ia["V_a"]], i=Ya[:, ia["i"]])
+    return out
+
+
+def sensor_point(cfg: Config, role: str) -> str:
+    """Plant point name of the tip accelerometer ("tip") or the FRF accelerometer (plant.frf_point)."""
+    return cfg.plant.frf_point if role == "frf" else "tip"

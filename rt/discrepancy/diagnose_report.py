@@ -1,0 +1,131 @@
+"""Report folder of ``frictionrt diagnose --out``: diagnose.json (the JSON of the workflow),
+model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (the overlays
+for rerun: rt.discrepancy.diagnose_rrd), and overlay PNGs: per impulse
+test |H| measured / nominal model (before) / updated model (after), per actuator test the bolt
+force F_cell over time. Written into a temporary folder beside REPORT_DIR, then renamed."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from rt.common.config import dumps
+from rt.discrepancy.diagnose_rrd import write_diagnosis_rrd
+from rt.discrepancy.diagnose import (
+    BAND_HZ,
+    MIN_RSS_REDUCTION,
+    NAME_THRESHOLD,
+    NESTED_TOL,
+    frf_overlays,
+    public,
+)
+
+
+LABELS = {"measured": ("measured", "k-"), "before": ("nominal model (before)", "C1--"),
+          "after": ("updated model (after)", "C0-")}
+
+
+def _plots(res: dict, folder: Path) -> list[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    pl = res["_plots"]
+    names = []
+    for name, F_N1, f, H in frf_overlays(pl):
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        sel = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
+        for k, (lab, st) in LABELS.items():
+            ax.semilogy(f[sel], np.abs(H[k][sel]), st, lw=0.8, label=lab)
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel("accelerance |a_frf / F_exc| [(m/s^2)/N]")
+        ax.set_title(f"{name}: F_N1 = {F_N1:.0f} N")
+        ax.legend()
+        ax.grid(True, which="both", lw=0.3)
+        fig.tight_layout()
+        names.append(f"frf_{name}.png")
+        fig.savefig(folder / names[-1], dpi=110)
+        plt.close(fig)
+    if not pl["act"]:
+        return names
+    (_, arun0), (_, arun1) = pl["before"], pl["after"]
+    for t, r0, r1 in zip(pl["act"], arun0, arun1):
+        fig, ax = plt.subplots(figsize=(8, 4))
+        tt = np.arange(len(t.data["F_cell"])) * t.dt * 1e3
+        ax.plot(tt, t.data["F_cell"], "k-", lw=0.8, label="measured")
+        ax.plot(tt, r0["F_cell"], "C1--", lw=0.8, label="nominal model (before)")
+        ax.plot(tt, r1["F_cell"], "C0-", lw=0.8, label="updated model (after)")
+        ax.set_xlabel("t [ms]")
+        ax.set_ylabel("bolt force F_cell [N]")
+        ax.set_title(t.name)
+        ax.legend()
+        ax.grid(True, lw=0.3)
+        fig.tight_layout()
+        names.append(f"actuator_{t.name}.png")
+        fig.savefig(folder / names[-1], dpi=110)
+        plt.close(fig)
+    return names
+
+
+def report_md(res: dict, pngs: list[str]) -> str:
+    named = res["named_effect"]
+    gb, gc, ga = res["gap_before"], res["gap_calibrated"], res["gap_after"]
+    lines = ["# Discrepancy report", "",
+             f"**Named effect: {named or 'no missing effect found'}**"
+             + (f" (runner-up: {res['runner_up']})" if named else ""),
+             "", (f"Named only if its BIC is below calibration alone by more than {NAME_THRESHOLD:g}, it removes at "
+                  f"least {100 * MIN_RSS_REDUCTION:g} % of its channels' residual sum of squares and its fitted "
+                  f"strength is at least {100 * NESTED_TOL:g} % of its default away from nominal "
+                  "(docs/discrepancy.md)."), "",
+             ("| candidate | dBIC vs calibration | RSS reduction | BIC | feature gap after (rms of weighted "
+              "residuals) | fitted |"), "| --- | --- | --- | --- | --- | --- |"]
+    for r in res["ranking"]:
+        lines.append(f"| {r['effect']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | {r['score']:.1f} | "
+                     f"{r['gap_after']:.3f} | {json.dumps(r['fitted'])} |")
+    c = res["calibration_only"]
+    lines += [f"| calibration only | 0 | 0 % | {c['score']:.1f} | {c['gap_after']:.3f} | {json.dumps(c['fitted'])} |",
+              "",
+              "## Gap", "", "| test | metric | nominal (before) | calibrated only | updated (after) |",
+              "| --- | --- | --- | --- | --- |"]
+    for name, row in gb.items():
+        if isinstance(row, dict):
+            for k, v in row.items():
+                lines.append(f"| {name} | {k} | {v} | {gc[name][k]} | {ga[name][k]} |")
+    tests = "all FRF files" if res.get("input") == "frf_files" else "all impulse tests"
+    lines += [f"| {tests} | mean FRF log-magnitude RMS [dB] | {gb['structure_frf_db']} | "
+              f"{gc['structure_frf_db']} | {ga['structure_frf_db']} |"]
+    if gb["actuator_nrmse"] is not None:
+        lines += [f"| all actuator tests | mean F_cell NRMSE | {gb['actuator_nrmse']} | {gc['actuator_nrmse']} | "
+                  f"{ga['actuator_nrmse']} |"]
+    if "stepsine_ratio_db" in gb:
+        lines.append(f"| all step-sine tests | F_amp / drive log-magnitude RMS [dB] | {gb['stepsine_ratio_db']} | "
+                     f"{gc['stepsine_ratio_db']} | {ga['stepsine_ratio_db']} |")
+    lines += ["", "## Localisation (nominal model vs measurement)", "",
+              "```json", json.dumps(res["localisation"], indent=1), "```", "",
+              f"Not tried (not implemented yet, or not seen by this input: no step-sine tests for "
+              f"shaker_interaction, FRF files for slip and actuator effects): {', '.join(res['not_tried'])}.", "",
+              "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
+    lines += [f"![{p}]({p})" for p in pngs]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(res: dict, out: str | os.PathLike) -> Path:
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        (tmp / "diagnose.json").write_text(json.dumps(public(res), indent=1) + "\n")
+        (tmp / "model.toml").write_text(dumps(res["_config"]))
+        pngs = _plots(res, tmp)
+        md = report_md(res, pngs)
+        (tmp / "report.md").write_text(md)
+        write_diagnosis_rrd(res, md, tmp / "diagnosis.rrd")
+        tmp.chmod(0o755)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out

@@ -1,0 +1,83 @@
+"""The virtual rig's FRF-file campaign (``frictionrt rig --frf-files``, issue 7): what a lab
+exports from low-level FRF measurements with the contact stuck, as FRF files (rt.log.frf_files,
+docs/data-format.md "FRF files"), from the same "true" structure as ``rig`` writes time series of
+(rt.discrepancy.rig.true_structure: the same scatter draw and hidden effect for the same seed).
+
+One test per F_N1 level (default 40, 100, 300 N): the stack holds F_N1 within ``HOLD_REL``
+(relative rms; the sidecar gives the held value, as a lab's load-cell mean); the accelerances of
+both accelerometers are the continuous FRF of the stuck linearised plant at that F_N1
+(plant.linear_frf's model, plant.linear_frf.point_accelerances: the physical structure, no time
+step), on the lines
+``FREQ_HZ`` (0.25 Hz from 4 to 1600 Hz, 6385 lines, like an analyser's 6400-line zoom), with
+complex Gaussian noise per line of rms ``NOISE_REL`` |H| (the random error of an H1 estimate with
+coherence ~0.99 over a few averages) plus ``NOISE_FLOOR`` (accelerometer noise over the force:
+it fills the deepest antiresonances). The tests are written alternately as CSV and UFF
+(frf_01.csv, frf_02.uff, frf_03.csv), so every campaign exercises both readers. Nothing in a
+file names or parameterises the effect: the sidecar gives kind "frf", the excitation and sensor
+positions, the held F_N1, the force amplitude and a description that is the same for every
+effect.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from plant.model import build_plant
+from rt.common.config import Config
+from rt.discrepancy.effects import get
+from rt.log.data_format import ACCELEROMETER_POINTS
+from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
+from plant.linear_frf import point_accelerances
+from rt.discrepancy.chain import sensor_point
+from rt.discrepancy.rig import FN1_LEVELS_N, new_folder, true_structure
+
+FREQ_HZ = 4.0 + 0.25 * np.arange(6385)   # [Hz] 4 .. 1600 Hz
+NOISE_REL = 0.01                         # complex noise rms relative to |H|
+NOISE_FLOOR = 2e-3                       # [(m/s^2)/N] complex noise rms floor
+HOLD_REL = 0.01                          # relative rms of the held F_N1 about its level
+FORCE_N = 1.0                            # [N] excitation force amplitude (low level: contact stuck)
+
+
+def sensor_points(cfg: Config) -> dict[str, str]:
+    """Plant point of each accelerometer of the measurement format."""
+    return {s: sensor_point(cfg, role) for s, role in ACCELEROMETER_POINTS.items()}
+
+
+def frf_meta(cfg: Config, F_N1: float, description: str) -> dict:
+    """The sidecar of a rig FRF test on structure ``cfg`` at the held F_N1 [N]."""
+    pts = {p.name: p.x_m for p in cfg.plant.points}
+    return {"format": FORMAT, "kind": "frf", "excitation_x_m": pts[cfg.plant.excitation_point],
+            "sensor_positions_m": {s: pts[p] for s, p in sensor_points(cfg).items()},
+            "F_N1_N": F_N1, "amplitude_n": FORCE_N, "description": description}
+
+
+def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
+                      seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N) -> list[Path]:
+    """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
+    then renamed). Arguments as rt.discrepancy.rig.make_campaign; returns the data files written. ValueError
+    for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
+    if effect != "none" and not get(effect).visible_in_frf_files():
+        raise ValueError(f"effect {effect!r} leaves the structure linearised with the contact stuck unchanged "
+                         "(it acts through slip or the actuator), so FRF files cannot show it; write a time-series "
+                         "campaign instead (rig without --frf-files)")
+    rng = np.random.default_rng(seed)
+    true = true_structure(cfg, effect, strength, rng)
+    names = []
+    with threadpool_limits(1), new_folder(out_dir) as tmp:
+        model = build_plant(true)
+        for j, level in enumerate(levels_n):
+            F_N1 = round(level * (1.0 + HOLD_REL * rng.standard_normal()), 2)
+            H = point_accelerances(model, sensor_points(true), F_N1, FREQ_HZ)
+            for s, h in H.items():
+                z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
+                H[s] = h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w
+            name = f"frf_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
+            test = FRFTest(Path(name).stem, FREQ_HZ, H, None, None, frf_meta(
+                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {FORCE_N:g} N, adaptive "
+                f"screw held at about {level:g} N by the stack"))
+            (write_frf_uff if j % 2 else write_frf_csv)(tmp / name, test)
+            names.append(name)
+    return [Path(out_dir) / n for n in names]

@@ -1,0 +1,169 @@
+"""Outputs of ``frictionrt reproduce``: fig5.png, fig7.png, fig8.png, report.md, report.json.
+
+``write_outputs`` writes them into a fresh folder next to the target and renames it onto the
+target only when every file is complete, so a failed or interrupted run never leaves a half-written
+report (a previous report at the target is replaced as a whole).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from rt.experiments.claims import TOL_DB
+
+CLAIM_TEXT = {
+    "C1": "bare structure damping < 0.15 %",
+    "C2": "the passive damper adds significant damping to modes 3, 4 and higher, little to mode 2",
+    "C3": "both laws reduce the resonance peaks of several modes",
+    "C4": "control never does worse than passive at low amplitudes",
+    "C5": "Lyapunov reduces more than hysteresis-optimal, especially at small amplitudes",
+    "C6": "Lyapunov needs more actuator power",
+}
+
+
+def jsonable(obj):
+    """Plain JSON: dict keys as text (numbers with %g), numpy scalars as Python numbers,
+    non-finite floats as None."""
+    if isinstance(obj, dict):
+        return {(f"{k:g}" if isinstance(k, float) else str(k)): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer, int)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
+
+
+def _fmt(v) -> str:
+    """A number or a nested dict of numbers, short."""
+    if isinstance(v, dict):
+        return ", ".join(f"{k}: {_fmt(x)}" for k, x in v.items())
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
+
+
+def markdown(report: dict) -> str:
+    """report.md: claims table, peak reduction, best constant F_N1, energy, impulse, plan, timing."""
+    r = jsonable(report)
+    plan = r["plan"]
+    lines = ["# frictionrt reproduce: Becker & Gaul's claims C1..C6 (SPEC section 6)", "",
+             f"Modes {plan['modes']}, excitation force amplitudes {plan['amps_n']} N, estimator "
+             f"{plan['estimator']}; {plan['points']} step-sine points ({plan['unsettled']} not settled), "
+             f"{plan['simulated_s']:.0f} s simulated. Peaks are the largest measured |H| = |a(0.45 m) / F_exc| "
+             f"[(m/s^2)/N]; reduction = 20 log10(peak_law / peak_passive) [dB]; passive: F_N1 = "
+             f"{plan['fn1_n'][0]:g} N (F_min). How the numbers are measured: docs/experiments.md.", "",
+             "## Claims", "", "| claim | statement | holds | numbers |", "| --- | --- | --- | --- |"]
+    for c, v in r["claims"].items():
+        nums = "; ".join(f"{k}: {_fmt(x)}" for k, x in v["numbers"].items())
+        note = f" ({v['note']})" if "note" in v else ""
+        lines.append(f"| {c} | {CLAIM_TEXT[c]} | **{'yes' if v['holds'] else 'NO'}** | {nums}{note} |")
+    amps = [f"{a:g}" for a in plan["amps_n"]]
+    lines += ["", "## Peak reduction against passive [dB]", "",
+              f"Negative: the law's peak is lower. |x| < {TOL_DB:g} dB counts as unchanged (rt/experiments/claims.py).", "",
+              "| law | mode | " + " | ".join(f"{a} N" for a in amps) + " |", "| --- | --- |" + " --- |" * len(amps)]
+    for law, by_mode in r["peak_reduction_db"].items():
+        for m, by_amp in by_mode.items():
+            lines.append(f"| {law} | {m} | " + " | ".join(f"{by_amp[a]:+.2f}" for a in amps) + " |")
+    lines += ["", "## Resonance peaks", "",
+              "| law | mode | amplitude [N] | peak |H| [(m/s^2)/N] | at [Hz] | acceleration [m/s^2] | mean F_N1 [N] "
+              "| actuator power [W] | settled |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for law, by_mode in r["peaks"].items():
+        for m, by_amp in by_mode.items():
+            for a, p in by_amp.items():
+                edge = " (band edge)" if p["at_band_edge"] else ""
+                lines.append(f"| {law} | {m} | {a} | {p['H_abs']:.4g} | {p['f_hz']:.2f}{edge} | {p['acc_m_s2']:.4g} | "
+                             f"{p['F_N1_mean_n']:.0f} | {p['power_w']:.3g} | {'yes' if p['settled'] else 'NO'} |")
+    lines += ["", "## Best constant F_N1 (the fair baseline)", "",
+              f"Passive law at constant F_N1 in {plan['fn1_n']} N; vs best = 20 log10(peak_law / best constant "
+              "peak) [dB] (negative: the law beats every constant force tried).", "",
+              "| mode | amplitude [N] | best F_N1 [N] | its peak | hysteresis peak (vs best) | Lyapunov peak (vs best) "
+              "| peak per F_N1 |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for m, by_amp in r["best_passive_fn1"].items():
+        for a, d in by_amp.items():
+            per = ", ".join(f"{f} N: {p:.3g}" for f, p in d["peaks_by_fn1"].items())
+            lines.append(f"| {m} | {a} | {d['fn1_n']:g} | {d['H_abs']:.4g} | {d['hysteresis']['H_abs']:.4g} "
+                         f"({d['hysteresis']['vs_best_db']:+.2f} dB) | {d['lyapunov']['H_abs']:.4g} "
+                         f"({d['lyapunov']['vs_best_db']:+.2f} dB) | {per} |")
+    lines += ["", "## Actuator energy", "", "Over the measurement blocks of every step-sine point of the law.", "",
+              "| law | energy [J] | measured time [s] | mean power [W] |", "| --- | --- | --- | --- |"]
+    for law, e in r["energy"].items():
+        lines.append(f"| {law} | {e['energy_j']:.4g} | {e['duration_s']:.3g} | {e['mean_power_w']:.3g} |")
+    imp = r["impulse"]
+    lines += ["", f"## Impulse test at F_N1 = {imp['fn1_n']:g} N (fig5.png)", "",
+              "| mode | f [Hz] | zeta [%] | bare zeta [%] (model input) |", "| --- | --- | --- | --- |"]
+    for m, f in zip(imp["modes"], imp["freq_hz"]):
+        z = imp["zeta"][str(m)]
+        lines.append(f"| {m} | {f:.2f} | {'n/a' if z is None else f'{100 * z:.3f}'} | "
+                     f"{100 * imp['zeta_bare'][str(m)]:.3f} |")
+    lines += ["", f"Bare main beam bending modes [Hz]: {', '.join(f'{f:.1f}' for f in imp['bare_beam_hz'])}.", "",
+              "## Run", "", f"Wall time [s]: {_fmt(r['timing_s'])}. Step-sine detector: {_fmt(plan['settle'])}; "
+              f"{plan['n_points']} coarse points per mode, up to {plan['refine_rounds']} refinement rounds.", ""]
+    return "\n".join(lines)
+
+
+def plot_laws(frfs: dict, law: str, path: str, title: str) -> None:
+    """|H| [dB re 1 (m/s^2)/N] against f [Hz], one panel per mode: the law solid, passive dashed
+    (as the paper's Figs. 7, 8), one colour per amplitude; unsettled points hollow. PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    modes = sorted({k.mode for k in frfs})
+    amps = sorted({k.amp_n for k in frfs})
+    fig, axes = plt.subplots(1, len(modes), figsize=(3.6 * len(modes), 4.2), squeeze=False)
+    for ax, m in zip(axes[0], modes):
+        for c, a in enumerate(amps):
+            for name, style in (("passive", "--"), (law, "-")):
+                r = frfs[next(k for k in frfs if k.law == name and k.fn1_n is None and k.mode == m and k.amp_n == a)]
+                db = 20 * np.log10(r.H_abs)
+                ax.plot(r.freq_hz, db, style, color=f"C{c}", lw=1.0, marker=".", ms=3,
+                        label=f"{name}, {a:g} N")
+                if not np.all(r.settled):
+                    ax.plot(r.freq_hz[~r.settled], db[~r.settled], "o", mfc="none", color=f"C{c}", ms=6)
+        ax.set_title(f"mode {m}")
+        ax.set_xlabel("f [Hz]")
+        ax.grid(True, lw=0.3)
+    axes[0][0].set_ylabel("|a(0.45 m) / F_exc| [dB re 1 (m/s^2)/N]")
+    axes[0][-1].legend(fontsize=7)
+    fig.suptitle(title + " (solid: controlled, dashed: passive F_N1 = F_min; hollow: not settled)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_outputs(out: Path, result: dict, f_max_hz: float) -> None:
+    """fig5.png (impulse FRF), fig7.png (hysteresis vs passive), fig8.png (Lyapunov vs passive),
+    report.md and report.json into out, all at once (module docstring)."""
+    from plant.impulse import plot_frf
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        plot_frf(result["impulse"], str(tmp / "fig5.png"), f_max_hz)
+        plot_laws(result["frfs"], "hysteresis", str(tmp / "fig7.png"), "Hysteresis-optimal vs passive")
+        plot_laws(result["frfs"], "lyapunov", str(tmp / "fig8.png"), "Lyapunov vs passive")
+        (tmp / "report.md").write_text(markdown(result["report"]))
+        (tmp / "report.json").write_text(json.dumps(jsonable(result["report"]), indent=1))
+        old = None
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+            os.replace(out, old / out.name)
+        os.replace(tmp, out)
+        if old is not None:
+            shutil.rmtree(old)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -1,0 +1,254 @@
+"""Gain tuning: a grid of law, force-tracking and observer parameters scored on step-sine peaks.
+
+A candidate is a set of ``--set`` overrides (e.g. tracking.K_f=5e7, tracking.T1_s=0.01) applied
+to the base configuration. Each candidate's law runs a step-sine sweep (rt.experiments.stepsine) around each
+chosen mode at each chosen force amplitude; the passive law (constant F_N1 = F_passive) runs the
+same sweeps once as the reference. Two objectives per candidate:
+
+    reduction_db = mean over (mode, amplitude) of  -20 log10( max_f |H_law| / max_f |H_passive| )  [dB]
+                   (maximised; the peak is the largest |H| of the grid around the mode)
+    power_w      = mean over the sweeps' points of the actuator energy during the measurement
+                   blocks divided by their duration [W]   (minimised; SPEC C6: actuator power)
+
+A candidate is Pareto-optimal if no other has a reduction at least as large and a power at most
+as large, one of them strictly. The best candidate is the one with the largest reduction
+(among those with power_w <= max_power_w if given); its full configuration is written as TOML
+that every frictionrt command accepts with --config.
+
+Every sweep is a ``Branch`` and they all run through ``run_branches``: joblib processes locally,
+a dask cluster with ``dask_address``; the same configuration gives the same numbers either way.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from rt.common.config import Config, ConfigError, check_key, dumps, with_sets
+from rt.experiments.branches import Branch, run_branches
+from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
+
+TUNED_LAWS = ("hysteresis", "lyapunov")
+
+# default grids: the law's own parameters around the SPEC defaults (K_f 2.5e7 N/m, T1 0.02 s,
+# eps 0.01 m/s); force-tracking and observer parameters are tuned by giving their keys
+DEFAULT_GRIDS: dict[str, dict[str, tuple[float, ...]]] = {
+    "hysteresis": {"tracking.K_f": (6.25e6, 1.25e7, 2.5e7, 5e7, 1e8), "tracking.T1_s": (0.005, 0.02, 0.08)},
+    "lyapunov": {"tracking.eps_m_s": (0.001, 0.003, 0.01, 0.03, 0.1)},
+}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One point of the grid: its overrides, its configuration and (once run) its scores."""
+    sets: tuple[str, ...]              # ("tracking.K_f=5e+07", ...)
+    cfg: Config | None                 # None: refused (error says why)
+    error: str = ""
+
+
+@dataclass
+class TuneResult:
+    law: str
+    modes: tuple[int, ...]
+    amps_n: tuple[float, ...]
+    keys: tuple[str, ...]                  # the swept keys, in grid order
+    values: np.ndarray                     # (n_candidates, n_keys) swept values
+    errors: list[str]                      # per candidate: "" or why it was refused
+    passive_peak: np.ndarray               # (n_modes, n_amps) max |H| passive [(m/s^2)/N]
+    peak: np.ndarray                       # (n_candidates, n_modes, n_amps) max |H| of the law
+    reduction_db: np.ndarray               # (n_candidates,) objective 1 [dB] (NaN: refused)
+    power_w: np.ndarray                    # (n_candidates,) objective 2 [W] (NaN: refused)
+    pareto: np.ndarray                     # (n_candidates,) bool
+    best: int                              # index of the best candidate (-1: none qualifies)
+    best_cfg: Config | None
+
+    def rows(self) -> list[dict]:
+        """One dict per candidate: the swept values, objectives, Pareto flag, error."""
+        out = []
+        for i in range(len(self.values)):
+            row = {k: float(v) for k, v in zip(self.keys, self.values[i])}
+            row.update(reduction_db=_num(self.reduction_db[i]), power_w=_num(self.power_w[i]),
+                       pareto=bool(self.pareto[i]), best=i == self.best, error=self.errors[i])
+            out.append(row)
+        return out
+
+    def best_on_edge(self) -> list[str]:
+        """The swept keys (with more than one value) whose best value is the grid's smallest or
+        largest: the optimum may lie beyond the grid, so extend it there."""
+        if self.best < 0:
+            return []
+        v = self.values
+        return [k for j, k in enumerate(self.keys)
+                if v[:, j].min() < v[:, j].max() and v[self.best, j] in (v[:, j].min(), v[:, j].max())]
+
+    def to_dict(self) -> dict:
+        return {"law": self.law, "modes": list(self.modes), "amps_n": list(self.amps_n), "keys": list(self.keys),
+                "candidates": self.rows(), "passive_peak": self.passive_peak.tolist(),
+                "best": None if self.best < 0 else self.rows()[self.best], "best_on_edge": self.best_on_edge()}
+
+
+def _num(v: float) -> float | None:
+    return None if math.isnan(v) else float(v)
+
+
+def parse_grid(specs: Sequence[str]) -> dict[str, tuple[float, ...]]:
+    """``KEY=V1,V2,...`` strings -> {key: values}; raises ValueError naming the bad spec."""
+    grid: dict[str, tuple[float, ...]] = {}
+    for spec in specs:
+        key, sep, text = spec.partition("=")
+        key = key.strip()
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            values = ()
+        if not sep or not key or not values or not all(math.isfinite(v) for v in values):
+            raise ValueError(f"--grid {spec!r}: expected KEY=V1,V2,... with numbers, e.g. tracking.K_f=1e7,2.5e7,5e7")
+        if key in grid:
+            raise ValueError(f"--grid {key}: given twice; list all its values in one --grid")
+        grid[key] = values
+    return grid
+
+
+def candidates(base: Config, grid: dict[str, tuple[float, ...]]) -> list[Candidate]:
+    """The Cartesian product of the grid, each applied to base. A key that does not exist
+    raises ConfigError (a typo must not silently sweep nothing); a value the configuration
+    refuses (out of range) makes that candidate refused, with the reason."""
+    if not grid:
+        raise ValueError("empty grid: give at least one --grid KEY=V1,V2,...")
+    keys = list(grid)
+    for k in keys:
+        check_key(base, k)  # an unknown key fails here, for all candidates
+    out = []
+    for combo in itertools.product(*(grid[k] for k in keys)):
+        sets = tuple(f"{k}={v!r}" for k, v in zip(keys, combo))
+        try:
+            out.append(Candidate(sets, with_sets(base, sets)))
+        except ConfigError as exc:
+            out.append(Candidate(sets, None, str(exc)))
+    return out
+
+
+def mode_grid(cfg: Config, mode: int, points: int, half_width_rel: float) -> tuple[float, ...]:
+    """The step-sine frequencies [Hz] around a mode: ``resonance_grid`` about the middle of
+    its (f_slip, f_stuck) band (``mode_bands_hz``)."""
+    f_slip, f_stuck = mode_bands_hz(cfg, (mode,))[mode]
+    return tuple(float(f) for f in resonance_grid([0.5 * (f_slip + f_stuck)], half_width_rel, points))
+
+
+def mean_power_w(r: StepSineResult, dt: float) -> float:
+    """Mean actuator power [W] over a sweep's measurement blocks: energy / measured duration."""
+    T = np.array([r.settle.n_blocks * r.settle.block_ticks(f, dt) * dt for f in r.freq_hz])
+    return float(np.mean(r.energy_j / T))
+
+
+def pareto_front(gain: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Boolean mask of the non-dominated points (gain maximised, cost minimised; NaN excluded)."""
+    ok = np.isfinite(gain) & np.isfinite(cost)
+    front = np.zeros(len(gain), bool)
+    for i in np.nonzero(ok)[0]:
+        dominated = ok & (gain >= gain[i]) & (cost <= cost[i]) & ((gain > gain[i]) | (cost < cost[i]))
+        front[i] = not dominated.any()
+    return front
+
+
+def select_best(gain: np.ndarray, cost: np.ndarray, max_cost: float | None = None) -> int:
+    """Index of the largest gain among the finite points with cost <= max_cost (if given);
+    on equal gain the lower cost; -1 if none qualifies."""
+    ok = np.isfinite(gain) & np.isfinite(cost)
+    if max_cost is not None:
+        ok &= cost <= max_cost
+    if not ok.any():
+        return -1
+    idx = np.nonzero(ok)[0]
+    return int(idx[np.lexsort((cost[idx], -gain[idx]))[0]])
+
+
+def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequence[int] = (3, 4),
+         amps_n: Sequence[float] = (5.0,), *, points: int = 9, half_width_rel: float = 0.15,
+         estimator: str = "oracle", settle: Settle = Settle(), max_power_w: float | None = None,
+         jobs: int | None = None, dask_address: str | None = None, progress: bool = True) -> TuneResult:
+    """Score every candidate of grid (module docstring) for law at modes x amps_n [N].
+
+    Raises ValueError for a law that has no gains, an empty grid or bad modes/amplitudes/points
+    (before anything runs), ConfigError for a grid key that does not exist."""
+    if law not in TUNED_LAWS:
+        raise ValueError(f"law {law!r}: tune one of {', '.join(TUNED_LAWS)} (passive has no gains)")
+    if points < 3:
+        raise ValueError(f"points {points}: need >= 3 frequencies per mode to find a peak")
+    if not amps_n or not all(a > 0 and math.isfinite(a) for a in amps_n):
+        raise ValueError(f"amplitudes {list(amps_n)}: give positive force amplitudes [N]")
+    if max_power_w is not None and not max_power_w > 0:
+        raise ValueError(f"max power {max_power_w}: must be > 0 W")
+    modes, amps_n = tuple(modes), tuple(float(a) for a in amps_n)
+    cands = candidates(base, grid)
+    freqs = {m: mode_grid(base, m, points, half_width_rel) for m in modes}  # raises for a bad mode
+    cells = [(m, a) for m in modes for a in amps_n]
+    ok = [c for c in cands if c.cfg is not None]
+    branches = [Branch(base, "passive", a, freqs[m], estimator, settle) for m, a in cells]
+    branches += [Branch(c.cfg, law, a, freqs[m], estimator, settle) for c in ok for m, a in cells]
+    results = run_branches(branches, jobs, dask_address, progress=progress)
+    shape = (len(modes), len(amps_n))
+    passive_peak = np.array([r.H_abs.max() for r in results[:len(cells)]]).reshape(shape)
+    n = len(cands)
+    peak = np.full((n,) + shape, np.nan)
+    power = np.full(n, np.nan)
+    it = iter(range(len(cells), len(results)))
+    for i, c in enumerate(cands):
+        if c.cfg is None:
+            continue
+        rs = [results[next(it)] for _ in cells]
+        peak[i] = np.array([r.H_abs.max() for r in rs]).reshape(shape)
+        power[i] = float(np.mean([mean_power_w(r, base.dt_s) for r in rs]))
+    reduction = -20.0 * np.log10(peak / passive_peak[None]).reshape(n, -1).mean(axis=1)
+    front = pareto_front(reduction, power)
+    best = select_best(reduction, power, max_power_w)
+    keys = tuple(grid)
+    values = np.array([[float(s.split("=", 1)[1]) for s in c.sets] for c in cands])
+    return TuneResult(law, modes, amps_n, keys, values, [c.error for c in cands], passive_peak, peak, reduction,
+                      power, front, best, None if best < 0 else cands[best].cfg)
+
+
+def best_toml(res: TuneResult) -> str:
+    """The best candidate's full configuration (``dumps``), headed by what was tuned and scored."""
+    if res.best_cfg is None:
+        raise ValueError("no candidate qualifies (all refused, or none within the power limit)")
+    row = res.rows()[res.best]
+    head = [f"# frictionrt tune --law {res.law}: best of {len(res.values)} candidates, modes {list(res.modes)}, "
+            f"amplitudes {list(res.amps_n)} N",
+            f"# {', '.join(f'{k} = {row[k]:g}' for k in res.keys)}: peak reduction {row['reduction_db']:.2f} dB, "
+            f"actuator power {row['power_w']:.3g} W"]
+    return "\n".join(head) + "\n" + dumps(res.best_cfg)
+
+
+def plot_pareto(res: TuneResult, path: str) -> None:
+    """Peak reduction [dB] against actuator power [W], the Pareto front joined, the best marked."""
+    import matplotlib
+    import matplotlib.ticker
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ok = np.isfinite(res.reduction_db)
+    ax.scatter(res.power_w[ok], res.reduction_db[ok], c="0.6", s=18, label="candidate")
+    f = np.nonzero(res.pareto)[0]
+    f = f[np.argsort(res.power_w[f])]
+    ax.plot(res.power_w[f], res.reduction_db[f], "o-", c="C0", label="Pareto front")
+    for i in f:
+        ax.annotate(", ".join(f"{v:g}" for v in res.values[i]), (res.power_w[i], res.reduction_db[i]),
+                    fontsize=7, xytext=(3, 3), textcoords="offset points")
+    if res.best >= 0:
+        ax.plot(res.power_w[res.best], res.reduction_db[res.best], "*", c="C3", ms=14, label="best")
+    ax.axhline(0.0, c="k", lw=0.8, ls="--", label="passive")
+    if np.all(res.power_w[ok] > 0):
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xlabel("mean actuator power [W]")
+    ax.set_ylabel("mean peak reduction vs passive [dB]")
+    ax.set_title(f"{res.law}: {', '.join(res.keys)}; modes {list(res.modes)}, {list(res.amps_n)} N")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

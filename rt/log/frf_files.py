@@ -1,0 +1,388 @@
+"""Measured FRF files (issue 7): accelerances a_s / F_exc of the accelerometers over frequency
+lines, one file per test (one excitation level, one bolt force F_N1), as a lab exports them, with a
+JSON sidecar that says what was measured where. Format: docs/data-format.md, "FRF files".
+
+* CSV ``<stem>.csv``: header ``freq_hz[,F_amp_N][,drive_amp_N],<sensor>_re,<sensor>_im,...``,
+  one row per frequency line; written with ``repr`` floats, so a round trip is bit-exact.
+* UFF ``<stem>.uff`` (or .unv): universal file, one data set 58 per sensor (function type 4 =
+  frequency response function, complex ordinate, abscissa frequency in Hz, ID line 1 = sensor
+  name), plus one real data set 58 of function type 0 (general) per optional amplitude column
+  (ID line 1 = F_amp_N or drive_amp_N). Written by pyuff in ASCII, uneven abscissa: the frequency
+  with 6 significant digits (E13.5, relative error <= 5e-6), the ordinate with 12 (E20.11,
+  relative error <= 5e-12); binary 58b files go to pyuff's reader too (not tested).
+* sidecar ``<stem>.json``: {"format": "frictionrt-frf/1", "kind": "stepsine" | "frf",
+  "excitation_x_m", "sensor_positions_m": {sensor: x_m}, "F_N1_N", "amplitude_n", "description"}.
+
+Readers raise ValueError naming the file, the problem and the fix. Writers are atomic (a temporary
+file in the same folder, then ``os.replace``); the sidecar is in place before its data file
+appears, and a failed write leaves neither.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import tempfile
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rt.log.data_format import ACCELEROMETER_POINTS
+
+FORMAT = "frictionrt-frf/1"
+KINDS = ("stepsine", "frf")
+SENSORS = tuple(ACCELEROMETER_POINTS)          # a_tip_meas, a_frf_meas
+AMPLITUDES = ("F_amp_N", "drive_amp_N")         # optional per-line columns [N]
+UFF_SUFFIXES = (".uff", ".unv")
+SUFFIXES = (".csv",) + UFF_SUFFIXES
+FUNC_FRF, FUNC_GENERAL = 4, 0                   # UFF 58 function types
+SPEC_FREQUENCY, SPEC_ACCELERATION, SPEC_FORCE = 18, 12, 13   # UFF 58 data characteristics
+SIDECAR_KEYS = ("format", "kind", "excitation_x_m", "sensor_positions_m", "F_N1_N", "amplitude_n", "description")
+FIX_DOC = 'docs/data-format.md, "FRF files"'
+
+
+@dataclass(frozen=True)
+class FRFTest:
+    """One FRF measurement at one excitation level."""
+    name: str                       # file stem
+    freq_hz: np.ndarray             # (n,) strictly increasing, > 0 [Hz]
+    H: dict                         # sensor name -> complex (n,) accelerance [(m/s^2)/N]
+    F_amp_N: np.ndarray | None      # (n,) measured force amplitude per line [N] (step-sine), or None
+    drive_amp: np.ndarray | None    # (n,) shaker drive amplitude per line as an ideal source's force [N], or None
+    meta: dict                      # the sidecar
+
+    @property
+    def F_N1(self) -> float:
+        """Mean bolt force during the test [N] (sidecar F_N1_N)."""
+        return float(self.meta["F_N1_N"])
+
+
+def sidecar_path(path: str | os.PathLike) -> Path:
+    """The sidecar of a data file: same folder and stem, suffix .json."""
+    return Path(path).with_suffix(".json")
+
+
+# --- checks (problem + fix, without the file name: the callers add it) ---------------------------
+
+def _finite(x, what: str, positive: bool = False) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+        raise ValueError(f"{what} is {x!r}, not a finite number; give it in SI units ({FIX_DOC})")
+    if positive and x <= 0:
+        raise ValueError(f"{what} is {x!r}; it must be > 0")
+    return float(x)
+
+
+def check_meta(meta) -> dict:
+    """The sidecar ``meta`` checked (module docstring); ValueError with the problem and the fix."""
+    if not isinstance(meta, dict):
+        raise ValueError(f"the sidecar is a JSON {type(meta).__name__}, not an object with the keys "
+                         f"{', '.join(SIDECAR_KEYS)}")
+    miss = [k for k in SIDECAR_KEYS if k not in meta]
+    if miss:
+        raise ValueError(f"sidecar key(s) {', '.join(miss)} missing; add them ({FIX_DOC})")
+    if meta["format"] != FORMAT:
+        raise ValueError(f"sidecar format is {meta['format']!r}; this reader knows {FORMAT!r}")
+    if meta["kind"] not in KINDS:
+        raise ValueError(f"sidecar kind is {meta['kind']!r}; give one of {', '.join(KINDS)}")
+    _finite(meta["excitation_x_m"], "sidecar excitation_x_m")
+    _finite(meta["F_N1_N"], "sidecar F_N1_N", positive=True)
+    if meta["amplitude_n"] is not None:
+        _finite(meta["amplitude_n"], "sidecar amplitude_n", positive=True)
+    if not isinstance(meta["description"], str):
+        raise ValueError("sidecar description is not a string")
+    pos = meta["sensor_positions_m"]
+    if not isinstance(pos, dict) or not pos:
+        raise ValueError(f"sidecar sensor_positions_m is {pos!r}; give an object {{sensor: x_m}} for the "
+                         f"sensors of the file ({', '.join(SENSORS)})")
+    for s, x in pos.items():
+        if s not in SENSORS:
+            raise ValueError(f"sidecar sensor_positions_m names the unknown sensor {s!r}; the sensors are "
+                             f"{', '.join(SENSORS)}")
+        _finite(x, f"sidecar sensor_positions_m.{s}")
+    return meta
+
+
+def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict) -> None:
+    """Frequency lines > 0 and strictly increasing, at least 2; every array (n,) and finite; every
+    sensor known and placed in the sidecar."""
+    n = len(freq_hz)
+    if n < 2:
+        raise ValueError(f"{n} frequency line(s); an FRF needs at least 2")
+    if not np.all(np.isfinite(freq_hz)):
+        raise ValueError(f"frequency line {int(np.argmin(np.isfinite(freq_hz))) + 1} is not finite (NaN or inf)")
+    if freq_hz[0] <= 0:
+        raise ValueError(f"the first frequency is {float(freq_hz[0])!r} Hz; frequencies must be > 0 "
+                         "(drop the 0 Hz line)")
+    bad = np.flatnonzero(np.diff(freq_hz) <= 0)
+    if len(bad):
+        i = int(bad[0])
+        raise ValueError(f"frequency not increasing at line {i + 2}: {float(freq_hz[i + 1])!r} Hz after "
+                         f"{float(freq_hz[i])!r} Hz; "
+                         "sort the lines and drop repeated frequencies")
+    if not H:
+        raise ValueError(f"no sensor; give the accelerance of at least one of {', '.join(SENSORS)}")
+    for s, h in H.items():
+        if s not in SENSORS:
+            raise ValueError(f"unknown sensor {s!r}; the sensors are {', '.join(SENSORS)}")
+        if s not in meta["sensor_positions_m"]:
+            raise ValueError(f"sensor {s} has no position in the sidecar; add sensor_positions_m.{s}")
+        _check_array(h, s, n)
+    for name, a in zip(AMPLITUDES, (F_amp_N, drive_amp)):
+        if a is not None:
+            _check_array(a, name, n)
+            if np.any(a <= 0):
+                raise ValueError(f"{name} <= 0 at line {int(np.argmax(a <= 0)) + 1}; amplitudes are > 0 [N]")
+
+
+def _check_array(a: np.ndarray, name: str, n: int) -> None:
+    if np.shape(a) != (n,):
+        raise ValueError(f"{name} has shape {np.shape(a)}, the frequency lines {n}")
+    ok = np.isfinite(a)
+    if not np.all(ok):
+        raise ValueError(f"{name} is NaN or inf at line {int(np.argmin(ok)) + 1}; drop or re-measure the line")
+
+
+def check_test(test: FRFTest) -> None:
+    """A test as the writers and readers accept it; ValueError otherwise."""
+    check_meta(test.meta)
+    check_lines(np.asarray(test.freq_hz, float), test.H, test.F_amp_N, test.drive_amp, test.meta)
+
+
+# --- writers -------------------------------------------------------------------------------------
+
+def _atomic_write(path: Path, write, before_replace=None) -> None:
+    """``write(tmp_path)`` on a temporary file beside ``path``, then ``before_replace()`` (if given),
+    then os.replace onto ``path``."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.chmod(tmp, 0o644)
+        if before_replace is not None:
+            before_replace()
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _write_sidecar(path: Path, test: FRFTest) -> None:
+    meta = {k: test.meta[k] for k in SIDECAR_KEYS}
+    _atomic_write(sidecar_path(path), lambda p: p.write_text(json.dumps(meta, indent=1) + "\n"))
+
+
+def write_frf_csv(path: str | os.PathLike, test: FRFTest) -> None:
+    """``test`` as ``path`` (.csv) and its sidecar; floats as repr (bit-exact round trip)."""
+    path = Path(path)
+    check_test(test)
+    cols, names = [np.asarray(test.freq_hz, float)], ["freq_hz"]
+    for name, a in zip(AMPLITUDES, (test.F_amp_N, test.drive_amp)):
+        if a is not None:
+            cols.append(np.asarray(a, float))
+            names.append(name)
+    for s, h in test.H.items():
+        cols += [np.real(h).astype(float), np.imag(h).astype(float)]
+        names += [f"{s}_re", f"{s}_im"]
+    rows = np.column_stack(cols).tolist()
+    text = ",".join(names) + "\n" + "".join(",".join(map(repr, r)) + "\n" for r in rows)
+    _atomic_write(path, lambda p: p.write_text(text), lambda: _write_sidecar(path, test))
+
+
+def _uff_record(x: np.ndarray, data: np.ndarray, id1: str, func_type: int, node: int, spec: int) -> dict:
+    return {"type": 58, "binary": 0, "id1": id1, "id2": "frictionrt FRF file", "func_type": func_type,
+            "rsp_node": node, "rsp_dir": 3, "ref_node": 0, "ref_dir": 3, "abscissa_spacing": 0,
+            "abscissa_spec_data_type": SPEC_FREQUENCY, "abscissa_axis_lab": "frequency",
+            "abscissa_axis_units_lab": "Hz", "ordinate_spec_data_type": spec,
+            "orddenom_spec_data_type": SPEC_FORCE if func_type == FUNC_FRF else 0,
+            "ordinate_axis_units_lab": "m/s^2/N" if func_type == FUNC_FRF else "N", "x": x, "data": data}
+
+
+def write_frf_uff(path: str | os.PathLike, test: FRFTest) -> None:
+    """``test`` as ``path`` (.uff/.unv, ASCII data sets 58 through pyuff) and its sidecar."""
+    import pyuff
+    path = Path(path)
+    check_test(test)
+    x = np.asarray(test.freq_hz, float)
+    if np.any(np.diff(np.array([float(f"{v:.5e}") for v in x])) <= 0):
+        raise ValueError(f"{path}: frequency lines closer than the 6 significant digits UFF ASCII keeps (E13.5); "
+                         "write this test as CSV")
+    sets = [_uff_record(x, np.asarray(h, complex), s, FUNC_FRF, SENSORS.index(s) + 1, SPEC_ACCELERATION)
+            for s, h in test.H.items()]
+    sets += [_uff_record(x, np.asarray(a, float), name, FUNC_GENERAL, 0, SPEC_FORCE)
+             for name, a in zip(AMPLITUDES, (test.F_amp_N, test.drive_amp)) if a is not None]
+    _atomic_write(path, lambda p: pyuff.UFF(str(p)).write_sets(sets, mode="overwrite"),
+                  lambda: _write_sidecar(path, test))
+
+
+# --- readers -------------------------------------------------------------------------------------
+
+def read_meta(path: Path) -> dict:
+    """The checked sidecar of the data file ``path``; ValueError naming the sidecar."""
+    side = sidecar_path(path)
+    if not side.is_file():
+        raise ValueError(f"{path}: no sidecar {side.name} beside it; write one with the keys "
+                         f"{', '.join(SIDECAR_KEYS)} ({FIX_DOC})")
+    try:
+        meta = json.loads(side.read_text(encoding="utf-8"))
+        return check_meta(meta)
+    except UnicodeDecodeError:
+        raise ValueError(f"{side}: not UTF-8 text; the sidecar is a JSON object ({FIX_DOC})") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{side}: not valid JSON ({exc.msg} at line {exc.lineno}); the sidecar is a JSON "
+                         f"object ({FIX_DOC})") from None
+    except ValueError as exc:
+        raise ValueError(f"{side}: {exc}") from None
+
+
+def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
+    lines = text.lstrip("\ufeff").splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+    if not lines:
+        raise ValueError(f"empty file; the first row is the header freq_hz,<sensor>_re,<sensor>_im,... ({FIX_DOC})")
+    header = [h.strip() for h in lines[0].split(",")]
+    if header[0] != "freq_hz":
+        raise ValueError(f"the header starts with {header[0][:40]!r}, not freq_hz; the header is "
+                         f"freq_hz[,F_amp_N][,drive_amp_N],<sensor>_re,<sensor>_im,... ({FIX_DOC})")
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise ValueError(f"header column {dup[:40]!r} appears twice; name each column once")
+    for h in header[1:]:
+        if h not in AMPLITUDES and not (h.endswith(("_re", "_im")) and h[:-3] in SENSORS):
+            raise ValueError(f"unknown header column {h[:40]!r}; columns are freq_hz, F_amp_N, drive_amp_N and "
+                             f"<sensor>_re, <sensor>_im for the sensors {', '.join(SENSORS)}")
+    sensors = list(dict.fromkeys(h[:-3] for h in header[1:] if h not in AMPLITUDES))
+    for s in sensors:
+        for part in ("_re", "_im"):
+            if s + part not in header:
+                raise ValueError(f"column {s}{part} missing (sensor {s} has only the other part of its complex "
+                                 f"accelerance); give both {s}_re and {s}_im")
+    vals = np.empty((len(lines) - 1, len(header)))
+    for i, line in enumerate(lines[1:]):
+        fields = line.split(",")
+        if len(fields) != len(header):
+            raise ValueError(f"line {i + 2} has {len(fields)} fields, the header {len(header)}; one value per column")
+        for j, f in enumerate(fields):
+            try:
+                vals[i, j] = float(f)
+            except ValueError:
+                raise ValueError(f"line {i + 2}, column {header[j]}: {f.strip()[:40]!r} is not a number") from None
+    col = {h: vals[:, j] for j, h in enumerate(header)}
+    H = {s: col[s + "_re"] + 1j * col[s + "_im"] for s in sensors}
+    return col["freq_hz"], H, col.get("F_amp_N"), col.get("drive_amp_N")
+
+
+def _uff_sets(path: Path) -> list[dict]:
+    import pyuff
+    # pyuff prints some readers' notes to stdout, numpy may warn on odd numbers: neither may reach the CLI
+    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            uff = pyuff.UFF(str(path))
+            n = uff.get_n_sets()
+        except Exception as exc:  # noqa: BLE001 (pyuff raises bare Exception on damaged files)
+            raise ValueError(f"not a readable universal file ({str(exc)[:80]}); export the FRFs as UFF data "
+                             f"sets 58 ({FIX_DOC})") from None
+        sets = []
+        for i in range(n):
+            try:
+                sets.append(uff.read_sets(i))
+            except Exception:  # noqa: BLE001
+                raise ValueError(f"data set {i + 1} of {n} cannot be parsed (a damaged header line or number); "
+                                 f"export the file again ({FIX_DOC})") from None
+    sets = [d for d in sets if d.get("type") == 58]
+    if not sets:
+        raise ValueError(f"no data set 58 (function at nodal DOF) in the file; export the FRFs as UFF data "
+                         f"sets 58 ({FIX_DOC})")
+    return sets
+
+
+def _parse_uff(path: Path) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
+    x, H, amp = None, {}, {}
+    for d in _uff_sets(path):
+        name = str(d.get("id1", "")).strip()
+        ft = d.get("func_type")
+        if ft == FUNC_FRF:
+            if name not in SENSORS:
+                raise ValueError(f"FRF data set with ID line 1 {name[:40]!r}: unknown sensor; ID line 1 names the "
+                                 f"sensor, one of {', '.join(SENSORS)}")
+            if d.get("ord_data_type") not in (5, 6):
+                raise ValueError(f"FRF data set {name}: real ordinate (type {d.get('ord_data_type')}); an FRF is "
+                                 "complex (ordinate data type 5 or 6)")
+            target = H
+        elif ft == FUNC_GENERAL and name in AMPLITUDES:
+            if d.get("ord_data_type") not in (2, 4):
+                raise ValueError(f"data set {name}: complex ordinate; an amplitude is real (type 2 or 4)")
+            target = amp
+        else:
+            raise ValueError(f"data set 58 {name[:40]!r} has function type {ft!r}; the file holds FRFs (type "
+                             f"{FUNC_FRF}) of the sensors and amplitudes (type {FUNC_GENERAL}) named "
+                             f"{' or '.join(AMPLITUDES)}")
+        if d.get("abscissa_spec_data_type") != SPEC_FREQUENCY:
+            raise ValueError(f"data set {name}: abscissa data type {d.get('abscissa_spec_data_type')!r}, not "
+                             f"{SPEC_FREQUENCY} (frequency in Hz)")
+        if name in target:
+            raise ValueError(f"two data sets for {name}; give one per sensor")
+        xd, yd = np.asarray(d.get("x"), float), np.asarray(d.get("data"))
+        if xd.shape != yd.shape or xd.ndim != 1:
+            raise ValueError(f"data set {name}: {xd.size} abscissa values for {yd.size} ordinate values")
+        if x is None:
+            x = xd
+        elif xd.shape != x.shape or not np.array_equal(xd, x, equal_nan=True):
+            raise ValueError(f"data set {name} has other frequency lines than the first data set; give every "
+                             "data set the same lines")
+        target[name] = yd.astype(complex) if target is H else yd.astype(float)
+    if not H:
+        raise ValueError(f"no FRF data set (function type {FUNC_FRF}); give one per sensor")
+    return x, H, amp.get("F_amp_N"), amp.get("drive_amp_N")
+
+
+def read_frf(path: str | os.PathLike) -> FRFTest:
+    """One test from ``path`` (.csv, .uff or .unv by suffix) and its sidecar; ValueError naming the
+    file, the problem and the fix."""
+    path = Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise ValueError(f"{path}: suffix {path.suffix!r}; FRF files are {', '.join(SUFFIXES)} ({FIX_DOC})")
+    if not path.is_file():
+        raise ValueError(f"{path}: no such file")
+    meta = read_meta(path)
+    try:
+        if path.suffix.lower() == ".csv":
+            try:
+                text = path.read_text(encoding="utf-8")
+            except UnicodeDecodeError:
+                raise ValueError("not UTF-8 text; an FRF CSV is plain text") from None
+            freq, H, F_amp, drive = _parse_csv(text)
+        else:
+            freq, H, F_amp, drive = _parse_uff(path)
+        check_lines(freq, H, F_amp, drive, meta)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    return FRFTest(path.stem, freq, H, F_amp, drive, meta)
+
+
+def frf_files(folder: str | os.PathLike) -> list[Path]:
+    """The FRF data files of a folder (suffixes ``SUFFIXES``), sorted by name."""
+    return sorted(p for p in Path(folder).iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES
+                  and not p.name.startswith("."))
+
+
+def load_frf_folder(folder: str | os.PathLike) -> list[FRFTest]:
+    """Every FRF file of ``folder`` read (read_frf); ValueError naming the folder or the file."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"{folder}: {'not a folder' if folder.exists() else 'no such folder'}; give a folder "
+                         "of FRF files (frictionrt rig --frf-files -o DIR writes one)")
+    files = frf_files(folder)
+    if not files:
+        raise ValueError(f"{folder}: no FRF files ({', '.join('*' + s for s in SUFFIXES)}) in the folder")
+    stems = [p.stem for p in files]
+    dup = next((s for s in stems if stems.count(s) > 1), None)
+    if dup is not None:
+        raise ValueError(f"{folder}: two data files named {dup}.* share the sidecar {dup}.json; keep one format "
+                         "per test or rename one")
+    return [read_frf(p) for p in files]

@@ -1,0 +1,20 @@
+"""The fixed-step loop (SPEC section 7): design, the compiled tick and its pacing, the thread
+driver, the figures of a run; the supervisor and faults, replay, the timing budget.
+
+Modules: ``build`` (``Loop``, ``build_loop``, ``LoopState``), ``tick`` (the compiled tick),
+``pacing`` (the deadlines the loop and the replay share), ``driver`` (``run``), ``results``
+(``summary``), ``supervisor``, ``faults``, ``digest`` (a ring run's whole-run figures),
+``replay``, ``replay_plant``, ``budget``, ``bench``. A verb-named function lives in its module
+(``rt.loop.replay.replay``). The names below are imported on first use (rt/common/face.py).
+"""
+from rt.common.face import lazy_face
+
+_EXPORTS = {
+    "COMPONENTS": "rt.loop.build", "ESTIMATORS": "rt.loop.build", "Loop": "rt.loop.build",
+    "LoopState": "rt.loop.build", "build_loop": "rt.loop.build", "initial_loop_state": "rt.loop.build",
+    "loop_signals": "rt.loop.build",
+    "Run": "rt.loop.driver", "check_run_input": "rt.loop.driver", "run": "rt.loop.driver",
+    "first_harmonic_amplitude": "rt.loop.results", "summary": "rt.loop.results",
+}
+__all__ = list(_EXPORTS)
+__getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

@@ -1,0 +1,157 @@
+"""The loop's design time: everything a run needs, built once from the configuration (``Loop``),
+the log's columns, and the loop's state between two ticks (``LoopState``) at rest.
+
+The run-time side is rt/loop/tick.py (the compiled tick), rt/loop/driver.py (``run``: the thread
+that drives it) and rt/loop/results.py (the figures of a finished run).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from observer.kalman import ObserverParams, design_observer
+from observer.oracle import build_oracle
+from observer.step import OBSERVER_OUTPUTS
+from plant.actuator import ACTUATOR_OUTPUTS, ActuatorParams, build_actuator
+from plant.actuator import initial_state as actuator_initial_state
+from plant.actuator import output_index as actuator_output_index
+from plant.model import PlantModel, build_plant
+from plant.sensors import SENSOR_OUTPUTS, SensorParams, build_sensors
+from plant.sensors import initial_state as sensors_initial_state
+from plant.sensors import output_index as sensor_output_index
+from plant.shaker import ShakerParams, build_shaker, check_shaker
+from rt.common.config import Config
+from rt.common.noise import new_rng
+from rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
+from rt.loop.supervisor import initial_state as supervisor_initial_state
+from tracking.force_tracking import FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign, design_force_tracking
+from tracking.force_tracking import initial_state as tracking_initial_state
+from tracking.laws import LAWS_OUTPUTS, LAWS_SLOTS, build_laws
+from tracking.lowpass import BiquadParams, rest_state
+from tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
+
+COMPONENTS = ("sensors", "estimator", "law", "supervisor", "tracking", "actuator", "plant", "log")
+ESTIMATORS = ("oracle", "observer")
+
+
+@dataclass(frozen=True)
+class Loop:
+    """Everything a run needs, built once at design time from the configuration."""
+    cfg: Config
+    law: str
+    plant: PlantModel
+    actuator: ActuatorParams
+    sensors: SensorParams
+    oracle: BiquadParams
+    observer: ObserverParams  # the designed observer, or empty arrays when the oracle runs
+    prefilter: BiquadParams
+    law_params: object
+    design: ForceTrackingDesign
+    force_sensor: str
+    signals: tuple[tuple[str, str, str], ...]   # (name, unit, owner) per log column
+    estimator: str = "oracle"                   # one of ESTIMATORS
+    supervisor: SupervisorParams | None = None  # built by build_loop
+    shaker: ShakerParams | None = None          # built by build_loop (P = 0: ideal force source)
+
+    def column(self, name: str) -> int:
+        return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
+
+
+def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
+    """Log columns in order: (name, unit, owning package)."""
+    sig = [("F_exc", "N", "rt")]
+    sig += [(n, u, "sensors") for n, u in SENSOR_OUTPUTS]
+    sig += [(n, u, "observer") for n, u in OBSERVER_OUTPUTS]  # the oracle fills the first two
+    sig += [(n, u, "tracking") for n, u in LAWS_OUTPUTS]
+    sig += [(n, u, "tracking") for n, u in PREFILTER_OUTPUTS]
+    sig += [(n, u, "tracking") for n, u in FORCE_TRACKING_OUTPUTS]
+    sig += [(n, u, "rt") for n, u in SUPERVISOR_OUTPUTS]
+    sig += [(n, u, "actuator") for n, u in ACTUATOR_OUTPUTS]
+    sig += [(n, u, "plant") for n, u in plant.output_labels()]
+    sig += [("tick_ns", "ns", "rt"), ("late_ns", "ns", "rt")]
+    return tuple(sig)
+
+
+def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
+               observer_cfg: Config | None = None) -> Loop:
+    """Design time: plant, actuator, sensors, estimator, law and the force-tracking design for
+    its sensor. The observer is designed from ``observer_cfg`` if given (a model that differs
+    from the plant: robustness studies), else from cfg.
+
+    Raises ValueError (from the design) if the force-tracking loop would be unstable, or for an
+    unknown estimator."""
+    law = cfg.tracking.law if law is None else law
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator {estimator!r}: expected one of {', '.join(ESTIMATORS)}")
+    plant = build_plant(cfg)
+    sensor = SENSOR_OF_LAW[law]
+    design = design_force_tracking(cfg, sensor)
+    if estimator == "observer":
+        observer = (design_observer(cfg, plant) if observer_cfg is None else design_observer(observer_cfg)).params
+    else:
+        observer = _no_observer()
+    check_shaker(cfg, plant)
+    return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
+                build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator,
+                build_supervisor(cfg, estimator == "observer"), build_shaker(cfg))
+
+
+def _no_observer() -> ObserverParams:
+    """Observer parameters of size 0 (same types): the compiled loop's observer branch is not
+    taken when the oracle runs."""
+    e = np.zeros(0)
+    return ObserverParams(A_d=np.zeros((0, 0)), B_dT=e, M=e, L=e, C_meas=e, C_u=e, C_v=e, CvA=e, beta=-1.0,
+                          D_u=0.0, mu=0.0, alpha=1.0)
+
+
+@dataclass
+class LoopState:
+    """Every state of the loop between two ticks: each component's state slots x*, the outputs
+    of the previous tick that the next one reads (y*), the supervisor's state, the noise
+    generator's state and the plant's contact-solver cache."""
+    xs: np.ndarray
+    ys: np.ndarray
+    xo: np.ndarray
+    xe: np.ndarray
+    xl: np.ndarray
+    yl: np.ndarray
+    xq: np.ndarray
+    xf: np.ndarray
+    yf: np.ndarray
+    sv: np.ndarray  # the supervisor's state (rt.loop.supervisor.SUPERVISOR_SLOTS)
+    xa: np.ndarray
+    ya: np.ndarray
+    xp: np.ndarray
+    yp: np.ndarray
+    rng: np.ndarray
+    plant_work: object  # PlantWork: its cached contact factors decide round-off, so they carry over
+    xsh: np.ndarray     # the shaker's armature [x_a, x_a'] (plant.shaker), at rest 0
+    k: int = 0  # the next tick to run
+
+    def copy(self) -> LoopState:
+        new = {n: (v.copy() if isinstance(v, np.ndarray) else v) for n, v in vars(self).items()}
+        new["plant_work"] = type(self.plant_work)(*(a.copy() for a in self.plant_work))
+        return LoopState(**new)
+
+
+def initial_loop_state(loop: Loop, seed: int) -> LoopState:
+    """At rest at F_N1 = F0 (0 V), every filter at its steady state; noise seeded with seed."""
+    cfg = loop.cfg
+    plant = loop.plant
+    xa = actuator_initial_state(loop.actuator, V=cfg.actuator.V_min)
+    ya = np.zeros(len(ACTUATOR_OUTPUTS))
+    ya[0] = loop.actuator.F0 + loop.actuator.k_screw * xa[3]
+    ai = actuator_output_index()
+    ya[ai["F_strain_a"]] = ya[ai["F_cell_a"]] = ya[0]
+    ys = np.zeros(len(SENSOR_OUTPUTS))
+    si = sensor_output_index()
+    ys[si["F_strain"]] = ys[si["F_cell"]] = ya[0]  # the readings at rest (noise-free)
+    # the sensors' sampled-force filters carry dF_N1 in the loop's form: 0 at rest (g = g_ref)
+    return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=0.0), ys=ys,
+                     xo=rest_state(loop.oracle, (0.0, 0.0)), xe=np.zeros(loop.observer.M.shape[0]), xl=np.zeros(len(LAWS_SLOTS)),
+                     yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
+                     xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)),
+                     sv=supervisor_initial_state(ys), xa=xa, ya=ya,
+                     xp=plant.initial_state(cfg.actuator.F0_N), yp=np.zeros(len(plant.output_labels())),
+                     rng=new_rng(seed), plant_work=plant.new_work(), xsh=np.zeros(2))

@@ -1,0 +1,225 @@
+"""``run``: the thread that drives the compiled tick (rt/loop/tick.py) through a run, in chunks,
+with progress, Ctrl-C as a stop request and a log writer draining a ring; ``Run``, its result.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from observer.oracle import ORACLE_OUTPUTS
+from observer.step import OBSERVER_OUTPUTS
+from plant.actuator import output_index as actuator_output_index
+from plant.sensors import output_index as sensor_output_index
+from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
+from rt.loop.build import COMPONENTS, Loop, LoopState, initial_loop_state
+from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, SUPERVISOR_OUTPUTS, no_faults
+from rt.loop.tick import _run_ticks
+
+
+@dataclass
+class Run:
+    """A finished (or interrupted) run: the log and its figures."""
+    loop: Loop
+    freq_hz: float
+    amp_n: float
+    log: np.ndarray            # (rows, len(loop.signals)): every tick, or a ring run's last rows (``run``)
+    comp_ns: np.ndarray | None  # (rows, len(COMPONENTS)) if timed, the same ticks
+    overruns: int
+    paced: bool
+    wall_ns: int
+    interrupted: bool = False  # stopped by Ctrl-C: the log holds the ticks run until then
+    final: LoopState | None = None  # every state after the last tick run (a next run's start)
+    faults: np.ndarray | None = None  # the injected fault schedule (rt.loop.faults)
+    ticks: int | None = None  # ticks run (None: len(log), every tick held)
+    digest: object = None  # a ring run's whole-run figures (rt.loop.digest.RunDigest), if its writer kept them
+
+    def __post_init__(self):
+        if self.ticks is None:
+            self.ticks = len(self.log)
+
+    def signal(self, name: str) -> np.ndarray:
+        return self.log[:, self.loop.column(name)]
+
+
+MAX_LOG_BYTES = 4 * 2**30  # a run's log must fit in memory with room to spare
+
+
+def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, ring: bool = False) -> int:
+    """Number of ticks of a run; ValueError (naming the option and the limit) for an excitation
+    at or above Nyquist, a negative amplitude or duration, or (without a ring: ``run``) a log
+    that would not fit in memory."""
+    dt = loop.cfg.dt_s
+    nyq = 0.5 / dt
+    if not (math.isfinite(freq_hz) and 0.0 <= freq_hz < nyq):
+        raise ValueError(f"--freq {freq_hz:g} Hz: must lie in [0, {nyq:g}) Hz (below the Nyquist frequency)")
+    if not (math.isfinite(amp_n) and amp_n >= 0.0):
+        raise ValueError(f"--amp {amp_n:g} N: must be a finite force >= 0 N")
+    if not (math.isfinite(duration_s) and duration_s > 0.0):
+        raise ValueError(f"--duration {duration_s:g} s: must be > 0 s")
+    n_ticks = int(round(duration_s / dt))
+    n_sig = len(loop.signals)
+    if not ring and n_ticks * n_sig * 8 > MAX_LOG_BYTES:
+        raise ValueError(f"--duration {duration_s:g} s: the log would need "
+                         f"{n_ticks * n_sig * 8 / 2**30:.1f} GiB (> {MAX_LOG_BYTES / 2**30:.0f} GiB); "
+                         f"run at most {MAX_LOG_BYTES / (n_sig * 8) * dt:.0f} s")
+    return n_ticks
+
+
+def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
+        timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
+        start: LoopState | None = None, writer=None, faults: np.ndarray | None = None,
+        ring_ticks: int | None = None) -> Run:
+    """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
+
+    The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
+    of a previous run: a step-sine continues from the previous frequency's state; that start
+    is not modified). Ticks continue from the start's tick k (t = k dt), so a run split in two
+    at the same frequency equals one run, bit for bit.
+
+    ``faults``: a fault schedule (``rt.loop.faults.schedule``; ticks absolute, so a split run takes
+    the same schedule), none by default.
+
+    ``writer`` (an ``rt.log.writer.LogWriter``) drains the log to files while the loop runs: its
+    ``start(log, clk, k0, paced)`` is called before the first tick, its ``finish()`` (write the
+    rest, close the files) after the last one, also on an error or Ctrl-C.
+
+    The log: without a writer and ``ring_ticks``, one row per tick of the run. With a writer
+    (its ``ring_ticks`` rows) or ``ring_ticks``, a ring of R rows: tick k goes to row
+    (k - k_start) mod R, offline the loop waits for the writer rather than overwrite a row it
+    has not taken (none: nobody drains, the loop overwrites), paced it never waits (the writer
+    drops what was overwritten). ``Run.log`` then holds the last min(ticks, R) ticks in tick
+    order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
+
+    Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
+    log without a ring that would not fit in memory; RuntimeError if a plant step failed.
+    """
+    cfg = loop.cfg
+    dt = cfg.dt_s
+    if writer is not None:
+        ring_ticks = writer.ring_ticks
+    if ring_ticks is not None and ring_ticks < 1:
+        raise ValueError(f"ring_ticks {ring_ticks}: must be >= 1")
+    n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s, ring=ring_ticks is not None)
+    n_rows = n_ticks if ring_ticks is None else min(n_ticks, int(ring_ticks))
+    n_sig = len(loop.signals)
+    seed = cfg.rt.seed if seed is None else seed
+    plant = loop.plant
+    oi = plant.output_index()
+    ai = actuator_output_index()
+    st = initial_loop_state(loop, seed) if start is None else start.copy()
+    log = np.empty((n_rows, n_sig))
+    comp_ns = np.zeros((n_rows, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
+    period_ns = int(round(dt * 1e9))
+    clk = np.zeros(CLK_SIZE, dtype=np.int64)
+    clk[CLK_WRITTEN] = st.k if writer is not None and not paced else NO_WAIT
+    si = sensor_output_index()
+    exc_point = cfg.plant.excitation_point
+    force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
+    faults = no_faults() if faults is None else np.ascontiguousarray(faults, dtype=np.float64)
+    exc = (dt, amp_n, 2 * math.pi * freq_hz)
+    pace = (timing, paced, period_ns, clk, np.zeros(2, dtype=np.int64))
+    cols = (oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"], ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"],
+            oi[f"w_{exc_point}"], oi[f"v_{exc_point}"])
+    failed = [0]
+    errors: list[BaseException] = []
+
+    def worker():
+        try:
+            _chunks()
+        except BaseException as err:  # re-raised in the calling thread
+            errors.append(err)
+
+    def _chunks():
+        # paced: one compiled call for the whole run (Python between chunks would overrun);
+        # a ring: chunks of whole rings, so that tick k lands in row (k - st.k) mod n_rows
+        step = n_ticks if paced else (chunk if n_rows == n_ticks else max(1, chunk // n_rows) * n_rows)
+        k = 0  # ticks run; tick st.k + k
+        while k < n_ticks and not clk[CLK_STOP]:
+            k1 = min(n_ticks, k + step)
+            rows = slice(k, k1) if n_rows == n_ticks else slice(None)
+            # the stages' tuples (``_run_ticks``): states of st advanced in place, fresh scratch per chunk
+            sens = (st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys), np.zeros(5),
+                    loop.sensors, st.rng)
+            est = (st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
+                   st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
+            law = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
+            sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
+            trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
+                   st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+            act = (st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator)
+            plnt = (st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work)
+            shk = (cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1), loop.shaker)
+            failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
+                                    sens, est, law, sup, trk, act, plnt, shk, cols,
+                                    log[rows], comp_ns[rows] if timing else comp_ns)
+            k = k1
+
+    # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
+    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept
+    t_wall = _now_ns(np.zeros(2, dtype=np.int64))
+    clk[CLK_DEADLINE] = t_wall + period_ns
+    thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
+    digest = None
+    if writer is not None:
+        from rt.loop.digest import RunDigest
+        digest = RunDigest(loop.signals)
+        writer.start(log, clk, st.k, paced, digest)
+    thread.start()
+    shown = 0
+    interrupted = False
+    try:
+        while thread.is_alive():
+            try:
+                thread.join(0.1)
+            except KeyboardInterrupt:
+                clk[CLK_STOP] = 1
+                interrupted = True
+            if progress is not None:
+                ticks = int(clk[CLK_TICKS])
+                progress(ticks - shown)
+                shown = ticks
+    finally:
+        if writer is not None:  # the log's rows are final once the loop's thread has ended
+            if thread.is_alive():  # an exception here: stop the loop first
+                clk[CLK_STOP] = 1
+                thread.join()
+            writer.finish()
+    if errors:
+        raise errors[0]
+    n_run = int(clk[CLK_TICKS])
+    st.k += n_run
+    log = _in_tick_order(log, n_run)
+    comp_ns = _in_tick_order(comp_ns, n_run) if timing else comp_ns
+    wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
+    if writer is not None and writer.error is not None:
+        raise RuntimeError(f"the log writer failed: {writer.error!r}") from writer.error
+    if failed[0]:
+        raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
+                           "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
+    if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - len(log), len(log))):
+        raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
+    return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
+               interrupted, st, faults, n_run, digest if len(log) < n_run else None)
+
+
+def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:
+    """The last min(n_run, len(ring)) ticks of a log whose tick i (from the run's start) is in
+    row i mod len(ring), oldest first (a view when they are in order already)."""
+    if n_run <= len(ring):
+        return ring[:n_run]
+    i0 = n_run % len(ring)
+    return ring if i0 == 0 else np.concatenate((ring[i0:], ring[:i0]))
+
+
+def _dropout_mask(loop: Loop, faults: np.ndarray, k0: int, n: int) -> np.ndarray:
+    """True where an injected sensor_dropout makes a logged reading NaN (rows k0 .. k0 + n - 1)."""
+    mask = np.zeros((n, len(loop.signals)), dtype=bool)
+    for f in faults:
+        if int(f[F_KIND]) == K_DROPOUT:
+            lo, hi = max(int(f[F_START]) - k0, 0), min(int(min(f[F_END], 2**62)) - k0, n)
+            if lo < hi:
+                mask[lo:hi, 1 + int(f[F_TARGET])] = True  # column 0 is F_exc, then SENSOR_OUTPUTS
+    return mask

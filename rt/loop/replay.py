@@ -1,0 +1,263 @@
+"""HIL-style replay of a run log: the recorded sensor stream through the controller stack.
+
+``replay(path)`` reads an MCAP log (``rt.log.mcap_log.read_mcap``), rebuilds the loop from the
+configuration TOML, law and estimator in its "frictionrt" metadata record (``build_loop``),
+starts every controller state as a run does (``initial_loop_state``) and feeds, tick by tick,
+what the controller read at that tick in the loop (``rt.loop.tick._run_ticks``, stage 1 onward):
+
+    sensors     row k of /sensors (a_tip_meas, a_frf_meas, v_tip_meas, F_strain, F_cell): the
+                loop logs the readings its sensor stage produced at tick k and the controller
+                used at tick k
+    oracle      the plant's u_rel, v_rel of row k - 1 of /plant (the plant outputs of the
+                previous tick are what the oracle reads at tick k; before the first tick the
+                rest state's, zero); only when the estimator was the oracle
+    estimator -> law -> supervisor -> prefilter -> force tracking: the loop's own controller
+                tick (``rt.loop.tick._controller_tick``, ``_replay_ticks``), with the run's fault
+                schedule (metadata "faults": the observer-stage faults act here; the sensor
+                faults are in the recorded readings) and its overruns (paced runs: tick_ns +
+                late_ns of the tick before)
+
+and compares every commanded signal (the estimator's outputs, F_set, u0, F_set_filtered, V_cmd,
+saturated, and the supervisor's fault_code, fault_latched, passive) with the recorded one. For the project's own logs the replay is bit-exact.
+
+A file with the sensor topic only (a measurement) and the observer as estimator is replayed
+without comparison: the controller's outputs are reported (``bit_exact`` None).
+"""
+from __future__ import annotations
+
+import json
+import threading
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from observer.step import OBSERVER_OUTPUTS
+from rt.common.config import ConfigError, load, loads
+from rt.log.design_record import use_logged
+from rt.loop.faults import from_json
+from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
+from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
+from rt.loop.pacing import _next_deadline, _wait_for_deadline
+from rt.loop.tick import _controller_tick, _copy, _put
+from rt.log.mcap_log import read_mcap
+from plant.sensors import SENSOR_OUTPUTS
+from rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
+from tracking.force_tracking import FORCE_TRACKING_OUTPUTS
+from tracking.laws import LAWS_OUTPUTS
+from tracking.prefilter import PREFILTER_OUTPUTS
+
+COMMANDED = tuple(n for n, _ in OBSERVER_OUTPUTS + LAWS_OUTPUTS + PREFILTER_OUTPUTS + FORCE_TRACKING_OUTPUTS
+                  + SUPERVISOR_OUTPUTS)
+SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False)
+def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, yc, est, law, sup, trk):
+    """The loop's controller tick (``rt.loop.tick._controller_tick``: estimator, law, supervisor,
+    force tracking) for the ticks ks: sens[i] the sensor readings (``SENSOR_OUTPUTS`` order),
+    uv[i] the plant's (u_rel, v_rel) the oracle reads at tick ks[i], overran[i] whether the
+    tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the
+    law's, the prefilter's, the force tracking's and the supervisor's outputs (``COMMANDED``
+    order). pace = (paced, period_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
+    takes them. Paced: the loop's deadlines (rt/loop/pacing.py)."""
+    paced, period_ns, clk, ts = pace
+    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
+    xl, xl_n, yl, ul, law_p = law
+    sv, ysv, sv_p = sup
+    xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
+    for i in range(ks.shape[0]):
+        if clk[CLK_STOP]:
+            break
+        k = ks[i]
+        if paced:
+            _wait_for_deadline(clk, ts)
+        sv[S_OVERRAN] = overran[i]
+        _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
+        c = _put(out, i, 0, ye)
+        c = _put(out, i, c, yl)
+        c = _put(out, i, c, yq)
+        c = _put(out, i, c, yf)
+        c = _put(out, i, c, ysv)
+        if observe:
+            _copy(xe_n, xe)
+        else:
+            _copy(xo_n, xo)
+        _copy(xl_n, xl)
+        _copy(xq_n, xq)
+        _copy(xf_n, xf)
+        clk[CLK_TICKS] += 1
+        if paced:
+            _next_deadline(clk, period_ns, _now_ns(ts))
+
+
+def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
+    """The configuration stored in the log with the ``--set`` overrides ``sets`` applied, or
+    ``fallback`` if it stores none."""
+    text = meta.get("config")
+    if text is None:
+        return fallback
+    try:
+        return loads(text, sets, source="the stored configuration")
+    except ConfigError as exc:  # names the stored configuration or the --set at fault
+        raise ValueError(f"{path}: {exc}") from None
+
+
+def seed_of(path: Path, meta: dict[str, str], cfg) -> int:
+    """The sensor-noise seed stored in the log (``rt.seed`` if none): a non-negative 64-bit
+    integer, ValueError naming the file otherwise."""
+    text = meta.get("seed")
+    if text is None:
+        return cfg.rt.seed
+    try:
+        seed = int(text)
+    except ValueError:
+        seed = -1
+    if not 0 <= seed <= 2**63 - 1:
+        raise ValueError(f"{path}: the stored seed {text[:40]!r} is not a non-negative 64-bit integer")
+    return seed
+
+
+def _overran(rec, names: list[str], meta: dict[str, str], period_ns: int) -> np.ndarray:
+    """Per replayed tick: 1.0 if the recorded tick before it overran (paced runs: its tick_ns +
+    late_ns > period, as the loop decides it), else 0.0; all 0 for offline runs and files without
+    the timing signals."""
+    out = np.zeros(len(rec.k))
+    if meta.get("paced") == "true" and "tick_ns" in names and "late_ns" in names:
+        t = rec.log[:, names.index("tick_ns")] + rec.log[:, names.index("late_ns")]
+        out[1:] = (t[:-1] > period_ns).astype(float)
+    return out
+
+
+def open_log(path: Path, fallback_cfg=None, sets=()):
+    """(``McapLog``, configuration) of the log at path: the stored configuration with the
+    ``--set`` overrides ``sets`` applied, or ``fallback_cfg`` (default: the defaults with
+    ``sets``) for a file that stores none. ValueError naming the file for a missing or unreadable
+    file or a refused configuration."""
+    if not path.is_file():
+        raise ValueError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
+    try:
+        rec = read_mcap(path)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    return rec, _config_of(path, rec.metadata, fallback_cfg if fallback_cfg is not None else load(None, sets), sets)
+
+
+def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
+    """Replay the log at ``path`` (module docstring); the summary of ``replay_outputs``."""
+    return replay_outputs(path, paced=paced, fallback_cfg=fallback_cfg, sets=sets)[0]
+
+
+def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> tuple[dict, np.ndarray, np.ndarray]:
+    """Replay the log at ``path`` (module docstring) with its stored configuration and the
+    ``--set`` overrides ``sets`` (a changed controller parameter then shows as a mismatch).
+    Returns (summary, k, outputs): the ticks
+    replayed and the replayed signals (ticks, ``COMMANDED``), and the JSON summary: ``ticks``,
+    ``bit_exact`` (None without recorded controller outputs), ``max_abs_diff``,
+    ``signals_compared``, and ``file``, ``law``, ``estimator``, ``paced``, ``missing_ticks``
+    (gaps in the recorded ticks, e.g. dropped blocks), ``max_abs_diff_by_signal``,
+    ``first_mismatch_tick``, ``wall_s``, ``realtime_factor`` (simulated / wall time),
+    ``overruns`` (paced), ``interrupted``, ``outputs`` (min, mean, max of each replayed signal).
+
+    ValueError naming the file for a missing, unreadable or unsuitable file.
+    """
+    path = Path(path)
+    rec, cfg = open_log(path, fallback_cfg, sets)
+    meta = rec.metadata
+    names = [n for n, _, _ in rec.signals]
+    if "/sensors" not in rec.topics or any(n not in names for n in SENSORS):
+        raise ValueError(f"{path}: no /sensors topic with {', '.join(SENSORS)}: nothing to replay")
+    if len(rec.k) == 0:
+        raise ValueError(f"{path}: the log holds no ticks")
+    estimator = meta.get("estimator", "oracle" if "/plant" in rec.topics else "observer")
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"{path}: unknown estimator {estimator!r} in the metadata")
+    law = meta.get("law", cfg.tracking.law)
+    try:
+        loop = build_loop(cfg, law, estimator)
+    except ValueError as exc:
+        raise ValueError(f"{path}: the stored configuration cannot be built ({exc})") from None
+    sens = np.ascontiguousarray(rec.log[:, [names.index(n) for n in SENSORS]])
+    if not np.all(np.isfinite(sens)):
+        bad = int(rec.k[~np.all(np.isfinite(sens), axis=1)][0])
+        raise ValueError(f"{path}: /sensors has missing or non-finite readings (first at tick {bad})")
+    st = initial_loop_state(loop, seed_of(path, meta, cfg))
+    loop, st, design = use_logged(path, loop, st, sets, meta=meta)
+    n = len(rec.k)
+    uv = np.zeros((n, 2))
+    if estimator == "oracle":
+        if "/plant" not in rec.topics:
+            raise ValueError(f"{path}: the oracle estimator reads the plant's u_rel, v_rel, but the file has "
+                             "no /plant topic")
+        oi = loop.plant.output_index()
+        uv[0] = st.yp[[oi["u_rel"], oi["v_rel"]]]
+        uv[1:] = rec.log[:-1, [names.index("u_rel"), names.index("v_rel")]]
+    si = {nm: i for i, nm in enumerate(SENSORS)}
+    force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
+    out = np.full((n, len(COMMANDED)), np.nan)
+    clk = np.zeros(4, dtype=np.int64)
+    period_ns = round(cfg.dt_s * 1e9)
+    overran = _overran(rec, names, meta, period_ns)
+    try:
+        faults = from_json(json.loads(meta.get("faults", "[]")))
+    except ValueError as exc:  # JSONDecodeError included
+        raise ValueError(f"{path}: the stored faults are unreadable ({exc})") from None
+    errors: list[BaseException] = []
+
+    est = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
+           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
+    law_ = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
+    sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
+    trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
+           st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+    fixed = (force_col, estimator == "observer", faults, (paced, period_ns, clk, np.zeros(2, np.int64)),
+             np.empty(len(SENSORS)), est, law_, sup, trk)
+    _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed)  # compile or load: not timed
+
+    def worker():
+        try:
+            _replay_ticks(rec.k, sens, uv, overran, out, *fixed)
+        except BaseException as exc:
+            errors.append(exc)
+
+    # as rt.loop.driver.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
+    t0 = time.perf_counter()
+    clk[CLK_DEADLINE] = _now_ns(np.zeros(2, np.int64)) + period_ns
+    thread = threading.Thread(target=worker, name="frictionrt-replay", daemon=True)
+    thread.start()
+    interrupted = False
+    while thread.is_alive():
+        try:
+            thread.join(0.1)
+        except KeyboardInterrupt:
+            clk[CLK_STOP] = 1
+            interrupted = True
+    wall = time.perf_counter() - t0
+    if errors:
+        raise errors[0]
+    m = int(clk[CLK_TICKS])
+    out = out[:m]
+    res = {"file": str(path), "law": law, "estimator": estimator, "paced": paced, "ticks": m,
+           "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n), "interrupted": interrupted,
+           "wall_s": wall, "realtime_factor": (m / rec.rate_hz) / wall if wall > 0 else float("inf"),
+           "overruns": int(clk[CLK_OVERRUNS]) if paced else 0, "design": design}
+    owner = {nm: o for nm, _, o in rec.signals}
+    recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
+    if recorded:
+        ref = rec.log[:m][:, [names.index(c) for c in COMMANDED]]
+        same = out.view(np.uint64) == ref.view(np.uint64)
+        with np.errstate(invalid="ignore"):
+            diff = np.where(same, 0.0, np.abs(out - ref))
+        diff = np.where(np.isnan(diff), np.inf, diff)
+        by_sig = {c: float(diff[:, j].max(initial=0.0)) for j, c in enumerate(COMMANDED)}
+        bad = ~same.all(axis=1)
+        res |= {"bit_exact": bool(same.all()), "max_abs_diff": float(diff.max(initial=0.0)),
+                "signals_compared": list(COMMANDED), "max_abs_diff_by_signal": by_sig,
+                "first_mismatch_tick": int(rec.k[:m][bad][0]) if bad.any() else None}
+    else:
+        res |= {"bit_exact": None, "max_abs_diff": None, "signals_compared": [], "max_abs_diff_by_signal": {},
+                "first_mismatch_tick": None}
+    res["outputs"] = {c: {"min": float(out[:, j].min(initial=np.inf)), "mean": float(out[:, j].mean()) if m else None,
+                          "max": float(out[:, j].max(initial=-np.inf))} for j, c in enumerate(COMMANDED)}
+    return res, rec.k[:m], out

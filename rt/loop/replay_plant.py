@@ -1,0 +1,145 @@
+"""Open-loop replay of a log into the plant: recorded commands and excitation in, plant out.
+
+``replay_plant(path)`` reads an MCAP log (``rt.log.mcap_log.read_mcap``), rebuilds actuator and
+plant from the configuration stored in its "frictionrt" record (with ``--set`` overrides), starts
+them at rest as a run does (``rt.loop.build.initial_loop_state``) and drives them, tick by tick, with
+
+    V_cmd    row k of /tracking: the controller's command at tick k (the DAC input)
+    F_exc    row k of /rt: the excitation force held over [t_k, t_k+1)
+
+through the loop's own stages 5 and 6 (``rt.loop.tick._actuate``: actuator over the tick, then the
+plant with the mean of F_N1 at t_k and t_k+1), then compares every /actuator and /plant signal
+the file holds with the replayed one (row k: values at t_k+1, docs/data-format.md).
+
+Where the cut is. V_cmd is the last signal the controller produces and the first one a real rig
+knows exactly (the DAC input; V_a and the bolt force are measured through an amplifier and
+sensors). Nothing downstream of it feeds back into the replayed part: the actuator is driven
+one-way (the structure does not act back on the stack, plant.actuator) and the sensors,
+estimator, law and tracking only read the plant. So the replay is open-loop, and for the
+project's own logs bit-exact: the same kernels see the same inputs in the same order from the
+same initial state (the contact solver's cache included). Cutting at the actuator's output
+(F_N1) would leave the actuator model unchecked, and F_N1 is not measurable on a rig.
+
+Any changed parameter (``--set plant.interface.mu=0.3``) shows as a mismatch. A file without
+/actuator and /plant (a measurement) is replayed without comparison (``bit_exact`` None).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from plant.actuator import ACTUATOR_OUTPUTS
+from rt.loop.tick import _actuate, _copy, _put
+from rt.loop.build import build_loop, initial_loop_state
+from rt.log.design_record import use_logged
+from rt.loop.replay import seed_of, open_log
+
+INPUTS = ("F_exc", "V_cmd")
+SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")  # "outputs" in the JSON
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False)
+def _replay_plant_ticks(ks, F_exc, V_cmd, out, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p, plant_wk, ts):
+    """Stages 5 and 6 of ``rt.loop.tick._run_ticks`` (``_actuate``) for the ticks ks with the
+    recorded F_exc[i] [N] and V_cmd[i] [V]; out[i] receives the actuator's and then the plant's
+    outputs at t_k+1. Returns the number of failed plant solves. RT-safe."""
+    failed = 0
+    for i in range(ks.shape[0]):
+        iters, _ = _actuate(ks[i], F_exc[i], V_cmd[i], xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p,
+                            plant_wk, False, ts)
+        if iters < 0:
+            failed += 1
+        c = _put(out, i, 0, ya)
+        _put(out, i, c, yp)
+        _copy(xa_n, xa)
+        _copy(xp_n, xp)
+    return failed
+
+
+def replay_plant(path, *, fallback_cfg=None, sets=()) -> dict:
+    """Replay the log at ``path`` into actuator and plant (module docstring); the summary of
+    ``replay_plant_outputs``."""
+    return replay_plant_outputs(path, fallback_cfg=fallback_cfg, sets=sets)[0]
+
+
+def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.ndarray, np.ndarray, list[str]]:
+    """Replay the log at ``path`` into actuator and plant (module docstring).
+
+    Returns (summary, k, outputs, names): the ticks replayed, the replayed signals (ticks,
+    len(names)) with names the actuator's then the plant's outputs, and the JSON summary:
+    ``ticks``, ``bit_exact`` (None when the file holds no /actuator or /plant signal),
+    ``max_abs_diff``, ``signals_compared``, and ``file``, ``law``, ``estimator``, ``sets``,
+    ``inputs``, ``missing_ticks`` (ticks after the first gap are not replayed: the inputs of the
+    gap are unknown), ``max_abs_diff_by_signal``, ``first_mismatch_tick``, ``failed_solves``,
+    ``wall_s``, ``outputs`` (min, mean, max of ``SUMMARY_SIGNALS``).
+
+    The configuration is the one stored in the file with ``sets`` applied, or ``fallback_cfg``
+    (default: the defaults with ``sets``) for a file that stores none. ValueError naming the
+    file for a missing, unreadable or unsuitable file.
+    """
+    path = Path(path)
+    rec, cfg = open_log(path, fallback_cfg, sets)
+    meta = rec.metadata
+    names = [n for n, _, _ in rec.signals]
+    for name, topic in zip(INPUTS, ("/rt", "/tracking")):
+        if name not in names or topic not in rec.topics:
+            raise ValueError(f"{path}: no {name} in {topic}: the plant replay is driven by F_exc (/rt) and "
+                             "V_cmd (/tracking)")
+    if len(rec.k) == 0:
+        raise ValueError(f"{path}: the log holds no ticks")
+    if rec.k[0] != 0:
+        raise ValueError(f"{path}: the log starts at tick {int(rec.k[0])}; the plant replay starts from rest "
+                         "at tick 0")
+    gap = np.flatnonzero(np.diff(rec.k) != 1)
+    n = int(gap[0]) + 1 if len(gap) else len(rec.k)
+    u = rec.log[:n][:, [names.index(c) for c in INPUTS]]
+    if not np.all(np.isfinite(u)):
+        bad = int(rec.k[:n][~np.all(np.isfinite(u), axis=1)][0])
+        raise ValueError(f"{path}: F_exc or V_cmd is missing or not finite (first at tick {bad})")
+    law = meta.get("law", cfg.tracking.law)
+    estimator = meta.get("estimator", "oracle")
+    try:
+        loop = build_loop(cfg, law, "oracle")  # the estimator plays no part here: no observer design
+    except ValueError as exc:
+        raise ValueError(f"{path}: the configuration cannot be built ({exc})") from None
+    st = initial_loop_state(loop, seed_of(path, meta, cfg))
+    loop, st, design = use_logged(path, loop, st, sets, meta=meta, parts=("plant", "actuator"))
+    out_names = [nm for nm, _ in ACTUATOR_OUTPUTS] + [nm for nm, _ in loop.plant.output_labels()]
+    out = np.empty((n, len(out_names)))
+    F_exc = np.ascontiguousarray(u[:, 0])
+    V_cmd = np.ascontiguousarray(u[:, 1])
+    args = (out, st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator, st.xp, np.empty_like(st.xp), st.yp,
+            np.zeros(2), loop.plant.params, st.plant_work, np.zeros(2, np.int64))
+    _replay_plant_ticks(rec.k[:0], F_exc[:0], V_cmd[:0], *args)  # compile or load: not timed
+    t0 = time.perf_counter()
+    failed = _replay_plant_ticks(rec.k[:n], F_exc, V_cmd, *args)
+    wall = time.perf_counter() - t0
+    owner = {nm: o for nm, _, o in rec.signals}
+    compared = [c for c in out_names
+                if c in owner and owner[c] in ("actuator", "plant") and "/" + owner[c] in rec.topics]
+    res = {"file": str(path), "law": law, "estimator": estimator, "sets": list(sets), "inputs": list(INPUTS),
+           "ticks": n, "missing_ticks": int(rec.k[-1] + 1 - len(rec.k)), "failed_solves": int(failed),
+           "wall_s": wall, "design": design}
+    if compared:
+        j_out = [out_names.index(c) for c in compared]
+        ref = np.ascontiguousarray(rec.log[:n][:, [names.index(c) for c in compared]])
+        got = np.ascontiguousarray(out[:, j_out])
+        same = got.view(np.uint64) == ref.view(np.uint64)
+        with np.errstate(invalid="ignore"):
+            diff = np.where(same, 0.0, np.abs(got - ref))
+        diff = np.where(np.isnan(diff), np.inf, diff)
+        bad = ~same.all(axis=1)
+        res |= {"bit_exact": bool(same.all()), "max_abs_diff": float(diff.max(initial=0.0)),
+                "signals_compared": compared,
+                "max_abs_diff_by_signal": {c: float(diff[:, j].max(initial=0.0)) for j, c in enumerate(compared)},
+                "first_mismatch_tick": int(rec.k[:n][bad][0]) if bad.any() else None}
+    else:
+        res |= {"bit_exact": None, "max_abs_diff": None, "signals_compared": [], "max_abs_diff_by_signal": {},
+                "first_mismatch_tick": None}
+    res["outputs"] = {c: {"min": float(out[:, j].min()), "mean": float(out[:, j].mean()),
+                          "max": float(out[:, j].max())}
+                      for j, c in enumerate(out_names) if c in SUMMARY_SIGNALS}
+    return res, rec.k[:n], out, out_names

@@ -1,0 +1,97 @@
+"""The package structure (issue 16): import layers and cycles, the packages' faces, module size,
+and the docs' links to files.
+
+The layers and the acyclic-siblings rule are import-linter contracts in pyproject.toml
+(``lint-imports`` prints them); this test runs them, so pytest fails like ``make test`` does.
+"""
+from __future__ import annotations
+
+import ast
+import importlib
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("rt.common", "rt.log", "rt.loop", "rt.experiments", "rt.discrepancy", "rt.cli", "plant", "observer",
+            "tracking")
+MAX_LINES = 500  # the guide; a longer module gives its reason in a "Length:" paragraph of its docstring
+
+
+def _lint_imports() -> str:
+    exe = shutil.which("lint-imports") or str(Path(sys.executable).with_name("lint-imports"))
+    if not Path(exe).exists():
+        pytest.skip("import-linter is not installed (pip install -e '.[test]')")
+    return exe
+
+
+def test_import_contracts_hold():
+    # higher layers import lower ones only, and no two sibling packages or modules import each
+    # other (cycles); output names the offending import chain
+    r = subprocess.run([_lint_imports()], cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
+    assert "2 kept, 0 broken" in r.stdout
+
+
+def test_a_layer_violation_breaks_the_contract(tmp_path):
+    # the contract can fail: the log package importing the loop (the writer's old CLK_* import)
+    for pkg in ("rt", "plant", "observer", "tracking"):
+        shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "pyproject.toml", tmp_path)
+    writer = tmp_path / "rt" / "log" / "writer.py"
+    writer.write_text(writer.read_text() + "\nfrom rt.loop.driver import run  # noqa\n")
+    r = subprocess.run([_lint_imports()], cwd=tmp_path, capture_output=True, text=True,
+                       env={"PYTHONPATH": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    assert r.returncode != 0 and "rt.log is not allowed to import rt.loop" in r.stdout, r.stdout[-2000:]
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_face_name_resolves_and_shadows_no_module(package):
+    mod = importlib.import_module(package)
+    assert mod.__doc__ and len(mod.__doc__) > 40, f"{package} needs a docstring saying what it holds"
+    names = getattr(mod, "__all__", None)
+    assert names, f"{package}: no __all__ (its face)"
+    folder = Path(mod.__file__).parent
+    modules = {f.stem for f in folder.glob("*.py")}
+    for name in names:
+        assert getattr(mod, name) is not None
+        assert name not in modules, f"{package}.{name} is both a face name and a module"
+
+
+def _modules():
+    for pkg in ("rt", "plant", "observer", "tracking"):
+        yield from sorted((ROOT / pkg).rglob("*.py"))
+
+
+def test_modules_are_short_or_say_why():
+    long = []
+    for f in _modules():
+        n = len(f.read_text().splitlines())
+        doc = ast.get_docstring(ast.parse(f.read_text())) or ""
+        if n > MAX_LINES and "Length:" not in doc:
+            long.append(f"{f.relative_to(ROOT)} ({n} lines)")
+    assert not long, f"over {MAX_LINES} lines without a 'Length:' reason in the docstring: {long}"
+
+
+LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
+PATH = re.compile(r"`((?:rt|plant|observer|tracking|tests|benchmarks|docs|configs)/[\w/.-]+\.(?:py|md|toml))`")
+
+
+def test_docs_links_and_file_references_resolve():
+    # every relative link of README.md and docs/*.md, and every `package/file.py` they name
+    missing = []
+    for md in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        text = md.read_text()
+        for target in LINK.findall(text):
+            if "://" in target or target.startswith("mailto:"):
+                continue
+            if not (md.parent / target).exists():
+                missing.append(f"{md.relative_to(ROOT)}: link {target}")
+        for target in PATH.findall(text):
+            if not (ROOT / target).exists():
+                missing.append(f"{md.relative_to(ROOT)}: {target}")
+    assert not missing, "\n".join(missing)
