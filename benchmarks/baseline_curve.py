@@ -1,0 +1,150 @@
+"""The constant-F_N1 baseline of the bolted plant: the step-sine peak per clamping force (issue 15).
+
+    python -m benchmarks.baseline_curve [--quick] [--out DIR] [--jobs 2] [--set KEY=VALUE ...]
+
+The passive law (the stack held at the voltage of ``tracking.F_passive_N``) at each constant F_N1
+of ``FORCES`` (40..600 N, F_min = the configured F_passive_N included), modes 2..5, excitation force
+amplitudes 5, 10, 20 N: the step-sine FRFs, grids, refinement and peaks of ``frictionrt reproduce``
+(``rt.reproduce.measure`` with the full plan's grid and ``Plan.fn1_n`` = the forces, so the loops
+at other forces are ``rt.reproduce.loop_at_fn1``; the controlled laws run too, and are compared
+with the best force). ``--quick``: the reproduction's quick plan (modes 3, 4 at 5 and 20 N, coarse
+grid) over the same forces.
+
+Per mode and amplitude ``one_minimum`` decides whether the peak |H| [(m/s^2)/N] over F_N1 falls to
+one minimum and rises after it (a minimum at either end counts; wiggles under ``TOL_DB`` = 0.5 dB,
+the uncertainty of a peak estimate (rt.claims), are ignored). Writes into ``--out`` (default
+logs/baseline_curve): ``baseline_curve.json`` (per mode and amplitude: F_N1 -> peak, the check,
+each law's peak against the best force; the reproduction's claims; the plan; wall time) and
+``baseline_curve.png`` (peak against F_N1, log x, one panel per mode, one line per amplitude).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from rt.claims import TOL_DB
+from rt.config import load
+from rt.reproduce import FULL, QUICK, measure
+from rt.reproduce_report import jsonable
+
+# constant F_N1 [N] besides the configured F_passive_N (F_min = 40 N): from F_min to F_max = 600 N,
+# roughly log-spaced (ratios 1.3..2), denser where the earlier plant had its minima (120..320 N)
+FORCES = (80.0, 120.0, 160.0, 240.0, 320.0, 450.0, 600.0)
+
+
+def one_minimum(fn1_n: Sequence[float], peaks: Sequence[float], tol_db: float = TOL_DB) -> dict:
+    """Does the peak fall to one minimum and rise after it? A pure function.
+
+    With p_i = 20 log10(peaks_i) [dB] in the order of increasing fn1_n [N] and m the index of the
+    smallest peak: holds if no point before m rises more than tol_db [dB] above the lowest point
+    before it (max_{j<k<=m} p_k - p_j <= tol_db) and no point after m falls more than tol_db below
+    the highest point between m and it (max_{m<=j<k} p_j - p_k <= tol_db). A minimum at the first
+    or last force counts (then one side is empty).
+
+    Returns {"holds", "fn1_min_n": fn1_n at m, "peak_min": peaks_m, "worst_wiggle_db": the larger
+    of the two maxima above (<= tol_db when it holds; 0 for a strictly monotone side),
+    "at_n": the F_N1 of the point where that worst wiggle ends, "tol_db"}."""
+    if len(fn1_n) != len(peaks) or len(fn1_n) < 2:
+        raise ValueError(f"{len(fn1_n)} forces and {len(peaks)} peaks: give at least two of each, as many")
+    if not all(p > 0 and math.isfinite(p) for p in peaks):
+        raise ValueError(f"peaks {list(peaks)}: must be finite and > 0")
+    order = sorted(range(len(fn1_n)), key=lambda i: fn1_n[i])
+    f = [float(fn1_n[i]) for i in order]
+    p = [20.0 * math.log10(peaks[i]) for i in order]
+    m = min(range(len(p)), key=lambda i: p[i])
+    worst, at = 0.0, f[m]
+    low = p[0]                       # falling side: the lowest point so far
+    for k in range(1, m + 1):
+        if p[k] - low > worst:
+            worst, at = p[k] - low, f[k]
+        low = min(low, p[k])
+    high = p[m]                      # rising side: the highest point so far
+    for k in range(m + 1, len(p)):
+        if high - p[k] > worst:
+            worst, at = high - p[k], f[k]
+        high = max(high, p[k])
+    return {"holds": worst <= tol_db, "fn1_min_n": f[m], "peak_min": 10.0 ** (p[m] / 20.0),
+            "worst_wiggle_db": worst, "at_n": at, "tol_db": tol_db}
+
+
+def baseline(report: dict, tol_db: float = TOL_DB) -> dict:
+    """mode -> amplitude -> {peaks_by_fn1: F_N1 [N] -> peak [(m/s^2)/N], the ``one_minimum``
+    check, and per controlled law {H_abs, vs_best_db}} from a reproduction's report
+    (``best_passive_fn1``)."""
+    out: dict = {}
+    for m, by_amp in report["best_passive_fn1"].items():
+        for a, d in by_amp.items():
+            fs = sorted(d["peaks_by_fn1"])
+            check = one_minimum(fs, [d["peaks_by_fn1"][x] for x in fs], tol_db)
+            out.setdefault(m, {})[a] = {"peaks_by_fn1": {x: d["peaks_by_fn1"][x] for x in fs}, "check": check,
+                                        **{law: d[law] for law in ("hysteresis", "lyapunov")}}
+    return out
+
+
+def plot(curves: dict, path: str) -> None:
+    """Peak |H| [(m/s^2)/N] against F_N1 [N], log axes, one panel per mode, one line per
+    amplitude; the minimum ringed, filled if the one-minimum check holds. PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    modes = sorted(curves)
+    fig, axes = plt.subplots(1, len(modes), figsize=(3.2 * len(modes), 3.4), squeeze=False)
+    for ax, m in zip(axes[0], modes):
+        for a in sorted(curves[m]):
+            c = curves[m][a]
+            fs = list(c["peaks_by_fn1"])
+            line, = ax.plot(fs, [c["peaks_by_fn1"][x] for x in fs], marker=".", lw=1.0, label=f"{a:g} N")
+            ok = c["check"]["holds"]
+            ax.plot(c["check"]["fn1_min_n"], c["check"]["peak_min"], "o", ms=8, color=line.get_color(),
+                    mfc=line.get_color() if ok else "none", alpha=0.6)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"mode {m}", fontsize=9)
+        ax.set_xlabel("constant F_N1 [N]")
+        ax.grid(True, which="both", lw=0.3)
+    axes[0][0].set_ylabel("step-sine peak |a(0.45 m) / F_exc| [(m/s^2)/N]")
+    axes[0][-1].legend(fontsize=7, title="amplitude", title_fontsize=7)
+    fig.suptitle("passive law at constant F_N1 (ring: minimum; filled: one minimum within 0.5 dB)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="the reproduction's quick plan: modes 3, 4 at 5 and 20 N")
+    ap.add_argument("--out", default="logs/baseline_curve", help="folder for baseline_curve.json and .png")
+    ap.add_argument("--jobs", type=int, default=None, help="local worker processes (default: the cores)")
+    ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
+    args = ap.parse_args(argv)
+    cfg = load(None, args.sets)
+    plan = dataclasses.replace(QUICK if args.quick else FULL, fn1_n=FORCES)
+    t0 = time.perf_counter()
+    result = measure(cfg, plan, jobs=args.jobs, stage=lambda text: print(f"baseline: {text}", file=sys.stderr))
+    curves = baseline(result["report"])
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    doc = {"curves": curves, "claims": {c: v["holds"] for c, v in result["report"]["claims"].items()},
+           "peak_reduction_db": result["report"]["peak_reduction_db"], "plan": result["report"]["plan"],
+           "sets": args.sets, "wall_s": time.perf_counter() - t0}
+    (out / "baseline_curve.json").write_text(json.dumps(jsonable(doc), indent=1))
+    plot(curves, str(out / "baseline_curve.png"))
+    print(f"{'mode':>4} {'amp':>5} {'one min':>7} {'at':>6}  peaks per F_N1 [(m/s^2)/N]")
+    for m, by_amp in curves.items():
+        for a, c in by_amp.items():
+            ch = c["check"]
+            peaks = ", ".join(f"{x:g}: {v:.3g}" for x, v in c["peaks_by_fn1"].items())
+            print(f"{m:>4} {a:>5g} {'yes' if ch['holds'] else 'NO':>7} {ch['fn1_min_n']:>6g}  {peaks}"
+                  f"  (worst wiggle {ch['worst_wiggle_db']:.2f} dB at {ch['at_n']:g} N)")
+    print(f"written: {out / 'baseline_curve.json'}, {out / 'baseline_curve.png'}; wall {doc['wall_s']:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
