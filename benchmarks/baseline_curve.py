@@ -30,7 +30,7 @@ from pathlib import Path
 
 from rt.claims import TOL_DB
 from rt.config import load
-from rt.reproduce import FULL, QUICK, measure
+from rt.reproduce import FULL, QUICK, measure, peak
 from rt.reproduce_report import jsonable
 
 # constant F_N1 [N] besides the configured F_passive_N (F_min = 40 N): from F_min to F_max = 600 N,
@@ -73,44 +73,67 @@ def one_minimum(fn1_n: Sequence[float], peaks: Sequence[float], tol_db: float = 
             "worst_wiggle_db": worst, "at_n": at, "tol_db": tol_db}
 
 
-def baseline(report: dict, tol_db: float = TOL_DB) -> dict:
-    """mode -> amplitude -> {peaks_by_fn1: F_N1 [N] -> peak [(m/s^2)/N], the ``one_minimum``
-    check, and per controlled law {H_abs, vs_best_db}} from a reproduction's report
-    (``best_passive_fn1``)."""
+def baseline(result: dict, dt: float, tol_db: float = TOL_DB) -> dict:
+    """mode -> amplitude -> {peaks_by_fn1: F_N1 [N] -> peak [(m/s^2)/N], settled_by_fn1 and
+    edge_by_fn1: F_N1 -> whether that peak's point settled / lies at the grid's edge, the
+    ``one_minimum`` check, and per controlled law {H_abs, vs_best_db}} from ``rt.reproduce.measure``'s
+    result (its passive FRFs, dt [s] the controller step, and the report's ``best_passive_fn1``)."""
+    fn1_passive = result["report"]["plan"]["fn1_n"][0]   # the passive law as configured: F_passive_N
     out: dict = {}
-    for m, by_amp in report["best_passive_fn1"].items():
+    for k, r in result["frfs"].items():
+        if k.law == "passive":
+            p = peak(r, dt)
+            d = out.setdefault(k.mode, {}).setdefault(k.amp_n, {"peaks_by_fn1": {}, "settled_by_fn1": {},
+                                                                "edge_by_fn1": {}})
+            f = float(fn1_passive if k.fn1_n is None else k.fn1_n)
+            d["peaks_by_fn1"][f], d["settled_by_fn1"][f], d["edge_by_fn1"][f] = p["H_abs"], p["settled"], p["at_band_edge"]
+    best = result["report"]["best_passive_fn1"]
+    for m, by_amp in out.items():
         for a, d in by_amp.items():
-            fs = sorted(d["peaks_by_fn1"])
-            check = one_minimum(fs, [d["peaks_by_fn1"][x] for x in fs], tol_db)
-            out.setdefault(m, {})[a] = {"peaks_by_fn1": {x: d["peaks_by_fn1"][x] for x in fs}, "check": check,
-                                        **{law: d[law] for law in ("hysteresis", "lyapunov")}}
-    return out
+            for name in ("peaks_by_fn1", "settled_by_fn1", "edge_by_fn1"):
+                d[name] = dict(sorted(d[name].items()))
+            d["check"] = one_minimum(list(d["peaks_by_fn1"]), list(d["peaks_by_fn1"].values()), tol_db)
+            d |= {law: best[m][a][law] for law in ("hysteresis", "lyapunov")}
+    return dict(sorted((m, dict(sorted(v.items()))) for m, v in out.items()))
 
 
 def plot(curves: dict, path: str) -> None:
     """Peak |H| [(m/s^2)/N] against F_N1 [N], log axes, one panel per mode, one line per
-    amplitude; the minimum ringed, filled if the one-minimum check holds. PNG."""
+    amplitude; the minimum ringed, filled if the one-minimum check holds; a peak whose point did
+    not settle crossed. PNG."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
     modes = sorted(curves)
-    fig, axes = plt.subplots(1, len(modes), figsize=(3.2 * len(modes), 3.4), squeeze=False)
+    fig, axes = plt.subplots(1, len(modes), figsize=(3.3 * len(modes), 3.3), squeeze=False)
     for ax, m in zip(axes[0], modes):
         for a in sorted(curves[m]):
             c = curves[m][a]
             fs = list(c["peaks_by_fn1"])
-            line, = ax.plot(fs, [c["peaks_by_fn1"][x] for x in fs], marker=".", lw=1.0, label=f"{a:g} N")
+            ps = [c["peaks_by_fn1"][x] for x in fs]
+            line, = ax.plot(fs, ps, marker=".", lw=1.0, label=f"{a:g} N")
+            bad = [(x, p) for x, p in zip(fs, ps) if not c["settled_by_fn1"][x]]
+            if bad:
+                ax.plot(*zip(*bad), "x", ms=6, color=line.get_color())
             ok = c["check"]["holds"]
             ax.plot(c["check"]["fn1_min_n"], c["check"]["peak_min"], "o", ms=8, color=line.get_color(),
                     mfc=line.get_color() if ok else "none", alpha=0.6)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_xticks(fs)
+        ax.tick_params(axis="x", labelrotation=90, labelsize=7)
+        ax.tick_params(axis="y", which="both", labelsize=7)
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_major_formatter(ScalarFormatter())
+            axis.set_minor_formatter(NullFormatter())
         ax.set_title(f"mode {m}", fontsize=9)
-        ax.set_xlabel("constant F_N1 [N]")
+        ax.set_xlabel("constant F_N1 [N]", fontsize=8)
         ax.grid(True, which="both", lw=0.3)
-    axes[0][0].set_ylabel("step-sine peak |a(0.45 m) / F_exc| [(m/s^2)/N]")
+    axes[0][0].set_ylabel("step-sine peak |H| [(m/s^2)/N]", fontsize=8)
     axes[0][-1].legend(fontsize=7, title="amplitude", title_fontsize=7)
-    fig.suptitle("passive law at constant F_N1 (ring: minimum; filled: one minimum within 0.5 dB)", fontsize=9)
+    fig.suptitle("passive law at constant F_N1: peak |a(0.45 m) / F_exc| (ring: minimum, filled: one minimum "
+                 "within 0.5 dB; x: not settled)", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
@@ -127,7 +150,7 @@ def main(argv=None) -> int:
     plan = dataclasses.replace(QUICK if args.quick else FULL, fn1_n=FORCES)
     t0 = time.perf_counter()
     result = measure(cfg, plan, jobs=args.jobs, stage=lambda text: print(f"baseline: {text}", file=sys.stderr))
-    curves = baseline(result["report"])
+    curves = baseline(result, cfg.dt_s)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     doc = {"curves": curves, "claims": {c: v["holds"] for c, v in result["report"]["claims"].items()},
@@ -135,11 +158,12 @@ def main(argv=None) -> int:
            "sets": args.sets, "wall_s": time.perf_counter() - t0}
     (out / "baseline_curve.json").write_text(json.dumps(jsonable(doc), indent=1))
     plot(curves, str(out / "baseline_curve.png"))
-    print(f"{'mode':>4} {'amp':>5} {'one min':>7} {'at':>6}  peaks per F_N1 [(m/s^2)/N]")
+    print(f"{'mode':>4} {'amp':>5} {'one min':>7} {'at':>6}  peaks per F_N1 [(m/s^2)/N] (*: not settled)")
     for m, by_amp in curves.items():
         for a, c in by_amp.items():
             ch = c["check"]
-            peaks = ", ".join(f"{x:g}: {v:.3g}" for x, v in c["peaks_by_fn1"].items())
+            peaks = ", ".join(f"{x:g}: {v:.3g}" + ("" if c["settled_by_fn1"][x] else "*")
+                              for x, v in c["peaks_by_fn1"].items())
             print(f"{m:>4} {a:>5g} {'yes' if ch['holds'] else 'NO':>7} {ch['fn1_min_n']:>6g}  {peaks}"
                   f"  (worst wiggle {ch['worst_wiggle_db']:.2f} dB at {ch['at_n']:g} N)")
     print(f"written: {out / 'baseline_curve.json'}, {out / 'baseline_curve.png'}; wall {doc['wall_s']:.0f} s")

@@ -54,10 +54,11 @@ def test_order_of_the_forces_does_not_matter_and_bad_input_is_refused():
 def test_a_tiny_real_baseline(cfg, tmp_path):
     plan = Plan(modes=(3,), amps_n=(5.0, 20.0), n_points=3, refine_rounds=0, fn1_n=(600.0,),
                 settle=Settle(n_blocks=2, rel_tol=0.05, max_s=0.3))
-    curves = baseline(measure(cfg, plan, jobs=1, progress=False)["report"])
+    curves = baseline(measure(cfg, plan, jobs=1, progress=False), cfg.dt_s)
     assert set(curves) == {3} and set(curves[3]) == {5.0, 20.0}
     for c in curves[3].values():
         assert list(c["peaks_by_fn1"]) == [40.0, 600.0] and all(p > 0 for p in c["peaks_by_fn1"].values())
+        assert list(c["settled_by_fn1"]) == list(c["edge_by_fn1"]) == [40.0, 600.0]
         assert c["check"]["holds"]                       # two forces: always one minimum
         assert c["check"]["peak_min"] == pytest.approx(min(c["peaks_by_fn1"].values()))
         assert math.isfinite(c["hysteresis"]["vs_best_db"]) and c["lyapunov"]["vs_best_db"] >= -60

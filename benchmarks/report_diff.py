@@ -1,0 +1,72 @@
+"""Two reproductions side by side: claims and peak reductions of two ``frictionrt reproduce`` reports.
+
+    python -m benchmarks.report_diff A/report.json B/report.json [--names A B] [--markdown]
+
+Prints the claims C1..C6 of both (holds yes/NO, "same" or "DIFFERS"), every peak reduction [dB]
+of both with B - A, the largest |B - A| of a peak reduction and the largest relative difference
+of a peak |H| (every FRF of the report's ``peaks`` and ``best_passive_fn1``). Used for the two
+code generations and the two gains of docs/experiments.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def cells(red: dict) -> dict:
+    """(law, mode, amplitude [N]) -> value from a JSON law -> mode -> amplitude table."""
+    return {(law, int(m), float(a)): v for law, by_m in red.items() for m, by_a in by_m.items()
+            for a, v in by_a.items()}
+
+
+def peaks(report: dict) -> dict:
+    """(law, F_N1 [N] or None, mode, amplitude [N]) -> peak |H| [(m/s^2)/N]: the laws' peaks and
+    the passive law's at every constant F_N1."""
+    out = {(law, None, m, a): p["H_abs"] for (law, m, a), p in cells(report["peaks"]).items()}
+    for m, by_a in report["best_passive_fn1"].items():
+        for a, d in by_a.items():
+            for f, p in d["peaks_by_fn1"].items():
+                out[("passive", float(f), int(m), float(a))] = p
+    return out
+
+
+def diff(a: dict, b: dict) -> dict:
+    """{claims: C -> (holds_a, holds_b), reduction: (law, mode, amp) -> (dB_a, dB_b),
+    max_reduction_diff_db: (|b - a|, its cell), max_peak_rel: (|b/a - 1|, its FRF)} of two reports."""
+    ra, rb = cells(a["peak_reduction_db"]), cells(b["peak_reduction_db"])
+    red = {k: (ra[k], rb.get(k)) for k in ra}
+    dk = max((k for k in red if None not in red[k]), key=lambda k: abs(red[k][1] - red[k][0]))
+    pa, pb = peaks(a), peaks(b)
+    common = [k for k in pa if k in pb]
+    pk = max(common, key=lambda k: abs(pb[k] / pa[k] - 1.0))
+    return {"claims": {c: (a["claims"][c]["holds"], b["claims"][c]["holds"]) for c in a["claims"]},
+            "reduction": red, "max_reduction_diff_db": (abs(red[dk][1] - red[dk][0]), dk),
+            "max_peak_rel": (abs(pb[pk] / pa[pk] - 1.0), pk), "peaks_compared": len(common)}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("a")
+    ap.add_argument("b")
+    ap.add_argument("--names", nargs=2, default=["A", "B"])
+    args = ap.parse_args(argv)
+    na, nb = args.names
+    d = diff(json.loads(open(args.a).read()), json.loads(open(args.b).read()))
+    yn = lambda h: "yes" if h else "NO"
+    print(f"| claim | {na} | {nb} | |\n| --- | --- | --- | --- |")
+    for c, (ha, hb) in d["claims"].items():
+        print(f"| {c} | {yn(ha)} | {yn(hb)} | {'same' if ha == hb else '**DIFFERS**'} |")
+    print(f"\n| law | mode | amplitude [N] | {na} [dB] | {nb} [dB] | {nb} - {na} [dB] |\n| --- | --- | --- | --- | --- | --- |")
+    for (law, m, amp), (x, y) in d["reduction"].items():
+        print(f"| {law} | {m} | {amp:g} | {x:+.2f} | " + ("- | - |" if y is None else f"{y:+.2f} | {y - x:+.3f} |"))
+    v, k = d["max_reduction_diff_db"]
+    print(f"\nlargest |{nb} - {na}| of a peak reduction: {v:.3g} dB ({k[0]}, mode {k[1]}, {k[2]:g} N)")
+    v, k = d["max_peak_rel"]
+    fn1 = "as configured" if k[1] is None else f"F_N1 = {k[1]:g} N"
+    print(f"largest relative difference of a peak |H| over {d['peaks_compared']} FRFs: {v:.3g} "
+          f"({k[0]} {fn1}, mode {k[2]}, {k[3]:g} N)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
