@@ -1,6 +1,7 @@
 """The constant-F_N1 baseline of the bolted plant: the step-sine peak per clamping force (issue 15).
 
     python -m benchmarks.baseline_curve [--quick] [--out DIR] [--jobs 2] [--set KEY=VALUE ...]
+        [--modes 2 5] [--max-s 8] [--refine-rounds 6]      (a finer measurement of some modes)
 
 The passive law (the stack held at the voltage of ``tracking.F_passive_N``) at each constant F_N1
 of ``FORCES`` (40..600 N, F_min = the configured F_passive_N included), modes 2..5, excitation force
@@ -86,7 +87,8 @@ def baseline(result: dict, dt: float, tol_db: float = TOL_DB) -> dict:
             d = out.setdefault(k.mode, {}).setdefault(k.amp_n, {"peaks_by_fn1": {}, "settled_by_fn1": {},
                                                                 "edge_by_fn1": {}})
             f = float(fn1_passive if k.fn1_n is None else k.fn1_n)
-            d["peaks_by_fn1"][f], d["settled_by_fn1"][f], d["edge_by_fn1"][f] = p["H_abs"], p["settled"], p["at_band_edge"]
+            d["peaks_by_fn1"][f], d["settled_by_fn1"][f] = p["H_abs"], p["settled"]
+            d["edge_by_fn1"][f] = p["at_band_edge"]
     best = result["report"]["best_passive_fn1"]
     for m, by_amp in out.items():
         for a, d in by_amp.items():
@@ -98,7 +100,7 @@ def baseline(result: dict, dt: float, tol_db: float = TOL_DB) -> dict:
 
 
 def plot(curves: dict, path: str) -> None:
-    """Peak |H| [(m/s^2)/N] against F_N1 [N], log axes, one panel per mode, one line per
+    """Peak |H| [dB re 1 (m/s^2)/N] against F_N1 [N] (log axis), one panel per mode, one line per
     amplitude; the minimum ringed, filled if the one-minimum check holds; a peak whose point did
     not settle crossed. PNG."""
     import matplotlib
@@ -111,28 +113,26 @@ def plot(curves: dict, path: str) -> None:
         for a in sorted(curves[m]):
             c = curves[m][a]
             fs = list(c["peaks_by_fn1"])
-            ps = [c["peaks_by_fn1"][x] for x in fs]
+            ps = [20.0 * math.log10(c["peaks_by_fn1"][x]) for x in fs]
             line, = ax.plot(fs, ps, marker=".", lw=1.0, label=f"{a:g} N")
             bad = [(x, p) for x, p in zip(fs, ps) if not c["settled_by_fn1"][x]]
             if bad:
                 ax.plot(*zip(*bad), "x", ms=6, color=line.get_color())
             ok = c["check"]["holds"]
-            ax.plot(c["check"]["fn1_min_n"], c["check"]["peak_min"], "o", ms=8, color=line.get_color(),
-                    mfc=line.get_color() if ok else "none", alpha=0.6)
+            ax.plot(c["check"]["fn1_min_n"], 20.0 * math.log10(c["check"]["peak_min"]), "o", ms=8,
+                    color=line.get_color(), mfc=line.get_color() if ok else "none", alpha=0.6)
         ax.set_xscale("log")
-        ax.set_yscale("log")
         ax.set_xticks(fs)
         ax.tick_params(axis="x", labelrotation=90, labelsize=7)
-        ax.tick_params(axis="y", which="both", labelsize=7)
-        for axis in (ax.xaxis, ax.yaxis):
-            axis.set_major_formatter(ScalarFormatter())
-            axis.set_minor_formatter(NullFormatter())
+        ax.tick_params(axis="y", labelsize=7)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_title(f"mode {m}", fontsize=9)
         ax.set_xlabel("constant F_N1 [N]", fontsize=8)
         ax.grid(True, which="both", lw=0.3)
-    axes[0][0].set_ylabel("step-sine peak |H| [(m/s^2)/N]", fontsize=8)
+    axes[0][0].set_ylabel("step-sine peak |H| [dB re 1 (m/s^2)/N]", fontsize=8)
     axes[0][-1].legend(fontsize=7, title="amplitude", title_fontsize=7)
-    fig.suptitle("passive law at constant F_N1: peak |a(0.45 m) / F_exc| (ring: minimum, filled: one minimum "
+    fig.suptitle("passive law at constant F_N1: peak |a(0.45 m) / F_exc|\n(ring: minimum, filled: one minimum "
                  "within 0.5 dB; x: not settled)", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
@@ -144,10 +144,19 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="the reproduction's quick plan: modes 3, 4 at 5 and 20 N")
     ap.add_argument("--out", default="logs/baseline_curve", help="folder for baseline_curve.json and .png")
     ap.add_argument("--jobs", type=int, default=None, help="local worker processes (default: the cores)")
+    ap.add_argument("--modes", type=int, nargs="+", help="these modes only (default: the plan's)")
+    ap.add_argument("--max-s", type=float, help="simulated time per point before giving up [s] (default: the plan's)")
+    ap.add_argument("--refine-rounds", type=int, help="refinement rounds at most (default: the plan's)")
     ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
     args = ap.parse_args(argv)
     cfg = load(None, args.sets)
     plan = dataclasses.replace(QUICK if args.quick else FULL, fn1_n=FORCES)
+    if args.modes:
+        plan = dataclasses.replace(plan, modes=tuple(args.modes))
+    if args.max_s:
+        plan = dataclasses.replace(plan, settle=dataclasses.replace(plan.settle, max_s=args.max_s))
+    if args.refine_rounds is not None:
+        plan = dataclasses.replace(plan, refine_rounds=args.refine_rounds)
     t0 = time.perf_counter()
     result = measure(cfg, plan, jobs=args.jobs, stage=lambda text: print(f"baseline: {text}", file=sys.stderr))
     curves = baseline(result, cfg.dt_s)
