@@ -16,7 +16,8 @@ one minimum and rises after it (a minimum at either end counts; wiggles under ``
 the uncertainty of a peak estimate (rt.claims), are ignored). Writes into ``--out`` (default
 logs/baseline_curve): ``baseline_curve.json`` (per mode and amplitude: F_N1 -> peak, the check,
 each law's peak against the best force; the reproduction's claims; the plan; wall time) and
-``baseline_curve.png`` (peak against F_N1, log x, one panel per mode, one line per amplitude).
+``baseline_curve.png`` (peak [dB] against F_N1 (log axis), one panel per mode, one line per
+amplitude).
 """
 from __future__ import annotations
 
@@ -70,7 +71,7 @@ def one_minimum(fn1_n: Sequence[float], peaks: Sequence[float], tol_db: float = 
         if high - p[k] > worst:
             worst, at = high - p[k], f[k]
         high = max(high, p[k])
-    return {"holds": worst <= tol_db, "fn1_min_n": f[m], "peak_min": 10.0 ** (p[m] / 20.0),
+    return {"holds": worst <= tol_db, "fn1_min_n": f[m], "peak_min": float(peaks[order[m]]),
             "worst_wiggle_db": worst, "at_n": at, "tol_db": tol_db}
 
 

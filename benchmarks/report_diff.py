@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from pathlib import Path
 
 
 def cells(red: dict) -> dict:
@@ -58,13 +59,14 @@ def vs_best(report: dict, curves: dict) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("a")
-    ap.add_argument("b")
+    ap.add_argument("a", help="report.json of the first reproduction")
+    ap.add_argument("b", help="report.json of the second")
     ap.add_argument("--names", nargs=2, default=["A", "B"])
-    ap.add_argument("--baseline", metavar="JSON", help="a benchmarks.baseline_curve JSON: the laws against its best force")
+    ap.add_argument("--baseline", metavar="JSON",
+                    help="a benchmarks.baseline_curve JSON: each law against its best constant F_N1")
     args = ap.parse_args(argv)
     na, nb = args.names
-    a, b = json.loads(open(args.a).read()), json.loads(open(args.b).read())
+    a, b = json.loads(Path(args.a).read_text()), json.loads(Path(args.b).read_text())
     d = diff(a, b)
     yn = lambda h: "yes" if h else "NO"
     print(f"| claim | {na} | {nb} | |\n| --- | --- | --- | --- |")
@@ -81,7 +83,7 @@ def main(argv=None) -> int:
     print(f"largest relative difference of a peak |H| over {d['peaks_compared']} FRFs: {v:.3g} "
           f"({k[0]} {fn1}, mode {k[2]}, {k[3]:g} N)")
     if args.baseline:
-        curves = json.loads(open(args.baseline).read())["curves"]
+        curves = json.loads(Path(args.baseline).read_text())["curves"]
         va, vb = vs_best(a, curves), vs_best(b, curves)
         print(f"\nagainst the best constant F_N1 of {args.baseline} [dB] (negative: the law wins)")
         print(f"| law | mode | amplitude [N] | {na} | {nb} |\n| --- | --- | --- | --- | --- |")

@@ -92,8 +92,8 @@ def markdown(doc: dict) -> str:
     against the default [dB] and where; then every peak reduction per variant."""
     runs = doc["runs"]
     ref = next((r for r in runs if r["name"] == "default"), None)
-    lines = [f"Plan: {doc['plan']}; base --set: {doc['base_sets'] or 'none'}; a verdict in **bold** differs from "
-             "the default's.", "",
+    lines = [(f"Plan: {doc['plan']}; base --set: {doc['base_sets'] or 'none'}; a verdict in **bold** differs "
+              "from the default's."), "",
              "| variant | input | --set | why plausible | mode 3 at 100 N [Hz], zeta [%] | " + " | ".join(CLAIMS)
              + " | largest change of a peak reduction [dB] |",
              "| --- " * (6 + len(CLAIMS)) + "|"]
@@ -115,10 +115,11 @@ def markdown(doc: dict) -> str:
         sets = "<br>".join(f"`{s}`" for s in r["sets"]) or "-"
         lines.append(f"| {r['name']} | {r['input']} | {sets} | {r['why']} | {f3} | " + " | ".join(verdicts)
                      + f" | {delta} |")
-    lines += ["", "What the verdicts were decided on (rt.claims): C2 zeta_passive / zeta_bare per mode; C3 the modes "
-              f"each law reduces by more than {TOL_DB} dB at every amplitude (2 needed); C4 each law's worst reduction "
-              f"at the smallest amplitude (<= +{TOL_DB} dB needed); C5 the mean advantage of Lyapunov per amplitude "
-              "[dB]; C6 the smallest Lyapunov / hysteresis power ratio at a peak (> 1 needed):", "",
+    lines += ["", ("What the verdicts were decided on (rt.claims): C2 zeta_passive / zeta_bare per mode; C3 the "
+                   f"modes each law reduces by more than {TOL_DB} dB at every amplitude (2 needed); C4 each law's "
+                   f"worst reduction at the smallest amplitude (<= +{TOL_DB} dB needed); C5 the mean advantage of "
+                   "Lyapunov per amplitude [dB]; C6 the smallest Lyapunov / hysteresis power ratio at a peak "
+                   "(> 1 needed):"), "",
               "| variant | C2 ratio | C3 modes reduced | C4 worst [dB] | C5 mean advantage [dB] | C6 min ratio |",
               "| --- | --- | --- | --- | --- | --- |"]
     for r in runs:
@@ -128,8 +129,8 @@ def markdown(doc: dict) -> str:
         lines.append(f"| {r['name']} | {fmt(n['C2']['ratio'])} | {fmt(n['C3']['modes_reduced'])} | "
                      f"{fmt(n['C4']['worst_reduction_db'])} | {fmt(n['C5']['mean_advantage_db'])} | "
                      f"{'-' if c6 is None else f'{c6:.3g}'} |")
-    lines += ["", f"Peak reduction against passive [dB] (negative: lower peak; |x| < {TOL_DB} dB counts as "
-              "unchanged):", ""]
+    lines += ["", (f"Peak reduction against passive [dB] (negative: lower peak; |x| < {TOL_DB} dB counts as "
+                   "unchanged):"), ""]
     keys = sorted(cells(runs[0]["peak_reduction_db"])) if runs else []
     lines.append("| variant | " + " | ".join(f"{law[:4]} {m}/{a:g} N" for law, m, a in keys) + " |")
     lines.append("| --- " * (1 + len(keys)) + "|")
