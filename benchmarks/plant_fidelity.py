@@ -1,14 +1,12 @@
 """Does the plant behave like a bolted rig? The figures of docs/plant.md section 9 (issue 15).
 
-    python -m benchmarks.plant_fidelity runs [--laws passive hysteresis lyapunov] [--json]
-    python -m benchmarks.plant_fidelity baseline [--forces 40 80 150 300 450 600] [--modes 2 3 4 5]
+    python -m benchmarks.plant_fidelity runs --freqs F3 F4 [--laws passive hysteresis lyapunov] [--json]
 
 ``runs``: closed-loop runs of 1 s at the passive mode-3 and mode-4 resonances, 5 and 20 N; per
 run the share of the plant's a_frf energy (0..10.5 kHz, last 0.5 s) within +-5 % of the
 excitation frequency and its first 9 harmonics, a_frf rms over first-harmonic amplitude / sqrt 2,
-and the largest normal gap of the pairs within 15 mm of each screw. ``baseline``: the step-sine
-peak |H| per constant F_N1 (the stack held at that force), per mode and amplitude, and whether it
-falls to one minimum and rises after it (wiggles under 0.5 dB ignored), with a plot.
+and the largest normal gap of the pairs within 15 mm of each screw. The constant-F_N1 baseline
+(the step-sine peak per constant F_N1 and its one-minimum check) is benchmarks/baseline_curve.py.
 """
 from __future__ import annotations
 
