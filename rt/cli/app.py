@@ -24,7 +24,8 @@ from rt.cli import diagnose as cli_diagnose
 from rt.cli import rig as cli_rig
 from rt.cli.log import add_parsers as add_log_parsers
 from rt.cli.log import cmd_inspect, cmd_recover
-from rt.cli.common import Parser, add_common, add_force, add_out, fail, json_errors, refuse_existing
+from rt.cli.common import (Parser, add_common, add_force, add_out, add_realtime, fail, json_errors, realtime_notes,
+                           realtime_sets, refuse_existing, unpaced_realtime)
 from rt.common.config import ConfigError, dumps, load, to_dict
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
@@ -93,6 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
     s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s] (default 1)")
     s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    add_realtime(s)
     s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
     add_out(s, "PATH", "write the log to PATH.mcap, PATH.rrd and its Foxglove layout PATH.foxglove.json (a "
                        ".mcap or .rrd suffix is dropped); the folder must exist")
@@ -129,10 +131,16 @@ def build_parser() -> argparse.ArgumentParser:
     g = sub.add_parser("budget", parents=[common], help="per-component tick times [us] against the 47.6 us budget",
                        description="Run the loop offline (timed per component) and paced; print median, p99, "
                                    "p99.9 and max [us] per component and for the whole tick, and the paced run's "
-                                   "overruns, lateness [us] and drift [us].")
+                                   "missed periods, lateness [us] and drift [us], next to what the machine allows "
+                                   "at the same period, priority and core: the null loop (the same pacing, an "
+                                   "empty tick) and, when installed, cyclictest (rt-tests). With --rt-priority N "
+                                   "--cpu K the loop thread alone runs at SCHED_FIFO N on core K "
+                                   "(docs/loop.md, 'Real-time set-up').")
     g.add_argument("--ticks", type=int, default=105000, metavar="N", help="offline ticks (default 105000 = 5 s)")
     g.add_argument("--paced-s", type=float, default=5.0, metavar="S", help="paced run length [s] (default 5)")
     g.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov")
+    add_realtime(g)
+    g.add_argument("--no-floor", action="store_true", help="leave out the null loop and cyclictest")
     g.add_argument("--json", action="store_true", help="one JSON object instead of a table")
 
     o = sub.add_parser("observer", parents=[common], help="observer design: kept modes, Kalman gain, eigenvalues",
@@ -156,6 +164,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "every /actuator and /plant signal is compared (docs/data-format.md).")
     r.add_argument("log", metavar="RUN.mcap", help="the log (frictionrt simulate --out)")
     r.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    add_realtime(r)
     r.add_argument("--plant", action="store_true", help="replay the recorded V_cmd [V] and F_exc [N] into actuator "
                    "and plant and compare their outputs (open-loop check; e.g. with --set plant.interface.mu=0.3)")
     r.add_argument("--json", action="store_true", help="one JSON object instead of text")
@@ -263,6 +272,8 @@ def _cmd_simulate(cfg, args) -> int:
     from rt.log.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
         return fail(f"--seed {args.seed}: must be a non-negative integer")
+    if msg := unpaced_realtime(args):
+        return fail(msg)
     if not args.ring > 0:
         return fail(f"--ring {args.ring:g} s: must be > 0 s")
     base = None
@@ -305,6 +316,7 @@ def _cmd_simulate(cfg, args) -> int:
         return fail("interrupted before the loop ran: nothing to summarise")
     s = summary(r)
     s["interrupted"] = r.interrupted or (writer is not None and writer.interrupted)
+    realtime_notes(s.get("realtime"))
     if writer is not None:
         s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "foxglove_layout": writer.paths["foxglove"],
               "dropped_blocks": writer.dropped_blocks,
@@ -342,10 +354,13 @@ def _cmd_replay(cfg, args) -> int:
     from rt.loop.replay import replay
     if args.plant:
         return cmd_replay_plant(cfg, args)
+    if msg := unpaced_realtime(args):
+        return fail(msg)
     try:
         res = replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
     except ValueError as exc:
         return fail(str(exc))
+    realtime_notes(res.get("realtime"))
     code = 1 if res["bit_exact"] is False else (130 if res["interrupted"] else 0)
     if args.json:
         print(json.dumps(res))
@@ -433,7 +448,11 @@ def _cmd_budget(cfg, args) -> int:
     from rt.loop.budget import budget, format_budget
     if args.ticks < 1000 or args.paced_s <= 0:
         return fail(f"--ticks {args.ticks} / --paced-s {args.paced_s}: need >= 1000 ticks and a positive paced time")
-    res = budget(cfg, args.law, args.ticks, args.paced_s)
+    try:
+        res = budget(cfg, args.law, args.ticks, args.paced_s, floor=not args.no_floor)
+    except ValueError as exc:
+        return fail(str(exc))
+    realtime_notes(res["paced"]["realtime"])
     print(json.dumps(res) if args.json else format_budget(res))
     return 0
 
@@ -457,6 +476,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(args) -> int:
     try:
+        args.sets = [*args.sets, *realtime_sets(args)]  # --rt-priority, --cpu (replay: onto the stored configuration)
         cfg = load(args.config, args.sets)
     except ConfigError as exc:
         return fail(str(exc))

@@ -4,7 +4,8 @@
   code 2; with ``--json`` the same error is also one JSON object on stdout,
   ``{"error": MSG, "exit": 2}`` (``json_errors`` switches it on for the command line being run;
   ``Parser`` does the same for argparse's own usage errors).
-- Options: ``--config``/``--set`` on every verb (``add_common``), comma-separated lists (``parse_list``).
+- Options: ``--config``/``--set`` on every verb (``add_common``), comma-separated lists (``parse_list``),
+  the paced loop's ``--rt-priority``/``--cpu`` (``add_realtime``, ``realtime_sets``).
 - Output: ``-o``/``--out`` names where a verb writes (``add_out``); an existing output is refused
   unless ``--force`` (``add_force``, ``refuse_existing``).
 """
@@ -83,3 +84,37 @@ def parse_list(text: str, kind, option: str, example: str) -> list:
     if not values:
         raise ValueError(f"{option} {text!r}: empty list; give at least one value, e.g. {example}")
     return values
+
+
+def add_realtime(p: argparse.ArgumentParser) -> None:
+    """--rt-priority and --cpu: the paced loop's real-time set-up (rt.priority, rt.cpu;
+    rt/loop/realtime.py). Off by default; without the privilege a paced run says so in one line."""
+    p.add_argument("--rt-priority", type=int, default=None, metavar="N",
+                   help="paced: run the loop thread alone at SCHED_FIFO priority N (1-99; rt.priority); memory "
+                        "locked, /dev/cpu_dma_latency held at 0")
+    p.add_argument("--cpu", type=int, default=None, metavar="K",
+                   help="paced: pin the loop thread to core K, the writer and Python to the others (rt.cpu)")
+
+
+def realtime_sets(args) -> list[str]:
+    """The --set assignments that --rt-priority / --cpu stand for (none if not given)."""
+    out = []
+    if getattr(args, "rt_priority", None) is not None:
+        out.append(f"rt.priority={args.rt_priority}")
+    if getattr(args, "cpu", None) is not None:
+        out.append(f"rt.cpu={args.cpu}")
+    return out
+
+
+def unpaced_realtime(args) -> str | None:
+    """The error for --rt-priority / --cpu without --paced (they set up a paced run only)."""
+    if (getattr(args, "rt_priority", None) is not None or getattr(args, "cpu", None) is not None) \
+            and not getattr(args, "paced", False):
+        return "--rt-priority / --cpu set up a paced run: add --paced (an offline run is not paced to the clock)"
+    return None
+
+
+def realtime_notes(rt: dict | None) -> None:
+    """One stderr line per piece of the real-time set-up the run asked for and did not get."""
+    for note in (rt or {}).get("notes", ()):
+        print(f"frictionrt: note: {note}", file=sys.stderr)

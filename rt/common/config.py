@@ -175,6 +175,16 @@ class Rt:
     """Real-time loop (SPEC section 7)."""
     rate_hz: float = param(21000.0, "Hz", lo=0.0, lo_inclusive=False, doc="controller rate, dt = 1/rate_hz")
     seed: int = param(0, "-", lo=0, doc="seed of the sensor noise")
+    priority: int = param(0, "-", lo=0, hi=99, doc="paced runs: SCHED_FIFO priority of the loop thread alone "
+                          "(1..99; 0: the default scheduler), docs/loop.md 'Real-time set-up'")
+    cpu: int = param(-1, "-", lo=-1, doc="paced runs: the core the loop thread is pinned to; the writer and "
+                     "Python move to the others (-1: not pinned)")
+    sleep_margin_us: float = param(47.62, "us", lo=0.0, doc="paced runs: sleep (clock_nanosleep) until this long "
+                                   "before each deadline, then spin; one period or more: spin only (the "
+                                   "default: without real-time priority a sleeping thread wakes late)")
+    sleep_margin_rt_us: float = param(30.0, "us", lo=0.0, doc="the same with priority > 0 (the wake-up latency "
+                                      "of a SCHED_FIFO thread is short; a full spin would hit the kernel's "
+                                      "real-time throttle)")
 
 
 @dataclass(frozen=True)

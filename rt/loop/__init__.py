@@ -3,7 +3,8 @@ driver, the figures of a run; the supervisor and faults, replay, the timing budg
 
 Modules: ``build`` (``Loop``, ``build_loop``, ``LoopState``), ``tick`` (the compiled tick),
 ``pacing`` (the deadlines the loop and the replay share), ``driver`` (``run``), ``results``
-(``summary``), ``supervisor``, ``faults``, ``digest`` (a ring run's whole-run figures),
+(``summary``), ``realtime`` (a paced run's priority, pinning, memory lock), ``floor`` (the null
+loop and cyclictest), ``supervisor``, ``faults``, ``digest`` (a ring run's whole-run figures),
 ``replay``, ``replay_plant``, ``budget``, ``bench``. A verb-named function lives in its module
 (``rt.loop.replay.replay``). The names below are imported on first use (rt/common/face.py).
 """

@@ -14,7 +14,9 @@ from observer.step import OBSERVER_OUTPUTS
 from plant.actuator import output_index as actuator_output_index
 from plant.sensors import output_index as sensor_output_index
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
+from rt.loop import realtime
 from rt.loop.build import COMPONENTS, Loop, LoopState, initial_loop_state
+from rt.loop.pacing import START_SLACK_NS
 from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, SUPERVISOR_OUTPUTS, no_faults
 from rt.loop.tick import _run_ticks
 
@@ -35,6 +37,7 @@ class Run:
     faults: np.ndarray | None = None  # the injected fault schedule (rt.loop.faults)
     ticks: int | None = None  # ticks run (None: len(log), every tick held)
     digest: object = None  # a ring run's whole-run figures (rt.loop.digest.RunDigest), if its writer kept them
+    realtime: dict | None = None  # paced: what the real-time set-up got (rt.loop.realtime.Session.describe)
 
     def __post_init__(self):
         if self.ticks is None:
@@ -120,14 +123,16 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     faults = no_faults() if faults is None else np.ascontiguousarray(faults, dtype=np.float64)
     exc = (dt, amp_n, 2 * math.pi * freq_hz)
-    pace = (timing, paced, period_ns, clk, np.zeros(2, dtype=np.int64))
     cols = (oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"], ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"],
             oi[f"w_{exc_point}"], oi[f"v_{exc_point}"])
     failed = [0]
+    t_first = [0]  # paced: the clock [ns] one period before the first deadline
     errors: list[BaseException] = []
 
     def worker():
         try:
+            if paced:
+                rts.enter_loop_thread()
             _chunks()
         except BaseException as err:  # re-raised in the calling thread
             errors.append(err)
@@ -152,48 +157,57 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             act = (st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator)
             plnt = (st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work)
             shk = (cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1), loop.shaker)
+            pace = (timing, paced, period_ns, rts.margin_ns, clk, ts)
+            if paced and k == 0:  # the first deadline once this thread is ready to run (its start-up is no lateness)
+                clk[CLK_DEADLINE] = _now_ns(ts) + START_SLACK_NS
+                t_first[0] = clk[CLK_DEADLINE] - period_ns
             failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
                                     sens, est, law, sup, trk, act, plnt, shk, cols,
                                     log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 
     # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
-    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept
-    t_wall = _now_ns(np.zeros(2, dtype=np.int64))
-    clk[CLK_DEADLINE] = t_wall + period_ns
-    thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
-    digest = None
-    if writer is not None:
-        from rt.loop.digest import RunDigest
-        digest = RunDigest(loop.signals)
-        writer.start(log, clk, st.k, paced, digest)
-    thread.start()
-    shown = 0
-    interrupted = False
-    try:
-        while thread.is_alive():
-            try:
-                thread.join(0.1)
-            except KeyboardInterrupt:
-                clk[CLK_STOP] = 1
-                interrupted = True
-            if progress is not None:
-                ticks = int(clk[CLK_TICKS])
-                progress(ticks - shown)
-                shown = ticks
-    finally:
-        if writer is not None:  # the log's rows are final once the loop's thread has ended
-            if thread.is_alive():  # an exception here: stop the loop first
-                clk[CLK_STOP] = 1
-                thread.join()
-            writer.finish()
+    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept. Paced: the
+    # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
+    ts = np.zeros(2, dtype=np.int64)
+    with realtime.session(cfg.rt, paced) as rts:
+        if paced and not rts.memory_locked:
+            log.fill(0.0)  # fault the ring's pages in now, not in the loop's first pass
+        t_wall = _now_ns(ts)
+        clk[CLK_DEADLINE] = t_wall + period_ns
+        thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
+        digest = None
+        if writer is not None:
+            from rt.loop.digest import RunDigest
+            digest = RunDigest(loop.signals)
+            writer.start(log, clk, st.k, paced, digest)
+        thread.start()
+        shown = 0
+        interrupted = False
+        try:
+            while thread.is_alive():
+                try:
+                    thread.join(0.1)
+                except KeyboardInterrupt:
+                    clk[CLK_STOP] = 1
+                    interrupted = True
+                if progress is not None:
+                    ticks = int(clk[CLK_TICKS])
+                    progress(ticks - shown)
+                    shown = ticks
+        finally:
+            if writer is not None:  # the log's rows are final once the loop's thread has ended
+                if thread.is_alive():  # an exception here: stop the loop first
+                    clk[CLK_STOP] = 1
+                    thread.join()
+                writer.finish()
     if errors:
         raise errors[0]
     n_run = int(clk[CLK_TICKS])
     st.k += n_run
     log = _in_tick_order(log, n_run)
     comp_ns = _in_tick_order(comp_ns, n_run) if timing else comp_ns
-    wall = _now_ns(np.zeros(2, dtype=np.int64)) - t_wall
+    wall = _now_ns(np.zeros(2, dtype=np.int64)) - (t_first[0] if paced and t_first[0] else t_wall)
     if writer is not None and writer.error is not None:
         raise RuntimeError(f"the log writer failed: {writer.error!r}") from writer.error
     if failed[0]:
@@ -202,7 +216,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - len(log), len(log))):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
-               interrupted, st, faults, n_run, digest if len(log) < n_run else None)
+               interrupted, st, faults, n_run, digest if len(log) < n_run else None,
+               rts.describe() if paced else None)
 
 
 def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:

@@ -36,10 +36,11 @@ import numpy as np
 from observer.step import OBSERVER_OUTPUTS
 from rt.common.config import ConfigError, load, loads
 from rt.log.design_record import use_logged
+from rt.loop import realtime
 from rt.loop.faults import from_json
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
 from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
-from rt.loop.pacing import _next_deadline, _wait_for_deadline
+from rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from rt.loop.tick import _controller_tick, _copy, _put
 from rt.log.mcap_log import read_mcap
 from plant.sensors import SENSOR_OUTPUTS
@@ -60,9 +61,9 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, 
     uv[i] the plant's (u_rel, v_rel) the oracle reads at tick ks[i], overran[i] whether the
     tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the
     law's, the prefilter's, the force tracking's and the supervisor's outputs (``COMMANDED``
-    order). pace = (paced, period_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
+    order). pace = (paced, period_ns, margin_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
     takes them. Paced: the loop's deadlines (rt/loop/pacing.py)."""
-    paced, period_ns, clk, ts = pace
+    paced, period_ns, margin_ns, clk, ts = pace
     xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
     xl, xl_n, yl, ul, law_p = law
     sv, ysv, sv_p = sup
@@ -72,7 +73,7 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, 
             break
         k = ks[i]
         if paced:
-            _wait_for_deadline(clk, ts)
+            _wait_for_deadline(clk, ts, margin_ns)
         sv[S_OVERRAN] = overran[i]
         _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
         c = _put(out, i, 0, ye)
@@ -211,28 +212,31 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
     trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
            st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
-    fixed = (force_col, estimator == "observer", faults, (paced, period_ns, clk, np.zeros(2, np.int64)),
-             np.empty(len(SENSORS)), est, law_, sup, trk)
-    _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed)  # compile or load: not timed
+    with realtime.session(cfg.rt, paced) as rts:
+        fixed = (force_col, estimator == "observer", faults, (paced, period_ns, rts.margin_ns, clk, np.zeros(2, np.int64)),
+                 np.empty(len(SENSORS)), est, law_, sup, trk)
+        _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed)  # compile or load: not timed
 
-    def worker():
-        try:
-            _replay_ticks(rec.k, sens, uv, overran, out, *fixed)
-        except BaseException as exc:
-            errors.append(exc)
+        def worker():
+            try:
+                if paced:
+                    rts.enter_loop_thread()
+                    clk[CLK_DEADLINE] = _now_ns(np.zeros(2, np.int64)) + START_SLACK_NS
+                _replay_ticks(rec.k, sens, uv, overran, out, *fixed)
+            except BaseException as exc:
+                errors.append(exc)
 
-    # as rt.loop.driver.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
-    t0 = time.perf_counter()
-    clk[CLK_DEADLINE] = _now_ns(np.zeros(2, np.int64)) + period_ns
-    thread = threading.Thread(target=worker, name="frictionrt-replay", daemon=True)
-    thread.start()
-    interrupted = False
-    while thread.is_alive():
-        try:
-            thread.join(0.1)
-        except KeyboardInterrupt:
-            clk[CLK_STOP] = 1
-            interrupted = True
+        # as rt.loop.driver.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
+        t0 = time.perf_counter()
+        thread = threading.Thread(target=worker, name="frictionrt-replay", daemon=True)
+        thread.start()
+        interrupted = False
+        while thread.is_alive():
+            try:
+                thread.join(0.1)
+            except KeyboardInterrupt:
+                clk[CLK_STOP] = 1
+                interrupted = True
     wall = time.perf_counter() - t0
     if errors:
         raise errors[0]
@@ -242,6 +246,8 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
            "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n), "interrupted": interrupted,
            "wall_s": wall, "realtime_factor": (m / rec.rate_hz) / wall if wall > 0 else float("inf"),
            "overruns": int(clk[CLK_OVERRUNS]) if paced else 0, "design": design}
+    if paced:
+        res["realtime"] = rts.describe()
     owner = {nm: o for nm, _, o in rec.signals}
     recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
     if recorded:

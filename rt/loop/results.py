@@ -46,7 +46,8 @@ def summary(r: Run) -> dict:
         "tick_median_us": float(np.median(r.signal("tick_ns")) if d is None else d.tick_median()) / 1e3,
         "tick_max_us": float(np.max(r.signal("tick_ns")) if d is None else d.tick_max()) / 1e3,
         "wall_s": r.wall_ns / 1e9,
-    } | _supervisor_summary(r) | (_estimation_errors(r) if r.loop.estimator != "oracle" else {})
+    } | _supervisor_summary(r) | (_estimation_errors(r) if r.loop.estimator != "oracle" else {}) \
+        | ({"realtime": r.realtime} if r.realtime is not None else {})
 
 
 def _supervisor_summary(r: Run) -> dict:

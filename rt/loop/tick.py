@@ -155,8 +155,9 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
 
     The stages' arrays come in tuples (x: state, x_n: next state, y: outputs, u: inputs, p:
     constants): exc = (dt [s], amplitude [N], omega [rad/s]) of the drive; pace = (timing,
-    paced, period_ns, clk, ts), clk the shared clock slots (rt/common/clock.py), ts the clock's
-    (2,) int64 scratch; sens = (xs, xs_n, ys, ys_prev, yc, us, sens_p, rng); est, law, sup, trk
+    paced, period_ns, margin_ns, clk, ts): the sleep margin before each deadline [ns]
+    (rt/loop/pacing.py), clk the shared clock slots (rt/common/clock.py), ts the clock's (2,)
+    int64 scratch; sens = (xs, xs_n, ys, ys_prev, yc, us, sens_p, rng); est, law, sup, trk
     as ``_controller_tick`` takes them; act = (xa, xa_n, ya, ua, act_p); plnt = (xp, xp_n, yp,
     up, plant_p, plant_wk); shk = (shake, xsh, xsh_n, ush, ysh, sh_p); cols = the columns of yp
     and ya the stages read (u_rel, v_rel, abar_tip, abar_frf, F_strain_a, F_cell_a, dF_N1, w and
@@ -174,7 +175,7 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
     request. Returns the number of failed plant solves.
     """
     dt, exc_amp, exc_omega = exc
-    timing, paced, period_ns, clk, ts = pace
+    timing, paced, period_ns, margin_ns, clk, ts = pace
     xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
     xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
     xl, xl_n, yl, ul, law_p = law
@@ -195,7 +196,7 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
             if clk[CLK_STOP]:
                 break
         if paced:
-            _wait_for_deadline(clk, ts)
+            _wait_for_deadline(clk, ts, margin_ns)
         t_start = _now_ns(ts)
         late = t_start - clk[CLK_DEADLINE] if paced else 0
         # 1 sensors: plant accelerations and the force sensors' analog outputs at t_k; injected
