@@ -285,14 +285,16 @@ class Point:
     R_exc: complex = complex(math.nan)  # driving-point receptance w_exc / F_exc [m/N] (the plant's truth; w of
     #                                     row k is at t_k+1, the force held over the tick: w referred to its middle)
     H_sensors: dict = field(default_factory=dict, repr=False)  # a_frf_meas, a_tip_meas readings / F_exc
+    tick_s: float = 0.0   # wall time inside the compiled loop at this frequency [s] (the ticks' own execution)
 
 
 def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopState | None, seed: int | None,
                window: str):
-    """Run n ticks at freq_hz [Hz] and force command F_cmd [N] from state; returns the run, the
-    tick of its first row and the first harmonics X_a [m/s^2], X_F [N] of a_frf and F_exc."""
+    """Run n ticks at freq_hz [Hz] and force command F_cmd [N] from state (in this thread: no
+    thread start per block); returns the run, the tick of its first row and the first harmonics
+    X_a [m/s^2], X_F [N] of a_frf and F_exc."""
     dt = loop.cfg.dt_s
-    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed)
+    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed, in_thread=False)
     k0 = r.final.k - len(r.log)
     X_a = harmonics(r.signal("a_frf"), freq_hz, dt, 1, k0=k0, window=window).X[0]
     X_F = harmonics(r.signal("F_exc"), freq_hz, dt, 1, k0=k0, window=window).X[0]
@@ -316,10 +318,12 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     cols_meas = [loop.column(name) for name in SENSOR_READINGS]
     k_start = 0 if start is None else start.k
     settled, residual = False, float("inf")
+    tick_ns = 0
     while True:
         E_before = 0.0 if state is None else float(state.ya[iE])
         r, k0, X_a, X_F = _run_block(loop, freq_hz, F_cmd, n, state, seed, settle.window)
         state = r.final
+        tick_ns += r.tick_ns
         a, F = r.signal("a_frf"), r.signal("F_exc")
         H.append(X_a / X_F)
         F_meas.append(abs(X_F))
@@ -351,7 +355,8 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
                   n_blocks=len(H), H_scatter=scatter, residual=residual, k_start=k_start, k_end=state.k,
                   H_blocks=np.asarray(H), F_meas_blocks=np.asarray(F_meas), F_cmd_blocks=np.asarray(F_cmds),
                   drive_amp=abs(fit(drive)), R_exc=complex(fit(extra[:, 0]) / hF.X[0] * np.exp(-1j * np.pi * freq_hz * dt)),
-                  H_sensors={name: complex(fit(extra[:, 1 + i]) / hF.X[0]) for i, name in enumerate(SENSOR_READINGS)})
+                  H_sensors={name: complex(fit(extra[:, 1 + i]) / hF.X[0]) for i, name in enumerate(SENSOR_READINGS)},
+                  tick_s=tick_ns * 1e-9)
     return point, state
 
 
@@ -383,6 +388,7 @@ class StepSineResult:
     drive_amp: np.ndarray | None = None  # first harmonic of the drive [N] (= F_amp with an ideal source)
     R_exc: np.ndarray | None = None      # complex driving-point receptance w_exc / F_exc [m/N] (plant truth)
     H_sensors: dict | None = None        # {a_frf_meas, a_tip_meas: complex reading / F_exc [(m/s^2)/N]}
+    tick_s: np.ndarray | None = None     # wall time inside the compiled loop per point [s] (not in to_dict: a timing)
 
     @property
     def H_abs(self) -> np.ndarray:
@@ -458,7 +464,8 @@ def sweep(loop: Loop, freqs_hz: Sequence[float], amp_n: float, *, start: LoopSta
                           settle_s=col("settle_s"), settled=col("settled", bool), n_blocks=col("n_blocks", np.int64),
                           H_scatter=col("H_scatter"), residual=col("residual"), k_start=col("k_start", np.int64),
                           k_end=col("k_end", np.int64), drive_amp=col("drive_amp"), R_exc=col("R_exc", complex),
-                          H_sensors={name: np.array([p.H_sensors[name] for p in points]) for name in SENSOR_READINGS})
+                          H_sensors={name: np.array([p.H_sensors[name] for p in points]) for name in SENSOR_READINGS},
+                          tick_s=col("tick_s"))
 
 
 def phase_continuous_step(f_hz: float, k_b: int, dt: float, rate_hz_s: float, block_s: float) -> tuple[float, int]:
@@ -504,6 +511,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
     lead = max(round(1.0 / (step_max_hz * dt)) - k0, round(1.0 / (f * dt)))
     r, *_ = _run_block(loop, f, F_cmd, lead, state, seed, settle.window)
     state = r.final
+    lead_tick_ns = r.tick_ns  # the lead-in's ticks count with the first point's
     rows = []
     while True:
         f, n = phase_continuous_step(f, state.k, dt, rate_hz_s, block_s)
@@ -516,7 +524,8 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
         ha = harmonics(r.signal("a_frf"), f, dt, settle.n_harm, k0=kb, window=settle.window)
         rows.append(dict(freq_hz=f, H=X_a / X_F, a_amp=abs(X_a), F_amp=abs(X_F), F_cmd=F_cmd, thd=ha.thd,
                          F_N1_mean=float(np.mean(r.signal("F_N1"))), energy_j=float(state.ya[iE]) - E_before,
-                         settle_s=n * dt, k_start=kb, k_end=state.k))
+                         settle_s=n * dt, k_start=kb, k_end=state.k, tick_s=(r.tick_ns + lead_tick_ns) * 1e-9))
+        lead_tick_ns = 0
         F_cmd = update_amplitude(F_cmd, abs(X_F), amp_n, settle.amp_gain, settle.amp_step_max)
         if progress is not None:
             progress(1)
@@ -528,7 +537,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
                           thd=col("thd"), F_N1_mean=col("F_N1_mean"), energy_j=col("energy_j"),
                           settle_s=col("settle_s"), settled=np.ones(m, bool), n_blocks=np.ones(m, np.int64),
                           H_scatter=np.full(m, np.nan), residual=np.full(m, np.nan),
-                          k_start=col("k_start", np.int64), k_end=col("k_end", np.int64))
+                          k_start=col("k_start", np.int64), k_end=col("k_end", np.int64), tick_s=col("tick_s"))
 
 
 # --- frequency grids --------------------------------------------------------------------------

@@ -1,10 +1,12 @@
 """``run``: the thread that drives the compiled tick (rt/loop/tick.py) through a run, in chunks,
-with progress, Ctrl-C as a stop request and a log writer draining a ring; ``Run``, its result.
+with progress, Ctrl-C as a stop request and a log writer draining a ring (or, for a step-sine's
+short blocks, the calling thread); ``Run``, its result.
 """
 from __future__ import annotations
 
 import math
 import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +40,7 @@ class Run:
     ticks: int | None = None  # ticks run (None: len(log), every tick held)
     digest: object = None  # a ring run's whole-run figures (rt.loop.digest.RunDigest), if its writer kept them
     realtime: dict | None = None  # paced: what the real-time set-up got (rt.loop.realtime.Session.describe)
+    tick_ns: int = 0  # wall time inside the compiled tick calls [ns]: the ticks' own execution (paced: with the waits)
 
     def __post_init__(self):
         if self.ticks is None:
@@ -74,7 +77,7 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float,
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
         timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
         start: LoopState | None = None, writer=None, faults: np.ndarray | None = None,
-        ring_ticks: int | None = None) -> Run:
+        ring_ticks: int | None = None, in_thread: bool = True) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
 
     The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
@@ -96,8 +99,15 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     drops what was overwritten). ``Run.log`` then holds the last min(ticks, R) ticks in tick
     order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
 
-    Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
-    log without a ring that would not fit in memory; RuntimeError if a plant step failed.
+    ``in_thread``: the compiled loop runs in a thread of its own while the calling thread shows
+    progress and turns Ctrl-C into a stop request (the ticks run so far are kept). False: in the
+    calling thread, without progress, writer or pacing, and Ctrl-C raises KeyboardInterrupt once
+    the current chunk has run; for a step-sine's blocks of a few thousand ticks, which would
+    otherwise each start a thread (the same ticks, bit for bit).
+
+    Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, a log
+    without a ring that would not fit in memory, or in_thread=False with progress, a writer or
+    pacing; RuntimeError if a plant step failed.
     """
     cfg = loop.cfg
     dt = cfg.dt_s
@@ -105,6 +115,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         ring_ticks = writer.ring_ticks
     if ring_ticks is not None and ring_ticks < 1:
         raise ValueError(f"ring_ticks {ring_ticks}: must be >= 1")
+    if not in_thread and (paced or writer is not None or progress is not None):
+        raise ValueError("in_thread=False runs without progress, writer or pacing: give none of them")
     n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s, ring=ring_ticks is not None)
     n_rows = n_ticks if ring_ticks is None else min(n_ticks, int(ring_ticks))
     n_sig = len(loop.signals)
@@ -126,6 +138,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     cols = (oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"], ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"],
             oi[f"w_{exc_point}"], oi[f"v_{exc_point}"])
     failed = [0]
+    tick_ns = [0]  # inside the compiled calls
     t_first = [0]  # paced: the clock [ns] one period before the first deadline
     errors: list[BaseException] = []
 
@@ -161,26 +174,17 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             if paced and k == 0:  # the first deadline once this thread is ready to run (its start-up is no lateness)
                 clk[CLK_DEADLINE] = _now_ns(ts) + START_SLACK_NS
                 t_first[0] = clk[CLK_DEADLINE] - period_ns
+            t0 = time.perf_counter_ns()
             failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
                                     sens, est, law, sup, trk, act, plnt, shk, cols,
                                     log[rows], comp_ns[rows] if timing else comp_ns)
+            tick_ns[0] += time.perf_counter_ns() - t0
             k = k1
 
-    # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
-    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept. Paced: the
-    # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
-    ts = np.zeros(2, dtype=np.int64)
-    with realtime.session(cfg.rt, paced) as rts:
-        if paced and not rts.memory_locked:
-            log.fill(0.0)  # fault the ring's pages in now, not in the loop's first pass
-        t_wall = _now_ns(ts)
-        clk[CLK_DEADLINE] = t_wall + period_ns
+    def drive():
+        """Start the loop's thread; until it ends, progress and Ctrl-C as a stop request.
+        Returns True if interrupted."""
         thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
-        digest = None
-        if writer is not None:
-            from rt.loop.digest import RunDigest
-            digest = RunDigest(loop.signals)
-            writer.start(log, clk, st.k, paced, digest)
         thread.start()
         shown = 0
         interrupted = False
@@ -196,10 +200,33 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                     progress(ticks - shown)
                     shown = ticks
         finally:
-            if writer is not None:  # the log's rows are final once the loop's thread has ended
-                if thread.is_alive():  # an exception here: stop the loop first
-                    clk[CLK_STOP] = 1
-                    thread.join()
+            if writer is not None and thread.is_alive():  # an exception here: stop the loop first (the
+                clk[CLK_STOP] = 1                         # log's rows are final once its thread has ended)
+                thread.join()
+        return interrupted
+
+    # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
+    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept. Paced: the
+    # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
+    ts = np.zeros(2, dtype=np.int64)
+    with realtime.session(cfg.rt, paced) as rts:
+        if paced and not rts.memory_locked:
+            log.fill(0.0)  # fault the ring's pages in now, not in the loop's first pass
+        t_wall = _now_ns(ts)
+        clk[CLK_DEADLINE] = t_wall + period_ns
+        digest = None
+        if writer is not None:
+            from rt.loop.digest import RunDigest
+            digest = RunDigest(loop.signals)
+            writer.start(log, clk, st.k, paced, digest)
+        interrupted = False
+        try:
+            if in_thread:
+                interrupted = drive()
+            else:
+                worker()
+        finally:
+            if writer is not None:
                 writer.finish()
     if errors:
         raise errors[0]
@@ -217,7 +244,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
                interrupted, st, faults, n_run, digest if len(log) < n_run else None,
-               rts.describe() if paced else None)
+               rts.describe() if paced else None, tick_ns[0])
 
 
 def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:
