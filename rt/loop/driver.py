@@ -240,7 +240,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     if failed[0]:
         raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
                            "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
-    if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - len(log), len(log))):
+    finite = np.isfinite(log)
+    if not (finite.all() or np.all(finite | _dropout_mask(loop, faults, st.k - len(log), len(log)))):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
                interrupted, st, faults, n_run, digest if len(log) < n_run else None,
