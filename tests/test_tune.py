@@ -73,6 +73,10 @@ def test_cli_writes_table_plot_and_a_best_toml_that_loads(tmp_path, capsys):
     rows = {r["tracking.eps_m_s"]: r for r in doc["candidates"]}
     assert rows[0.003]["reduction_db"] > rows[0.03]["reduction_db"] and rows[0.003]["power_w"] > rows[0.03]["power_w"]
     assert len((out / "table.csv").read_text().splitlines()) == 3
+    # what the sweeps cost: 3 sweeps (passive and two candidates) of 5 points, in this process
+    t = doc["timing"]
+    assert t["cores"] == 1 and t["ticks"] == pytest.approx(t["simulated_s"] * 21000, abs=1) and t["tick_s"] > 0
+    assert t["ratio"] == pytest.approx(t["wall_s"] / t["tick_s"]) and t["ratio"] > 1.0
 
 
 @pytest.mark.parametrize("argv, words", [
