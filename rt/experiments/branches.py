@@ -1,6 +1,8 @@
 """Parallel: a (configuration, law, amplitude, frequency list) branch (``Branch``) is a pure function
-of its parameters; ``run_branches`` runs branches in joblib (loky) processes or on a dask cluster,
-with one progress bar over the completed points. The loops are designed once in the calling
+of its parameters; ``run_branches`` runs branches in loky processes (a pool of its own)
+or on a dask cluster, with one progress bar over the completed points, follow-up branches that
+depend on a result as soon as it is in, and ``sweep_timing``, what the sweeps cost against
+their ticks (docs/experiments.md, "Where the time goes"). The loops are designed once in the calling
 process and shipped to the workers: the design (eigen decompositions, control design) goes
 through BLAS/LAPACK, whose round-off depends on the thread count (loky and dask workers run one
 BLAS thread); designed in each worker, the plant's modal data differed in the last bits and a
@@ -102,7 +104,7 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
     """Run the branches in parallel; results in the order of ``branches``, identical whichever
     backend (each branch is a pure function of its parameters, run on the same CPU model).
 
-    jobs: local joblib (loky) processes, default the number of cores (joblib.cpu_count(), capped at the
+    jobs: local (loky) processes, default the number of cores (joblib.cpu_count(), capped at the
     number of branches; 1 runs in this process). dask_address (e.g. "tcp://host:8786"): run on that dask
     cluster instead (frictionrt must be installed on its workers; jobs is ignored, the cluster's
     worker threads decide). progress: a tqdm bar over the finished frequency points (stderr),
@@ -112,7 +114,7 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
     follow(i, result): called in this process as branch i finishes; the (branch, loop) pairs it
     returns (a refinement that depends on that result) run as soon as a worker is free, before
     the branches not yet started, their results appended in the order returned. Scheduling
-    (``_schedule``): at most one branch per worker in flight, the longest first (``expected_ticks``),
+    (``_schedule``): two branches per worker in flight, the longest first (``expected_ticks``),
     so that no worker idles at a round's end while another finishes a long sweep.
 
     Raises ValueError for a bad branch (before anything runs; a follow-up's before it runs), jobs < 1
@@ -142,9 +144,9 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
 def sweep_timing(results: Iterable[StepSineResult], wall_s: float, cores: int) -> dict:
     """What a study's sweeps cost against what their ticks cost: simulated_s [s] and ticks
     (the points' own, k_end - k_start), wall_s [s] (given: the study's, its design and worker
-    start-up included), tick_s [s] (summed wall time inside the compiled loop, ``Point.tick_s``),
-    cores (that ran the sweeps), tick_bound_s = tick_s / cores [s], the study's wall time
-    if nothing but the ticks took time, and ratio = wall_s / tick_bound_s [-]."""
+    start-up included), tick_s [s] (the ticks' execution times summed, the log's tick_ns:
+    ``Point.tick_s``), cores (that ran the sweeps), tick_bound_s = tick_s / cores [s] (the
+    study's wall time if nothing but the ticks took time) and ratio = wall_s / tick_bound_s [-]."""
     results = list(results)
     tick_s = float(sum(r.tick_s.sum() for r in results))
     bound = tick_s / cores
@@ -157,7 +159,7 @@ def sweep_timing(results: Iterable[StepSineResult], wall_s: float, cores: int) -
 def sweeps_line(t: dict) -> str:
     """``sweep_timing``'s figures in one line."""
     return (f"sweeps: {t['simulated_s']:.1f} s simulated ({t['ticks']:,} ticks) in {t['wall_s']:.1f} s wall on "
-            f"{t['cores']} cores; inside the compiled loop {t['tick_s']:.1f} s, tick-bound {t['tick_bound_s']:.1f} s: "
+            f"{t['cores']} cores; the ticks' own {t['tick_s']:.1f} s, tick-bound {t['tick_bound_s']:.1f} s: "
             f"ratio {t['ratio']:.2f}")
 
 
@@ -229,19 +231,28 @@ def _run_local(todo, n_jobs: int, bar, follow) -> Results:
             watcher.join()
 
 
+_POOL: dict = {}  # n_jobs -> this process's loky executor of the branches (``start_workers``)
+
+
 def start_workers(n_jobs: int | None = None):
-    """The local worker processes (a loky executor, n_jobs default the number of cores; joblib's
-    reusable one, kept for the next study), started now with the loop imported in each: a
-    caller that designs loops first calls this before, so that the workers' start-up (~1.5 s
-    each on 2 cores, mostly importing python-control and scipy) overlaps the design instead of
-    delaying the first branch. ``run_branches`` with the same number of jobs reuses them."""
+    """The local worker processes of the branches (a loky ProcessPoolExecutor of n_jobs, default
+    the number of cores; kept for the process's next study), started now with the loop
+    imported in each: a caller that designs loops first calls this before, so that the
+    workers' start-up (~1.5 s each on 2 cores, mostly importing python-control and scipy)
+    overlaps the design instead of delaying the first branch. ``run_branches`` with the same
+    number of jobs reuses them. A pool of its own, not joblib's reusable executor, which
+    ``joblib.Parallel`` (the diagnosis' fits) expects to have made itself."""
     import joblib
-    from joblib.externals.loky import get_reusable_executor
+    from joblib.externals.loky import ProcessPoolExecutor
     n_jobs = n_jobs or joblib.cpu_count()
-    executor = get_reusable_executor(max_workers=n_jobs, timeout=300)
-    for _ in range(n_jobs):
-        executor.submit(_import_loop)
-    return executor
+    if n_jobs not in _POOL:
+        for old in _POOL.values():
+            old.shutdown(wait=False)
+        _POOL.clear()
+        _POOL[n_jobs] = ProcessPoolExecutor(max_workers=n_jobs)
+        for _ in range(n_jobs):
+            _POOL[n_jobs].submit(_import_loop)
+    return _POOL[n_jobs]
 
 
 def _import_loop() -> None:

@@ -297,7 +297,7 @@ class Point:
     R_exc: complex = complex(math.nan)  # driving-point receptance w_exc / F_exc [m/N] (the plant's truth; w of
     #                                     row k is at t_k+1, the force held over the tick: w referred to its middle)
     H_sensors: dict = field(default_factory=dict, repr=False)  # a_frf_meas, a_tip_meas readings / F_exc
-    tick_s: float = 0.0   # wall time inside the compiled loop at this frequency [s] (the ticks' own execution)
+    tick_s: float = 0.0   # the ticks' execution times at this frequency, summed (the log's tick_ns) [s]
 
 
 def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopState | None, seed: int | None,
@@ -330,12 +330,12 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
                                            *SENSOR_READINGS)]
     k_start = 0 if start is None else start.k
     settled, residual = False, float("inf")
-    tick_ns = 0
+    tick_ns = 0.0
     while True:
         E_before = 0.0 if state is None else float(state.ya[iE])
         r, k0, X_a, X_F = _run_block(loop, freq_hz, F_cmd, n, state, seed, settle.window)
         state = r.final
-        tick_ns += r.tick_ns
+        tick_ns += float(r.signal("tick_ns").sum())
         H.append(X_a / X_F)
         F_meas.append(abs(X_F))
         F_cmds.append(F_cmd)
@@ -394,7 +394,7 @@ class StepSineResult:
     drive_amp: np.ndarray | None = None  # first harmonic of the drive [N] (= F_amp with an ideal source)
     R_exc: np.ndarray | None = None      # complex driving-point receptance w_exc / F_exc [m/N] (plant truth)
     H_sensors: dict | None = None        # {a_frf_meas, a_tip_meas: complex reading / F_exc [(m/s^2)/N]}
-    tick_s: np.ndarray | None = None     # wall time inside the compiled loop per point [s] (not in to_dict: a timing)
+    tick_s: np.ndarray | None = None     # the ticks' execution times per point, summed [s] (not in to_dict: a timing)
 
     @property
     def H_abs(self) -> np.ndarray:
@@ -517,7 +517,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
     lead = max(round(1.0 / (step_max_hz * dt)) - k0, round(1.0 / (f * dt)))
     r, *_ = _run_block(loop, f, F_cmd, lead, state, seed, settle.window)
     state = r.final
-    lead_tick_ns = r.tick_ns  # the lead-in's ticks count with the first point's
+    lead_tick_ns = float(r.signal("tick_ns").sum())  # the lead-in's ticks count with the first point's
     rows = []
     while True:
         f, n = phase_continuous_step(f, state.k, dt, rate_hz_s, block_s)
@@ -530,8 +530,8 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
         ha = harmonics(r.signal("a_frf"), f, dt, settle.n_harm, k0=kb, window=settle.window)
         rows.append(dict(freq_hz=f, H=X_a / X_F, a_amp=abs(X_a), F_amp=abs(X_F), F_cmd=F_cmd, thd=ha.thd,
                          F_N1_mean=float(np.mean(r.signal("F_N1"))), energy_j=float(state.ya[iE]) - E_before,
-                         settle_s=n * dt, k_start=kb, k_end=state.k, tick_s=(r.tick_ns + lead_tick_ns) * 1e-9))
-        lead_tick_ns = 0
+                         settle_s=n * dt, k_start=kb, k_end=state.k, tick_s=(float(r.signal("tick_ns").sum()) + lead_tick_ns) * 1e-9))
+        lead_tick_ns = 0.0
         F_cmd = update_amplitude(F_cmd, abs(X_F), amp_n, settle.amp_gain, settle.amp_step_max)
         if progress is not None:
             progress(1)

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,7 +39,6 @@ class Run:
     ticks: int | None = None  # ticks run (None: len(log), every tick held)
     digest: object = None  # a ring run's whole-run figures (rt.loop.digest.RunDigest), if its writer kept them
     realtime: dict | None = None  # paced: what the real-time set-up got (rt.loop.realtime.Session.describe)
-    tick_ns: int = 0  # wall time inside the compiled tick calls [ns]: the ticks' own execution (paced: with the waits)
 
     def __post_init__(self):
         if self.ticks is None:
@@ -138,7 +136,6 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     cols = (oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"], ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"],
             oi[f"w_{exc_point}"], oi[f"v_{exc_point}"])
     failed = [0]
-    tick_ns = [0]  # inside the compiled calls
     t_first = [0]  # paced: the clock [ns] one period before the first deadline
     errors: list[BaseException] = []
 
@@ -174,11 +171,9 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             if paced and k == 0:  # the first deadline once this thread is ready to run (its start-up is no lateness)
                 clk[CLK_DEADLINE] = _now_ns(ts) + START_SLACK_NS
                 t_first[0] = clk[CLK_DEADLINE] - period_ns
-            t0 = time.perf_counter_ns()
             failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
                                     sens, est, law, sup, trk, act, plnt, shk, cols,
                                     log[rows], comp_ns[rows] if timing else comp_ns)
-            tick_ns[0] += time.perf_counter_ns() - t0
             k = k1
 
     def drive():
@@ -245,7 +240,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
                interrupted, st, faults, n_run, digest if len(log) < n_run else None,
-               rts.describe() if paced else None, tick_ns[0])
+               rts.describe() if paced else None)
 
 
 def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:
