@@ -182,15 +182,24 @@ def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
     assert b"shaker" not in text and b"armature" not in text and b"mass" not in text
 
 
-def test_parallel_fits_give_the_serial_result(tmp_path):
-    """diagnose's candidate fits in worker processes (rt.discrepancy.diagnose.fit_in_parallel, diagnose --jobs) give
-    the serial result to the bit: each fit is a pure function of its inputs. Two actuator candidates
-    of a short clean campaign (the structural fits go through the same function)."""
+def test_parallel_fits_give_the_serial_result(tmp_path, capsys):
+    """diagnose's candidate fits in worker processes (rt.discrepancy.diagnose.fit_in_parallel, diagnose --jobs)
+    and on a dask cluster (diagnose --dask) give the serial result to the bit: each fit is a pure
+    function of its inputs. Two actuator candidates of a short clean campaign (the structural fits
+    go through the same function; the model step-sines through run_branches, tests/test_stepsine.py)."""
+    from distributed import LocalCluster
     folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3)[0].parent
     act = [t for t in load_campaign(folder) if t.kind == "actuator"]
     nominal = with_sets(Config(), [])
     cal = fit_actuator(nominal, act, None)
     calls = [(fit_actuator, (nominal, act, get(n), cal), {}) for n in ("current_limit", "preload_creep")]
-    for (th1, r1), (th2, r2) in zip(fit_in_parallel(calls, 1), fit_in_parallel(calls, 2)):
-        assert th1 == th2 and all(np.array_equal(r1[k], r2[k]) for k in r1)
+    serial = fit_in_parallel(calls, 1)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster:
+        on_dask = fit_in_parallel(calls, None, cluster.scheduler_address)
+    for other in (fit_in_parallel(calls, 2), on_dask):
+        for (th1, r1), (th2, r2) in zip(serial, other):
+            assert th1 == th2 and all(np.array_equal(r1[k], r2[k]) for k in r1)
     assert main(["diagnose", str(folder), "--jobs", "0"]) == 2
+    assert main(["diagnose", str(folder), "--dask", "tcp://127.0.0.1:9"]) == 2   # before any fit runs
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "no dask scheduler" in err[1]

@@ -163,6 +163,11 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (out / name).stat().st_size > 10000
     assert json.loads((out / "report.json").read_text()) == doc
     md = (out / "report.md").read_text()
+    # what the sweeps cost against their ticks' own time on the 2 processes
+    t = doc["timing_s"]["sweeps"]
+    assert t["cores"] == 2 and t["simulated_s"] == pytest.approx(doc["plan"]["simulated_s"], rel=1e-12)
+    assert t["ticks"] == pytest.approx(t["simulated_s"] * 21000, abs=1) and t["wall_s"] == doc["timing_s"]["step_sine"]
+    assert t["ratio"] == pytest.approx(t["wall_s"] / (t["tick_s"] / 2)) and f"ratio {t['ratio']:.2f}" in md
     assert set(doc["claims"]) == {f"C{i}" for i in range(1, 7)}
     for c, v in doc["claims"].items():
         assert isinstance(v["holds"], bool)

@@ -1,6 +1,7 @@
 """Step-sine FRF engine (rt.experiments.stepsine, rt.cli.frf): harmonic fit, amplitude control, settling,
 sweep continuity, the FRF against direct long runs, backends giving identical numbers, the CLI."""
 import argparse
+import dataclasses
 import json
 
 import numpy as np
@@ -13,8 +14,8 @@ from rt.cli.frf import add_parser, cmd_frf
 from plant.modes import passive_resonance_hz
 from rt.common.config import load
 from rt.loop import build_loop, first_harmonic_amplitude, run
-from rt.experiments.branches import Branch, run_branches
-from rt.experiments.stepsine import Settle, harmonics, phase_continuous_step, resonance_grid, settle_point, slow_sweep, steady, sweep, sweep_direction, update_amplitude
+from rt.experiments.branches import Branch, build_loops, expected_ticks, run_branches, sweep_timing
+from rt.experiments.stepsine import Settle, harmonics, harmonics_of_columns, phase_continuous_step, resonance_grid, settle_point, slow_sweep, steady, sweep, sweep_direction, update_amplitude
 
 DT = 1.0 / 21000
 AMP = 5.0
@@ -39,6 +40,16 @@ def test_harmonics_recovers_amplitude_phase_thd(window):
     assert r.thd == pytest.approx(np.sqrt(0.7**2 + 0.2**2 + 0.05**2) / 2.5, abs=1e-9)
     assert np.allclose(np.abs(r.X), amps, atol=1e-9) and r.offset == pytest.approx(0.8, abs=1e-9)
     assert r.n_samples == round(18 / (f * DT))
+
+
+@pytest.mark.parametrize("window", ["rect", "hann"])
+def test_harmonics_of_columns_is_each_column_alone_to_the_bit(window):
+    rng = np.random.default_rng(3)
+    X = rng.standard_normal((2345, 4)) + np.sin(2 * np.pi * 196.0 * DT * np.arange(2345))[:, None]
+    for h, j in zip(harmonics_of_columns(X, 196.0, DT, 3, k0=77, window=window), range(4)):
+        alone = harmonics(np.ascontiguousarray(X[:, j]), 196.0, DT, 3, k0=77, window=window)
+        assert np.array_equal(h.X, alone.X) and (h.offset, h.thd, h.n_samples) == (alone.offset, alone.thd,
+                                                                                     alone.n_samples)
 
 
 def test_harmonics_phase_convention_and_bad_input():
@@ -243,20 +254,49 @@ def branches():
 
 
 @pytest.fixture(scope="module")
-def sequential(branches):
-    return [r.to_dict() for r in run_branches(branches, jobs=1, progress=False)]
+def backend_run(branches):
+    """run_branches with a follow-up: the first branch, once in, gets a refinement (its midpoint,
+    from rest), as rt.experiments.reproduce refines a peak; returns the results as dicts."""
+    loops = build_loops(branches)
+
+    def refine(i, r):
+        return [(Branch(branches[0].cfg, "passive", AMP, (float(r.freq_hz.mean()),), settle=FAST), loops[0])] \
+            if i == 0 else []
+
+    def run_on(**backend):
+        res = run_branches(branches, progress=False, loops=loops, follow=refine, **backend)
+        return [r.to_dict() for r in res], res.cores
+    return run_on
 
 
-def test_joblib_processes_bit_identical_to_sequential(branches, sequential):
-    assert [r.to_dict() for r in run_branches(branches, jobs=2, progress=False)] == sequential
-    assert [r["direction"] for r in sequential] == ["up", "down"]
+@pytest.fixture(scope="module")
+def sequential(backend_run):
+    return backend_run(jobs=1)[0]
 
 
-def test_dask_cluster_bit_identical_to_sequential(branches, sequential):
+def test_joblib_processes_bit_identical_to_sequential(backend_run, sequential):
+    res, cores = backend_run(jobs=2)
+    assert res == sequential and cores == 2
+    assert [r["direction"] for r in sequential] == ["up", "down", "up"] and sequential[2]["freq_hz"] == [197.5]
+
+
+def test_dask_cluster_bit_identical_to_sequential(backend_run, sequential):
     from distributed import LocalCluster
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster:
-        res = run_branches(branches, dask_address=cluster.scheduler_address, progress=False)
-    assert [r.to_dict() for r in res] == sequential
+        res, cores = backend_run(dask_address=cluster.scheduler_address)
+    assert res == sequential and cores == 2
+
+
+def test_longest_branch_first_and_the_timing_figures(branches, upsweep):
+    """The scheduler's estimate (``expected_ticks``: 2 N blocks per point) and ``sweep_timing``'s
+    ratio (wall / (ticks' own time / cores)) on made-up figures."""
+    dt = branches[0].cfg.dt_s
+    assert expected_ticks(branches[0]) == sum(2 * FAST.n_blocks * FAST.block_ticks(f, dt) for f in (196.0, 199.0))
+    r = dataclasses.replace(upsweep, tick_s=np.array([1.0, 2.0]), settle_s=np.array([0.5, 0.25]),
+                            k_start=np.array([0, 10500]), k_end=np.array([10500, 15750]))
+    t = sweep_timing([r, r], wall_s=4.5, cores=2)
+    assert t == {"simulated_s": 1.5, "ticks": 31500, "wall_s": 4.5, "tick_s": 6.0, "cores": 2,
+                 "tick_bound_s": 3.0, "ratio": 1.5}
 
 
 # --- command line -----------------------------------------------------------------------------

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from rt.cli import main
-from rt.common.config import ConfigError, load
+from rt.common.config import ConfigError, load, with_sets
 from rt.experiments.tune import candidates, pareto_front, parse_grid, select_best, tune
+from rt.loop import Designs, build_loop
 
 
 def test_pareto_front_and_best_on_known_points():
@@ -37,6 +38,21 @@ def test_grid_parsing_and_candidates():
     assert cands[3].cfg.plant == base.plant                                  # nothing else changed
     with pytest.raises(ConfigError, match="K_ff"):
         candidates(base, {"tracking.K_ff": (1.0,)})                          # a typo is an error
+
+
+def test_candidates_share_the_plant_and_the_force_tracking_design_built_alone():
+    """rt.loop.Designs: a law gain leaves the plant and the force-tracking design shared, a
+    tracking.pid_* key gets its own design; every shared loop equals the loop built alone."""
+    base = load()
+    designs = Designs()
+    cfgs = [with_sets(base, s) for s in ([], ["tracking.K_f=1e8"], ["tracking.pid_bandwidth_hz=250"])]
+    shared = [build_loop(c, "hysteresis", designs=designs) for c in cfgs]
+    assert shared[0].plant is shared[1].plant is shared[2].plant and shared[0].design is shared[1].design
+    assert shared[2].design is not shared[0].design
+    for c, s in zip(cfgs, shared):
+        alone = build_loop(c, "hysteresis")
+        assert all(np.array_equal(a, b) for a, b in zip(alone.plant.params, s.plant.params))
+        assert alone.design.params == s.design.params and np.array_equal(alone.plant_rest, s.plant_rest)
 
 
 @pytest.fixture(scope="module")
@@ -73,6 +89,10 @@ def test_cli_writes_table_plot_and_a_best_toml_that_loads(tmp_path, capsys):
     rows = {r["tracking.eps_m_s"]: r for r in doc["candidates"]}
     assert rows[0.003]["reduction_db"] > rows[0.03]["reduction_db"] and rows[0.003]["power_w"] > rows[0.03]["power_w"]
     assert len((out / "table.csv").read_text().splitlines()) == 3
+    # what the sweeps cost: 3 sweeps (passive and two candidates) of 5 points, in this process
+    t = doc["timing"]
+    assert t["cores"] == 1 and t["ticks"] == pytest.approx(t["simulated_s"] * 21000, abs=1) and t["tick_s"] > 0
+    assert t["ratio"] == pytest.approx(t["wall_s"] / t["tick_s"]) and t["ratio"] > 1.0
 
 
 @pytest.mark.parametrize("argv, words", [

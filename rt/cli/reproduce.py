@@ -72,6 +72,7 @@ def _check_out(out: Path) -> str | None:
 def cmd_reproduce(cfg: Config, args) -> int:
     """Run ``frictionrt reproduce``: validate, measure, evaluate, write (rt.experiments.reproduce_report)."""
     from rt.experiments.reproduce import FULL, QUICK, measure
+    from rt.experiments.branches import sweeps_line
     from rt.experiments.reproduce_report import CLAIM_TEXT, jsonable, write_outputs
     if args.jobs is not None and args.jobs < 1:
         return fail(f"--jobs {args.jobs}: must be >= 1 (local worker processes)")
@@ -100,6 +101,7 @@ def cmd_reproduce(cfg: Config, args) -> int:
     for c, v in report["claims"].items():
         print(f"{c:>5} {'yes' if v['holds'] else 'NO':>5}  {CLAIM_TEXT[c]}")
     print(f"peak reduction [dB] (law: mode: amplitude): {json.dumps(report['peak_reduction_db'])}")
-    print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}")
+    print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}; "
+          + sweeps_line(report["timing_s"]["sweeps"]))
     print(f"report: {out / 'report.md'}; figures: {out / 'fig5.png'}, {out / 'fig7.png'}, {out / 'fig8.png'}")
     return 0

@@ -111,6 +111,7 @@ def _write_outputs(res, out: Path) -> None:
 
 
 def cmd_tune(cfg: Config, args) -> int:
+    from rt.experiments.branches import sweeps_line
     from rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
@@ -151,5 +152,6 @@ def cmd_tune(cfg: Config, args) -> int:
         print(f"best: {out / 'best.toml'}")
         for key in res.best_on_edge():
             print(f"note: the best {key} is at the end of its grid; the optimum may lie beyond it (extend --grid {key})")
+    print(sweeps_line(res.timing))
     print(f"files: {out}/table.csv, table.md, pareto.png, tune.json")
     return 0

@@ -220,31 +220,50 @@ def bic(channels: dict[str, np.ndarray], p: int) -> float:
                  + p * math.log(n))
 
 
-def diagnose(folder: str | Path, nominal: Config | None = None, progress=None, jobs: int | None = None) -> dict:
+def diagnose(folder: str | Path, nominal: Config | None = None, progress=None, jobs: int | None = None,
+             dask_address: str | None = None) -> dict:
     """Run the workflow on a campaign folder; the result dict (docs/discrepancy.md) with the fitted
     configuration under "_config" and the plotting data under "_plots". BLAS runs single-threaded
     meanwhile (the fit's matrices are small: threads only contend, 20x slower on a loaded machine).
-    jobs: processes for the candidates' fits (``fit_in_parallel``; default the number of cores)."""
+    jobs: processes for the candidates' fits and the model step-sines (``fit_in_parallel``,
+    ``rt.experiments.branches.run_branches``; default the number of cores). dask_address (e.g.
+    "tcp://host:8786"): both on that dask cluster instead (frictionrt installed on its workers;
+    ConnectionError if no scheduler answers); the result is the same either way."""
+    if dask_address is not None:  # no scheduler: say so now, not after the calibration
+        from rt.experiments import connect
+        connect(dask_address).close()
     with threadpool_limits(1):
-        return _diagnose(folder, nominal, progress or (lambda msg: None), jobs)
+        return _diagnose(folder, nominal, progress or (lambda msg: None), jobs, dask_address)
 
 
-def fit_in_parallel(calls: list, jobs: int | None) -> list:
+def fit_in_parallel(calls: list, jobs: int | None, dask_address: str | None = None) -> list:
     """[f(*args, **kwargs) for (f, args, kwargs) in calls], in joblib (loky) worker processes when
-    jobs (default joblib.cpu_count()) > 1: the candidates' fits are independent given the
-    calibration, and each is a pure function of its inputs, so the results are the same as in
-    sequence (tested); the workers keep their compiled kernels between calls."""
+    jobs (default joblib.cpu_count()) > 1, or on the dask cluster at dask_address (jobs ignored;
+    ``rt.experiments.connect``): the candidates' fits are independent given the calibration, and
+    each is a pure function of its inputs, so the results are the same as in sequence (tested);
+    the workers keep their compiled kernels between calls."""
+    if dask_address is not None:
+        from rt.experiments import connect
+        with connect(dask_address) as client:
+            return client.gather([client.submit(_one_blas_thread, f, a, k, pure=False) for f, a, k in calls])
     jobs = min(jobs or joblib.cpu_count(), len(calls))
     if jobs <= 1:
         return [f(*a, **k) for f, a, k in calls]
     return joblib.Parallel(n_jobs=jobs, backend="loky")(joblib.delayed(f)(*a, **k) for f, a, k in calls)
 
 
+def _one_blas_thread(f, args: tuple, kwargs: dict):
+    """f(*args, **kwargs) with BLAS single-threaded, as in this process and in a loky worker (a
+    dask worker's own setting may differ)."""
+    with threadpool_limits(1):
+        return f(*args, **kwargs)
+
+
 def _cost(fit: StructureFit) -> float:
     return float(sum(v @ v for v in fit.channels.values()))
 
 
-def _diagnose(folder, nominal: Config | None, say, jobs: int | None) -> dict:
+def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_address: str | None) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_campaign(folder)
     imp = [t for t in tests if t.kind == "impulse"]
@@ -264,7 +283,8 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None) -> dict:
     act_fits = {None: fit_actuator(nominal, act, None) if act else ({}, {})}
     say(f"fit {', '.join(e.name for e in struct_eff + act_eff)}")
     fits = fit_in_parallel([(fit_structure, (nominal, data, e), {"calibrated": struct_fits[None]}) for e in struct_eff]
-                           + [(fit_actuator, (nominal, act, e, act_fits[None]), {}) for e in act_eff if act], jobs)
+                           + [(fit_actuator, (nominal, act, e, act_fits[None]), {}) for e in act_eff if act], jobs,
+                           dask_address)
     struct_fits |= dict(zip(struct_eff, fits))
     act_fits |= dict(zip(act_eff, fits[len(struct_eff):])) if act else {e: ({}, {}) for e in act_eff}
     # calibration alone is nested in every candidate: where a candidate's calibration scales fit
@@ -291,7 +311,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None) -> dict:
         c_v = act_fits[None][0].get("c_v")
         cal_cfg = scaled(struct_fits[None].cfg, {"c_v": c_v}) if c_v is not None else struct_fits[None].cfg
         say("model step-sine (driving point)")
-        ss_data = prepare_stepsine(cal_cfg, ss_tests)
+        ss_data = prepare_stepsine(cal_cfg, ss_tests, jobs, dask_address)
         ss_fits[None] = ({}, stepsine_residuals(cal_cfg, ss_data))
         for eff in ss_eff:
             say(f"fit {eff.name}")

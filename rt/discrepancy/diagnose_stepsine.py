@@ -86,12 +86,15 @@ def model_branches(cfg: Config, tests: list[FRFTest]) -> list[Branch]:
                    tuple(float(f) for f in t.freq_hz), settle=MODEL_SETTLE, seed=0) for t in tests]
 
 
-def prepare(cfg: Config, tests: list[FRFTest]) -> StepsineData:
+def prepare(cfg: Config, tests: list[FRFTest], jobs: int | None = None,
+            dask_address: str | None = None) -> StepsineData:
     """Measured ratios and the driving point estimated through the calibrated model ``cfg``, at the
     lines where the model's accelerance |H| is within H_AGREE of the measured one (elsewhere the
     model does not vibrate as the measurement did: another stick-slip branch, or a resonance the
-    calibration placed a little off, and its R_exc / H says nothing about the measured R)."""
-    results = run_branches(model_branches(cfg, tests), progress=False, desc="model step-sine")
+    calibration placed a little off, and its R_exc / H says nothing about the measured R). The
+    model's step-sines run in jobs processes or on the dask cluster at dask_address
+    (``run_branches``)."""
+    results = run_branches(model_branches(cfg, tests), jobs, dask_address, progress=False, desc="model step-sine")
     freq, rho, R = [], [], []
     for t, r in zip(tests, results):
         H_meas, H_model = t.H["a_frf_meas"], r.H_sensors["a_frf_meas"]

@@ -10,7 +10,7 @@ functions), ``reproduce_report`` (figures and report files), ``tune`` (grid sear
 from rt.common.face import lazy_face
 
 _EXPORTS = {
-    "Branch": "rt.experiments.branches", "Settle": "rt.experiments.stepsine", "StepSineResult": "rt.experiments.stepsine", "run_branches": "rt.experiments.branches", "resonance_grid": "rt.experiments.stepsine", "mode_bands_hz": "rt.experiments.stepsine",
+    "Branch": "rt.experiments.branches", "connect": "rt.experiments.branches", "Settle": "rt.experiments.stepsine", "StepSineResult": "rt.experiments.stepsine", "run_branches": "rt.experiments.branches", "resonance_grid": "rt.experiments.stepsine", "mode_bands_hz": "rt.experiments.stepsine",
     "FULL": "rt.experiments.reproduce", "QUICK": "rt.experiments.reproduce", "measure": "rt.experiments.reproduce", "loop_at_fn1": "rt.experiments.reproduce",
     "write_outputs": "rt.experiments.reproduce_report",
     "peak_reduction_db": "rt.experiments.claims",

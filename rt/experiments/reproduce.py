@@ -21,7 +21,8 @@ What is measured (``measure``):
    mode, the same for every law and F_N1. Then up to ``Plan.refine_rounds`` refinement rounds:
    a sweep whose largest |H| point has a neighbour more than ``RESOLVED_REL`` (10 %) below it
    gets the midpoints between that point and such neighbours (``refine_points``), run as a new
-   up-sweep from rest (the detector waits the start transient out); all rounds in parallel.
+   up-sweep from rest (the detector waits the start transient out); all FRFs in parallel, each
+   FRF's next round as soon as its previous one is in.
    The peak is the largest measured |H| (``peak``); unsettled points count and are flagged.
 
 Actuator power at a point: the energy over its measurement blocks (``StepSineResult.energy_j``)
@@ -43,8 +44,8 @@ import numpy as np
 
 from rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db
 from rt.common.config import Config
-from rt.loop import Loop, build_loop
-from rt.experiments.branches import Branch, run_branches
+from rt.loop import Designs, Loop, build_loop
+from rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
 from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
@@ -101,9 +102,11 @@ class Key(tuple):
     amp_n = property(lambda self: self[3])
 
 
-def mode_grids(cfg: Config, modes: Sequence[int], n_points: int) -> dict[int, np.ndarray]:
-    """mode -> coarse frequencies [Hz], increasing (module docstring)."""
-    bands = mode_bands_hz(cfg, modes)
+def mode_grids(cfg: Config, modes: Sequence[int], n_points: int,
+               designs: Designs | None = None) -> dict[int, np.ndarray]:
+    """mode -> coarse frequencies [Hz], increasing (module docstring); designs: the study's
+    shared plant (``rt.loop.Designs``)."""
+    bands = mode_bands_hz(cfg, modes, designs)
     return {m: resonance_grid([0.5 * (lo + hi)], HALF_WIDTH[m], n_points) for m, (lo, hi) in bands.items()}
 
 
@@ -163,34 +166,40 @@ def loop_at_fn1(passive: Loop, fn1_n: float) -> Loop:
 
 
 def measure_frfs(cfg: Config, plan: Plan, estimator: str = "oracle", jobs: int | None = None,
-                 dask_address: str | None = None, progress: bool = True) -> dict[Key, StepSineResult]:
-    """Every step-sine FRF of the plan (module docstring), refined; Key -> merged result."""
-    grids = mode_grids(cfg, plan.modes, plan.n_points)
-    loops = {("passive", None): build_loop(cfg, "passive")}
+                 dask_address: str | None = None, progress: bool = True) -> tuple[dict[Key, StepSineResult], int]:
+    """Every step-sine FRF of the plan (module docstring), refined; (Key -> merged result, the
+    cores that ran the sweeps). An FRF's refinement round starts as soon as its previous round
+    is in (``run_branches``' follow), so no core waits for the slowest FRF of a round."""
+    if dask_address is None and jobs != 1:
+        start_workers(jobs)  # their start-up overlaps the design below
+    designs = Designs()  # one plant, one force-tracking design per sensor
+    grids = mode_grids(cfg, plan.modes, plan.n_points, designs)
+    loops = {("passive", None): build_loop(cfg, "passive", designs=designs)}
     for law in LAWS_COMPARED[1:]:
-        loops[(law, None)] = build_loop(cfg, law, estimator)
+        loops[(law, None)] = build_loop(cfg, law, estimator, designs=designs)
     for f in plan.fn1_n:
         loops[("passive", f)] = loop_at_fn1(loops[("passive", None)], f)
     keys = [Key(law, f, m, a) for (law, f) in loops for m in plan.modes for a in plan.amps_n]
-    todo = {k: grids[k.mode] for k in keys}
     parts: dict[Key, list[StepSineResult]] = {k: [] for k in keys}
-    for rnd in range(plan.refine_rounds + 1):
-        if not todo:
-            break
-        ks = list(todo)
-        branches = [Branch(loops[(k.law, k.fn1_n)].cfg, k.law, k.amp_n, tuple(float(x) for x in todo[k]),
-                           loops[(k.law, k.fn1_n)].estimator, plan.settle) for k in ks]
-        results = run_branches(branches, jobs, dask_address, progress=progress, loops=[loops[(k.law, k.fn1_n)]
-                                                                                      for k in ks],
-                               desc="step-sine" if rnd == 0 else f"refine {rnd}/{plan.refine_rounds}")
-        todo = {}
-        for k, r in zip(ks, results):
-            parts[k].append(r)
-            m = merge(parts[k])
-            new = refine_points(m.freq_hz, m.H_abs)
-            if new:
-                todo[k] = np.array(new)
-    return {k: merge(v) for k, v in parts.items()}
+    key_of: list[Key] = []  # the key of each branch run, in run_branches' order
+
+    def branch(k: Key, freqs) -> tuple[Branch, Loop]:
+        key_of.append(k)
+        loop = loops[(k.law, k.fn1_n)]
+        return Branch(loop.cfg, k.law, k.amp_n, tuple(float(x) for x in freqs), loop.estimator, plan.settle), loop
+
+    def refine(i: int, r: StepSineResult) -> list[tuple[Branch, Loop]]:
+        """The next round of key_of[i]'s FRF as soon as its last round is in (the rounds of
+        one FRF follow each other; the FRFs do not wait for each other)."""
+        k = key_of[i]
+        parts[k].append(r)
+        m = merge(parts[k])
+        new = refine_points(m.freq_hz, m.H_abs) if len(parts[k]) <= plan.refine_rounds else []
+        return [branch(k, new)] if new else []
+    first = [branch(k, grids[k.mode]) for k in keys]
+    results = run_branches([b for b, _ in first], jobs, dask_address, progress=progress,
+                           loops=[loop for _, loop in first], desc="step-sine", follow=refine)
+    return {k: merge(v) for k, v in parts.items()}, results.cores
 
 
 def _table(frfs: dict[Key, StepSineResult], fn, laws=LAWS_COMPARED) -> dict:
@@ -242,7 +251,7 @@ def measure(cfg: Config, plan: Plan, estimator: str = "oracle", jobs: int | None
     f_bare = bare_beam_bending_hz(model, cfg.plant.interface.lower)
     t_imp = time.perf_counter() - t0
     say("step-sine FRFs")
-    frfs = measure_frfs(cfg, plan, estimator, jobs, dask_address, progress)
+    frfs, cores = measure_frfs(cfg, plan, estimator, jobs, dask_address, progress)
     t_frf = time.perf_counter() - t0 - t_imp
     dt = cfg.dt_s
     peaks = _table(frfs, lambda r: peak(r, dt))
@@ -266,7 +275,7 @@ def measure(cfg: Config, plan: Plan, estimator: str = "oracle", jobs: int | None
                        "points": int(sum(len(r.freq_hz) for r in frfs.values())),
                        "unsettled": int(sum((~r.settled).sum() for r in frfs.values())),
                        "simulated_s": float(sum(r.settle_s.sum() for r in frfs.values()))},
-              "timing_s": {"impulse": t_imp, "step_sine": t_frf}}
+              "timing_s": {"impulse": t_imp, "step_sine": t_frf, "sweeps": sweep_timing(frfs.values(), t_frf, cores)}}
     return {"report": report, "frfs": frfs, "impulse": imp}
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rt.experiments.branches import sweeps_line
 from rt.experiments.claims import TOL_DB
 
 CLAIM_TEXT = {
@@ -110,8 +111,10 @@ def markdown(report: dict) -> str:
         lines.append(f"| {m} | {f:.2f} | {'n/a' if z is None else f'{100 * z:.3f}'} | "
                      f"{100 * imp['zeta_bare'][str(m)]:.3f} |")
     lines += ["", f"Bare main beam bending modes [Hz]: {', '.join(f'{f:.1f}' for f in imp['bare_beam_hz'])}.", "",
-              "## Run", "", f"Wall time [s]: {_fmt(r['timing_s'])}. Step-sine detector: {_fmt(plan['settle'])}; "
-              f"{plan['n_points']} coarse points per mode, up to {plan['refine_rounds']} refinement rounds.", ""]
+              "## Run", "", f"Wall time [s]: impulse {r['timing_s']['impulse']:.3g}, step-sine "
+              f"{r['timing_s']['step_sine']:.3g}; {sweeps_line(r['timing_s']['sweeps'])}. Step-sine detector: "
+              f"{_fmt(plan['settle'])}; {plan['n_points']} coarse points per mode, up to {plan['refine_rounds']} "
+              "refinement rounds.", ""]
     return "\n".join(lines)
 
 

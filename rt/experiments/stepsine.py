@@ -85,7 +85,7 @@ import numpy as np
 
 from plant.actuator import output_index as actuator_output_index
 from rt.common.config import LAWS, Config
-from rt.loop import ESTIMATORS, Loop, LoopState, run
+from rt.loop import ESTIMATORS, Designs, Loop, LoopState, run
 
 WINDOWS = ("rect", "hann")
 SENSOR_READINGS = ("a_frf_meas", "a_tip_meas")  # accelerometer readings (plant.sensors) whose FRFs a point also gives
@@ -129,7 +129,16 @@ def harmonics(x: np.ndarray, freq_hz: float, dt: float, n_harm: int = 5, *, k0: 
     k0 : tick of x[0].
     window : "rect" or "hann".
     """
-    x = np.asarray(x, dtype=float)
+    return harmonics_of_columns(np.asarray(x, dtype=float)[:, None], freq_hz, dt, n_harm, k0=k0, window=window)[0]
+
+
+def harmonics_of_columns(X: np.ndarray, freq_hz: float, dt: float, n_harm: int = 5, *, k0: int = 0,
+                         window: str = "rect") -> list[Harmonics]:
+    """``harmonics`` of each column of X (n, m): m signals of the same ticks, fitted on one
+    design matrix. Each column is its own least-squares solve, bit for bit its ``harmonics``
+    alone (a solve with m right-hand sides differs in the last bits); building the design
+    matrix, half the cost of a block's fit, is done once."""
+    X = np.asarray(X, dtype=float)
     nyq = 0.5 / dt
     if not (math.isfinite(freq_hz) and 0.0 < freq_hz < nyq):
         raise ValueError(f"freq_hz {freq_hz!r}: must lie in (0, {nyq:g}) Hz (below Nyquist)")
@@ -138,26 +147,29 @@ def harmonics(x: np.ndarray, freq_hz: float, dt: float, n_harm: int = 5, *, k0: 
     if window not in WINDOWS:
         raise ValueError(f"window {window!r}: expected one of {', '.join(WINDOWS)}")
     per = 1.0 / (freq_hz * dt)                       # samples per period
-    n_per = math.floor(len(x) / per)
+    n_per = math.floor(len(X) / per)
     if n_per < 1:
-        raise ValueError(f"x holds {len(x)} samples, less than one period of {freq_hz:g} Hz "
+        raise ValueError(f"x holds {len(X)} samples, less than one period of {freq_hz:g} Hz "
                          f"({per:.1f} samples): give at least {math.ceil(per)}")
-    n = min(len(x), round(n_per * per))
+    n = min(len(X), round(n_per * per))
     h = np.arange(1, n_harm + 1)
     h = h[h * freq_hz < nyq]
-    k = np.arange(k0 + len(x) - n, k0 + len(x))
+    k = np.arange(k0 + len(X) - n, k0 + len(X))
     wt = np.outer(k * dt, 2.0 * np.pi * freq_hz * h)  # h w t, as the loop computes w (k dt)
     A = np.column_stack([np.ones(n), np.cos(wt), np.sin(wt)])
-    y = x[-n:]
-    if window == "hann":
-        sw = np.sqrt(0.5 - 0.5 * np.cos(2.0 * np.pi * (np.arange(n) + 0.5) / n))
-        A, y = A * sw[:, None], y * sw
-    c, *_ = np.linalg.lstsq(A, y, rcond=None)
+    sw = np.sqrt(0.5 - 0.5 * np.cos(2.0 * np.pi * (np.arange(n) + 0.5) / n)) if window == "hann" else None
+    if sw is not None:
+        A = A * sw[:, None]
     m = len(h)
-    X = c[1:1 + m] - 1j * c[1 + m:]                   # a cos + b sin = Re((a - i b) e^{i wt})
-    amps = np.abs(X)
-    thd = float(np.sqrt(np.sum(amps[1:] ** 2)) / amps[0]) if m > 1 else float("nan")
-    return Harmonics(float(amps[0]), float(np.angle(X[0])), thd, X, float(c[0]), n)
+    out = []
+    for j in range(X.shape[1]):
+        y = X[-n:, j] if sw is None else X[-n:, j] * sw
+        c, *_ = np.linalg.lstsq(A, y, rcond=None)
+        Xh = c[1:1 + m] - 1j * c[1 + m:]              # a cos + b sin = Re((a - i b) e^{i wt})
+        amps = np.abs(Xh)
+        thd = float(np.sqrt(np.sum(amps[1:] ** 2)) / amps[0]) if m > 1 else float("nan")
+        out.append(Harmonics(float(amps[0]), float(np.angle(Xh[0])), thd, Xh, float(c[0]), n))
+    return out
 
 
 # --- settling and amplitude control -----------------------------------------------------------
@@ -285,18 +297,20 @@ class Point:
     R_exc: complex = complex(math.nan)  # driving-point receptance w_exc / F_exc [m/N] (the plant's truth; w of
     #                                     row k is at t_k+1, the force held over the tick: w referred to its middle)
     H_sensors: dict = field(default_factory=dict, repr=False)  # a_frf_meas, a_tip_meas readings / F_exc
+    tick_s: float = 0.0   # the ticks' execution times at this frequency, summed (the log's tick_ns) [s]
 
 
 def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopState | None, seed: int | None,
                window: str):
-    """Run n ticks at freq_hz [Hz] and force command F_cmd [N] from state; returns the run, the
-    tick of its first row and the first harmonics X_a [m/s^2], X_F [N] of a_frf and F_exc."""
+    """Run n ticks at freq_hz [Hz] and force command F_cmd [N] from state (in this thread: no
+    thread start per block); returns the run, the tick of its first row and the first harmonics
+    X_a [m/s^2], X_F [N] of a_frf and F_exc."""
     dt = loop.cfg.dt_s
-    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed)
+    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed, in_thread=False)
     k0 = r.final.k - len(r.log)
-    X_a = harmonics(r.signal("a_frf"), freq_hz, dt, 1, k0=k0, window=window).X[0]
-    X_F = harmonics(r.signal("F_exc"), freq_hz, dt, 1, k0=k0, window=window).X[0]
-    return r, k0, X_a, X_F
+    h_a, h_F = harmonics_of_columns(r.log[:, [loop.column("a_frf"), loop.column("F_exc")]], freq_hz, dt, 1,
+                                    k0=k0, window=window)
+    return r, k0, h_a.X[0], h_F.X[0]
 
 
 def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState | None = None,
@@ -311,21 +325,21 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     iE = actuator_output_index()["E"]
     state = start
     F_cmd = float(amp_n)  # float: the compiled loop is specialised on its argument types
-    H, F_meas, F_cmds, tail = [], [], [], []  # tail: (k0, a_frf, F_exc, F_N1, E before, F_cmd, log) of the final N
-    col_w = loop.column(f"w_{loop.cfg.plant.excitation_point}")
-    cols_meas = [loop.column(name) for name in SENSOR_READINGS]
+    H, F_meas, F_cmds, tail = [], [], [], []  # tail: (k0, the block's columns cols, E before, F_cmd) of the final N
+    cols = [loop.column(name) for name in ("a_frf", "F_exc", "F_N1", f"w_{loop.cfg.plant.excitation_point}",
+                                           *SENSOR_READINGS)]
     k_start = 0 if start is None else start.k
     settled, residual = False, float("inf")
+    tick_ns = 0.0
     while True:
         E_before = 0.0 if state is None else float(state.ya[iE])
         r, k0, X_a, X_F = _run_block(loop, freq_hz, F_cmd, n, state, seed, settle.window)
         state = r.final
-        a, F = r.signal("a_frf"), r.signal("F_exc")
+        tick_ns += float(r.signal("tick_ns").sum())
         H.append(X_a / X_F)
         F_meas.append(abs(X_F))
         F_cmds.append(F_cmd)
-        extra = r.log[:, [col_w] + cols_meas]
-        tail = (tail + [(k0, a.copy(), F.copy(), r.signal("F_N1").copy(), E_before, F_cmd, extra)])[-N:]
+        tail = (tail + [(k0, r.log[:, cols], E_before, F_cmd)])[-N:]
         E_end = float(r.signal("E")[-1])
         F_cmd = update_amplitude(F_cmd, abs(X_F), amp_n, settle.amp_gain, settle.amp_step_max)
         held = all(abs(f / amp_n - 1.0) <= settle.amp_tol for f in F_meas[-N:])
@@ -333,25 +347,22 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
         settled = settled and held
         if settled or (state.k - k_start + n) * dt > settle.max_s:  # the next block would pass max_s
             break
-    a = np.concatenate([b[1] for b in tail])
-    F = np.concatenate([b[2] for b in tail])
-    ha = harmonics(a, freq_hz, dt, settle.n_harm, k0=tail[0][0], window=settle.window)
-    hF = harmonics(F, freq_hz, dt, 1, k0=tail[0][0], window=settle.window)
-    drive = np.concatenate([b[5] * np.sin(2 * np.pi * freq_hz * dt * (b[0] + np.arange(len(b[1])))) for b in tail])
-    extra = np.concatenate([b[6] for b in tail])
-
-    def fit(x):
-        return harmonics(x, freq_hz, dt, 1, k0=tail[0][0], window=settle.window).X[0]
+    T = np.concatenate([b[1] for b in tail])  # a_frf, F_exc, F_N1, w_exc, SENSOR_READINGS over the final N
+    ha = harmonics(T[:, 0], freq_hz, dt, settle.n_harm, k0=tail[0][0], window=settle.window)
+    drive = np.concatenate([b[3] * np.sin(2 * np.pi * freq_hz * dt * (b[0] + np.arange(len(b[1])))) for b in tail])
+    hF, h_drive, h_w, *h_meas = harmonics_of_columns(np.column_stack([T[:, 1], drive, T[:, 3:]]), freq_hz, dt, 1,
+                                                     k0=tail[0][0], window=settle.window)
     h_last = np.asarray(H[-N:])
     scatter = float(np.sqrt(np.mean(np.abs(h_last - h_last.mean()) ** 2)) / abs(h_last.mean()))
     point = Point(freq_hz=float(freq_hz), H=complex(ha.X[0] / hF.X[0]), a_amp=ha.amp, F_amp=hF.amp,
                   F_cmd=float(F_cmds[-1]), thd=ha.thd,
-                  F_N1_mean=float(np.mean(np.concatenate([b[3] for b in tail]))),
-                  energy_j=E_end - tail[0][4], settle_s=(state.k - k_start) * dt, settled=settled,
+                  F_N1_mean=float(np.mean(np.ascontiguousarray(T[:, 2]))),  # contiguous: the same pairwise sum
+                  energy_j=E_end - tail[0][2], settle_s=(state.k - k_start) * dt, settled=settled,
                   n_blocks=len(H), H_scatter=scatter, residual=residual, k_start=k_start, k_end=state.k,
                   H_blocks=np.asarray(H), F_meas_blocks=np.asarray(F_meas), F_cmd_blocks=np.asarray(F_cmds),
-                  drive_amp=abs(fit(drive)), R_exc=complex(fit(extra[:, 0]) / hF.X[0] * np.exp(-1j * np.pi * freq_hz * dt)),
-                  H_sensors={name: complex(fit(extra[:, 1 + i]) / hF.X[0]) for i, name in enumerate(SENSOR_READINGS)})
+                  drive_amp=abs(h_drive.X[0]), R_exc=complex(h_w.X[0] / hF.X[0] * np.exp(-1j * np.pi * freq_hz * dt)),
+                  H_sensors={name: complex(h.X[0] / hF.X[0]) for h, name in zip(h_meas, SENSOR_READINGS)},
+                  tick_s=tick_ns * 1e-9)
     return point, state
 
 
@@ -383,6 +394,7 @@ class StepSineResult:
     drive_amp: np.ndarray | None = None  # first harmonic of the drive [N] (= F_amp with an ideal source)
     R_exc: np.ndarray | None = None      # complex driving-point receptance w_exc / F_exc [m/N] (plant truth)
     H_sensors: dict | None = None        # {a_frf_meas, a_tip_meas: complex reading / F_exc [(m/s^2)/N]}
+    tick_s: np.ndarray | None = None     # the ticks' execution times per point, summed [s] (not in to_dict: a timing)
 
     @property
     def H_abs(self) -> np.ndarray:
@@ -458,7 +470,8 @@ def sweep(loop: Loop, freqs_hz: Sequence[float], amp_n: float, *, start: LoopSta
                           settle_s=col("settle_s"), settled=col("settled", bool), n_blocks=col("n_blocks", np.int64),
                           H_scatter=col("H_scatter"), residual=col("residual"), k_start=col("k_start", np.int64),
                           k_end=col("k_end", np.int64), drive_amp=col("drive_amp"), R_exc=col("R_exc", complex),
-                          H_sensors={name: np.array([p.H_sensors[name] for p in points]) for name in SENSOR_READINGS})
+                          H_sensors={name: np.array([p.H_sensors[name] for p in points]) for name in SENSOR_READINGS},
+                          tick_s=col("tick_s"))
 
 
 def phase_continuous_step(f_hz: float, k_b: int, dt: float, rate_hz_s: float, block_s: float) -> tuple[float, int]:
@@ -504,6 +517,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
     lead = max(round(1.0 / (step_max_hz * dt)) - k0, round(1.0 / (f * dt)))
     r, *_ = _run_block(loop, f, F_cmd, lead, state, seed, settle.window)
     state = r.final
+    lead_tick_ns = float(r.signal("tick_ns").sum())  # the lead-in's ticks count with the first point's
     rows = []
     while True:
         f, n = phase_continuous_step(f, state.k, dt, rate_hz_s, block_s)
@@ -516,7 +530,8 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
         ha = harmonics(r.signal("a_frf"), f, dt, settle.n_harm, k0=kb, window=settle.window)
         rows.append(dict(freq_hz=f, H=X_a / X_F, a_amp=abs(X_a), F_amp=abs(X_F), F_cmd=F_cmd, thd=ha.thd,
                          F_N1_mean=float(np.mean(r.signal("F_N1"))), energy_j=float(state.ya[iE]) - E_before,
-                         settle_s=n * dt, k_start=kb, k_end=state.k))
+                         settle_s=n * dt, k_start=kb, k_end=state.k, tick_s=(float(r.signal("tick_ns").sum()) + lead_tick_ns) * 1e-9))
+        lead_tick_ns = 0.0
         F_cmd = update_amplitude(F_cmd, abs(X_F), amp_n, settle.amp_gain, settle.amp_step_max)
         if progress is not None:
             progress(1)
@@ -528,12 +543,13 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
                           thd=col("thd"), F_N1_mean=col("F_N1_mean"), energy_j=col("energy_j"),
                           settle_s=col("settle_s"), settled=np.ones(m, bool), n_blocks=np.ones(m, np.int64),
                           H_scatter=np.full(m, np.nan), residual=np.full(m, np.nan),
-                          k_start=col("k_start", np.int64), k_end=col("k_end", np.int64))
+                          k_start=col("k_start", np.int64), k_end=col("k_end", np.int64), tick_s=col("tick_s"))
 
 
 # --- frequency grids --------------------------------------------------------------------------
 
-def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5)) -> dict[int, tuple[float, float]]:
+def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5),
+                  designs: Designs | None = None) -> dict[int, tuple[float, float]]:
     """Per bending mode (1 = first): (f_slip, f_stuck) [Hz], the eigenfrequencies of the plant
     linearised about its preloaded state (the pairs the screws close, at the configured F_N1)
 
@@ -542,10 +558,12 @@ def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5)) -> dict[int,
     * f_slip: the same with the pairs in the adaptive screw's pressure cone free to slide
       tangentially (normal contact kept; ``plant.modes.sliding_joint_hz``).
 
-    A friction-affected resonance lies near f_slip or between the two (docs/experiments.md)."""
-    from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+    A friction-affected resonance lies near f_slip or between the two (docs/experiments.md).
+    designs: the study's shared designs (``rt.loop.Designs``: the plant its loops use; None:
+    built here)."""
+    from plant.model import preloaded_pairs, stuck_frequencies_hz
     from plant.modes import sliding_joint_hz
-    model = build_plant(cfg)
+    model = (Designs() if designs is None else designs).plant(cfg)
     f_stuck = stuck_frequencies_hz(model, preloaded_pairs(model))
     f_slip = sliding_joint_hz(model)
     for m in modes:

@@ -22,13 +22,15 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from rt.common.config import Config, ConfigError, check_key, dumps, with_sets
-from rt.experiments.branches import Branch, run_branches
+from rt.experiments.branches import Branch, build_loops, run_branches, start_workers, sweep_timing
+from rt.loop import Designs
 from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 TUNED_LAWS = ("hysteresis", "lyapunov")
@@ -64,6 +66,7 @@ class TuneResult:
     pareto: np.ndarray                     # (n_candidates,) bool
     best: int                              # index of the best candidate (-1: none qualifies)
     best_cfg: Config | None
+    timing: dict | None = None             # the sweeps' cost (rt.experiments.branches.sweep_timing; wall-clock)
 
     def rows(self) -> list[dict]:
         """One dict per candidate: the swept values, objectives, Pareto flag, error."""
@@ -87,7 +90,8 @@ class TuneResult:
     def to_dict(self) -> dict:
         return {"law": self.law, "modes": list(self.modes), "amps_n": list(self.amps_n), "keys": list(self.keys),
                 "candidates": self.rows(), "passive_peak": self.passive_peak.tolist(),
-                "best": None if self.best < 0 else self.rows()[self.best], "best_on_edge": self.best_on_edge()}
+                "best": None if self.best < 0 else self.rows()[self.best], "best_on_edge": self.best_on_edge(),
+                "timing": self.timing}
 
 
 def _num(v: float) -> float | None:
@@ -131,10 +135,11 @@ def candidates(base: Config, grid: dict[str, tuple[float, ...]]) -> list[Candida
     return out
 
 
-def mode_grid(cfg: Config, mode: int, points: int, half_width_rel: float) -> tuple[float, ...]:
+def mode_grid(cfg: Config, mode: int, points: int, half_width_rel: float,
+              designs: Designs | None = None) -> tuple[float, ...]:
     """The step-sine frequencies [Hz] around a mode: ``resonance_grid`` about the middle of
-    its (f_slip, f_stuck) band (``mode_bands_hz``)."""
-    f_slip, f_stuck = mode_bands_hz(cfg, (mode,))[mode]
+    its (f_slip, f_stuck) band (``mode_bands_hz``; designs: the study's shared plant)."""
+    f_slip, f_stuck = mode_bands_hz(cfg, (mode,), designs)[mode]
     return tuple(float(f) for f in resonance_grid([0.5 * (f_slip + f_stuck)], half_width_rel, points))
 
 
@@ -183,13 +188,18 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     if max_power_w is not None and not max_power_w > 0:
         raise ValueError(f"max power {max_power_w}: must be > 0 W")
     modes, amps_n = tuple(modes), tuple(float(a) for a in amps_n)
+    t0 = time.perf_counter()
     cands = candidates(base, grid)
-    freqs = {m: mode_grid(base, m, points, half_width_rel) for m in modes}  # raises for a bad mode
+    if dask_address is None and jobs != 1:
+        start_workers(jobs)  # their start-up overlaps the design below
+    designs = Designs()  # the candidates share the plant and, unless they change it, the force-tracking design
+    freqs = {m: mode_grid(base, m, points, half_width_rel, designs) for m in modes}  # raises for a bad mode
     cells = [(m, a) for m in modes for a in amps_n]
     ok = [c for c in cands if c.cfg is not None]
     branches = [Branch(base, "passive", a, freqs[m], estimator, settle) for m, a in cells]
     branches += [Branch(c.cfg, law, a, freqs[m], estimator, settle) for c in ok for m, a in cells]
-    results = run_branches(branches, jobs, dask_address, progress=progress)
+    results = run_branches(branches, jobs, dask_address, progress=progress, loops=build_loops(branches, designs))
+    timing = sweep_timing(results, time.perf_counter() - t0, results.cores)
     shape = (len(modes), len(amps_n))
     passive_peak = np.array([r.H_abs.max() for r in results[:len(cells)]]).reshape(shape)
     n = len(cands)
@@ -208,7 +218,7 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     keys = tuple(grid)
     values = np.array([[float(s.split("=", 1)[1]) for s in c.sets] for c in cands])
     return TuneResult(law, modes, amps_n, keys, values, [c.error for c in cands], passive_peak, peak, reduction,
-                      power, front, best, None if best < 0 else cands[best].cfg)
+                      power, front, best, None if best < 0 else cands[best].cfg, timing)
 
 
 def best_toml(res: TuneResult) -> str:

@@ -11,7 +11,7 @@ loop and cyclictest), ``supervisor``, ``faults``, ``digest`` (a ring run's whole
 from rt.common.face import lazy_face
 
 _EXPORTS = {
-    "COMPONENTS": "rt.loop.build", "ESTIMATORS": "rt.loop.build", "Loop": "rt.loop.build",
+    "COMPONENTS": "rt.loop.build", "Designs": "rt.loop.build", "ESTIMATORS": "rt.loop.build", "Loop": "rt.loop.build",
     "LoopState": "rt.loop.build", "build_loop": "rt.loop.build", "initial_loop_state": "rt.loop.build",
     "loop_signals": "rt.loop.build",
     "Run": "rt.loop.driver", "check_run_input": "rt.loop.driver", "run": "rt.loop.driver",

@@ -53,6 +53,8 @@ class Loop:
     estimator: str = "oracle"                   # one of ESTIMATORS
     supervisor: SupervisorParams | None = None  # built by build_loop
     shaker: ShakerParams | None = None          # built by build_loop (P = 0: ideal force source)
+    plant_rest: np.ndarray | None = None        # built by build_loop: the plant's state at rest at F0
+    #                                             (plant.initial_state, a static solve: 6.5 ms, once per loop, not per run)
 
     def column(self, name: str) -> int:
         return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
@@ -73,20 +75,49 @@ def loop_signals(plant: PlantModel) -> tuple[tuple[str, str, str], ...]:
     return tuple(sig)
 
 
+class Designs:
+    """The two expensive design steps, made once for the loops of one study (the laws of a
+    reproduction, the candidates of a tuning grid) and shared: the plant (``build_plant``, 0.9 s)
+    per distinct rt, plant and actuator sections (what it reads), the force-tracking design
+    (``design_force_tracking``, 0.8 s) per sensor and distinct rt, actuator and sensors sections
+    and tracking.pid_bandwidth_hz, pid_phase_margin_deg (what it reads). The objects are those
+    built alone, the same bits (design runs in one process)."""
+
+    def __init__(self):
+        self._made: dict = {}
+
+    def _get(self, key, make):
+        if key not in self._made:
+            self._made[key] = make()
+        return self._made[key]
+
+    def plant(self, cfg: Config) -> PlantModel:
+        """``build_plant(cfg)``, built once per distinct (cfg.rt, cfg.plant, cfg.actuator)."""
+        return self._get(("plant", cfg.rt, cfg.plant, cfg.actuator), lambda: build_plant(cfg))
+
+    def force_tracking(self, cfg: Config, sensor: str) -> ForceTrackingDesign:
+        """``design_force_tracking(cfg, sensor)``, once per distinct inputs (class docstring)."""
+        t = cfg.tracking
+        return self._get(("force_tracking", sensor, cfg.rt, cfg.actuator, cfg.sensors, t.pid_bandwidth_hz,
+                          t.pid_phase_margin_deg), lambda: design_force_tracking(cfg, sensor))
+
+
 def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
-               observer_cfg: Config | None = None) -> Loop:
+               observer_cfg: Config | None = None, designs: Designs | None = None) -> Loop:
     """Design time: plant, actuator, sensors, estimator, law and the force-tracking design for
     its sensor. The observer is designed from ``observer_cfg`` if given (a model that differs
-    from the plant: robustness studies), else from cfg.
+    from the plant: robustness studies), else from cfg. ``designs``: the plant and force-tracking
+    designs already made for other loops of the same study (``Designs``; None: made here).
 
     Raises ValueError (from the design) if the force-tracking loop would be unstable, or for an
     unknown estimator."""
     law = cfg.tracking.law if law is None else law
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator {estimator!r}: expected one of {', '.join(ESTIMATORS)}")
-    plant = build_plant(cfg)
+    designs = Designs() if designs is None else designs
+    plant = designs.plant(cfg)
     sensor = SENSOR_OF_LAW[law]
-    design = design_force_tracking(cfg, sensor)
+    design = designs.force_tracking(cfg, sensor)
     if estimator == "observer":
         observer = (design_observer(cfg, plant) if observer_cfg is None else design_observer(observer_cfg)).params
     else:
@@ -94,7 +125,7 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
     check_shaker(cfg, plant)
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
                 build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator,
-                build_supervisor(cfg, estimator == "observer"), build_shaker(cfg))
+                build_supervisor(cfg, estimator == "observer"), build_shaker(cfg), plant.initial_state(cfg.actuator.F0_N))
 
 
 def _no_observer() -> ObserverParams:
@@ -153,5 +184,5 @@ def initial_loop_state(loop: Loop, seed: int) -> LoopState:
                      yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
                      xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)),
                      sv=supervisor_initial_state(ys), xa=xa, ya=ya,
-                     xp=plant.initial_state(cfg.actuator.F0_N), yp=np.zeros(len(plant.output_labels())),
+                     xp=loop.plant_rest.copy(), yp=np.zeros(len(plant.output_labels())),
                      rng=new_rng(seed), plant_work=plant.new_work(), xsh=np.zeros(2))

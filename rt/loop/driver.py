@@ -1,5 +1,6 @@
 """``run``: the thread that drives the compiled tick (rt/loop/tick.py) through a run, in chunks,
-with progress, Ctrl-C as a stop request and a log writer draining a ring; ``Run``, its result.
+with progress, Ctrl-C as a stop request and a log writer draining a ring (or, for a step-sine's
+short blocks, the calling thread); ``Run``, its result.
 """
 from __future__ import annotations
 
@@ -74,7 +75,7 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float,
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
         timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
         start: LoopState | None = None, writer=None, faults: np.ndarray | None = None,
-        ring_ticks: int | None = None) -> Run:
+        ring_ticks: int | None = None, in_thread: bool = True) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
 
     The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
@@ -96,8 +97,15 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     drops what was overwritten). ``Run.log`` then holds the last min(ticks, R) ticks in tick
     order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
 
-    Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, or a
-    log without a ring that would not fit in memory; RuntimeError if a plant step failed.
+    ``in_thread``: the compiled loop runs in a thread of its own while the calling thread shows
+    progress and turns Ctrl-C into a stop request (the ticks run so far are kept). False: in the
+    calling thread, without progress, writer or pacing, and Ctrl-C raises KeyboardInterrupt once
+    the current chunk has run; for a step-sine's blocks of a few thousand ticks, which would
+    otherwise each start a thread (the same ticks, bit for bit).
+
+    Raises ValueError for an excitation above Nyquist, a negative amplitude or duration, a log
+    without a ring that would not fit in memory, or in_thread=False with progress, a writer or
+    pacing; RuntimeError if a plant step failed.
     """
     cfg = loop.cfg
     dt = cfg.dt_s
@@ -105,6 +113,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         ring_ticks = writer.ring_ticks
     if ring_ticks is not None and ring_ticks < 1:
         raise ValueError(f"ring_ticks {ring_ticks}: must be >= 1")
+    if not in_thread and (paced or writer is not None or progress is not None):
+        raise ValueError("in_thread=False runs without progress, writer or pacing: give none of them")
     n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s, ring=ring_ticks is not None)
     n_rows = n_ticks if ring_ticks is None else min(n_ticks, int(ring_ticks))
     n_sig = len(loop.signals)
@@ -166,21 +176,10 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                                     log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 
-    # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
-    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept. Paced: the
-    # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
-    ts = np.zeros(2, dtype=np.int64)
-    with realtime.session(cfg.rt, paced) as rts:
-        if paced and not rts.memory_locked:
-            log.fill(0.0)  # fault the ring's pages in now, not in the loop's first pass
-        t_wall = _now_ns(ts)
-        clk[CLK_DEADLINE] = t_wall + period_ns
+    def drive():
+        """Start the loop's thread; until it ends, progress and Ctrl-C as a stop request.
+        Returns True if interrupted."""
         thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
-        digest = None
-        if writer is not None:
-            from rt.loop.digest import RunDigest
-            digest = RunDigest(loop.signals)
-            writer.start(log, clk, st.k, paced, digest)
         thread.start()
         shown = 0
         interrupted = False
@@ -196,10 +195,33 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                     progress(ticks - shown)
                     shown = ticks
         finally:
-            if writer is not None:  # the log's rows are final once the loop's thread has ended
-                if thread.is_alive():  # an exception here: stop the loop first
-                    clk[CLK_STOP] = 1
-                    thread.join()
+            if writer is not None and thread.is_alive():  # an exception here: stop the loop first (the
+                clk[CLK_STOP] = 1                         # log's rows are final once its thread has ended)
+                thread.join()
+        return interrupted
+
+    # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
+    # progress and turns Ctrl-C into a stop request; the ticks run so far are kept. Paced: the
+    # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
+    ts = np.zeros(2, dtype=np.int64)
+    with realtime.session(cfg.rt, paced) as rts:
+        if paced and not rts.memory_locked:
+            log.fill(0.0)  # fault the ring's pages in now, not in the loop's first pass
+        t_wall = _now_ns(ts)
+        clk[CLK_DEADLINE] = t_wall + period_ns
+        digest = None
+        if writer is not None:
+            from rt.loop.digest import RunDigest
+            digest = RunDigest(loop.signals)
+            writer.start(log, clk, st.k, paced, digest)
+        interrupted = False
+        try:
+            if in_thread:
+                interrupted = drive()
+            else:
+                worker()
+        finally:
+            if writer is not None:
                 writer.finish()
     if errors:
         raise errors[0]
@@ -213,7 +235,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     if failed[0]:
         raise RuntimeError(f"the plant's contact solve failed in {failed[0]} of {n_run} ticks; "
                            "raise plant.substeps (e.g. --set plant.substeps=2) or plant.fallback_split")
-    if not np.all(np.isfinite(log) | _dropout_mask(loop, faults, st.k - len(log), len(log))):
+    finite = np.isfinite(log)
+    if not (finite.all() or np.all(finite | _dropout_mask(loop, faults, st.k - len(log), len(log)))):
         raise RuntimeError("the loop produced NaN/Inf: check the configuration and the excitation")
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
                interrupted, st, faults, n_run, digest if len(log) < n_run else None,
