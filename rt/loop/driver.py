@@ -176,30 +176,6 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                                     log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 
-    def drive():
-        """Start the loop's thread; until it ends, progress and Ctrl-C as a stop request.
-        Returns True if interrupted."""
-        thread = threading.Thread(target=worker, name="frictionrt-loop", daemon=True)
-        thread.start()
-        shown = 0
-        interrupted = False
-        try:
-            while thread.is_alive():
-                try:
-                    thread.join(0.1)
-                except KeyboardInterrupt:
-                    clk[CLK_STOP] = 1
-                    interrupted = True
-                if progress is not None:
-                    ticks = int(clk[CLK_TICKS])
-                    progress(ticks - shown)
-                    shown = ticks
-        finally:
-            if writer is not None and thread.is_alive():  # an exception here: stop the loop first (the
-                clk[CLK_STOP] = 1                         # log's rows are final once its thread has ended)
-                thread.join()
-        return interrupted
-
     # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
     # progress and turns Ctrl-C into a stop request; the ticks run so far are kept. Paced: the
     # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
@@ -217,7 +193,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         interrupted = False
         try:
             if in_thread:
-                interrupted = drive()
+                interrupted = watch(threading.Thread(target=worker, name="frictionrt-loop", daemon=True), clk,
+                                    progress)
             else:
                 worker()
         finally:
@@ -241,6 +218,32 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
                interrupted, st, faults, n_run, digest if len(log) < n_run else None,
                rts.describe() if paced else None)
+
+
+def watch(thread: threading.Thread, clk: np.ndarray, progress=None) -> bool:
+    """Start ``thread`` (a compiled loop's, nogil) and wait for it in the calling thread: every
+    0.1 s ``progress(n)`` with the ticks run since (``clk[CLK_TICKS]``), Ctrl-C as a stop request
+    (``clk[CLK_STOP]``: the loop ends after its tick, the ticks run so far are kept). On any other
+    exception here the loop is stopped and joined before it propagates, so its rows are final.
+    Returns True if interrupted. The loop (``run``), the replay and the null loop share it."""
+    thread.start()
+    shown, interrupted = 0, False
+    try:
+        while thread.is_alive():
+            try:
+                thread.join(0.1)
+            except KeyboardInterrupt:
+                clk[CLK_STOP] = 1
+                interrupted = True
+            if progress is not None:
+                ticks = int(clk[CLK_TICKS])
+                progress(ticks - shown)
+                shown = ticks
+    finally:
+        if thread.is_alive():
+            clk[CLK_STOP] = 1
+            thread.join()
+    return interrupted
 
 
 def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:

@@ -20,6 +20,7 @@ import numpy as np
 
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, _now_ns
 from rt.loop import realtime
+from rt.loop.driver import watch
 from rt.loop.pacing import START_SLACK_NS, _null_ticks
 
 CYCLICTEST_DEFAULT_PRIORITY = 0  # cyclictest at the loop's own priority; 0: SCHED_OTHER, as the loop
@@ -53,9 +54,7 @@ def null_loop(rt_cfg, dt_s: float, seconds: float) -> dict:
             except BaseException as exc:  # re-raised in the calling thread
                 errors.append(exc)
 
-        thread = threading.Thread(target=worker, name="frictionrt-null-loop", daemon=True)
-        thread.start()
-        thread.join()
+        watch(threading.Thread(target=worker, name="frictionrt-null-loop", daemon=True), clk)
     if errors:
         raise errors[0]
     overruns = int(clk[CLK_OVERRUNS])

@@ -40,6 +40,7 @@ from rt.loop import realtime
 from rt.loop.faults import from_json
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
 from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
+from rt.loop.driver import watch
 from rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from rt.loop.tick import _controller_tick, _copy, _put
 from rt.log.mcap_log import read_mcap
@@ -228,15 +229,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
 
         # as rt.loop.driver.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
         t0 = time.perf_counter()
-        thread = threading.Thread(target=worker, name="frictionrt-replay", daemon=True)
-        thread.start()
-        interrupted = False
-        while thread.is_alive():
-            try:
-                thread.join(0.1)
-            except KeyboardInterrupt:
-                clk[CLK_STOP] = 1
-                interrupted = True
+        interrupted = watch(threading.Thread(target=worker, name="frictionrt-replay", daemon=True), clk)
     wall = time.perf_counter() - t0
     if errors:
         raise errors[0]
