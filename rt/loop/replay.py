@@ -42,7 +42,7 @@ from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _no
 from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
 from rt.loop.driver import watch
 from rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
-from rt.loop.tick import _controller_tick, _copy, _put
+from rt.loop.tick import _controller_done, _controller_tick
 from rt.log.mcap_log import read_mcap
 from plant.sensors import SENSOR_OUTPUTS
 from rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
@@ -65,10 +65,7 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, 
     order). pace = (paced, period_ns, margin_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
     takes them. Paced: the loop's deadlines (rt/loop/pacing.py)."""
     paced, period_ns, margin_ns, clk, ts = pace
-    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
-    xl, xl_n, yl, ul, law_p = law
-    sv, ysv, sv_p = sup
-    xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
+    sv = sup[0]
     for i in range(ks.shape[0]):
         if clk[CLK_STOP]:
             break
@@ -77,18 +74,7 @@ def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, 
             _wait_for_deadline(clk, ts, margin_ns)
         sv[S_OVERRAN] = overran[i]
         _controller_tick(k, sens[i], yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
-        c = _put(out, i, 0, ye)
-        c = _put(out, i, c, yl)
-        c = _put(out, i, c, yq)
-        c = _put(out, i, c, yf)
-        c = _put(out, i, c, ysv)
-        if observe:
-            _copy(xe_n, xe)
-        else:
-            _copy(xo_n, xo)
-        _copy(xl_n, xl)
-        _copy(xq_n, xq)
-        _copy(xf_n, xf)
+        _controller_done(out, i, 0, observe, est, law, sup, trk)
         clk[CLK_TICKS] += 1
         if paced:
             _next_deadline(clk, period_ns, _now_ns(ts))

@@ -148,6 +148,30 @@ def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing
     return t2, t3, t3s, t4
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _controller_done(out, row, c, observe, est, law, sup, trk):
+    """After ``_controller_tick``: its outputs (estimator, law, prefilter, force tracking,
+    supervisor: ``COMMANDED`` order) into out[row, c:], and its next states become its states.
+    The loop and the replay both call it. Returns the next column. RT-safe."""
+    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
+    xl, xl_n, yl, ul, law_p = law
+    sv, ysv, sv_p = sup
+    xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
+    c = _put(out, row, c, ye)
+    c = _put(out, row, c, yl)
+    c = _put(out, row, c, yq)
+    c = _put(out, row, c, yf)
+    c = _put(out, row, c, ysv)
+    if observe:
+        _copy(xe_n, xe)
+    else:
+        _copy(xo_n, xo)
+    _copy(xl_n, xl)
+    _copy(xq_n, xq)
+    _copy(xf_n, xf)
+    return c
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
 def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, sup, trk, act, plnt, shk, cols,
                log, comp_ns):
@@ -235,21 +259,10 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
         # 7 log and advance the states
         log[row, 0] = F_exc
         c = _put(log, row, 1, ys)
-        c = _put(log, row, c, ye)
-        c = _put(log, row, c, yl)
-        c = _put(log, row, c, yq)
-        c = _put(log, row, c, yf)
-        c = _put(log, row, c, ysv)
+        c = _controller_done(log, row, c, observe, est, law, sup, trk)
         c = _put(log, row, c, ya)
         c = _put(log, row, c, yp)
         _copy(xs_n, xs)
-        if observe:
-            _copy(xe_n, xe)
-        else:
-            _copy(xo_n, xo)
-        _copy(xl_n, xl)
-        _copy(xq_n, xq)
-        _copy(xf_n, xf)
         _copy(xa_n, xa)
         _copy(xp_n, xp)
         if shake:
