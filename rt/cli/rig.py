@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 
-from rt.cli.common import add_out, fail
+from rt.cli.common import add_out, fail, parse_list
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
@@ -20,7 +21,13 @@ around modes 3 and 4; the files hold the measured force and the shaker's drive a
 (shaker_interaction shows only there).
 With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
 of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
-of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars."""
+of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars.
+With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from stepped-sine up-sweeps of
+the nonlinear plant (adaptive screw held at 100 N; lines around the stuck structure's modes in
+50-1200 Hz), where micro-slip softens the joint's modes as the level rises (level_NN.csv/.uff).
+--model-form: the truth is of another model form than the nominal (half the element length and
+contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
+so that no calibration of the nominal model fits it exactly, as with a real structure."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
@@ -28,7 +35,9 @@ EXAMPLES = """examples:
   frictionrt rig --effect current_limit --strength 0.2 --seed 4 -o logs/campaign_il
   frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean
   frictionrt rig --effect clamp_compliance --frf-files -o logs/frf_clamp && frictionrt diagnose logs/frf_clamp
-  frictionrt rig --effect shaker_interaction --stepsine --seed 3 -o logs/campaign_shaker"""
+  frictionrt rig --effect shaker_interaction --stepsine --seed 3 -o logs/campaign_shaker
+  frictionrt rig --effect micro_slip --frf-files --levels 0.5,1,2,5,10,20 -o logs/frf_levels
+  frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -47,6 +56,12 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "contact stuck, at each F_N1) instead of the time-series campaign (rt/discrepancy/rig_frf.py)")
     p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
                    "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
+    p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] of stepped-sine "
+                   "tests of the nonlinear plant, one file per level (rt/discrepancy/rig_levels.py), instead of "
+                   "the linear FRFs at three F_N1")
+    p.add_argument("--model-form", action="store_true", help="the truth of another model form: finer mesh and "
+                   "contact pitch, substeps, other interface damping, beams not copies of the nominal's "
+                   "(rt.discrepancy.rig.model_form)")
     add_out(p, "DIR", "new campaign folder (must not exist or be empty: a campaign is never replaced, no --force)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
@@ -83,14 +98,28 @@ def cmd_rig(cfg, args) -> int:
         return fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
     if args.frf_files and (args.stepsine or args.record_s != 1.0):
         return fail("rig --frf-files: --stepsine and --record-s apply to the time-series campaign only; drop them")
+    if args.levels is not None and not args.frf_files:
+        return fail("rig --levels: the level tests are FRF files; add --frf-files")
+    levels = None
+    if args.levels is not None:
+        try:
+            levels = parse_list(args.levels, float, "rig --levels", "0.5,1,2,5")
+        except ValueError as exc:
+            return fail(str(exc))
     from rt.discrepancy.rig import make_campaign
     from rt.discrepancy.rig_frf import make_frf_campaign
+    from rt.discrepancy.rig_levels import make_level_campaign
     try:
-        if args.frf_files:
-            files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg)
+        if levels is not None:
+            files = make_level_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
+                                        force_levels_n=levels, other_form=args.model_form,
+                                        progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
+        elif args.frf_files:
+            files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
+                                      other_form=args.model_form)
         else:
             files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                  record_s=args.record_s, stepsine=args.stepsine)
+                                  record_s=args.record_s, stepsine=args.stepsine, other_form=args.model_form)
     except ValueError as exc:
         return fail(f"rig -o: {exc}")
     if args.json:

@@ -55,16 +55,17 @@ def frf_meta(cfg: Config, F_N1: float, description: str) -> dict:
 
 
 def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
-                      seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N) -> list[Path]:
+                      seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N,
+                      other_form: bool = False) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed). Arguments as rt.discrepancy.rig.make_campaign; returns the data files written. ValueError
     for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
     if effect != "none" and not get(effect).visible_in_frf_files():
         raise ValueError(f"effect {effect!r} leaves the structure linearised with the contact stuck unchanged "
-                         "(it acts through slip or the actuator), so FRF files cannot show it; write a time-series "
-                         "campaign instead (rig without --frf-files)")
+                         "(it acts through slip or the actuator), so linear FRF files cannot show it; write FRFs "
+                         "at several force levels (--levels) or a time-series campaign (rig without --frf-files)")
     rng = np.random.default_rng(seed)
-    true = true_structure(cfg, effect, strength, rng)
+    true = true_structure(cfg, effect, strength, rng, other_form)
     names = []
     with threadpool_limits(1), new_folder(out_dir) as tmp:
         model = build_plant(true)
