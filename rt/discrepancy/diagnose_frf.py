@@ -235,7 +235,7 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
         raise ValueError(f"{folder}: {exc}") from None
     if not any(d.sel for d in data):
         raise ValueError(f"{folder}: no FRF line above the noise in any test")
-    _, H0 = residuals(nominal, data)
+    ch0, H0 = residuals(nominal, data)
     say("fit calibration only")
     fits = {None: fit(nominal, data, None)}
     candidates = _candidates(nominal)
@@ -252,7 +252,9 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
                 for d, h in zip(data, H0)}
     gap = {"gap_before": gap_db(data, H0), "gap_calibrated": gap_db(data, base["fit"].H),
            "gap_after": gap_db(data, final["fit"].H)}
-    out = ranking_result(base, ranked, winner, gap, localise)
+    m1 = build_plant(quiet(final["cfg"]))
+    modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
+    out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
     out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
     return out | {"input": "frf_files",
                   "_plots": {"frf": [(d.name, d.F_N1, d.freq, d.H, h0, h1)

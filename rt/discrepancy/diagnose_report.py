@@ -15,6 +15,7 @@ import numpy as np
 
 from rt.common.config import dumps
 from rt.discrepancy.diagnose_rrd import write_diagnosis_rrd
+from rt.discrepancy.remainder import verdict
 from rt.discrepancy.diagnose import (
     BAND_HZ,
     MIN_RSS_REDUCTION,
@@ -103,6 +104,8 @@ def report_md(res: dict, pngs: list[str]) -> str:
     if "stepsine_ratio_db" in gb:
         lines.append(f"| all step-sine tests | F_amp / drive log-magnitude RMS [dB] | {gb['stepsine_ratio_db']} | "
                      f"{gc['stepsine_ratio_db']} | {ga['stepsine_ratio_db']} |")
+    lines += ["", "## What calibration, the effect and the remainder explain", "", verdict(res), "",
+              "```json", json.dumps(res["gap_budget"], indent=1), "```"]
     lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
               f"Not tried (not implemented yet, or not seen by this input: no step-sine tests for "
