@@ -25,6 +25,8 @@ import math
 
 import numpy as np
 
+from rt.discrepancy.effects import get
+
 DOMINATES = 0.5        # share of what calibration leaves above which the remainder dominates
 NOISE_X = 2.0          # ... and the final weighted residuals' rms above this (noise model: 1)
 MODE_TOL = 0.003       # a mode the final model misses by more than 0.3 % of its frequency is listed
@@ -69,8 +71,13 @@ def verdict(res: dict) -> str:
     if b["remainder_share"] is None:
         return "The nominal model already agrees with the measurement within its noise."
     pct = {k: 100 * min(max(b[k], 0.0), 1.0) for k in ("calibration_share", "effect_share", "remainder_share")}
-    effect = (f"the named effect ({res['named_effect']}) {pct['effect_share']:.0f} %" if res["named_effect"]
-              else "no effect is named")
+    named = res["named_effect"]
+    if named is None:
+        effect = "no effect is named"
+    elif get(named).channel == "structure":
+        effect = f"the named effect ({named}) {pct['effect_share']:.0f} %"
+    else:
+        effect = f"the named effect ({named}) acts on the {get(named).channel} channels, not counted here,"
     text = (f"Of the structure's gap beyond the noise, calibration explains {pct['calibration_share']:.0f} %, "
             f"{effect} and {pct['remainder_share']:.0f} % remains "
             f"(final weighted residuals' rms {b['rms_final']:.2f}, noise 1).")
