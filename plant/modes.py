@@ -103,3 +103,20 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
         "k_T_adaptive_N_per_m": float(f"{adaptive_screw_k_T(red):.6g}") if adaptive else None,
         "contact": {"k_n": itf.k_n, "k_t": itf.k_t, "mu": itf.mu} if itf.enabled else None,
     }
+
+
+def format_summary(s: dict) -> str:
+    """``modes_summary`` as the table ``frictionrt modes`` prints (frequencies [Hz])."""
+    sliding = s["sliding_joint_hz"] or []   # None: no adaptive screw
+    lines = [f"bare cantilever (bending) [Hz]: {', '.join(f'{f:.2f}' for f in s['bare_cantilever_hz'])}",
+             f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15} "
+             f"{'adaptive joint sliding [Hz]':>28}"]
+    for k, (a, r) in enumerate(zip(s["full_stuck_hz"], s["reduced_stuck_hz"])):
+        pre = s["preloaded_stuck_hz"][k] if k < len(s["preloaded_stuck_hz"]) else float("nan")
+        sl = sliding[k] if k < len(sliding) else float("nan")
+        lines.append(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f} {sl:>28.2f}")
+    k_T = s["k_T_adaptive_N_per_m"]
+    lines.append(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
+                 f"closed by the screws {s['closed_pairs']}; "
+                 + ("no adaptive screw" if k_T is None else f"k_T at the adaptive screw {k_T:.3g} N/m"))
+    return "\n".join(lines)

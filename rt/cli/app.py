@@ -197,23 +197,9 @@ def _cmd_config(cfg, args) -> int:
 
 
 def _cmd_modes(cfg, args) -> int:
-    from plant.modes import modes_summary
+    from plant.modes import format_summary, modes_summary
     s = modes_summary(cfg)
-    if args.json:
-        print(json.dumps(s))
-        return 0
-    print(f"bare cantilever (bending) [Hz]: {', '.join(f'{f:.2f}' for f in s['bare_cantilever_hz'])}")
-    sliding = s["sliding_joint_hz"] or []   # None: no adaptive screw
-    print(f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15} "
-          f"{'adaptive joint sliding [Hz]':>28}")
-    for k, (a, r) in enumerate(zip(s["full_stuck_hz"], s["reduced_stuck_hz"])):
-        pre = s["preloaded_stuck_hz"][k] if k < len(s["preloaded_stuck_hz"]) else float("nan")
-        sl = sliding[k] if k < len(sliding) else float("nan")
-        print(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f} {sl:>28.2f}")
-    k_T = s["k_T_adaptive_N_per_m"]
-    print(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
-          f"closed by the screws {s['closed_pairs']}; "
-          + ("no adaptive screw" if k_T is None else f"k_T at the adaptive screw {k_T:.3g} N/m"))
+    print(json.dumps(s) if args.json else format_summary(s))
     return 0
 
 
@@ -244,7 +230,8 @@ def _cmd_impulse(cfg, args) -> int:
     if args.json:
         print(json.dumps(res.to_json()))
         return 0
-    print(f"impulse test, {'no adaptive screw' if screw is None else f'F_N1 = {fn1:g} N'}, hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms")
+    print(f"impulse test, {'no adaptive screw' if screw is None else f'F_N1 = {fn1:g} N'}, "
+          f"hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms")
     print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>9}")
     for mode, f, z in zip(res.modes, res.freq_hz, res.damping_ratio):
         print(f"{mode:>4} {f:>9.2f} {100 * z:>9.3f}")
