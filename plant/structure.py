@@ -61,7 +61,7 @@ class Structure:
     bolt_F[b] its preload [N] (the adaptive screw's comes from the actuator: 0 here),
     bolt_names[b] the screw names, adaptive the index of the adaptive screw.
 
-    Without an adaptive screw (ordinary bolts only, or no interface at all: docs/plant.md 1.5)
+    Without an adaptive screw (ordinary bolts only, or no interface at all: docs/plant.md 5.3)
     adaptive is -1 and b_N1, u_rel_row are zero (F_N1 then acts on nothing, u_rel reads 0),
     F_N1_initial is 0; without an interface there are no pairs (gap_rows (0, n_dof)) and no bolts.
     The kernels see the same array shapes and types, so they run unchanged.

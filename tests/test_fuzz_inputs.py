@@ -306,7 +306,7 @@ def _node(where: tuple):
 def test_config_list_elements(lst, op, i, cfg_dir, capfd):
     """Named lists (beams, screws, points): an element dropped that others refer to, an element
     without a name, a duplicated name, an empty list. Screws are an exception: without the adaptive
-    screw, or without any, the structure is valid (ordinary bolts only; docs/plant.md 1.5)."""
+    screw, or without any, the structure is valid (ordinary bolts only; docs/plant.md 5.3)."""
     COUNT["--config"] += 1
     items = json.loads(json.dumps(DEFAULT["plant"][lst]))
     i %= len(items)

@@ -66,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     m = sub.add_parser("modes", parents=[common], help="eigenfrequencies [Hz]: bare beam, full and reduced model",
                        description="Eigenfrequencies [Hz] of the bare main beam, and of the assembly with the "
                                    "contact linearised as stuck: full FE and Craig-Bampton model; DOF counts; "
-                                   "the effective tangential stiffness k_T [N/m] at the adaptive screw.")
+                                   "the effective tangential stiffness k_T [N/m] at the adaptive screw (if the "
+                                   "structure has one; docs/plant.md 5.3).")
     m.add_argument("--json", action="store_true", help="one JSON object instead of a table")
 
     i = sub.add_parser("impulse", parents=[common], help="simulated hammer test: accelerance FRF, modal damping",

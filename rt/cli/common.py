@@ -128,7 +128,7 @@ def actuator_verb(args) -> str | None:
     """The command as the user wrote it if it needs the adaptive screw (the actuator, the closed
     loop or a time-series campaign with actuator tests), else None: ``ACTUATOR_VERBS``, ``bench
     loop``, ``rig`` without --list or --frf-files, ``diagnose`` of a folder that is not one of FRF
-    files (docs/plant.md 1.5)."""
+    files (docs/plant.md 5.3)."""
     verb = args.command
     if verb in ACTUATOR_VERBS:
         return verb

@@ -17,7 +17,7 @@ file names or parameterises the effect: the sidecar gives kind "frf", the excita
 positions, the held F_N1, the force amplitude and a description that is the same for every
 effect.
 
-A structure without an adaptive screw (ordinary bolts only, or the bare beam: docs/plant.md 1.5)
+A structure without an adaptive screw (ordinary bolts only, or the bare beam: docs/plant.md 5.3)
 has no F_N1 to hold: one test, frf_01.csv, with F_N1_N = 0 in its sidecar.
 """
 from __future__ import annotations
