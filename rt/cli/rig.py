@@ -20,7 +20,9 @@ around modes 3 and 4; the files hold the measured force and the shaker's drive a
 (shaker_interaction shows only there).
 With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
 of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
-of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars."""
+of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars; a structure
+without an adaptive screw gets one test, frf_01.csv (F_N1_N = 0). Without --frf-files the campaign
+needs the adaptive screw (its actuator tests)."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
