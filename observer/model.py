@@ -40,7 +40,7 @@ import scipy.linalg as sla
 
 from plant.model import PlantModel, build_plant, preloaded_pairs
 from plant.structure import build_structure, interface_rows
-from rt.common.config import Config
+from rt.common.config import Config, require_adaptive_screw
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
     K = sla.block_diag(*(s.K for s in st.subs))
     M = sla.block_diag(*(s.M for s in st.subs))
     normal = next(s for s in p.screws if not s.adaptive)
-    adaptive = next(s for s in p.screws if s.adaptive)
+    adaptive = require_adaptive_screw(cfg, "the observer")
     x_tied = _near(st.x_pairs, normal.x_m, itf.pitch_m)
     plant = build_plant(cfg) if plant is None else plant
     closed = st.x_pairs[preloaded_pairs(plant, cfg.tracking.F_min_N)]

@@ -7,7 +7,7 @@ import scipy.linalg as sla
 from plant.fe_beam import U, W
 from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.structure import adaptive_cone_pairs
-from rt.common.config import Config
+from rt.common.config import Config, adaptive_screw
 
 N_BARE = 6  # bending modes of the bare cantilever reported
 
@@ -60,13 +60,25 @@ def passive_resonance_hz(cfg: Config, mode: int) -> float:
     return round(float(f[mode - 1]), 1)
 
 
+def bare_beam_name(cfg: Config) -> str:
+    """The beam whose bare bending modes ``modes`` reports: the interface's lower beam, or without an
+    interface the first clamped beam."""
+    if cfg.plant.interface.enabled:
+        return cfg.plant.interface.lower
+    clamped = [c.beam for c in cfg.plant.clamps]
+    return next((b.name for b in cfg.plant.beams if b.name in clamped), cfg.plant.beams[0].name)
+
+
 def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     """Eigenfrequencies of the bare beam, the full and the Craig-Bampton model (contact stuck).
 
-    Keys: bare_cantilever_hz, full_stuck_hz, reduced_stuck_hz (all pairs stuck, modes below
-    f_max_hz), preloaded_stuck_hz (only the pairs the screws close), sliding_joint_hz (those,
-    with the adaptive screw's pairs sliding, at F_N1 = F_min: ``sliding_joint_hz``), n_dof_full,
-    n_dof_reduced, closed_pairs, k_T_adaptive_N_per_m, contact (k_n, k_t, mu).
+    Keys: bare_cantilever_hz (``bare_beam_name``), full_stuck_hz, reduced_stuck_hz (all pairs
+    stuck, modes below f_max_hz), preloaded_stuck_hz (only the pairs the screws close),
+    sliding_joint_hz (those, with the adaptive screw's pairs sliding, at F_N1 = F_min:
+    ``sliding_joint_hz``), n_dof_full, n_dof_reduced, closed_pairs, k_T_adaptive_N_per_m,
+    contact (k_n, k_t, mu). Without an adaptive screw sliding_joint_hz and k_T_adaptive_N_per_m
+    are None; without an interface contact is None too (and every list of frequencies the same
+    beam's).
     """
     full = build_plant(cfg, reduced=False)
     red = build_plant(cfg, reduced=True)
@@ -75,18 +87,36 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     n = int(np.sum(f_full < f_max_hz))
     closed = preloaded_pairs(red)
     f_pre = stuck_frequencies_hz(red, closed)
-    f_sl = sliding_joint_hz(red, cfg.tracking.F_min_N)
+    adaptive = adaptive_screw(cfg) is not None
+    f_sl = sliding_joint_hz(red, cfg.tracking.F_min_N) if adaptive else None
     itf = cfg.plant.interface
     return {
-        "bare_cantilever_hz": [round(float(f), 4) for f in bare_beam_bending_hz(full, itf.lower)],
+        "bare_cantilever_hz": [round(float(f), 4) for f in bare_beam_bending_hz(full, bare_beam_name(cfg))],
         "full_stuck_hz": [round(float(f), 4) for f in f_full[:n]],
         "reduced_stuck_hz": [round(float(f), 4) for f in f_red[:n]],
         "preloaded_stuck_hz": [round(float(f), 4) for f in f_pre[f_pre < f_max_hz]],
-        "sliding_joint_hz": [round(float(f), 4) for f in f_sl[f_sl < f_max_hz]],
+        "sliding_joint_hz": None if f_sl is None else [round(float(f), 4) for f in f_sl[f_sl < f_max_hz]],
         "n_dof_full": int(full.n),
         "n_dof_reduced": int(red.n),
         "n_pairs": int(red.n_pairs),
         "closed_pairs": [int(j) for j in np.nonzero(closed)[0]],
-        "k_T_adaptive_N_per_m": float(f"{adaptive_screw_k_T(red):.6g}"),
-        "contact": {"k_n": itf.k_n, "k_t": itf.k_t, "mu": itf.mu},
+        "k_T_adaptive_N_per_m": float(f"{adaptive_screw_k_T(red):.6g}") if adaptive else None,
+        "contact": {"k_n": itf.k_n, "k_t": itf.k_t, "mu": itf.mu} if itf.enabled else None,
     }
+
+
+def format_summary(s: dict) -> str:
+    """``modes_summary`` as the table ``frictionrt modes`` prints (frequencies [Hz])."""
+    sliding = s["sliding_joint_hz"] or []   # None: no adaptive screw
+    lines = [f"bare cantilever (bending) [Hz]: {', '.join(f'{f:.2f}' for f in s['bare_cantilever_hz'])}",
+             f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15} "
+             f"{'adaptive joint sliding [Hz]':>28}"]
+    for k, (a, r) in enumerate(zip(s["full_stuck_hz"], s["reduced_stuck_hz"])):
+        pre = s["preloaded_stuck_hz"][k] if k < len(s["preloaded_stuck_hz"]) else float("nan")
+        sl = sliding[k] if k < len(sliding) else float("nan")
+        lines.append(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f} {sl:>28.2f}")
+    k_T = s["k_T_adaptive_N_per_m"]
+    lines.append(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
+                 f"closed by the screws {s['closed_pairs']}; "
+                 + ("no adaptive screw" if k_T is None else f"k_T at the adaptive screw {k_T:.3g} N/m"))
+    return "\n".join(lines)

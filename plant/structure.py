@@ -15,7 +15,7 @@ import numpy as np
 
 from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, mesh_nodes
-from rt.common.config import Beam, Config
+from rt.common.config import Beam, Config, adaptive_screw
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,11 @@ class Structure:
     (ordinary bolt: the screw's stiffness_N_m; adaptive screw: k_stack, k_screw in series),
     bolt_F[b] its preload [N] (the adaptive screw's comes from the actuator: 0 here),
     bolt_names[b] the screw names, adaptive the index of the adaptive screw.
+
+    Without an adaptive screw (ordinary bolts only, or no interface at all: docs/plant.md 5.3)
+    adaptive is -1 and b_N1, u_rel_row are zero (F_N1 then acts on nothing, u_rel reads 0),
+    F_N1_initial is 0; without an interface there are no pairs (gap_rows (0, n_dof)) and no bolts.
+    The kernels see the same array shapes and types, so they run unchanged.
     """
     subs: tuple[Substructure, ...]
     x_pairs: np.ndarray
@@ -91,6 +96,8 @@ class Structure:
 
 def _pair_positions(cfg: Config) -> np.ndarray:
     i = cfg.plant.interface
+    if not i.enabled:
+        return np.zeros(0)
     n = int(round((i.x_end_m - i.x_start_m) / i.pitch_m))
     return i.x_start_m + i.pitch_m * np.arange(n + 1)
 
@@ -117,7 +124,7 @@ def build_structure(cfg: Config) -> Structure:
     subs: list[Substructure] = []
     offset = 0
     for b in p.beams:
-        in_itf = b.name in (itf.lower, itf.upper)
+        in_itf = itf.enabled and b.name in (itf.lower, itf.upper)
         full_nodes = list(x_pairs) + [s.x_m for s in screws] if in_itf else []
         w_nodes = [pt.x_m for pt in p.points if pt.beam == b.name]
         clamp_x = [c.x_m for c in p.clamps if c.beam == b.name]
@@ -129,7 +136,7 @@ def build_structure(cfg: Config) -> Structure:
 
         add_lumped(K, M, node_of, [(pt.x_m, pt.mass_kg) for pt in p.points if pt.beam == b.name]
                    + [(s.x_m, s.mass_kg + (cfg.actuator.moving_mass_kg if s.adaptive else 0.0))
-                      for s in screws if b.name == itf.upper],
+                      for s in screws if in_itf and b.name == itf.upper],
                    [(c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name])
         fixed = {DOFS_PER_NODE * node_of(c.x_m) + d for c in p.clamps if c.beam == b.name
                  for d in ((U, W) if c.rot_compliance_rad_per_Nm > 0 else (U, W, THETA))}
@@ -166,17 +173,18 @@ def build_structure(cfg: Config) -> Structure:
     a = cfg.actuator
     k_adaptive = a.k_stack * a.k_screw / (a.k_stack + a.k_screw)
     bolt_rows = np.array([pressure_weights(x_pairs, s.x_m, screw_cone_radius(cfg, s)) @ gap_rows[0::2]
-                          for s in screws])
-    bolt_k = np.array([k_adaptive if s.adaptive else s.stiffness_N_m for s in screws])
-    bolt_F = np.array([0.0 if s.adaptive else s.F_N for s in screws])
+                          for s in screws]).reshape(len(screws), n)
+    bolt_k = np.array([k_adaptive if s.adaptive else s.stiffness_N_m for s in screws], dtype=float)
+    bolt_F = np.array([0.0 if s.adaptive else s.F_N for s in screws], dtype=float)
     # a bolt pulls the upper beam down and the lower beam up at the pairs of its cone: nodal
     # forces -F times its (weighted) normal-gap row
-    adaptive = next(s for s in screws if s.adaptive)
-    i_a = screws.index(adaptive)
-    b_N1 = -bolt_rows[i_a]
+    adaptive = adaptive_screw(cfg)
+    i_a = -1 if adaptive is None else screws.index(adaptive)
+    b_N1 = np.zeros(n) if adaptive is None else -bolt_rows[i_a]
+    u_rel_row = np.zeros(n) if adaptive is None else tangential_row(adaptive.x_m)
     f_const = -(bolt_F @ bolt_rows)
     return Structure(tuple(subs), x_pairs, gap_rows, tuple(pt.name for pt in p.points), point_rows,
-                     tangential_row(adaptive.x_m), b_exc, b_N1, f_const, adaptive.F_N,
+                     u_rel_row, b_exc, b_N1, f_const, 0.0 if adaptive is None else adaptive.F_N,
                      np.full(n_p, itf.k_n), np.full(n_p, itf.k_t), np.full(n_p, itf.mu),
                      bolt_rows, bolt_k, bolt_F, tuple(s.name for s in screws), i_a)
 
@@ -191,8 +199,11 @@ def screw_cone_radius(cfg: Config, screw) -> float:
 
 
 def adaptive_cone_pairs(cfg: Config, x_pairs: np.ndarray) -> np.ndarray:
-    """Boolean mask of the pairs inside the adaptive screw's pressure cone (plant/bolts.py)."""
-    screw = next(s for s in cfg.plant.screws if s.adaptive)
+    """Boolean mask of the pairs inside the adaptive screw's pressure cone (plant/bolts.py); all
+    False without an adaptive screw."""
+    screw = adaptive_screw(cfg)
+    if screw is None:
+        return np.zeros(len(x_pairs), bool)
     return pressure_weights(x_pairs, screw.x_m, screw_cone_radius(cfg, screw)) > 0
 
 

@@ -132,6 +132,7 @@ SIDE_CASES = {
     "kind": (lambda m: m.update(kind="impulse"), "kind is 'impulse'; give one of stepsine, frf"),
     "F_N1 NaN": (lambda m: m.update(F_N1_N=float("nan")), "F_N1_N is nan, not a finite number"),
     "F_N1 string": (lambda m: m.update(F_N1_N="100"), "F_N1_N is '100'"),
+    "F_N1 negative": (lambda m: m.update(F_N1_N=-1.0), "F_N1_N is -1.0; it must be >= 0 (0: a structure without"),
     "unknown sensor": (lambda m: m["sensor_positions_m"].update(a_x=0.1), "unknown sensor 'a_x'"),
     "sensor not placed": (lambda m: m["sensor_positions_m"].pop("a_frf_meas"),
                           "sensor a_frf_meas has no position in the sidecar"),

@@ -24,9 +24,9 @@ from rt.cli import diagnose as cli_diagnose
 from rt.cli import rig as cli_rig
 from rt.cli.log import add_parsers as add_log_parsers
 from rt.cli.log import cmd_inspect, cmd_recover
-from rt.cli.common import (Parser, add_common, add_force, add_out, add_realtime, fail, json_errors, realtime_notes,
-                           realtime_sets, refuse_existing, unpaced_realtime)
-from rt.common.config import ConfigError, dumps, load, to_dict
+from rt.cli.common import (Parser, actuator_verb, add_common, add_force, add_out, add_realtime, fail, json_errors,
+                           realtime_notes, realtime_sets, refuse_existing, unpaced_realtime)
+from rt.common.config import ConfigError, adaptive_screw, dumps, load, require_adaptive_screw, to_dict
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
 examples:
@@ -66,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     m = sub.add_parser("modes", parents=[common], help="eigenfrequencies [Hz]: bare beam, full and reduced model",
                        description="Eigenfrequencies [Hz] of the bare main beam, and of the assembly with the "
                                    "contact linearised as stuck: full FE and Craig-Bampton model; DOF counts; "
-                                   "the effective tangential stiffness k_T [N/m] at the adaptive screw.")
+                                   "the effective tangential stiffness k_T [N/m] at the adaptive screw (if the "
+                                   "structure has one; docs/plant.md 5.3).")
     m.add_argument("--json", action="store_true", help="one JSON object instead of a table")
 
     i = sub.add_parser("impulse", parents=[common], help="simulated hammer test: accelerance FRF, modal damping",
@@ -75,7 +76,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "[(m/s^2)/N] at the FRF point; natural frequencies [Hz] and damping "
                                    "ratios [-] of bending modes 2-5.")
     i.add_argument("--fn1", type=float, default=None, metavar="N",
-                   help="adaptive screw force F_N1 [N] (default: plant.screws.adaptive.F_N)")
+                   help="adaptive screw force F_N1 [N] (default: plant.screws.adaptive.F_N); refused for a "
+                        "structure without an adaptive screw")
     i.add_argument("--plot", metavar="FILE", help="write the FRF plot (PNG) here")
     add_force(i)
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
@@ -196,29 +198,22 @@ def _cmd_config(cfg, args) -> int:
 
 
 def _cmd_modes(cfg, args) -> int:
-    from plant.modes import modes_summary
+    from plant.modes import format_summary, modes_summary
     s = modes_summary(cfg)
-    if args.json:
-        print(json.dumps(s))
-        return 0
-    print(f"bare cantilever (bending) [Hz]: {', '.join(f'{f:.2f}' for f in s['bare_cantilever_hz'])}")
-    print(f"{'mode':>4} {'full stuck [Hz]':>16} {'reduced [Hz]':>13} {'error [%]':>10} {'preloaded [Hz]':>15} "
-          f"{'adaptive joint sliding [Hz]':>28}")
-    for k, (a, r) in enumerate(zip(s["full_stuck_hz"], s["reduced_stuck_hz"])):
-        pre = s["preloaded_stuck_hz"][k] if k < len(s["preloaded_stuck_hz"]) else float("nan")
-        sl = s["sliding_joint_hz"][k] if k < len(s["sliding_joint_hz"]) else float("nan")
-        print(f"{k + 1:>4} {a:>16.2f} {r:>13.2f} {100 * (r - a) / a:>10.3f} {pre:>15.2f} {sl:>28.2f}")
-    print(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
-          f"closed by the screws {s['closed_pairs']}; k_T at the adaptive screw {s['k_T_adaptive_N_per_m']:.3g} N/m")
+    print(json.dumps(s) if args.json else format_summary(s))
     return 0
 
 
 def _cmd_impulse(cfg, args) -> int:
     from plant.impulse import impulse_test, plot_frf
     from plant.model import build_plant
-    fn1 = next(s.F_N for s in cfg.plant.screws if s.adaptive) if args.fn1 is None else args.fn1
+    screw = adaptive_screw(cfg)
+    if screw is None and args.fn1 is not None:
+        return fail(f"--fn1 {args.fn1:g} N: this structure has no adaptive screw (no plant.screws entry with "
+                    "adaptive = true) to set; drop --fn1")
+    fn1 = (0.0 if screw is None else screw.F_N) if args.fn1 is None else args.fn1
     t = cfg.tracking
-    if not (t.F_min_N <= fn1 <= t.F_max_N):
+    if screw is not None and not (t.F_min_N <= fn1 <= t.F_max_N):
         return fail(f"--fn1 {fn1:g} N lies outside [F_min, F_max] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
     if args.plot:
         out = Path(args.plot)
@@ -236,7 +231,8 @@ def _cmd_impulse(cfg, args) -> int:
     if args.json:
         print(json.dumps(res.to_json()))
         return 0
-    print(f"impulse test, F_N1 = {fn1:g} N, hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms")
+    print(f"impulse test, {'no adaptive screw' if screw is None else f'F_N1 = {fn1:g} N'}, "
+          f"hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms")
     print(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>9}")
     for mode, f, z in zip(res.modes, res.freq_hz, res.damping_ratio):
         print(f"{mode:>4} {f:>9.2f} {100 * z:>9.3f}")
@@ -257,6 +253,9 @@ def _cmd_bench(cfg, args) -> int:
         return fail(f"--steps {args.steps}: need at least 100 steps for percentiles")
     if any(p < 2 for p in args.pairs):
         return fail(f"--pairs {args.pairs}: every pair count must be >= 2")
+    if not cfg.plant.interface.enabled:
+        return fail("bench plant: times the contact step at several pair counts; this structure has no interface "
+                    "(plant.interface.enabled = false)")
     res = bench_plant(cfg, args.pairs, args.steps, progress=not args.json)
     print(json.dumps(res) if args.json else format_table(res))
     return 0
@@ -478,6 +477,8 @@ def _main(args) -> int:
     try:
         args.sets = [*args.sets, *realtime_sets(args)]  # --rt-priority, --cpu (replay: onto the stored configuration)
         cfg = load(args.config, args.sets)
+        if verb := actuator_verb(args):
+            require_adaptive_screw(cfg, verb)   # one line instead of a failure deep in the loop's design
     except ConfigError as exc:
         return fail(str(exc))
     try:

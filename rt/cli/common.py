@@ -118,3 +118,26 @@ def realtime_notes(rt: dict | None) -> None:
     """One stderr line per piece of the real-time set-up the run asked for and did not get."""
     for note in (rt or {}).get("notes", ()):
         print(f"frictionrt: note: {note}", file=sys.stderr)
+
+
+ACTUATOR_VERBS = ("simulate", "compare", "budget", "observer", "replay", "frf", "tune", "reproduce")
+"""Verbs that drive the adaptive screw's actuator (or design for it) whatever their options."""
+
+
+def actuator_verb(args) -> str | None:
+    """The command as the user wrote it if it needs the adaptive screw (the actuator, the closed
+    loop or a time-series campaign with actuator tests), else None: ``ACTUATOR_VERBS``, ``bench
+    loop``, ``rig`` without --list or --frf-files, ``diagnose`` of a folder that is not one of FRF
+    files (docs/plant.md 5.3)."""
+    verb = args.command
+    if verb in ACTUATOR_VERBS:
+        return verb
+    if verb == "bench" and args.target == "loop":
+        return "bench loop"
+    if verb == "rig" and not (args.list or args.frf_files):
+        return "rig (the time-series campaign; --frf-files writes FRF files without it)"
+    if verb == "diagnose" and Path(args.folder).is_dir():   # a missing folder: diagnose's own message
+        from rt.discrepancy.diagnose_frf import is_frf_folder
+        if not is_frf_folder(args.folder):
+            return "diagnose of a time-series campaign"
+    return None

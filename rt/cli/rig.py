@@ -21,10 +21,12 @@ around modes 3 and 4; the files hold the measured force and the shaker's drive a
 (shaker_interaction shows only there).
 With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
 of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
-of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars.
+of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars; a structure
+without an adaptive screw gets one test, frf_01.csv (F_N1_N = 0). Without --frf-files the campaign
+needs the adaptive screw (its actuator tests).
 With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from stepped-sine up-sweeps of
-the nonlinear plant (adaptive screw held at 100 N; lines around the stuck structure's modes in
-50-1200 Hz), where micro-slip softens the joint's modes as the level rises (level_NN.csv/.uff).
+the nonlinear plant (the adaptive screw, if any, held at 100 N; lines around the stuck structure's
+modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff).
 --model-form: the truth is of another model form than the nominal (half the element length and
 contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
 so that no calibration of the nominal model fits it exactly, as with a real structure."""

@@ -102,7 +102,12 @@ class Point:
 
 @dataclass(frozen=True)
 class Interface:
-    """Node-to-node contact between the top of `lower` and the bottom of `upper` (SPEC 2)."""
+    """Node-to-node contact between the top of `lower` and the bottom of `upper` (SPEC 2).
+
+    ``enabled = false``: the structure has no interface, no contact pairs and no screws (the bare
+    beam, configs/bare_beam.toml); the other keys of the table are then not used."""
+    enabled: bool = param(True, doc="false: no interface, no contact pairs and no screws (plant.screws "
+                                    "must be empty), e.g. a bare beam; the other interface keys are unused")
     lower: str = "main"
     upper: str = "damper"
     x_start_m: float = param(0.465, "m", doc="first contact pair")
@@ -679,6 +684,45 @@ def validate(cfg: Config) -> None:
         if getattr(p, key) not in points:
             raise ConfigError(f"plant.{key} = {getattr(p, key)!r}: no such point; points: {', '.join(points)}")
 
+    if p.interface.enabled:
+        _check_interface(p, beams, screws)
+    elif p.screws:
+        raise ConfigError(f"plant.screws: {len(p.screws)} screw(s) ({', '.join(screws)}) but "
+                          "plant.interface.enabled = false: a screw clamps the interface; remove the screws "
+                          "(plant.screws = []) or enable the interface")
+    _check_adaptive(p, t)
+
+
+def adaptive_screw(cfg: Config) -> Screw | None:
+    """The adaptive screw (the piezo stack's F_N1) of the structure, or None if it has none."""
+    return next((s for s in cfg.plant.screws if s.adaptive), None)
+
+
+def require_adaptive_screw(cfg: Config, what: str) -> Screw:
+    """The adaptive screw; ConfigError naming ``what`` (a command or function) if the structure has none."""
+    screw = adaptive_screw(cfg)
+    if screw is None:
+        raise ConfigError(f"{what} needs an adaptive screw (a plant.screws entry with adaptive = true) and this "
+                          "structure has none; without one: config, modes, impulse, rig --frf-files, diagnose "
+                          "on FRF files, bench plant, validate, inspect, recover")
+    return screw
+
+
+def _check_adaptive(p: Plant, t: Tracking) -> None:
+    """Zero or one adaptive screw; its initial F_N1 within [F_min, F_max]."""
+    adaptive = [s for s in p.screws if s.adaptive]
+    if len(adaptive) > 1:
+        raise ConfigError(f"plant.screws: at most one screw may be adaptive (F_N1, the piezo stack), found "
+                          f"{len(adaptive)} ({', '.join(s.name for s in adaptive)}); set adaptive = false on "
+                          "all but one (an ordinary bolt keeps its F_N as preload)")
+    for s in adaptive:
+        if not (t.F_min_N <= s.F_N <= t.F_max_N):
+            raise ConfigError(f"plant.screws[{_shown(s.name)}].F_N = {s.F_N:g} N lies outside "
+                              f"[tracking.F_min_N, tracking.F_max_N] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
+
+
+def _check_interface(p: Plant, beams: dict, screws: dict) -> None:
+    """The interface joins two touching beams over whole pitches; the screws lie on it."""
     i = p.interface
     for role in ("lower", "upper"):
         if getattr(i, role) not in beams:
@@ -704,18 +748,11 @@ def validate(cfg: Config) -> None:
         raise ConfigError(f"plant.beams[{_shown(up_b.name)}].z0_m = {up_b.z0_m:g} m: the bottom of {up_b.name!r} "
                           f"must touch the top of {lo_b.name!r} (set z0_m = "
                           f"{lo_b.z0_m + (lo_b.height_m + up_b.height_m) / 2:g} m)")
-    adaptive = [s for s in p.screws if s.adaptive]
-    if len(adaptive) != 1:
-        raise ConfigError(f"plant.screws: exactly one screw must be adaptive (F_N1), found {len(adaptive)}")
     for s in screws.values():
         if not (i.x_start_m - 1e-12 <= s.x_m <= i.x_end_m + 1e-12):
             raise ConfigError(f"plant.screws[{_shown(s.name)}].x_m = {s.x_m:g} m lies outside the damper interface "
                               f"[{i.x_start_m:g}, {i.x_end_m:g}] m")
-    fn1 = adaptive[0].F_N
-    if not (t.F_min_N <= fn1 <= t.F_max_N):
-        raise ConfigError(f"plant.screws[{_shown(adaptive[0].name)}].F_N = {fn1:g} N lies outside "
-                          f"[tracking.F_min_N, tracking.F_max_N] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
-    if cfg.plant.element_length_m > i.pitch_m + 1e-12:
+    if p.element_length_m > i.pitch_m + 1e-12:
         raise ConfigError(f"plant.element_length_m = {p.element_length_m:g} m must not exceed "
                           f"plant.interface.pitch_m = {i.pitch_m:g} m")
 
@@ -740,13 +777,17 @@ def _comment(meta) -> str:
 
 
 def _emit(obj, path: str, lines: list[str], header: str | None) -> None:
+    # an empty array of tables (no screws) is written as `key = []`: omitted, loading would restore the defaults
     scalars = [f for f in dataclasses.fields(obj)
-               if not dataclasses.is_dataclass(getattr(obj, f.name)) and not isinstance(getattr(obj, f.name), tuple)]
+               if not dataclasses.is_dataclass(getattr(obj, f.name))
+               and not (isinstance(getattr(obj, f.name), tuple) and getattr(obj, f.name))]
     if header:
         lines.append("")
         lines.append(header)
     for f in scalars:
-        lines.append(f"{f.name} = {_toml_value(getattr(obj, f.name))}{_comment(f.metadata)}")
+        v = getattr(obj, f.name)
+        text = "[]" if v == () else _toml_value(v)
+        lines.append(f"{f.name} = {text}{_comment(f.metadata)}")
     for f in dataclasses.fields(obj):
         v = getattr(obj, f.name)
         key = _join(path, f.name)

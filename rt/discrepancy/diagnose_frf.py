@@ -55,7 +55,7 @@ from rt.discrepancy.diagnose_structure import (
     jacobian_column,
     struct_cfg,
 )
-from rt.discrepancy.effects import Effect, implemented
+from rt.discrepancy.effects import EFFECTS, Effect, implemented
 from rt.log.frf_files import FRFTest, frf_files, load_frf_folder
 from plant.linear_frf import point_accelerances
 from rt.discrepancy.chain import quiet
@@ -210,20 +210,26 @@ def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=Non
         return _diagnose_frf(folder, nominal, progress or (lambda msg: None))
 
 
-def _candidates(nominal: Config) -> list[Effect]:
+def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
     """The implemented effects linear FRFs can show (``Effect.visible_in_frf_files``: structural, and
     changing the stuck structure) that the structure has a place for (a clamp, an adaptive screw,
-    the accelerometer points): those that apply to ``nominal`` at their default strength."""
-    out = []
-    for e in implemented():
+    the accelerometer points): those that apply to ``nominal`` at their default strength; and
+    {name: why not} for every other effect of the library."""
+    out, why = [], {}
+    for e in EFFECTS.values():
+        if not e.implemented:
+            why[e.name] = "not implemented yet"
+            continue
         if not e.visible_in_frf_files():
+            why[e.name] = "linear stuck-contact FRFs cannot show it (it acts through slip or the actuator)"
             continue
         try:
             e.apply(nominal, e.parameter.default)
-        except (ValueError, KeyError, StopIteration):
+        except (ValueError, KeyError, StopIteration) as exc:
+            why[e.name] = f"does not apply to this structure: {exc}"
             continue
         out.append(e)
-    return out
+    return out, why
 
 
 def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
@@ -238,7 +244,7 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     ch0, H0 = residuals(nominal, data)
     say("fit calibration only")
     fits = {None: fit(nominal, data, None)}
-    candidates = _candidates(nominal)
+    candidates, why_not = _candidates(nominal)
     for eff in candidates:
         say(f"fit {eff.name}")
         fits[eff] = fit(nominal, data, eff, calibrated=fits[None])
@@ -256,6 +262,6 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
     out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
     out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
-    return out | {"input": "frf_files",
+    return out | {"input": "frf_files", "not_tried_reasons": why_not,
                   "_plots": {"frf": [(d.name, d.F_N1, d.freq, d.H, h0, h1)
                                      for d, h0, h1 in zip(data, H0, final["fit"].H)], "act": []}}

@@ -109,10 +109,16 @@ def report_md(res: dict, pngs: list[str]) -> str:
     lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
               f"Not tried (not implemented yet, or not seen by this input: no step-sine tests for "
-              f"shaker_interaction, FRF files for slip and actuator effects): {', '.join(res['not_tried'])}.", "",
+              f"shaker_interaction, FRF files for slip and actuator effects): {_not_tried(res)}.", "",
               "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"
+
+
+def _not_tried(res: dict) -> str:
+    """The effects not tried, each with its reason where the result gives one (FRF-file input)."""
+    why = res.get("not_tried_reasons", {})
+    return ", ".join(f"{e} ({why[e]})" if e in why else e for e in res["not_tried"])
 
 
 def write_report(res: dict, out: str | os.PathLike) -> Path:

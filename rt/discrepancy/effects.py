@@ -18,7 +18,7 @@ import functools
 from collections.abc import Callable
 from typing import NamedTuple
 
-from rt.common.config import Config, with_sets
+from rt.common.config import Config, adaptive_screw, with_sets
 
 
 class Parameter(NamedTuple):
@@ -89,8 +89,11 @@ def _clamp_compliance(cfg: Config, c: float) -> Config:
 
 
 def _moving_mass(cfg: Config, m: float) -> Config:
-    names = [s.name for s in cfg.plant.screws if s.adaptive]
-    return with_sets(cfg, [f"plant.screws.{n}.mass_kg={m!r}" for n in names])
+    screw = adaptive_screw(cfg)
+    if screw is None:
+        raise ValueError("moving_mass is a mass on the adaptive screw and this structure has none "
+                         "(no plant.screws entry with adaptive = true)")
+    return with_sets(cfg, [f"plant.screws.{screw.name}.mass_kg={m!r}"])
 
 
 def _set_key(key: str, cfg: Config, value: float) -> Config:

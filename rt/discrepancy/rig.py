@@ -39,7 +39,7 @@ import numpy as np
 
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from rt.common.config import Config, with_sets
+from rt.common.config import Config, require_adaptive_screw, with_sets
 from rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
                                   measure_impulse, scaled)
 from rt.discrepancy.effects import get
@@ -93,7 +93,7 @@ def ramp_command(ramp_s: float, dt: float, V_hi: float = V_RAMP_V, hold_s: float
 def test_record(cfg: Config, kind: str, duration_s: float, amplitude_n: float | None, description: str) -> dict:
     """The ``test`` metadata record of a rig file (docs/data-format.md)."""
     pts = {p.name: p.x_m for p in cfg.plant.points}
-    x_screw = next(s.x_m for s in cfg.plant.screws if s.adaptive)
+    x_screw = require_adaptive_screw(cfg, "a time-series campaign (impulse and actuator tests)").x_m
     rec = {"kind": kind, "excitation_x_m": repr(pts[cfg.plant.excitation_point]),
            "sensor_positions_m": json.dumps({"a_tip_meas": pts["tip"], "a_frf_meas": pts[cfg.plant.frf_point],
                                              "F_strain": x_screw, "F_cell": x_screw}),

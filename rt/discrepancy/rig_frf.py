@@ -16,6 +16,9 @@ it fills the deepest antiresonances). The tests are written alternately as CSV a
 file names or parameterises the effect: the sidecar gives kind "frf", the excitation and sensor
 positions, the held F_N1, the force amplitude and a description that is the same for every
 effect.
+
+A structure without an adaptive screw (ordinary bolts only, or the bare beam: docs/plant.md 5.3)
+has no F_N1 to hold: one test, frf_01.csv, with F_N1_N = 0 in its sidecar.
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from plant.model import build_plant
-from rt.common.config import Config
+from rt.common.config import Config, adaptive_screw
 from rt.discrepancy.effects import get
 from rt.log.data_format import ACCELEROMETER_POINTS
 from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
@@ -66,19 +69,21 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
                          "at several force levels (--levels) or a time-series campaign (rig without --frf-files)")
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng, other_form)
+    held = adaptive_screw(true) is not None
     names = []
     with threadpool_limits(1), new_folder(out_dir) as tmp:
         model = build_plant(true)
-        for j, level in enumerate(levels_n):
-            F_N1 = round(level * (1.0 + HOLD_REL * rng.standard_normal()), 2)
+        for j, level in enumerate(levels_n if held else (0.0,)):
+            F_N1 = round(level * (1.0 + HOLD_REL * rng.standard_normal()), 2) if held else 0.0
             H = point_accelerances(model, sensor_points(true), F_N1, FREQ_HZ)
             for s, h in H.items():
                 z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
                 H[s] = h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w
             name = f"frf_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
+            held_text = f"adaptive screw held at about {level:g} N by the stack" if held else "no adaptive screw"
             test = FRFTest(Path(name).stem, FREQ_HZ, H, None, None, frf_meta(
-                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {FORCE_N:g} N, adaptive "
-                f"screw held at about {level:g} N by the stack"))
+                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {FORCE_N:g} N, "
+                + held_text))
             (write_frf_uff if j % 2 else write_frf_csv)(tmp / name, test)
             names.append(name)
     return [Path(out_dir) / n for n in names]

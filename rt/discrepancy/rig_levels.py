@@ -4,7 +4,7 @@ micro-slip softens and damps its modes as the level rises.
 
 Per force amplitude F [N] (``--levels``; default ``LEVELS_N``) one stepped-sine up-sweep of the
 nonlinear plant (plant.simulate.run: Newmark with the friction contact and the bolts, the adaptive
-screw held at F_N1 by the stack, chain.stack_force) under the ideal force F cos(w t_k) at the
+screw, if the structure has one, held at F_N1 by the stack, chain.stack_force) under the ideal force F cos(w t_k) at the
 excitation point, each line from the previous line's final state and force phase. Per line (``settle_line``):
 blocks of whole periods (rt.experiments.stepsine.Settle: >= 10 periods and >= 20 ms; ``SETTLE``
 gives up after 4 s) until the first harmonic of a_frf is steady (rt.experiments.stepsine.steady,
@@ -37,7 +37,7 @@ from threadpoolctl import threadpool_limits
 
 from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz
 from plant.simulate import run
-from rt.common.config import Config
+from rt.common.config import Config, adaptive_screw
 from rt.discrepancy.chain import hold_voltage, stack_force
 from rt.discrepancy.effects import get
 from rt.discrepancy.rig import new_folder, true_structure
@@ -124,7 +124,7 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
     returns the data file names. ``progress(msg)`` is told of each level."""
     with threadpool_limits(1):
         model = build_plant(true)
-        F_N1 = stack_force(true, hold_voltage(true, F_N1_N))
+        F_N1 = stack_force(true, hold_voltage(true, F_N1_N)) if adaptive_screw(true) is not None else 0.0
         lines = level_lines(model, F_N1)
     names = []
     for j, amp in enumerate(levels_n):
@@ -135,9 +135,10 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
         for s, h in sw.H.items():
             z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
             H[s] = (h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w)[sw.settled]
+        held = f"adaptive screw held at about {F_N1_N:g} N by the stack" if F_N1 else "no adaptive screw"
         meta = frf_meta(true, round(F_N1, 2), f"stepped-sine up-sweep, force amplitude held at {amp:g} N at the "
-                        f"excitation point, adaptive screw held at about {F_N1_N:g} N by the stack; lines that did "
-                        f"not settle within {SETTLE.max_s:g} s left out") | {"amplitude_n": float(amp)}
+                        f"excitation point, {held}; lines that did not settle within {SETTLE.max_s:g} s left "
+                        "out") | {"amplitude_n": float(amp)}
         name = f"level_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
         (write_frf_uff if j % 2 else write_frf_csv)(folder / name, FRFTest(
             Path(name).stem, sw.freq_hz[sw.settled], H, None, None, meta))

@@ -28,6 +28,7 @@ import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
+from rt.common.config import require_adaptive_screw
 from rt.log.mcap_log import (MAX_TICK, Topic, check_framing, chunk_messages, iter_messages, file_topics,
                          parse_schema, payload_rows, tick_time_ns, ticks_of_times)
 from rt.log.registry import SIGNALS, entry_of, field_type, lower_rule, ros2_field
@@ -127,7 +128,7 @@ def run_test_record(loop, freq_hz: float, amp_n: float, duration_s: float) -> di
     step-sine of one frequency, excitation point, sensor positions, law and gains."""
     cfg = loop.cfg
     x = {p.name: p.x_m for p in cfg.plant.points}
-    screw = next(s for s in cfg.plant.screws if s.adaptive)
+    screw = require_adaptive_screw(cfg, "a run's test record")
     pos = {s: x[p] for s, p in ACCELEROMETER_POINTS.items()} | {"F_strain": screw.x_m, "F_cell": screw.x_m}
     return {"kind": "step-sine", "excitation_x_m": repr(float(x[cfg.plant.excitation_point])),
             "sensor_positions_m": json.dumps(pos), "law": loop.law, "gains": json.dumps(law_gains(loop)),

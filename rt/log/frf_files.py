@@ -68,11 +68,15 @@ def sidecar_path(path: str | os.PathLike) -> Path:
 
 # --- checks (problem + fix, without the file name: the callers add it) ---------------------------
 
-def _finite(x, what: str, positive: bool = False) -> float:
+def _finite(x, what: str, positive: bool = False, non_negative: str = "") -> float:
+    """x as a float; ValueError if not finite, not > 0 (``positive``) or below 0 (``non_negative``:
+    what 0 means, for the message)."""
     if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
         raise ValueError(f"{what} is {x!r}, not a finite number; give it in SI units ({FIX_DOC})")
     if positive and x <= 0:
         raise ValueError(f"{what} is {x!r}; it must be > 0")
+    if non_negative and x < 0:
+        raise ValueError(f"{what} is {x!r}; it must be >= 0 ({non_negative})")
     return float(x)
 
 
@@ -89,7 +93,7 @@ def check_meta(meta) -> dict:
     if meta["kind"] not in KINDS:
         raise ValueError(f"sidecar kind is {meta['kind']!r}; give one of {', '.join(KINDS)}")
     _finite(meta["excitation_x_m"], "sidecar excitation_x_m")
-    _finite(meta["F_N1_N"], "sidecar F_N1_N", positive=True)
+    _finite(meta["F_N1_N"], "sidecar F_N1_N", non_negative="0: a structure without an adaptive screw")
     if meta["amplitude_n"] is not None:
         _finite(meta["amplitude_n"], "sidecar amplitude_n", positive=True)
     if not isinstance(meta["description"], str):

@@ -21,7 +21,7 @@ from plant.sensors import SENSOR_OUTPUTS, SensorParams, build_sensors
 from plant.sensors import initial_state as sensors_initial_state
 from plant.sensors import output_index as sensor_output_index
 from plant.shaker import ShakerParams, build_shaker, check_shaker
-from rt.common.config import Config
+from rt.common.config import Config, require_adaptive_screw
 from rt.common.noise import new_rng
 from rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
 from rt.loop.supervisor import initial_state as supervisor_initial_state
@@ -110,7 +110,8 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
     designs already made for other loops of the same study (``Designs``; None: made here).
 
     Raises ValueError (from the design) if the force-tracking loop would be unstable, or for an
-    unknown estimator."""
+    unknown estimator, or ConfigError if the structure has no adaptive screw."""
+    require_adaptive_screw(cfg, "the closed loop (rt.loop.build_loop)")
     law = cfg.tracking.law if law is None else law
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator {estimator!r}: expected one of {', '.join(ESTIMATORS)}")
