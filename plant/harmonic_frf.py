@@ -1,44 +1,57 @@
-"""The amplitude-dependent FRF of the plant: single-harmonic balance of its friction joints.
+"""The amplitude-dependent FRF of the plant: harmonic balance of its friction joints (issue 18).
 
-At one excitation force amplitude F [N] (F_exc = Re(F e^{i Omega t}) at the excitation point) the
+At one excitation force amplitude F [N] (F_exc = F cos(Omega t) at the excitation point) the
 first harmonic of the periodic response of the preloaded plant, in its modal coordinates q
-(Craig-Bampton reduced, mass-normalised, plant.model), with the contact's normal direction held
-at the preloaded state (assumptions below):
+(Craig-Bampton reduced, mass-normalised, plant.model). The linear part is the stuck model of
+plant.linear_frf, (K_s - Omega^2 I + i Omega C) q^ = b F + G^T lambda^ (k_n, k_t and the
+interface dashpots at the pairs the screws close; bolts inside the modes), and the pair forces
+enter as their deviation from that linearisation about the static state under the screws,
 
-    (K_s - Omega^2 I + i Omega C) q^ + G_t^T (k_eq(|g^|) - k_t) g^ = b F,   g^ = G_t q^     (1)
+    dlambda = lambda(g) - lambda(g0) - D0 (g - g0),   D0 = diag(-k_n, -k_t) at the closed pairs,
 
-K_s, C the stuck model of plant.linear_frf (k_n, k_t and the interface dashpots at the pairs the
-screws close; bolts inside the modes), G_t the tangential gap rows of those pairs, g^ their first
-harmonics [m], k_eq(a) the pair's describing function (plant.describing: Jenkins element, or the
-plant's Iwan element when plant.interface.iwan_spread > 0) with the slip force q_j = mu f_n,j of
-the pair's static normal force f_n,j = k_n max(0, -g_n,j) under the screws. Condensed onto the
-closed pairs with the stuck model's receptances (one eigen decomposition of its first-order form,
-as plant.linear_frf.modal_accelerance: H(Omega) = X diag(1 / (i Omega - lambda)) Y):
+condensed onto the pair gaps g = G q by the stuck model's receptances (one eigen decomposition
+of its first-order form, as plant.linear_frf.modal_accelerance: H(h Omega) = X diag(1 / (i h Omega
+- lambda)) Y). Two methods:
 
-    r(g^) = g^ + H_tt (dk(|g^|) g^) - H_tF F = 0,     dk = k_eq - k_t                     (2)
-    A_s = -Omega^2 (H_sF F - H_st dk g^) / F        accelerance at sensor s [(m/s^2)/N]
+"df", describing functions, normal contact linear: the closed pairs' tangential forces by the
+Jenkins / Iwan element's describing function k_eq(a) (plant.describing; Krack & Gross 2019) with
+the slip force mu f_n,j at the pair's static normal force f_n,j = k_n max(0, -g_n,j):
 
-solved per line by Newton on (Re g^, Im g^) with the exact Jacobian of dk (plant.describing) and
-a backtracking line search, converged when |r|_inf <= tol |g^|_inf. With every pair stuck
-(k_t |g^_j| <= mu f_n,j) dk = 0 and A_s is plant.linear_frf's accelerance exactly.
+    r(g^_t) = g^_t + H_tt ((k_eq(|g^_t|) - k_t) g^_t) - H_tF F = 0                         (D)
 
-Lines are solved in the order given, each from the previous line's solution (a step-sine in that
-direction); the softening joint makes the response multi-valued near a resonance (the jump of
-the step-sine going up or down). ``harmonic_frf`` also solves each line from the stuck and from
-the sliding linear solution (tangential springs of the closed pairs removed) and counts the
-distinct solutions (``n_solutions`` > 1: the multi-valued region; the reported one is the
-continued one). A line none of whose starts converges has converged False and NaN values
-(``HarmonicFRF.check`` raises naming them).
+Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq. 1-15 ms a line.
 
-Assumptions (what the time-domain plant does that this does not):
-- the normal direction is linear about the preload (closed pairs stay closed, open ones open;
-  k_n linear), and the slip limit is mu f_n at the static normal force: the plant's mu f_n(t)
-  follows the normal force's vibration;
-- one harmonic: the higher harmonics of the friction forces are dropped (the response's THD);
-- the mean (static) state is the preloaded one (the static tangential forces of the default
-  structures are zero, so the shaken-down loops are symmetric);
-- Coulomb friction at mu: Stribeck friction (plant.interface.static_excess > 0) is refused.
-Validation against the nonlinear step-sine (benchmarks/harmonic_frf.py): docs/plant.md 10.
+"aft", alternating frequency-time with harmonics 0..H of every pair's normal and tangential gap
+(plant.aft): the plant's own pair law (penalty contact that opens and closes, slip limit
+mu f_n(t) following the normal force, Jenkins or Iwan) marched through a period of samples:
+
+    Z = H(h Omega) dLambda_h(Z) + [h = 1] H_gF F,   h = 0 .. H                               (A)
+
+Newton with the marched law's exact derivatives. The mean tangential gaps are held at their
+static values (a slipping pair's mean position is indeterminate in a periodic solution: the
+plant keeps it from its history). 60 ms to 4 s a line.
+
+With every pair stuck and no pair opening or closing dlambda = 0 and both give plant.linear_frf's
+accelerance exactly. Which to use: the result's normal_ratio (|g^_n| over the static gap or
+penetration) > 1 says that contact opens or closes somewhere in the cycle and "df" is off
+(measured: docs/plant.md 10); "aft" with H = 3 follows the step-sine within a few percent where
+it converges.
+
+Lines are solved in the order given, each continued from the previous line's solution (a
+step-sine in that direction: the joint makes the response multi-valued near a resonance, the
+jump of a step-sine); "aft" subdivides the step to the line when the direct continuation fails
+and, if every start fails, ramps the force up from 1/64 of F on that line. ``branches`` also solves
+each line from the stuck and the df (or sliding) starts and counts the distinct solutions
+(``n_solutions`` > 1: multi-valued; the reported one is the continued one). A line where no start
+converges has converged False and NaN values (``HarmonicFRF.check`` raises naming them): never
+a silent value.
+
+Assumptions (what the time-domain plant does that this does not): one harmonic (df) or H (aft) of
+a response that has more (the step-sine's THD); the mean tangential state is the static one;
+Coulomb friction at mu: Stribeck friction (plant.interface.static_excess > 0) is refused; the
+interface dashpots stay linear at their static weights; df: the normal direction is linear
+(closed pairs stay closed, open ones open) and the slip limit is mu f_n at the static normal
+force. Validation against the nonlinear step-sine (benchmarks/harmonic_frf.py): docs/plant.md 10.
 """
 from __future__ import annotations
 
@@ -47,7 +60,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from plant.aft import _pair_periodic, transforms
+from plant.aft import AftLine, continued, newton, ramped
 from plant.describing import pair_df, slider_amplitude
 from plant.linear_frf import stuck_model
 from plant.model import PlantModel, contact_forces, preloaded_pairs
@@ -116,7 +129,8 @@ class HarmonicFRF:
     g_t: np.ndarray              # (lines, p) complex first harmonic of each pair's tangential gap [m]
     g_n: np.ndarray              # (lines, p) complex first harmonic of each pair's normal gap [m]
     normal_ratio: np.ndarray     # (lines, p) |g^_n| / |g_n0|: > 1 a closed pair would lift off, an open one close
-    slip_amp_m: np.ndarray       # (lines, p) slider amplitude [m], half its range (kf-weighted); 0: stuck or open
+    slip_amp_m: np.ndarray       # (lines, p) slider amplitude [m], half its range (kf-weighted; aft: with its free
+    #                              motion while the pair is open); 0: stuck or open all period
     open_fraction: np.ndarray    # (lines, p) fraction of the period the pair is open (df: 1 open, 0 closed)
     closed: np.ndarray           # (p,) bool: the pairs the screws close (open pairs carry no force)
     a_slip_m: np.ndarray         # (p,) tangential amplitude where the pair's first element slips [m] (inf: open)
@@ -137,34 +151,6 @@ class HarmonicFRF:
             raise RuntimeError(f"harmonic balance at {self.F_amp:g} N did not converge at "
                                f"{', '.join(f'{f:g}' for f in bad)} Hz; refine the line spacing (the continuation "
                                "starts from the previous line) or raise max_iter")
-
-
-def _newton(res, jac, x: np.ndarray, tol: float, max_iter: int):
-    """Newton with backtracking on |res|_2 from x; converged when |res|_inf <= tol |x|_inf.
-    Returns (x, converged, iterations, relative residual)."""
-    r = res(x)
-    it = 0
-    for it in range(max_iter + 1):
-        rel = float(np.max(np.abs(r)) / max(np.max(np.abs(x)), 1e-300))
-        if rel <= tol:
-            return x, True, it, rel
-        if it == max_iter:
-            break
-        try:
-            dx = np.linalg.solve(jac(x), -r)
-        except np.linalg.LinAlgError:
-            break
-        nr, alpha = np.linalg.norm(r), 1.0
-        for _ in range(40):
-            x_new = x + alpha * dx
-            r_new = res(x_new)
-            if np.linalg.norm(r_new) < (1.0 - 1e-4 * alpha) * nr:
-                break
-            alpha *= 0.5
-        else:
-            break
-        x, r = x_new, r_new
-    return x, False, it, float(np.max(np.abs(r)) / max(np.max(np.abs(x)), 1e-300))
 
 
 # --- method "df": describing functions, normal contact linear --------------------------------
@@ -203,7 +189,7 @@ def _df_line(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, starts
     for g0 in starts:
         if isinstance(g0, str):
             g0 = u if g0 == "stuck" else np.linalg.solve(np.eye(pc) - Htt * hs.k_t[ic][None, :], u)
-        x, ok, it, rel = _newton(res, jac, np.concatenate([g0.real, g0.imag]), tol, max_iter)
+        x, ok, it, rel = newton(res, jac, np.concatenate([g0.real, g0.imag]), tol, max_iter)
         sols.append((x[:pc] + 1j * x[pc:], ok, it, rel))
     return sols
 
@@ -215,129 +201,12 @@ def _df_response(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, g:
     return d * (hs.Y_b * F + hs.Y_g @ lam_t)
 
 
-# --- method "aft": the full pair law, harmonics 0..H ------------------------------------------
-
-class _AFT:
-    """Residual and Jacobian of the AFT harmonic balance on one line (module docstring): z the
-    real coefficients (2H+1, 2p) of the gaps' deviation g - g0 (rows c_0, c_1, s_1, ...)."""
-
-    def __init__(self, hs: HarmonicSystem, w: float, F: float, n_harm: int, n_t: int):
-        self.hs, self.H, self.F = hs, n_harm, F
-        self.E, self.P = transforms(n_harm, n_t)
-        m = hs.X_g.shape[0]
-        self.m = m
-        blocks, self.u = [], np.zeros((2 * n_harm + 1, m))
-        self.d1 = 1.0 / (1j * w - hs.lam)
-        for h in range(n_harm + 1):
-            Hh = (hs.X_g * (1.0 / (1j * h * w - hs.lam))) @ hs.Y_g
-            blocks.append(Hh.real if h == 0 else np.block([[Hh.real, Hh.imag], [-Hh.imag, Hh.real]]))
-        u1 = (hs.X_g * self.d1) @ hs.Y_b * F
-        self.u[1], self.u[2] = u1.real, -u1.imag
-        self.M = _block_diag(blocks)
-        cl = hs.closed.astype(float)
-        self.D0 = np.empty(m)
-        self.D0[0::2], self.D0[1::2] = -hs.k_n * cl, -hs.k_t * cl
-        self.info = None
-
-    def _pair(self, j: int, zj: np.ndarray):
-        """Coefficients (2H+1, 2) of pair j's force deviation for its gap coefficients zj (2H+1, 2);
-        (open fraction, slider range weighted by kf)."""
-        hs = self.hs
-        g = hs.g0[2 * j:2 * j + 2][None, :] + self.E @ zj           # (n_t, 2)
-        lam = np.empty_like(g)
-        wr = np.empty(len(hs.kf))
-        op = _pair_periodic(np.ascontiguousarray(g[:, 0]), np.ascontiguousarray(g[:, 1]),
-                            hs.w0[j * len(hs.kf):(j + 1) * len(hs.kf)], hs.k_n[j], hs.k_t[j], hs.mu[j],
-                            hs.kf, hs.qf, lam[:, 0], lam[:, 1], wr)
-        dl = lam - hs.lam0[2 * j:2 * j + 2][None, :] - (g - hs.g0[2 * j:2 * j + 2][None, :]) * self.D0[2 * j:2 * j + 2]
-        return self.P @ dl, (op, 0.5 * float(hs.kf @ wr))
-
-    def forces(self, Z: np.ndarray) -> np.ndarray:
-        out = np.empty_like(Z)
-        info = []
-        for j in range(self.m // 2):
-            out[:, 2 * j:2 * j + 2], inf = self._pair(j, Z[:, 2 * j:2 * j + 2])
-            info.append(inf)
-        self.info = np.array(info)
-        return out
-
-    def _mul(self, L: np.ndarray) -> np.ndarray:
-        """The linear map of the force coefficients (2H+1, 2p) to gap coefficients, flattened."""
-        vec = np.concatenate([L[0]] + [np.concatenate([L[2 * h - 1], L[2 * h]]) for h in range(1, self.H + 1)])
-        return self.M @ vec
-
-    def _flat(self, Z: np.ndarray) -> np.ndarray:
-        return np.concatenate([Z[0]] + [np.concatenate([Z[2 * h - 1], Z[2 * h]]) for h in range(1, self.H + 1)])
-
-    def _unflat(self, z: np.ndarray) -> np.ndarray:
-        m = self.m
-        Z = np.empty((2 * self.H + 1, m))
-        Z[0] = z[:m]
-        for h in range(1, self.H + 1):
-            seg = z[m + 2 * m * (h - 1): m + 2 * m * h]
-            Z[2 * h - 1], Z[2 * h] = seg[:m], seg[m:]
-        return Z
-
-    def res(self, z: np.ndarray) -> np.ndarray:
-        return z - self._mul(self.forces(self._unflat(z))) - self._flat(self.u)
-
-    def jac(self, z: np.ndarray) -> np.ndarray:
-        """I - M dL/dz, dL/dz block-diagonal by pair, by forward differences."""
-        Z = self._unflat(z)
-        nz = len(z)
-        DL = np.zeros((nz, nz))
-        base = self.forces(Z)
-        step = 1e-7 * max(np.max(np.abs(Z)), 1e-15)
-        for j in range(self.m // 2):
-            cols = [(r, 2 * j + s) for r in range(2 * self.H + 1) for s in range(2)]
-            for r, c in cols:
-                Zp = Z[:, 2 * j:2 * j + 2].copy()
-                Zp[r, c - 2 * j] += step
-                dL = (self._pair(j, Zp)[0] - base[:, 2 * j:2 * j + 2]) / step
-                full = np.zeros_like(Z)
-                full[:, 2 * j:2 * j + 2] = dL
-                DL[:, self._index(r, c)] = self._flat(full)
-        return np.eye(nz) - self.M @ DL
-
-    def _index(self, r: int, c: int) -> int:
-        m = self.m
-        if r == 0:
-            return c
-        h = (r + 1) // 2
-        return m + 2 * m * (h - 1) + (0 if r % 2 else m) + c
-
-    def start(self, g1: np.ndarray | None) -> np.ndarray:
-        """z with the first harmonic g1 (2p complex; None: the stuck linear response) and no mean shift."""
-        Z = np.zeros((2 * self.H + 1, self.m))
-        if g1 is None:
-            Z[1:3] = self.u[1:3]
-        else:
-            Z[1], Z[2] = g1.real, -g1.imag
-        return self._flat(Z)
-
-    def first_harmonic(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(g^ (2p,) complex first harmonic of the gaps, first-order modal response) at z."""
-        Z = self._unflat(z)
-        L = self.forces(Z)
-        return Z[1] - 1j * Z[2], self.d1 * (self.hs.Y_b * self.F + self.hs.Y_g @ (L[1] - 1j * L[2]))
-
-
-def _block_diag(blocks):
-    n = sum(b.shape[0] for b in blocks)
-    M = np.zeros((n, n))
-    o = 0
-    for b in blocks:
-        M[o:o + b.shape[0], o:o + b.shape[0]] = b
-        o += b.shape[0]
-    return M
-
-
 # --- the FRF ----------------------------------------------------------------------------------
 
 METHODS = ("df", "aft")
 
 
-def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "df", n_harm: int = 1,
+def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "aft", n_harm: int = 3,
                  n_t: int = 256, tol: float | None = None, max_iter: int = 60, branches: bool = True) -> HarmonicFRF:
     """First-harmonic accelerances at the force amplitude F_amp [N] (> 0) on the lines freq_hz
     [Hz] (> 0), solved in the order given (module docstring).
@@ -359,6 +228,14 @@ def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "df
     if n_harm < 1:
         raise ValueError(f"n_harm {n_harm}: must be >= 1")
     tol = (1e-10 if method == "df" else 1e-8) if tol is None else tol
+    from threadpoolctl import threadpool_limits
+    with threadpool_limits(1):   # small solves: two BLAS threads on a loaded 2-core machine made each 50x slower
+        return _frf(hs, F_amp, f, method, n_harm, n_t, tol, max_iter, branches)
+
+
+def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: int, n_t: int, tol: float,
+         max_iter: int, branches: bool) -> HarmonicFRF:
+    """``harmonic_frf`` after its checks."""
     ic = np.flatnonzero(hs.closed)
     p, lines = len(hs.closed), len(f)
     H = np.full((len(hs.names), lines), np.nan + 0j)
@@ -379,12 +256,13 @@ def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "df
             df_starts = df_starts or ["stuck"]
         sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
         if method == "aft":
-            aft = _AFT(hs, w, F_amp, n_harm, n_t)
+            aft = AftLine(hs, w, F_amp, n_harm, n_t)
             df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0])) for s in sols if s[1]]
-            starts = ([] if prev is None else [prev]) + [aft.start(g) for g in df_g[:1]]
-            if branches:
-                starts.append(aft.start(None))
-            sols = [_newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
+            sols = [] if prev is None else [continued(hs, f[i - 1], f[i], prev, F_amp, n_harm, n_t, tol, max_iter)]
+            starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
+            sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
+            if not any(sl[1] for sl in sols):
+                sols.append(ramped(hs, f[i], F_amp, n_harm, n_t, tol, max_iter))
         good = [s for s in sols if s[1]]
         if not good:
             prev = None
@@ -405,7 +283,7 @@ def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "df
             open_frac[i] = (~hs.closed).astype(float)
         else:
             g1[i], modal = aft.first_harmonic(sol)
-            open_frac[i], slip[i] = aft.info[:, 0], aft.info[:, 1]
+            open_frac[i], slip[i] = aft.info[:, 0], np.where(aft.info[:, 0] < 1.0, aft.info[:, 1], 0.0)
         H[:, i] = -w * w * (hs.X_s @ modal) / F_amp
     a_slip = np.full(p, np.inf)
     for j in ic:
