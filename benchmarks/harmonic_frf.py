@@ -23,7 +23,7 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.harmonic_frf import harmonic_frf, harmonic_system
+from plant.harmonic_frf import harmonic_accelerances, harmonic_system
 from rt.common.config import load
 from rt.experiments.stepsine import Settle, sweep
 from rt.loop import build_loop
@@ -81,10 +81,10 @@ def compare(config: str | None, sets: list[str], F_amp: float, lines: list[float
                         "H_abs": np.abs(ss.H).round(4).tolist(), "thd_max": float(np.nanmax(ss.thd))}}
     for method, nh in METHODS:
         t = time.perf_counter()
-        r = harmonic_frf(hs, F_amp, f, method=method, n_harm=nh)
+        r = harmonic_accelerances(hs, F_amp, f, method=method, n_harm=nh)
         cost = (time.perf_counter() - t) / len(f)
         t = time.perf_counter()
-        harmonic_frf(hs, F_amp, f, method=method, n_harm=nh, branches=False)
+        harmonic_accelerances(hs, F_amp, f, method=method, n_harm=nh, branches=False)
         cost_one = (time.perf_counter() - t) / len(f)
         H = r.H["a"]
         fp, hp = peak(f, H)

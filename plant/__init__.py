@@ -18,7 +18,7 @@ _EXPORTS = {
     "impulse_test": "plant.impulse",
     "modes_summary": "plant.modes", "passive_resonance_hz": "plant.modes", "sliding_joint_hz": "plant.modes",
     "stuck_model": "plant.linear_frf", "point_accelerances": "plant.linear_frf",
-    "harmonic_system": "plant.harmonic_frf", "harmonic_frf": "plant.harmonic_frf",
+    "harmonic_system": "plant.harmonic_frf", "harmonic_accelerances": "plant.harmonic_frf",
     "build_actuator": "plant.actuator",
     "build_sensors": "plant.sensors",
     "build_shaker": "plant.shaker",

@@ -19,7 +19,7 @@ the slip force mu f_n,j at the pair's static normal force f_n,j = k_n max(0, -g_
 
     r(g^_t) = g^_t + H_tt ((k_eq(|g^_t|) - k_t) g^_t) - H_tF F = 0                         (D)
 
-Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq. 1-15 ms a line.
+Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq. 2-56 ms a line (docs/plant.md 10).
 
 "aft", alternating frequency-time with harmonics 0..H of every pair's normal and tangential gap
 (plant.aft): the plant's own pair law (penalty contact that opens and closes, slip limit
@@ -29,7 +29,7 @@ mu f_n(t) following the normal force, Jenkins or Iwan) marched through a period 
 
 Newton with the marched law's exact derivatives. The mean tangential gaps are held at their
 static values (a slipping pair's mean position is indeterminate in a periodic solution: the
-plant keeps it from its history). 60 ms to 4 s a line.
+plant keeps it from its history). 0.1-1.7 s a line where pairs slip and contact opens and closes.
 
 With every pair stuck and no pair opening or closing dlambda = 0 and both give plant.linear_frf's
 accelerance exactly. Which to use: the result's normal_ratio (|g^_n| over the static gap or
@@ -59,6 +59,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from plant.aft import AftLine, continued, newton, ramped
 from plant.describing import pair_df, slider_amplitude
@@ -67,7 +68,7 @@ from plant.model import PlantModel, contact_forces, preloaded_pairs
 
 
 class HarmonicSystem(NamedTuple):
-    """The design of ``harmonic_frf`` for one plant, preload and sensor set: the stuck model's
+    """The design of ``harmonic_accelerances`` for one plant, preload and sensor set: the stuck model's
     first-order modes and their projections (module docstring, (2)), and the pairs' laws."""
     names: tuple             # sensor names (keys of H)
     closed: np.ndarray       # (p,) bool: pairs the screws close
@@ -121,7 +122,7 @@ def harmonic_system(model: PlantModel, points: dict[str, str], F_N1: float | Non
 
 @dataclass
 class HarmonicFRF:
-    """``harmonic_frf``'s result at one force amplitude; one row per line, in the order solved."""
+    """``harmonic_accelerances``'s result at one force amplitude; one row per line, in the order solved."""
     F_amp: float                 # excitation force amplitude [N]
     method: str                  # "df" or "aft" (harmonic_frf)
     freq_hz: np.ndarray          # (lines,) [Hz]
@@ -206,18 +207,21 @@ def _df_response(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, g:
 METHODS = ("df", "aft")
 
 
-def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "aft", n_harm: int = 3,
-                 n_t: int = 256, tol: float | None = None, max_iter: int = 60, branches: bool = True) -> HarmonicFRF:
-    """First-harmonic accelerances at the force amplitude F_amp [N] (> 0) on the lines freq_hz
-    [Hz] (> 0), solved in the order given (module docstring).
+def harmonic_accelerances(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "aft", n_harm: int = 3,
+                          n_t: int = 256, tol: float | None = None, max_iter: int = 60,
+                          branches: bool = True) -> HarmonicFRF:
+    """First-harmonic accelerances at the sensors of ``hs`` at the force amplitude F_amp [N] (> 0)
+    on the lines freq_hz [Hz] (> 0), solved in the order given (module docstring); returns a
+    ``HarmonicFRF`` (H per sensor, the pairs' gaps, slip and contact per line, convergence).
 
     method "df": describing functions of the closed pairs' tangential law, normal contact
-    linear (fast: ~1-15 ms a line); "aft": the full pair law by AFT with harmonics 0..n_harm on
-    n_t samples a period (contact opening and closing, slip limit mu f_n(t), the mean state's
-    shift; ~10x the cost), started on each line from the "df" solution as well.
-    tol: Newton's relative residual (default 1e-10 df, 1e-8 aft: forward-difference Jacobian);
-    branches: also solve from the stuck and the sliding starts and count the distinct solutions
-    (False: only the continued start; n_solutions then 1)."""
+    linear (measured 2-56 ms a line, docs/plant.md 10); "aft": the full pair law by AFT with
+    harmonics 0..n_harm on n_t samples a period (contact opening and closing, slip limit
+    mu f_n(t), the mean normal gaps' shift; 0.1-1.7 s a line), each line also started from the
+    "df" solution. tol: Newton's relative residual (default 1e-10 df; 1e-8 aft, whose marched law
+    is piecewise linear in the samples). branches: also solve from the stuck and the sliding
+    (df) or stuck (aft) starts and count the distinct solutions (False: fewer starts, about half
+    the cost; n_solutions then counts only those)."""
     f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
     if method not in METHODS:
         raise ValueError(f"method {method!r}: expected one of {', '.join(METHODS)}")
@@ -228,14 +232,13 @@ def harmonic_frf(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: str = "af
     if n_harm < 1:
         raise ValueError(f"n_harm {n_harm}: must be >= 1")
     tol = (1e-10 if method == "df" else 1e-8) if tol is None else tol
-    from threadpoolctl import threadpool_limits
     with threadpool_limits(1):   # small solves: two BLAS threads on a loaded 2-core machine made each 50x slower
         return _frf(hs, F_amp, f, method, n_harm, n_t, tol, max_iter, branches)
 
 
 def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: int, n_t: int, tol: float,
          max_iter: int, branches: bool) -> HarmonicFRF:
-    """``harmonic_frf`` after its checks."""
+    """``harmonic_accelerances`` after its checks."""
     ic = np.flatnonzero(hs.closed)
     p, lines = len(hs.closed), len(f)
     H = np.full((len(hs.names), lines), np.nan + 0j)

@@ -7,7 +7,7 @@ import pytest
 
 from plant.contact import _iwan_pair, _jenkins_pair
 from plant.describing import jenkins_df, pair_df, slider_amplitude
-from plant.harmonic_frf import harmonic_frf, harmonic_system
+from plant.harmonic_frf import harmonic_accelerances, harmonic_system
 from plant.linear_frf import point_accelerances
 from plant.model import build_plant, iwan_fractions
 from rt.common.config import load
@@ -95,7 +95,7 @@ def test_stuck_level_is_the_linear_frf(config, band, method):
     m = build_plant(cfg)
     pts = {p.name: p.name for p in cfg.plant.points}
     f = np.linspace(*band, 41)
-    hb = harmonic_frf(harmonic_system(m, pts, 40.0), 1e-7, f, method=method)
+    hb = harmonic_accelerances(harmonic_system(m, pts, 40.0), 1e-7, f, method=method)
     lin = point_accelerances(m, pts, 40.0, f)
     assert hb.converged.all() and (hb.n_solutions == 1).all()
     assert np.max(hb.tangential_amp_m / hb.a_slip_m) < 1.0 and np.all(hb.slip_amp_m == 0.0)
@@ -108,7 +108,7 @@ def test_unconverged_lines_are_reported_not_silent():
     """max_iter = 0 on slipping lines: converged False, NaN values, check() names the lines."""
     cfg = load("configs/lap_joint.toml")
     hs = harmonic_system(build_plant(cfg), {"a": cfg.plant.frf_point}, 40.0)
-    r = harmonic_frf(hs, 2.0, [69.0, 69.1], max_iter=0)
+    r = harmonic_accelerances(hs, 2.0, [69.0, 69.1], max_iter=0)
     assert not r.converged.any() and np.isnan(r.H["a"]).all()
     with pytest.raises(RuntimeError, match="69, 69.1 Hz"):
         r.check()
@@ -120,9 +120,9 @@ def test_stribeck_and_bad_inputs_are_refused():
         harmonic_system(build_plant(cfg), {"a": "frf"})
     hs = harmonic_system(build_plant(load()), {"a": "frf"})
     with pytest.raises(ValueError, match="F_amp"):
-        harmonic_frf(hs, 0.0, [200.0])
+        harmonic_accelerances(hs, 0.0, [200.0])
     with pytest.raises(ValueError, match="freq_hz"):
-        harmonic_frf(hs, 1.0, [-1.0])
+        harmonic_accelerances(hs, 1.0, [-1.0])
 
 
 # --- the slipping levels against the nonlinear plant's step-sine --------------------------------
@@ -143,8 +143,8 @@ def test_slipping_level_agrees_with_the_nonlinear_stepsine():
     ss = sweep(loop, LAP_LINES, 0.3, settle=Settle(max_s=8.0))
     assert ss.settled.all()
     hs = harmonic_system(loop.plant, {"a": cfg.plant.frf_point}, cfg.tracking.F_passive_N)
-    aft = harmonic_frf(hs, 0.3, LAP_LINES)
-    df = harmonic_frf(hs, 0.3, LAP_LINES, method="df")
+    aft = harmonic_accelerances(hs, 0.3, LAP_LINES)
+    df = harmonic_accelerances(hs, 0.3, LAP_LINES, method="df")
     assert aft.converged.all()
     err_db = 20 * np.log10(np.abs(aft.H["a"] / ss.H))
     err_deg = np.degrees(np.angle(aft.H["a"] / ss.H))
