@@ -4,7 +4,8 @@ sensors and the shaker (frictionrt).
 Modules: ``fe_beam``, ``structure`` (the assembly, bolts and contact pairs), ``bolts`` (VDI 2230
 cone), ``contact`` (Jenkins pairs), ``craig_bampton``, ``model`` (``build_plant``), ``newmark``
 (the step kernel), ``simulate``, ``energy``, ``modes``, ``impulse``, ``linear_frf`` (the stuck
-linear reference), ``actuator``, ``sensors``, ``shaker``. A leading underscore marks a compiled
+linear reference), ``harmonic_frf`` (the amplitude-dependent FRF by harmonic balance, with
+``describing`` and ``aft``), ``actuator``, ``sensors``, ``shaker``. A leading underscore marks a compiled
 kernel (``_plant_step``): kernels are imported from their modules. The names below are imported
 on first use (rt/common/face.py).
 """
@@ -17,6 +18,7 @@ _EXPORTS = {
     "impulse_test": "plant.impulse",
     "modes_summary": "plant.modes", "passive_resonance_hz": "plant.modes", "sliding_joint_hz": "plant.modes",
     "stuck_model": "plant.linear_frf", "point_accelerances": "plant.linear_frf",
+    "harmonic_system": "plant.harmonic_frf", "harmonic_accelerances": "plant.harmonic_frf",
     "build_actuator": "plant.actuator",
     "build_sensors": "plant.sensors",
     "build_shaker": "plant.shaker",
