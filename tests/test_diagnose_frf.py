@@ -221,6 +221,20 @@ def test_drive_voltage_force_scale(one_level, tmp_path):
     assert "## Excitation: drive voltage, no force" in md and "cannot be separated" in md
 
 
+def test_force_scale_absorbs_the_mass_scale(one_level):
+    """What no force leaves unidentifiable: every mass and stiffness by one factor. A nominal with
+    the beams' density and E both x 1.2 (the same frequencies): the force scale comes out x 1.2
+    (within 1 %: the screws' lumped masses did not scale), E as from the right nominal within 0.5 %
+    (measured 0.2 %: the unscaled screw masses move the frequencies a little)."""
+    c = with_sets(Config(), [])
+    heavy = with_sets(c, [f"plant.beams.{b.name}.{k}={getattr(b, k) * 1.2!r}" for b in c.plant.beams
+                          for k in ("rho", "E")])
+    _, ref = one_level("clamp_compliance", "drive_voltage")
+    _, res = one_level("clamp_compliance", "drive_voltage", heavy)
+    assert res["excitation"]["force_scale_N_per_V"] == pytest.approx(0.37 * 1.2, rel=0.01)
+    assert res["fitted_parameters"]["E"] == pytest.approx(ref["fitted_parameters"]["E"], rel=5e-3)
+
+
 @pytest.mark.parametrize("e_nominal", [0.7, 1.4], ids=["E-30%", "E+40%"])
 def test_calibration_from_far_away(one_level, e_nominal):
     """A nominal E 30 % low or 40 % high (frequencies -16 %, +18 %): every measured mode paired,
@@ -249,7 +263,7 @@ def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
     assert len(w) == 1 and w[0]["bound"] == 0.1 and w[0]["value"] == pytest.approx(0.1, rel=0.005), res["warnings"]
     assert "check the nominal plant.modal_damping" in w[0]["fix"] and "drive_voltage" in w[0]["fix"]
     md = (write_report(res, tmp_path / "rep") / "report.md").read_text()
-    assert "## Warnings: parameters on a bound" in md and "| modal_damping | 0.1 | 0.1 |" in md
+    assert "## Warnings: parameters on a bound, level" in md and "| modal_damping | 0.1 | 0.1 |" in md
 
 
 def test_bound_warnings_by_scale():
@@ -264,3 +278,21 @@ def test_bound_warnings_by_scale():
     assert all("drive_voltage" not in x["fix"] for x in w)
     assert bound_warnings({"E": 1.98}, None, per_volt=False) == []
     assert "drive_voltage" in bound_warnings({"E": 0.5}, None, per_volt=False)[0]["fix"]
+
+
+def test_voltage_data_taken_as_force_warn_of_the_level(one_level, tmp_path):
+    """The issue's trap: FRFs per volt (0.37 N/V: -8.6 dB) with a sidecar that says force. No
+    calibration parameter moves the level everywhere, so the fit ends that far off (measured
+    -8.3 dB, the damping taking a little) and a warning names the level and the drive voltage."""
+    import shutil
+    src, _ = one_level("clamp_compliance", "drive_voltage")
+    d = tmp_path / "as_force"
+    shutil.copytree(src, d)
+    meta = json.loads((d / "frf_01.json").read_text())
+    del meta["excitation"]
+    (d / "frf_01.json").write_text(json.dumps(meta))
+    res = diagnose_frf(d)
+    assert -8.64 < res["level_offset_db"] < -6.0
+    w = [x for x in res["warnings"] if x["parameter"] == "level_offset_db"]
+    assert len(w) == 1 and w[0]["bound"] is None and "set the sidecar's excitation to drive_voltage" in w[0]["fix"]
+    assert "excitation" not in res

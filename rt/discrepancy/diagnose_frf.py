@@ -29,10 +29,13 @@ one unknown force scale s [N/V] for the folder's voltage tests. ln s enters ever
 those tests as the same constant, so it is profiled out in closed form for every model (variable
 projection, exact): ln s = sum_k (ln|H_meas| - ln|H_model|)_k / sigma_k^2 / sum_k 1 / sigma_k^2,
 kept within ``FORCE_SCALE_N_PER_V``. It is one fitted parameter in the BIC. What it leaves
-unidentifiable: the absolute mass and stiffness scale together (rho and E of the beams, the
-lumped masses, all by one factor: the frequencies stay and |H| scales like 1/s); E alone is not
-(it moves the frequencies), so E is fitted as with a force, relative to the nominal density, and s
-absorbs an error in the nominal mass.
+unidentifiable: the absolute mass and stiffness scale together (every mass and stiffness by one
+factor c: rho and E of the beams, the lumped masses, the contact and bolt stiffnesses; the
+frequencies stay and |H| scales like 1 / c, as a force scale would); E alone is not (it moves
+the frequencies), so E is fitted as with a force, relative to the nominal density, and s absorbs
+an error in the nominal mass scale (measured: a nominal with rho and E of the beams x 1.2 fits
+s = 1.2008 x the truth, E as before, k_t x 1.2, and names moving_mass 0.004 kg for the screws'
+masses that did not scale).
 
 Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.frf_modes:
 peaks of all sensors, by shape with >= 3 sensors, else by order: no window around the nominal
@@ -87,6 +90,7 @@ CAL_NAMES = ("E", "k_t", "modal_damping")   # mu cannot act on the stuck linear 
 FORCE_SCALE = "force_scale_N_per_V"          # the drive-voltage tests' force scale, a fitted parameter
 FORCE_SCALE_N_PER_V = (1e-3, 1e3)            # its bounds [N/V]: a shaker amplifier's 0.1-100 N/V, widely
 BOUND_REL = 0.005                # a parameter within this of a bound (relative; on ln for log-scale ones) is a warning
+LEVEL_DB = 1.0                   # a final fit whose FRFs all lie this far above or below the data [dB] is a warning
 
 
 class FRFData(NamedTuple):
@@ -368,6 +372,28 @@ def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool) -> list[d
     return out
 
 
+def level_offset_db(data: list[FRFData], Hm: list[dict]) -> float:
+    """The weighted mean of 20 log10|H_meas / H_model| over the fitted lines of every sensor and
+    test (weights 1 / sigma_k^2) [dB]: a level no calibration parameter can move (a force or unit
+    error) shows here."""
+    num = den = 0.0
+    for d, h in zip(data, Hm):
+        for s in d.sel:
+            w = 1.0 / d.sigma[s] ** 2
+            num += float(np.sum(w * 20 * np.log10(np.abs(d.H[s][d.sel[s]]) / np.abs(h[s][d.sel[s]]))))
+            den += float(np.sum(w))
+    return num / den
+
+
+def level_warning(offset_db: float, per_volt: bool) -> list[dict]:
+    """A warning (bound None) if the final model's FRFs lie LEVEL_DB or more off the data throughout."""
+    if abs(offset_db) < LEVEL_DB or per_volt:
+        return []
+    return [{"parameter": "level_offset_db", "value": round(offset_db, 3), "bound": None,
+             "fix": "the measured FRFs lie this far from the calibrated model at every line: check the units "
+                    "(g or m/s^2, mm or m, mV or V) and the quantity" + NO_FORCE_HINT}]
+
+
 def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=None) -> dict:
     """The workflow (module docstring) on a folder of FRF files; the result dict as rt.discrepancy.diagnose's,
     with the fitted configuration under "_config" and the plotting data under "_plots"."""
@@ -429,17 +455,20 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     out = ranking_result(base, ranked, winner, gap, localise)
     out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
     per_volt = any(d.per_volt for d in data)
+    offset = level_offset_db(data, final["fit"].H)
+    out["level_offset_db"] = round(offset, 4)
     out["warnings"] = bound_warnings(final["theta"], next((e for e in candidates if e.name == final["effect"]), None),
-                                     per_volt)
+                                     per_volt) + level_warning(offset, per_volt)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:
         out["excitation"] = {
             "kind": "drive_voltage", FORCE_SCALE: float(f"{final['theta'][FORCE_SCALE]:.6g}"),
             "force_scale_nominal_N_per_V": float(f"{scale0:.6g}"),
             "note": "the data have no force: the FRFs are per drive volt; one force scale [N/V] fitted for the "
-                    "folder. The absolute mass and stiffness scale (beam density and E, the lumped masses, all by "
-                    "one factor) cannot be separated from it; E is fitted from the frequencies relative to the "
-                    "nominal density, and the scale absorbs an error in the nominal mass"}
+                    "folder. The absolute mass and stiffness scale (every mass and stiffness by one factor: beam "
+                    "density and E, lumped masses, contact and bolt stiffnesses) cannot be separated from it; E "
+                    "is fitted from the frequencies relative to the nominal density, and the scale absorbs an "
+                    "error in the nominal mass scale"}
     return out | {"input": "frf_files",
                   "_plots": {"frf": [(d.name, d.F_N1, d.freq, d.H, h0, h1)
                                      for d, h0, h1 in zip(data, H0, final["fit"].H)], "act": [],

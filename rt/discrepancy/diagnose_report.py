@@ -144,8 +144,9 @@ def _frf_file_sections(res: dict) -> list[str]:
     """The FRF-file input's warnings, excitation and sensors (issue 18)."""
     out = []
     if res.get("warnings"):
-        out += ["", "## Warnings: parameters on a bound", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]
-        out += [f"| {w['parameter']} | {w['value']:g} | {w['bound']:g} | {w['fix']} |" for w in res["warnings"]]
+        out += ["", "## Warnings: parameters on a bound, level", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]
+        out += [f"| {w['parameter']} | {w['value']:g} | {'-' if w['bound'] is None else format(w['bound'], 'g')} | "
+                f"{w['fix']} |" for w in res["warnings"]]
     exc = res.get("excitation")
     if exc:
         out += ["", "## Excitation: drive voltage, no force", "",
