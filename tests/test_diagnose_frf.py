@@ -296,3 +296,20 @@ def test_voltage_data_taken_as_force_warn_of_the_level(one_level, tmp_path):
     w = [x for x in res["warnings"] if x["parameter"] == "level_offset_db"]
     assert len(w) == 1 and w[0]["bound"] is None and "set the sidecar's excitation to drive_voltage" in w[0]["fix"]
     assert "excitation" not in res
+
+
+def test_rig_cli_writes_the_file_kinds(tmp_path, capsys):
+    """rig --frf-files --quantity mobility --force-scale 0.37: sidecars say so, the data are the
+    accelerance campaign's (same seed, same noise draws) / (i w) x 0.37 to the CSV's bits; the
+    options without --frf-files or a scale <= 0 are refused in one line."""
+    from rt.log.frf_files import read_frf
+    for extra, d in (([], tmp_path / "a"), (["--quantity", "mobility", "--force-scale", "0.37"], tmp_path / "v")):
+        assert main(["rig", "--effect", "none", "--frf-files", "--seed", "1", "-o", str(d)] + extra) == 0
+    capsys.readouterr()
+    a, v = read_frf(tmp_path / "a" / "frf_01.csv"), read_frf(tmp_path / "v" / "frf_01.csv")
+    assert (v.quantity, v.excitation, v.unit, v.meta["amplitude_n"]) == ("mobility", "drive_voltage", "(m/s)/V", None)
+    for s in a.H:
+        assert np.max(np.abs(v.H[s] / (0.37 * a.H[s] / (2j * np.pi * a.freq_hz)) - 1)) < 1e-14
+    for argv in (["--quantity", "receptance"], ["--frf-files", "--force-scale", "0"]):
+        assert main(["rig", "--effect", "none", "-o", str(tmp_path / "x")] + argv) == 2
+        assert len(capsys.readouterr().err.strip().splitlines()) == 1 and not (tmp_path / "x").exists()

@@ -100,8 +100,10 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
                 z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
                 H[s] = gain * from_accelerance(h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w, FREQ_HZ, quantity)
             name = f"frf_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
+            drive = (f"{FORCE_N:g} N" if force_scale_N_per_V is None
+                     else "shaker driven by a voltage, no force transducer")
             test = FRFTest(Path(name).stem, FREQ_HZ, H, None, None, frf_meta(
-                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {FORCE_N:g} N, adaptive "
+                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {drive}, adaptive "
                 f"screw held at about {level:g} N by the stack", points, **extra))
             (write_frf_uff if j % 2 else write_frf_csv)(tmp / name, test)
             names.append(name)
