@@ -190,6 +190,14 @@ def test_mobility_of_any_sensors_paired_by_shape(one_level, tmp_path):
     out = write_report(res, tmp_path / "rep")
     md = (out / "report.md").read_text()
     assert "| v_root | v_root | mobility | (m/s)/N |" in md and "a_frf" not in md.split("## Localisation")[0]
+    # the rrd: per sensor, the whole band; the gap's rms over every sensor is frf_db_all
+    from rerun.chunk import RrdReader
+    gap = {}
+    for c in RrdReader(out / "diagnosis.rrd").stream().to_chunks():
+        if c.entity_path.startswith("/frf_gap/frf_01/") and c.entity_path.endswith("/after"):
+            gap[c.entity_path.split("/")[3]] = c.to_record_batch().column("Scalars:scalars").flatten().to_numpy()
+    assert sorted(gap) == sorted(THREE_SENSORS) and all(len(v) == 6385 for v in gap.values())
+    assert np.sqrt(np.mean(np.concatenate(list(gap.values())) ** 2)) == pytest.approx(g["frf_db_all"], abs=1e-3)
 
 
 def test_position_off_every_beam_is_refused(tmp_path):
