@@ -105,7 +105,7 @@ class FRFData(NamedTuple):
     stuck: bool = True           # fit_frequencies uses stuck tests: all are (linear measurements)
     quantity: str = "accelerance"
     per_volt: bool = False       # excitation drive_voltage: H per volt, times the unknown force scale
-    points: dict | None = None   # sensor -> model point
+    points: dict | None = None   # sensor -> model point (prepare sets it)
     mac: np.ndarray | None = None      # MAC per model mode (NaN: not paired by shape)
     unpaired_hz: tuple = ()      # measured modes not paired with a model mode [Hz]
     unit: str = "(m/s^2)/N"
@@ -198,8 +198,9 @@ def noise_sigma(H: np.ndarray) -> np.ndarray:
 
 
 def prepare(tests: list[FRFTest], nominal: Config) -> list[FRFData]:
-    """The fitted lines, ln|H|, sigma and paired mode frequencies of every test; ``nominal`` must
-    hold the sensors' points (``with_sensor_points``)."""
+    """The fitted lines, ln|H|, sigma and paired mode frequencies of every test, against ``nominal``
+    with the sensors' points added (``with_sensor_points``: the models that ``residuals`` gets
+    must hold them too)."""
     for t in tests:
         check_positions(t, nominal)
     nominal, points = with_sensor_points(tests, nominal)
@@ -229,7 +230,7 @@ def model_H(cfg: Config, data: list[FRFData]) -> list[dict]:
     model = build_plant(quiet(cfg))
     out = []
     for d in data:
-        Ha = point_accelerances(model, d.points or {s: sensor_points(cfg)[s] for s in d.sel}, d.F_N1, d.freq)
+        Ha = point_accelerances(model, d.points, d.F_N1, d.freq)
         out.append({s: from_accelerance(h, d.freq, d.quantity) for s, h in Ha.items()})
     return out
 
