@@ -261,6 +261,24 @@ def test_calibration_from_far_away(one_level, e_nominal):
     assert res["gap_after"]["structure_frf_db"] == pytest.approx(ref["gap_after"]["structure_frf_db"], abs=0.01)
 
 
+@pytest.mark.parametrize("k_nominal", [0.1, 10.0], ids=["k_t/10", "k_t*10"])
+def test_contact_stiffness_a_decade_off(one_level, k_nominal):
+    """A nominal k_t a factor 10 off (its log-scale range 0.01..100): stage 1 fits ln k_t on the
+    frequencies with E, stage 2 (up to 30 steps) ends at the campaign's true k_t within 0.1 %
+    (measured 0.001-0.01 %), the damping within 1 %, the gap as from the right nominal within
+    0.01 dB, no warning."""
+    c = Config()
+    nominal = with_sets(Config(), [f"plant.interface.k_t={c.plant.interface.k_t * k_nominal!r}"])
+    true = scaled(c, scatter_sets(np.random.default_rng(SEED)))
+    _, ref = one_level("none", "accelerance")
+    _, res = one_level("none", "accelerance", nominal)
+    assert res["named_effect"] is None and res["warnings"] == []
+    assert res["fitted_parameters"]["k_t"] * k_nominal == pytest.approx(true.plant.interface.k_t / c.plant.interface.k_t,
+                                                                        rel=1e-3)
+    assert res["fitted_parameters"]["modal_damping"] == pytest.approx(ref["fitted_parameters"]["modal_damping"], rel=0.01)
+    assert res["gap_after"]["structure_frf_db"] == pytest.approx(ref["gap_after"]["structure_frf_db"], abs=0.01)
+
+
 def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
     """A nominal modal damping 20 x too high: the fit needs a scale ~0.05, below the bound 0.1, and
     ends on it: a warning in the JSON (parameter, value, bound, fix) and in report.md."""

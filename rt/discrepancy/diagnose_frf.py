@@ -39,10 +39,11 @@ masses that did not scale).
 
 Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.frf_modes:
 peaks of all sensors, by shape with >= 3 sensors, else by order: no window around the nominal
-frequencies); E (and the candidate) fitted to them (rt.discrepancy.diagnose_structure.
-fit_frequencies). Stage 2: weighted log-magnitude residuals r = (ln|H_meas| - ln|H_model|) /
-sigma_k of all sensors and tests plus the calibration priors, by rt.discrepancy.diagnose_structure's
-Gauss-Newton with Broyden updates on (E, ln k_t, ln modal_damping, the candidate), from the better
+frequencies); E, ln k_t (over its decades k_t moves the frequencies by tens of percent) and the
+candidate fitted to them (rt.discrepancy.diagnose_structure.fit_frequencies). Stage 2: weighted
+log-magnitude residuals r = (ln|H_meas| - ln|H_model|) / sigma_k of all sensors and tests plus
+the calibration priors, by rt.discrepancy.diagnose_structure's Gauss-Newton with Broyden updates
+on (E, ln k_t, ln modal_damping, the candidate), at most ``MAX_STEPS_FAR`` steps, from the better
 of stage 1 and the calibration with the candidate at nominal. Ranking, naming conditions and
 result keys as rt.discrepancy.diagnose (rank, ranking_result); the gap per test [dB] is the RMS of
 20 log10|H_meas / H_model| of a_frf_meas (else the first sensor) over rt.discrepancy.diagnose.
@@ -86,7 +87,9 @@ from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_fold
 
 NOISE_LINES = 31                 # running-median window of the noise estimate [lines]
 POSITION_TOL_M = 1e-3            # sidecar positions must match the model's points within this [m]
-CAL_NAMES = ("E", "k_t", "modal_damping")   # mu cannot act on the stuck linear model
+CAL_NAMES = ("E", "k_t", "modal_damping")
+MAX_STEPS_FAR = 30               # stage-2 steps at most (a start a decade off needs more than MAX_STEPS)
+STAGE1_LOG = ("k_t",)           # the contact stiffness fitted on the frequencies too (stage 1)   # mu cannot act on the stuck linear model
 FORCE_SCALE = "force_scale_N_per_V"          # the drive-voltage tests' force scale, a fitted parameter
 FORCE_SCALE_N_PER_V = (1e-3, 1e3)            # its bounds [N/V]: a shaker amplifier's 0.1-100 N/V, widely
 BOUND_REL = 0.005                # a parameter within this of a bound (relative; on ln for log-scale ones) is a warning
@@ -296,7 +299,8 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
         ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
         return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x, CAL_FAR, LOG_SCALE)])
 
-    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, cal=CAL_FAR)
+    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, cal=CAL_FAR,
+                             log_names=STAGE1_LOG)
     z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names])), lo, hi)
     run, r = evaluate(z)
     J = None
@@ -307,7 +311,7 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
             z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
             J = np.column_stack([calibrated.J[k] for k in names[:-1]]
                                 + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
-    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps)
+    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR)
     theta = _theta(names, to_x(z), scale)
     return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 

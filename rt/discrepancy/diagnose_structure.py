@@ -199,32 +199,41 @@ def prior(names, x, cal: dict = CAL, log=frozenset()) -> np.ndarray:
 # --- stage 1: frequencies -------------------------------------------------------------------------
 
 def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
-                    frequencies=model_frequencies, cal: dict = CAL) -> dict:
+                    frequencies=model_frequencies, cal: dict = CAL, log_names=()) -> dict:
     """E (and the effect) on the identified frequencies (``f_modes``: per sensor, or per pairing of
     the FRF-file input; the same keys in every test) in the stuck tests (k_t moves them by < 0.1 %
     over its tolerance: left to stage 2); the model's are ``frequencies(model, F_N1)`` (default: as
-    the plant step shows them); bounds and prior from the calibration table ``cal``."""
-    names = ["E"] + ([effect.name] if effect else [])
+    the plant step shows them); bounds and prior from the calibration table ``cal``. ``log_names``:
+    log-scale calibration parameters fitted too, as ln(scale) (the FRF-file input's contact
+    stiffnesses: over their decades they move the frequencies by tens of percent)."""
+    names = ["E", *log_names] + ([effect.name] if effect else [])
+    log = np.array([k in log_names for k in names])
     data = [d for d in data if d.stuck] or data
     meas = np.array([list(d.f_modes.values()) for d in data])                  # (tests, sensors, modes)
     ok = np.isfinite(meas)
 
-    def res(x):
+    def to_x(z):
+        return np.where(log, np.exp(np.where(log, z, 0.0)), z)
+
+    def res(z):
+        x = to_x(z)
         model = build_plant(quiet(struct_cfg(nominal, dict(zip(names, x)), effect)))
         fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
         r = ((meas - fm) / meas / SIGMA_F)[ok]
-        return np.concatenate([r, prior(names, x, cal)])
+        return np.concatenate([r, prior(names, x, cal, frozenset(log_names))])
 
     lo, hi = bounds(names, effect, cal)
-    x_scale = [0.01] + ([effect.parameter.default] if effect else [])
+    lo, hi = np.where(log, np.log(np.where(log, lo, 1.0)), lo), np.where(log, np.log(np.where(log, hi, 1.0)), hi)
+    x_scale = [0.01] + [0.1] * len(log_names) + ([effect.parameter.default] if effect else [])
     best = None
-    starts = [[1.0]] if effect is None else [[1.0, effect.parameter.default]]
+    starts = [[1.0] + [0.0] * len(log_names)] if effect is None else [[1.0] + [0.0] * len(log_names)
+                                                                       + [effect.parameter.default]]
     for x0 in starts:
-        sol = least_squares(res, x0, bounds=(lo, hi), x_scale=x_scale, diff_step=1e-4, max_nfev=20,
+        sol = least_squares(res, x0, bounds=(lo, hi), x_scale=x_scale, diff_step=1e-4, max_nfev=20 + 10 * len(log_names),
                             ftol=1e-5, xtol=1e-5)
         if best is None or sol.cost < best.cost:
             best = sol
-    return dict(zip(names, map(float, best.x)))
+    return dict(zip(names, map(float, to_x(best.x))))
 
 
 # --- stage 2: FRF shape ---------------------------------------------------------------------------
@@ -309,19 +318,19 @@ def jacobian_column(evaluate, x: np.ndarray, r: np.ndarray, j: int, steps: np.nd
     return -(evaluate(xj)[1] - r) / h
 
 
-def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps):
+def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps, max_steps: int = MAX_STEPS):
     """Bounded Gauss-Newton steps (scipy.optimize.lsq_linear) from x (``run``, residuals r, the
     Jacobian J or None: computed) with Broyden's rank-one update of J after each step (in units of
     ``steps``), recomputed by finite differences only when a step fails; a fresh Jacobian's step is
     halved up to twice. Stops when the cost drops by less than ``CONVERGED`` (relative), after
-    ``MAX_STEPS`` or when a fresh Jacobian's step fails. Returns (x, run, r, J)."""
+    ``max_steps`` (default MAX_STEPS) or when a fresh Jacobian's step fails. Returns (x, run, r, J)."""
     def column(x, r, j):
         return jacobian_column(evaluate, x, r, j, steps, hi)
 
     fresh = J is None
     if J is None:
         J = np.column_stack([column(x, r, j) for j in range(len(x))])
-    for _ in range(MAX_STEPS):
+    for _ in range(max_steps):
         dx = lsq_linear(J, r, bounds=(lo - x, hi - x)).x
         cost = float(r @ r)
         for _ in range(3 if fresh else 1):             # a fresh Jacobian's step is halved up to twice
