@@ -227,6 +227,8 @@ def test_drive_voltage_force_scale(one_level, tmp_path):
     assert res["fitted_parameters"]["E"] == pytest.approx(ref["fitted_parameters"]["E"], rel=1e-4)
     md = (write_report(res, tmp_path / "rep") / "report.md").read_text()
     assert "## Excitation: drive voltage, no force" in md and "cannot be separated" in md
+    from rt.discrepancy.diagnose import summary
+    assert "no force in the data: fitted force scale 0.37" in summary(res)
 
 
 def test_force_scale_absorbs_the_mass_scale(one_level):
@@ -290,6 +292,8 @@ def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
     assert "check the nominal plant.modal_damping" in w[0]["fix"] and "drive_voltage" in w[0]["fix"]
     md = (write_report(res, tmp_path / "rep") / "report.md").read_text()
     assert "## Warnings: parameters on a bound, level" in md and "| modal_damping | 0.1 | 0.1 |" in md
+    from rt.discrepancy.diagnose import summary
+    assert "warning: modal_damping = 0.1 on its bound 0.1: check the nominal" in summary(res)   # the CLI's text
 
 
 def test_bound_warnings_by_scale():

@@ -472,5 +472,10 @@ def summary(result: dict) -> str:
         lines.append(f"step-sine F_amp/drive gap [dB]: {gb['stepsine_ratio_db']:.3f} -> {ga['stepsine_ratio_db']:.3f}")
     if gb["actuator_nrmse"] is not None:
         lines.append(f"actuator F_cell NRMSE: {gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}")
+    if "excitation" in result:      # FRF files per drive volt (rt.discrepancy.diagnose_frf)
+        lines.append(f"no force in the data: fitted force scale {result['excitation']['force_scale_N_per_V']:g} N/V")
+    for w in result.get("warnings", []):
+        at = "" if w["bound"] is None else f" on its bound {w['bound']:g}"
+        lines.append(f"warning: {w['parameter']} = {w['value']:g}{at}: {w['fix']}")
     return "\n".join(lines)
 

@@ -75,10 +75,12 @@ from rt.discrepancy.diagnose_structure import (
     MODES,
     bounds,
     fit_frequencies,
+    from_z,
     gauss_newton_broyden,
     jacobian_column,
     prior,
     struct_cfg,
+    to_z,
 )
 from rt.discrepancy.effects import Effect, implemented
 from rt.discrepancy.frf_modes import measured_modes, model_modes, pair
@@ -284,35 +286,29 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
-    def to_z(x):
-        return np.where(log, np.log(np.where(log, x, 1.0)), x)
-
-    lo, hi = (to_z(b) for b in bounds(names, effect, CAL_FAR))
+    lo, hi = (to_z(b, log) for b in bounds(names, effect, CAL_FAR))
     steps = np.array([math.log1p(CAL_FAR[k][3]) if k in LOG_SCALE else CAL_FAR[k][3] if k in CAL_FAR
                       else EFFECT_STEP * effect.parameter.default for k in names])
 
-    def to_x(z):
-        return np.where(log, np.exp(np.where(log, z, 0.0)), z)
-
     def evaluate(z):
-        x = to_x(z)
+        x = from_z(z, log)
         ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
         return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x, CAL_FAR, LOG_SCALE)])
 
     stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, cal=CAL_FAR,
                              log_names=STAGE1_LOG)
-    z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names])), lo, hi)
+    z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
     run, r = evaluate(z)
     J = None
     if calibrated is not None and effect is not None:
-        z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]))
-        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, to_x(z_cal), CAL_FAR, LOG_SCALE)])
+        z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
+        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, from_z(z_cal, log), CAL_FAR, LOG_SCALE)])
         if r_cal @ r_cal < r @ r:
             z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
             J = np.column_stack([calibrated.J[k] for k in names[:-1]]
                                 + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
     z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR)
-    theta = _theta(names, to_x(z), scale)
+    theta = _theta(names, from_z(z, log), scale)
     return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
 

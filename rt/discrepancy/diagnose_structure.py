@@ -196,6 +196,16 @@ def prior(names, x, cal: dict = CAL, log=frozenset()) -> np.ndarray:
     return np.array([(math.log(v) if k in log else v - 1.0) / cal[k][2] for k, v in zip(names, x) if k in cal])
 
 
+def to_z(x, log: np.ndarray) -> np.ndarray:
+    """The optimiser's variables of the parameters x: ln(x) where ``log`` (bool per parameter), else x."""
+    return np.where(log, np.log(np.where(log, x, 1.0)), x)
+
+
+def from_z(z, log: np.ndarray) -> np.ndarray:
+    """The parameters of the optimiser's variables z (the inverse of ``to_z``)."""
+    return np.where(log, np.exp(np.where(log, z, 0.0)), z)
+
+
 # --- stage 1: frequencies -------------------------------------------------------------------------
 
 def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
@@ -212,18 +222,14 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
     meas = np.array([list(d.f_modes.values()) for d in data])                  # (tests, sensors, modes)
     ok = np.isfinite(meas)
 
-    def to_x(z):
-        return np.where(log, np.exp(np.where(log, z, 0.0)), z)
-
     def res(z):
-        x = to_x(z)
+        x = from_z(z, log)
         model = build_plant(quiet(struct_cfg(nominal, dict(zip(names, x)), effect)))
         fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
         r = ((meas - fm) / meas / SIGMA_F)[ok]
         return np.concatenate([r, prior(names, x, cal, frozenset(log_names))])
 
-    lo, hi = bounds(names, effect, cal)
-    lo, hi = np.where(log, np.log(np.where(log, lo, 1.0)), lo), np.where(log, np.log(np.where(log, hi, 1.0)), hi)
+    lo, hi = (to_z(b, log) for b in bounds(names, effect, cal))
     x_scale = [0.01] + [0.1] * len(log_names) + ([effect.parameter.default] if effect else [])
     best = None
     starts = [[1.0] + [0.0] * len(log_names)] if effect is None else [[1.0] + [0.0] * len(log_names)
@@ -233,7 +239,7 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
                             ftol=1e-5, xtol=1e-5)
         if best is None or sol.cost < best.cost:
             best = sol
-    return dict(zip(names, map(float, to_x(best.x))))
+    return dict(zip(names, map(float, from_z(best.x, log))))
 
 
 # --- stage 2: FRF shape ---------------------------------------------------------------------------
