@@ -69,8 +69,10 @@ CAL_FAR = {"E": (0.5, 2.0, 0.3, 1e-3), "k_t": (0.01, 100.0, math.log(10.0), 0.02
 tens of percent off): E within a factor 2 (frequencies within 41 %), prior sigma 0.3; the contact
 stiffness and the modal damping within a factor 100 and 10, on a log scale (``LOG_SCALE``), prior
 sigma ln 10 on ln(scale) (a contact stiffness from Hertz-Mindlin or a handbook is known to an
-order of magnitude; zeta of a bolted beam lies between 1e-4 and 1e-2). The steps of the log-scale
-parameters are relative."""
+order of magnitude; zeta of a bolted beam lies between 1e-4 and 1e-2). Measured on the benchmark
+at 100 N: k_t x 100 and x 1000 give modes 1-8 within 0.02 % of each other (the joint is rigid for
+them: above 100 the data cannot tell), x 0.01 lowers modes 2-8 by 3-14 %. The steps of the
+log-scale parameters are relative."""
 LOG_SCALE = frozenset({"k_t", "modal_damping"})   # CAL_FAR parameters the optimiser moves as ln(scale)
 EFFECT_STEP = 0.05                      # finite-difference step / the effect's default strength
 
