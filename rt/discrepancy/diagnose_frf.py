@@ -83,7 +83,7 @@ from rt.discrepancy.diagnose_structure import (
     to_z,
 )
 from rt.discrepancy.effects import Effect, implemented
-from rt.discrepancy.frf_modes import measured_modes, model_modes, pair
+from rt.discrepancy.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
 from rt.discrepancy.rig_frf import add_points, sensor_points
 from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
 
@@ -449,7 +449,7 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
                 row["mac"] = round(float(mac), 3)
         localise[d.name] = {"F_N1_N": round(d.F_N1, 1), "frf_db_nominal": gap_db([d], [h])[d.name]["frf_db"],
                             "frf_db_all_nominal": gap_db([d], [h])[d.name]["frf_db_all"], "modes": table,
-                            "paired_by": "shape (MAC)" if len(d.H) >= 3 else "order",
+                            "paired_by": "shape (MAC)" if len(d.H) >= MAC_SENSORS else "order",
                             "unpaired_measured_hz": list(d.unpaired_hz)}
     gap = {"gap_before": gap_db(data, H0), "gap_calibrated": gap_db(data, base["fit"].H),
            "gap_after": gap_db(data, final["fit"].H)}
