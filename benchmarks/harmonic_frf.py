@@ -90,7 +90,8 @@ def compare(config: str | None, sets: list[str], F_amp: float, lines: list[float
         fp, hp = peak(f, H)
         ok = r.converged
         out[f"{method}{nh}"] = {
-            "peak_hz": fp, "peak_abs": hp, "peak_f_err_pct": 100 * (fp / fp_ss - 1), "peak_db_err": 20 * np.log10(hp / hp_ss),
+            "peak_hz": fp, "peak_abs": hp, "peak_f_err_pct": 100 * (fp / fp_ss - 1),
+            "peak_db_err": 20 * np.log10(hp / hp_ss),
             "rms_db_err": float(np.sqrt(np.mean((20 * np.log10(np.abs(H[ok] / ss.H[ok]))) ** 2))) if ok.any() else None,
             "converged": int(ok.sum()), "multi": int(np.sum(r.n_solutions > 1)),
             "normal_ratio_max": float(np.nanmax(r.normal_ratio)),
@@ -111,9 +112,9 @@ def table(rows: list[dict]) -> str:
         for method, nh in METHODS:
             m = r[f"{method}{nh}"]
             rms = "-" if m["rms_db_err"] is None else f"{m['rms_db_err']:.2f}"
-            out.append(f"| | | {method} H={nh} | {m['peak_hz']:.3f} | {m['peak_abs']:.2f} | {m['peak_f_err_pct']:+.3f} | "
-                       f"{m['peak_db_err']:+.2f} | {rms} | {m['converged']}/{len(r['lines_hz'])} | {m['s_per_line']:.3f} | "
-                       f"{m['s_per_line_one_start']:.3f} |")
+            out.append(f"| | | {method} H={nh} | {m['peak_hz']:.3f} | {m['peak_abs']:.2f} | "
+                       f"{m['peak_f_err_pct']:+.3f} | {m['peak_db_err']:+.2f} | {rms} | "
+                       f"{m['converged']}/{len(r['lines_hz'])} | {m['s_per_line']:.3f} | {m['s_per_line_one_start']:.3f} |")
     return "\n".join(out)
 
 

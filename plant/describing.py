@@ -46,7 +46,8 @@ def jenkins_df(a, k: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     s = a[slip]
     th = np.arccos(np.clip(1.0 - 2.0 * q / (k * s), -1.0, 1.0))
     keq[slip] = (k / np.pi) * (th - 0.5 * np.sin(2.0 * th)) + 1j * (4.0 * q / (np.pi * s)) * (1.0 - q / (k * s))
-    dkeq[slip] = -(4.0 * q / (np.pi * s * s)) * np.sin(th) + 1j * (4.0 * q / np.pi) * (2.0 * q / (k * s ** 3) - 1.0 / s ** 2)
+    dkeq[slip] = (-(4.0 * q / (np.pi * s * s)) * np.sin(th)
+                  + 1j * (4.0 * q / np.pi) * (2.0 * q / (k * s ** 3) - 1.0 / s ** 2))
     return keq, dkeq
 
 

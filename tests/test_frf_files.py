@@ -133,7 +133,15 @@ SIDE_CASES = {
     "F_N1 NaN": (lambda m: m.update(F_N1_N=float("nan")), "F_N1_N is nan, not a finite number"),
     "F_N1 string": (lambda m: m.update(F_N1_N="100"), "F_N1_N is '100'"),
     "F_N1 negative": (lambda m: m.update(F_N1_N=-1.0), "F_N1_N is -1.0; it must be >= 0 (0: a structure without"),
-    "unknown sensor": (lambda m: m["sensor_positions_m"].update(a_x=0.1), "unknown sensor 'a_x'"),
+    "bad sensor name": (lambda m: m["sensor_positions_m"].update({"Accel-X": 0.1}),
+                        "'Accel-X', which is not a valid sensor name: name sensors in lowercase snake_case"),
+    "reserved sensor name": (lambda m: m["sensor_positions_m"].update(stamp=0.1), "'stamp', which is not a valid"),
+    "quantity": (lambda m: m.update(quantity="inertance"),
+                 "quantity is 'inertance'; give one of accelerance, mobility, receptance"),
+    "excitation": (lambda m: m.update(excitation="current"), "excitation is 'current'; give one of force, drive_voltage"),
+    "sensor_beams type": (lambda m: m.update(sensor_beams=["main"]), "sensor_beams is \"['main']\"; give an object"),
+    "sensor_beams unplaced": (lambda m: m.update(sensor_beams={"v_x": "main"}), "sensor_beams names 'v_x', which has no"),
+    "sensor_beams value": (lambda m: m.update(sensor_beams={"a_tip_meas": 3}), "sensor_beams.a_tip_meas is '3'"),
     "sensor not placed": (lambda m: m["sensor_positions_m"].pop("a_frf_meas"),
                           "sensor a_frf_meas has no position in the sidecar"),
 }
@@ -175,7 +183,10 @@ def _uff_with(tmp_path, **changes) -> Path:
 
 @pytest.mark.parametrize("changes, msg", [
     ({"func_type": 1}, "function type 1"),
-    ({"id1": "accel_7"}, "unknown sensor"),
+    ({"id1": "Accel 7"}, "'Accel 7', which is not a valid sensor name"),
+    ({"id1": "accel_7"}, "sensor accel_7 has no position in the sidecar"),
+    ({"ordinate_spec_data_type": 11}, "ordinate data characteristic 11 (mobility), but the sidecar says quantity "
+                                      "'accelerance'"),
     ({"data": np.abs(np.ones(10))}, "real ordinate"),
     ({"abscissa_spec_data_type": 17}, "abscissa data type 17"),
     ({"id1": "a_tip_meas"}, "two data sets for a_tip_meas"),
@@ -207,3 +218,48 @@ def test_uff_garbage(tmp_path):
     with pytest.raises(ValueError, match=r"g.uff: no data set 58"):
         read_frf(p)
 
+
+
+@pytest.mark.parametrize("quantity, spec", [("receptance", 8), ("mobility", 11), ("accelerance", 12)])
+@pytest.mark.parametrize("excitation, denom", [("force", 13), ("drive_voltage", 0)])
+def test_quantities_and_sensor_names_round_trip(tmp_path, quantity, spec, excitation, denom):
+    """Issue 18: a receptance, mobility or accelerance per newton or per volt, of sensors of any
+    valid name: CSV bit-exact, UFF to its precision, the UFF data sets stating the quantity in the
+    ordinate numerator (8, 11, 12) and the excitation in the denominator (13 force, 0 a voltage)."""
+    import pyuff
+    t = _test(n=50, amps=False)
+    H = {"v_tip_laser": t.H["a_tip_meas"], "a_frf_meas": t.H["a_frf_meas"]}
+    meta = t.meta | {"sensor_positions_m": {"v_tip_laser": 0.765, "a_frf_meas": 0.45}, "quantity": quantity,
+                     "excitation": excitation, "sensor_beams": {"v_tip_laser": "main"}}
+    t = FRFTest("t", t.freq_hz, H, None, None, meta)
+    assert t.unit == {"receptance": "m", "mobility": "(m/s)", "accelerance": "(m/s^2)"}[quantity] + (
+        "/N" if excitation == "force" else "/V")
+    write_frf_csv(tmp_path / "q.csv", t)
+    write_frf_uff(tmp_path / "q.uff", t)
+    c, u = read_frf(tmp_path / "q.csv"), read_frf(tmp_path / "q.uff")
+    assert c.meta == u.meta == meta and c.quantity == quantity and u.excitation == excitation
+    for s in H:
+        assert np.array_equal(c.H[s], H[s]) and np.max(np.abs(u.H[s] / H[s] - 1)) < 1e-11
+    sets = pyuff.UFF(str(tmp_path / "q.uff")).read_sets()
+    assert [(d["id1"], d["ordinate_spec_data_type"], d["orddenom_spec_data_type"], d["rsp_node"]) for d in sets] == [
+        ("v_tip_laser", spec, denom, 3), ("a_frf_meas", spec, denom, 2)]
+
+
+def test_from_accelerance_is_the_time_integral():
+    """H_v = H_a / (i w), H_x = H_a / (i w)^2: a mass m (H_a = 1/m) has the receptance -1/(m w^2)."""
+    from rt.log.frf_files import from_accelerance
+    f = np.array([1.0, 10.0, 100.0])
+    w = 2 * np.pi * f
+    Ha = np.full(3, 0.5 + 0j)
+    assert np.allclose(from_accelerance(Ha, f, "receptance"), -0.5 / w ** 2, rtol=1e-15)
+    assert np.allclose(from_accelerance(Ha, f, "mobility"), 0.5 / (1j * w), rtol=1e-15)
+    assert from_accelerance(Ha, f, "accelerance") is Ha
+
+
+def test_uff_excitation_disagreeing_with_sidecar(tmp_path):
+    """A data set stating an excitation force (13) in a file whose sidecar says drive_voltage."""
+    p = _uff_with(tmp_path)
+    sidecar_path(p).write_text(json.dumps(_test().meta | {"excitation": "drive_voltage"}))
+    with pytest.raises(ValueError, match="ordinate denominator 13 .excitation force., but the sidecar says excitation "
+                                         "'drive_voltage'"):
+        read_frf(p)

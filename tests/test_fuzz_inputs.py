@@ -21,7 +21,11 @@ SIGALRM watchdog), never a partly written output (the output folder is checked a
     FRF files       a small CSV and a small UFF file (rt.log.frf_files) truncated, bit-flipped, overwritten
                     in part, empty, replaced by garbage, and their JSON sidecar likewise, fed to
                     diagnose (their sidecar places the excitation off the model's point, so a file
-                    that survives the damage stops at that check, exit 2, instead of a 10 s fit)
+                    that survives the damage stops at that check, exit 2, instead of a 10 s fit);
+                    crafted sidecars of issue 18's keys and file kinds: a quantity, excitation,
+                    sensor name or sensor_beams that is not one of the allowed, a sensor of a
+                    valid name off every beam (the excitation then on the model's point), each
+                    as CSV and UFF
 
 The runs are deterministic (``derandomize=True``). HYPOTHESIS_PROFILE=long multiplies the example
 counts by FRICTIONRT_FUZZ_SCALE (default 20) and draws new random examples on every run.
@@ -35,6 +39,7 @@ import importlib
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import time
@@ -60,7 +65,7 @@ LONG = os.environ.get("HYPOTHESIS_PROFILE") == "long"
 SCALE = int(os.environ.get("FRICTIONRT_FUZZ_SCALE", "20")) if LONG else 1
 EXAMPLES = {"config_bytes": 150, "config_truncated": 150, "config_field": 400, "config_structure": 36,
             "set_random": 250, "set_field": 300, "set_list": 100,
-            "file_mutated": 200, "file_crafted": 100, "frf_mutated": 120}
+            "file_mutated": 200, "file_crafted": 100, "frf_mutated": 120, "frf_crafted": 80}
 FAST_S, SLOW_S = 10.0, 40.0   # per-example deadline [s]: config/--set, files (a readable log
 #                               rebuilds the controller for replay: 3-5 s on the shared 2 cores)
 COUNT: collections.Counter = collections.Counter()   # examples run per entry point
@@ -669,6 +674,64 @@ def test_frf_file_mutated(data, suffix, which, kind, frf_sources, dirs, capfd):
     OUTCOME["diagnose frf", res[0]] += 1
     check_end(res, (2,), names=(str(src_dir),))
     assert listing(src_dir) == before and listing(out) == {}
+
+
+SENSOR_NAME = st.text(st.sampled_from("abcxyzAZ_09- .é"), min_size=0, max_size=12)
+
+
+def _bad_kind(data, suffix: str) -> tuple[dict, str, str]:
+    """(sidecar changes, sensor name, expected words of the error) of one crafted issue-18 case."""
+    case = data.draw(st.sampled_from(["quantity", "excitation", "sensor name", "sensor_beams", "off every beam"]),
+                     label="case")
+    if case in ("quantity", "excitation"):
+        allowed = ("accelerance", "mobility", "receptance") if case == "quantity" else ("force", "drive_voltage")
+        v = data.draw(st.one_of(st.text(max_size=12).filter(lambda t: t not in allowed), st.integers(), st.none(),
+                                st.lists(st.integers(), max_size=2)), label="value")
+        return {case: v}, "v_tip", f"sidecar {case} is"
+    if case == "sensor name":
+        name = data.draw(SENSOR_NAME.filter(lambda t: not re.fullmatch(r"(?!.*__)(?!.*_\Z)[a-z][a-z0-9_]*", t)
+                                            or t in ("stamp", "tick")), label="name")
+        return {}, name, "not a valid sensor name"
+    if case == "sensor_beams":
+        v = data.draw(st.one_of(st.integers(), st.text(max_size=6), st.lists(st.text(max_size=3), max_size=2),
+                                st.dictionaries(st.sampled_from(["v_tip", "v_nowhere"]), st.one_of(
+                                    st.integers(), st.just(""), st.none()), min_size=1, max_size=2)), label="beams")
+        return {"sensor_beams": v}, "v_tip", "sensor_beams"
+    x = data.draw(st.one_of(st.floats(-100.0, -0.002), st.floats(0.777, 100.0)), label="x")
+    return {"sensor_positions_m": {"v_tip": x}, "excitation_x_m": 0.325}, "v_tip", "no beam of the model holds"
+
+
+@fuzz("frf_crafted", FAST_S)
+@given(data=st.data(), suffix=st.sampled_from([".csv", ".uff"]))
+def test_frf_sidecar_crafted(data, suffix, dirs, capfd):
+    """diagnose on an FRF file whose sidecar's issue-18 keys are bad (or its sensor is off every
+    beam): exit 2, one line naming the folder and the problem, nothing written."""
+    from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
+    changes, name, words = _bad_kind(data, suffix)
+    COUNT[f"frf crafted:{suffix}"] += 1
+    src_dir, out = dirs
+    shutil.rmtree(src_dir)
+    src_dir.mkdir()
+    shutil.rmtree(out)
+    out.mkdir()
+    f = 100.0 + 0.25 * np.arange(40)
+    meta = {"format": FORMAT, "kind": "frf", "excitation_x_m": 0.225, "sensor_positions_m": {name: 0.765},
+            "F_N1_N": 100.0, "amplitude_n": 1.0, "description": "fuzz"}
+    good = FRFTest("t", f, {"v_tip": (1.0 + 0.1j) * f}, None, None, meta | {"sensor_positions_m": {"v_tip": 0.765}})
+    (write_frf_csv if suffix == ".csv" else write_frf_uff)(src_dir / f"t{suffix}", good)
+    text = (src_dir / f"t{suffix}").read_text()
+    if name != "v_tip":      # the crafted name in the data file and the sidecar, as a lab's tool would write it
+        text = text.replace("v_tip_re", f"{name}_re").replace("v_tip_im", f"{name}_im") if suffix == ".csv" else \
+            text.replace(f"{'v_tip':<80}", f"{name:<80}"[:80])
+        (src_dir / f"t{suffix}").write_text(text)
+    (src_dir / "t.json").write_text(json.dumps(meta | changes))
+    before = listing(src_dir)
+    res = run_cli(capfd, ["diagnose", str(src_dir), "--json", "--out", str(out / "report")], FAST_S)
+    line = check_end(res, (2,), names=(str(src_dir),))
+    assert listing(src_dir) == before and listing(out) == {}
+    # a crafted name may already break the data file's own syntax (a CSV header, a UFF ID line)
+    expected = (words,) + (("header column", "readable universal file", "data set", "fields") if name != "v_tip" else ())
+    assert any(w in line for w in expected), line
 
 
 @pytest.mark.parametrize("cmd", COMMANDS + ("config",))

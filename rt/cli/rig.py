@@ -23,7 +23,8 @@ With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-
 of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
 of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars; a structure
 without an adaptive screw gets one test, frf_01.csv (F_N1_N = 0). Without --frf-files the campaign
-needs the adaptive screw (its actuator tests).
+needs the adaptive screw (its actuator tests). --quantity writes mobilities or receptances instead,
+--force-scale S FRFs per drive volt of a shaker without force transducer (H per volt = S x H per newton).
 With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from stepped-sine up-sweeps of
 the nonlinear plant (the adaptive screw, if any, held at 100 N; lines around the stuck structure's
 modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff).
@@ -38,6 +39,8 @@ EXAMPLES = """examples:
   frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean
   frictionrt rig --effect clamp_compliance --frf-files -o logs/frf_clamp && frictionrt diagnose logs/frf_clamp
   frictionrt rig --effect shaker_interaction --stepsine --seed 3 -o logs/campaign_shaker
+  frictionrt rig --effect moving_mass --frf-files --quantity mobility --force-scale 0.37 -o logs/frf_volt
+
   frictionrt rig --effect micro_slip --frf-files --levels 0.5,1,2,5,10,20 -o logs/frf_levels
   frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form"""
 
@@ -56,6 +59,11 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s] (default 1)")
     p.add_argument("--frf-files", action="store_true", help="write FRF files (CSV/UFF + JSON sidecars: linear, "
                    "contact stuck, at each F_N1) instead of the time-series campaign (rt/discrepancy/rig_frf.py)")
+    p.add_argument("--quantity", choices=("accelerance", "mobility", "receptance"), default="accelerance",
+                   help="with --frf-files: what the files hold, (m/s^2)/N, (m/s)/N or m/N (default accelerance)")
+    p.add_argument("--force-scale", type=float, metavar="N_PER_V",
+                   help="with --frf-files: the excitation is a drive voltage without force measurement, the "
+                        "files hold H per volt = N_PER_V x H per newton (sidecar excitation drive_voltage)")
     p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
                    "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
     p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] of stepped-sine "
@@ -100,8 +108,15 @@ def cmd_rig(cfg, args) -> int:
         return fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
     if args.frf_files and (args.stepsine or args.record_s != 1.0):
         return fail("rig --frf-files: --stepsine and --record-s apply to the time-series campaign only; drop them")
+    if not args.frf_files and (args.quantity != "accelerance" or args.force_scale is not None):
+        return fail("rig --quantity, --force-scale: they apply to --frf-files only; add it or drop them")
+    if args.force_scale is not None and not (math.isfinite(args.force_scale) and args.force_scale > 0):
+        return fail(f"rig --force-scale {args.force_scale:g}: give a force per volt > 0 [N/V]")
     if args.levels is not None and not args.frf_files:
         return fail("rig --levels: the level tests are FRF files; add --frf-files")
+    if args.levels is not None and (args.quantity != "accelerance" or args.force_scale is not None):
+        return fail("rig --levels: the level tests are accelerances per newton; --quantity and --force-scale apply "
+                    "to the linear FRF files only, drop them")
     levels = None
     if args.levels is not None:
         try:
@@ -118,6 +133,7 @@ def cmd_rig(cfg, args) -> int:
                                         progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
         elif args.frf_files:
             files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
+                                      quantity=args.quantity, force_scale_N_per_V=args.force_scale,
                                       other_form=args.model_form)
         else:
             files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,

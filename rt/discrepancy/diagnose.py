@@ -43,7 +43,6 @@ from threadpoolctl import threadpool_limits
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.diagnose_structure import (
-    SENSORS,
     StructureFit,
     fit_structure,
     model_frequencies,
@@ -433,12 +432,13 @@ def frf_overlays(plots: dict) -> list[tuple]:
 
 
 def modes_table(f_model: np.ndarray, f_modes: dict) -> dict:
-    """Localisation per mode m (1-based): the model's frequency, the identified one per sensor
-    (f_modes {sensor: array}) and their mean relative shift."""
+    """Localisation per mode m (1-based): the model's frequency, the identified one per key of
+    f_modes ({sensor: array}, or {"measured": array} of the FRF-file input's pairing) and their
+    mean relative shift."""
     out = {}
     for j, f_m in enumerate(f_model):
-        f_s = [f_modes[s][j] for s in SENSORS]
-        out[str(j + 1)] = {"f_model_hz": _r(f_m)} | {f"f_{s}_hz": _r(f) for s, f in zip(SENSORS, f_s)} | {
+        f_s = [f_modes[s][j] for s in f_modes]
+        out[str(j + 1)] = {"f_model_hz": _r(f_m)} | {f"f_{s}_hz": _r(f) for s, f in zip(f_modes, f_s)} | {
             "shift_rel": _r(np.nanmean(f_s) / f_m - 1.0, 6) if np.any(np.isfinite(f_s)) else None}
     return out
 
@@ -481,5 +481,10 @@ def summary(result: dict) -> str:
         lines.append(f"step-sine F_amp/drive gap [dB]: {gb['stepsine_ratio_db']:.3f} -> {ga['stepsine_ratio_db']:.3f}")
     if gb["actuator_nrmse"] is not None:
         lines.append(f"actuator F_cell NRMSE: {gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}")
+    if "excitation" in result:      # FRF files per drive volt (rt.discrepancy.diagnose_frf)
+        lines.append(f"no force in the data: fitted force scale {result['excitation']['force_scale_N_per_V']:g} N/V")
+    for w in result.get("warnings", []):
+        at = "" if w["bound"] is None else f" on its bound {w['bound']:g}"
+        lines.append(f"warning: {w['parameter']} = {w['value']:g}{at}: {w['fix']}")
     return "\n".join(lines)
 

@@ -1,12 +1,18 @@
-"""The discrepancy workflow on measured FRFs (issue 7, docs/discrepancy.md "FRF-file input"): a
-folder of FRF files (rt.log.frf_files: accelerances at several F_N1, CSV or UFF with sidecars) and a
+"""The discrepancy workflow on measured FRFs (issues 7, 18; docs/discrepancy.md "FRF-file input"): a
+folder of FRF files (rt.log.frf_files: FRFs at several F_N1, CSV or UFF with sidecars) and a
 nominal model of any structure (--config) instead of a time-series campaign.
 
 The model of an FRF file is the linear one: the plant with the contact stuck at the test's F_N1,
-its continuous accelerance at the sensors (plant.linear_frf.point_accelerances, the linearisation of
-plant.linear_frf). It has no friction limit, so mu cannot act: calibration is E, k_t and the
-modal damping (rt.discrepancy.diagnose_structure.CAL: bounds, priors), alone or with each implemented
-structural candidate of rt.discrepancy.effects.
+its continuous accelerance at the sensors (plant.linear_frf.point_accelerances), converted to the
+file's quantity (rt.log.frf_files.from_accelerance: H_a / (i w)^(2 - k), mobility k = 1,
+receptance k = 0). Sensors: a_tip_meas, a_frf_meas are the model's tip and plant.frf_point (their
+sidecar positions must match within ``POSITION_TOL_M``); any other name sits at its sidecar
+position on the beam that holds it (sidecar sensor_beams where beams overlap), at the model's
+point there within ``POSITION_TOL_M``, or at a massless point added to the model there
+(``with_sensor_points``: a mesh node, as every point is). It has no friction limit, so mu
+cannot act: calibration is E, k_t and the modal damping (rt.discrepancy.diagnose_structure.CAL_FAR:
+bounds, priors, k_t and the damping on a log scale), alone or with each implemented structural
+candidate of rt.discrepancy.effects.
 
 Data, per test and sensor s: ln|H_s| on the lines where it is above the noise; the noise of
 ln|H| per line from the measurement itself: d_k = H_k - (H_{k-1} + H_{k+1}) / 2 (noise variance
@@ -18,14 +24,32 @@ x 1.5 where the FRF is smooth over two lines), its local level the running media
 lines with sigma_k > MAX_SIGMA (noise-filled antiresonances) left out (FLOOR, MAX_SIGMA as the
 impulse workflow's, rt.discrepancy.diagnose_structure).
 
-Stage 1: natural frequencies of modes 1-8 identified per test and sensor (plant.impulse.identify,
-no window) against the stuck plant's undamped frequencies; E (and the candidate) fitted to them
-(rt.discrepancy.diagnose_structure.fit_frequencies). Stage 2: weighted log-magnitude residuals
-r = (ln|H_meas| - ln|H_model|) / sigma_k of all sensors and tests plus the calibration priors,
-by rt.discrepancy.diagnose_structure's Gauss-Newton with Broyden updates, from the better of
-stage 1 and the calibration with the candidate at nominal.
-Ranking, naming conditions and result keys as rt.discrepancy.diagnose (rank, ranking_result); the gap is the
-RMS of 20 log10|H_meas / H_model| of a_frf_meas over rt.discrepancy.diagnose.BAND_HZ per test [dB].
+Drive voltage (sidecar excitation drive_voltage: H per volt, no force measured): H_V = s H_F with
+one unknown force scale s [N/V] for the folder's voltage tests. ln s enters every residual of
+those tests as the same constant, so it is profiled out in closed form for every model (variable
+projection, exact): ln s = sum_k (ln|H_meas| - ln|H_model|)_k / sigma_k^2 / sum_k 1 / sigma_k^2,
+kept within ``FORCE_SCALE_N_PER_V``. It is one fitted parameter in the BIC. What it leaves
+unidentifiable: the absolute mass and stiffness scale together (every mass and stiffness by one
+factor c: rho and E of the beams, the lumped masses, the contact and bolt stiffnesses; the
+frequencies stay and |H| scales like 1 / c, as a force scale would); E alone is not (it moves
+the frequencies), so E is fitted as with a force, relative to the nominal density, and s absorbs
+an error in the nominal mass scale (measured: a nominal with rho and E of the beams x 1.2 fits
+s = 1.2008 x the truth, E as before, k_t x 1.2, and names moving_mass 0.004 kg for the screws'
+masses that did not scale).
+
+Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.frf_modes:
+peaks of all sensors, by shape with >= 3 sensors, else by order: no window around the nominal
+frequencies); E, ln k_t (over its decades k_t moves the frequencies by tens of percent) and the
+candidate fitted to them (rt.discrepancy.diagnose_structure.fit_frequencies). Stage 2: weighted
+log-magnitude residuals r = (ln|H_meas| - ln|H_model|) / sigma_k of all sensors and tests plus
+the calibration priors, by rt.discrepancy.diagnose_structure's Gauss-Newton with Broyden updates
+on (E, ln k_t, ln modal_damping, the candidate), at most ``MAX_STEPS_FAR`` steps, from the better
+of stage 1 and the calibration with the candidate at nominal. Ranking, naming conditions and
+result keys as rt.discrepancy.diagnose (rank, ranking_result); the gap per test [dB] is the RMS of
+20 log10|H_meas / H_model| of a_frf_meas (else the first sensor) over rt.discrepancy.diagnose.
+BAND_HZ ("frf_db", as before issue 18) and over every sensor and the file's whole band
+("frf_db_all", "band_hz"). A fitted parameter within ``BOUND_REL`` of a bound is a warning
+(``bound_warnings``).
 """
 from __future__ import annotations
 
@@ -37,45 +61,59 @@ import numpy as np
 from scipy.ndimage import median_filter
 from threadpoolctl import threadpool_limits
 
+from plant.linear_frf import point_accelerances
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.common.config import Config, with_sets
+from rt.discrepancy.chain import quiet
 from rt.discrepancy.diagnose import BAND_HZ, bic, modes_table, rank, ranking_result
 from rt.discrepancy.diagnose_structure import (
-    CAL,
+    CAL_FAR,
     EFFECT_STEP,
     FLOOR,
+    LOG_SCALE,
     MAX_SIGMA,
     MODES,
-    SENSORS,
     bounds,
-    prior,
     fit_frequencies,
+    from_z,
     gauss_newton_broyden,
-    identify_modes,
     jacobian_column,
+    prior,
     struct_cfg,
+    to_z,
 )
 from rt.discrepancy.effects import EFFECTS, Effect, implemented
-from rt.log.frf_files import FRFTest, frf_files, load_frf_folder
-from plant.linear_frf import point_accelerances
-from rt.discrepancy.chain import quiet
-from rt.discrepancy.rig_frf import sensor_points
+from rt.discrepancy.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
+from rt.discrepancy.rig_frf import add_points, sensor_points
+from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
 
 NOISE_LINES = 31                 # running-median window of the noise estimate [lines]
 POSITION_TOL_M = 1e-3            # sidecar positions must match the model's points within this [m]
-CAL_NAMES = ("E", "k_t", "modal_damping")   # mu cannot act on the stuck linear model
+CAL_NAMES = ("E", "k_t", "modal_damping")
+MAX_STEPS_FAR = 30               # stage-2 steps at most (a start a decade off needs more than MAX_STEPS)
+STAGE1_LOG = ("k_t",)           # the contact stiffness fitted on the frequencies too (stage 1)   # mu cannot act on the stuck linear model
+FORCE_SCALE = "force_scale_N_per_V"          # the drive-voltage tests' force scale, a fitted parameter
+FORCE_SCALE_N_PER_V = (1e-3, 1e3)            # its bounds [N/V]: a shaker amplifier's 0.1-100 N/V, widely
+BOUND_REL = 0.005                # a parameter within this of a bound (relative; on ln for log-scale ones) is a warning
+LEVEL_DB = 1.0                   # a final fit whose FRFs all lie this far above or below the data [dB] is a warning
 
 
 class FRFData(NamedTuple):
     name: str
     F_N1: float
     freq: np.ndarray             # all lines [Hz]
-    H: dict                      # sensor -> measured H on all lines
+    H: dict                      # sensor -> measured H on all lines (the file's quantity and excitation)
     sel: dict                    # sensor -> bool mask of the fitted lines
     ln_h: dict                   # sensor -> ln|H_meas| on sel
     sigma: dict                  # sensor -> sigma_k on sel
-    f_modes: dict                # sensor -> identified f [Hz] of MODES (NaN: not found or no sensor)
+    f_modes: dict                # {"measured": f [Hz] paired with the model's MODES (NaN: unpaired)}
     stuck: bool = True           # fit_frequencies uses stuck tests: all are (linear measurements)
+    quantity: str = "accelerance"
+    per_volt: bool = False       # excitation drive_voltage: H per volt, times the unknown force scale
+    points: dict | None = None   # sensor -> model point (prepare sets it)
+    mac: np.ndarray | None = None      # MAC per model mode (NaN: not paired by shape)
+    unpaired_hz: tuple = ()      # measured modes not paired with a model mode [Hz]
+    unit: str = "(m/s^2)/N"
 
 
 def is_frf_folder(folder: str | Path) -> bool:
@@ -90,7 +128,8 @@ def undamped_frequencies(model, F_N1: float) -> np.ndarray:
 
 
 def check_positions(test: FRFTest, cfg: Config) -> None:
-    """The sidecar's excitation and sensor positions are the model's points; ValueError otherwise."""
+    """The sidecar's excitation and measurement-format accelerometer positions are the model's
+    points; ValueError otherwise."""
     pts = {p.name: p.x_m for p in cfg.plant.points}
     want = {"excitation": (test.meta["excitation_x_m"], pts[cfg.plant.excitation_point],
                            cfg.plant.excitation_point)}
@@ -99,6 +138,59 @@ def check_positions(test: FRFTest, cfg: Config) -> None:
         if abs(x_file - x_model) > POSITION_TOL_M:
             raise ValueError(f"{test.name}: {what} at x = {x_file:g} m, but the model's point {point!r} is at "
                              f"{x_model:g} m; give the structure of the test with --config, or correct the sidecar")
+
+
+def _beam_at(cfg: Config, test: FRFTest, s: str, x: float) -> str:
+    """The beam of sensor s at x [m] (sidecar sensor_beams, else the one beam that holds x)."""
+    spans = {b.name: (b.x0_m, b.x0_m + b.length_m) for b in cfg.plant.beams}
+    listing = ", ".join(f"{n} [{a:g}, {b:g}] m" for n, (a, b) in spans.items())
+    beam = test.meta.get("sensor_beams", {}).get(s)
+    if beam is not None:
+        if beam not in spans:
+            raise ValueError(f"{test.name}: sensor_beams.{s} = {beam!r}: the model has no such beam (beams: {listing})")
+        a, b = spans[beam]
+        if not a - POSITION_TOL_M <= x <= b + POSITION_TOL_M:
+            raise ValueError(f"{test.name}: sensor {s} at x = {x:g} m is not on beam {beam!r} ({listing}); "
+                             "correct sensor_positions_m or sensor_beams, or give the structure with --config")
+        return beam
+    on = [n for n, (a, b) in spans.items() if a - POSITION_TOL_M <= x <= b + POSITION_TOL_M]
+    if not on:
+        raise ValueError(f"{test.name}: sensor {s} at x = {x:g} m: no beam of the model holds that x ({listing}); "
+                         "correct sensor_positions_m or give the structure of the test with --config")
+    if len(on) > 1:
+        raise ValueError(f"{test.name}: sensor {s} at x = {x:g} m lies on beams {', '.join(on)}; say which in the "
+                         f"sidecar: \"sensor_beams\": {{\"{s}\": \"{on[0]}\"}}")
+    return on[0]
+
+
+def with_sensor_points(tests: list[FRFTest], cfg: Config) -> tuple[Config, dict]:
+    """(``cfg`` with a massless point for every sensor of another name than a_tip_meas, a_frf_meas
+    that no point of the model within POSITION_TOL_M on its beam holds, {sensor: model point});
+    ValueError naming the test where a sensor has no beam, or two positions in the folder."""
+    fixed = sensor_points(cfg)
+    where, points, added = {}, {}, {}
+    for t in tests:
+        for s in t.H:
+            x = float(t.meta["sensor_positions_m"][s])
+            if s in fixed:
+                points[s] = fixed[s]
+                continue
+            beam = _beam_at(cfg, t, s, x)
+            if s in where:
+                if where[s][1] != beam or abs(where[s][2] - x) > POSITION_TOL_M:
+                    raise ValueError(f"{t.name}: sensor {s} at x = {x:g} m on {beam}, but at {where[s][2]:g} m on "
+                                     f"{where[s][1]} in {where[s][0]}; give sensors at other places other names")
+                continue
+            where[s] = (t.name, beam, x)
+            known = [(p.name, p.beam, p.x_m) for p in cfg.plant.points] + [(n, b, xa) for n, (b, xa) in added.items()]
+            near = [(abs(xp - x), n) for n, b, xp in known if b == beam and abs(xp - x) <= POSITION_TOL_M]
+            if near:
+                points[s] = min(near)[1]
+                continue
+            name = s if s not in {n for n, _, _ in known} else f"{s}_sensor"
+            added[name] = (beam, x)
+            points[s] = name
+    return add_points(cfg, added), points
 
 
 def noise_sigma(H: np.ndarray) -> np.ndarray:
@@ -111,43 +203,66 @@ def noise_sigma(H: np.ndarray) -> np.ndarray:
 
 
 def prepare(tests: list[FRFTest], nominal: Config) -> list[FRFData]:
-    """The fitted lines, ln|H|, sigma and identified mode frequencies of every test."""
+    """The fitted lines, ln|H|, sigma and paired mode frequencies of every test, against ``nominal``
+    with the sensors' points added (``with_sensor_points``: the models that ``residuals`` gets
+    must hold them too)."""
     for t in tests:
         check_positions(t, nominal)
+    nominal, points = with_sensor_points(tests, nominal)
     m0 = build_plant(quiet(nominal))
     out = []
     for t in tests:
-        f_nom = undamped_frequencies(m0, t.F_N1)
-        f_nom = f_nom[f_nom * 1.08 < t.freq_hz[-1]]
-        sel, ln_h, sig, fm = {}, {}, {}, {}
-        for s in SENSORS:
-            if s not in t.H:
-                fm[s] = np.full(len(MODES), np.nan)
-                continue
+        sel, ln_h, sig, full = {}, {}, {}, {}
+        for s in t.H:
             sk = noise_sigma(t.H[s])
+            full[s] = sk
             sel[s] = sk < MAX_SIGMA
             ln_h[s] = np.log(np.abs(t.H[s][sel[s]]))
             sig[s] = sk[sel[s]]
-            fm[s] = identify_modes(t.freq_hz, t.H[s], math.inf, f_nom)
-        out.append(FRFData(t.name, t.F_N1, t.freq_hz, t.H, sel, ln_h, sig, fm))
+        meas = measured_modes(t.freq_hz, t.H, full)
+        mod = model_modes(m0, t.F_N1, [points[s] for s in t.H], len(MODES))
+        f_paired, mac = pair(meas, mod)
+        unpaired = tuple(round(float(f), 3) for f in meas.f_hz if not np.any(f_paired == f))
+        out.append(FRFData(t.name, t.F_N1, t.freq_hz, t.H, sel, ln_h, sig, {"measured": f_paired}, True,
+                           t.quantity, t.excitation == "drive_voltage", {s: points[s] for s in t.H}, mac, unpaired,
+                           t.unit))
     return out
 
 
 def model_H(cfg: Config, data: list[FRFData]) -> list[dict]:
-    """The model's accelerances {sensor: H} on every test's lines at its F_N1."""
+    """The model's FRFs {sensor: H} on every test's lines at its F_N1, in the test's quantity per
+    newton (``cfg`` holds the sensors' points)."""
     model = build_plant(quiet(cfg))
-    pts = sensor_points(cfg)
-    return [point_accelerances(model, {s: pts[s] for s in d.sel}, d.F_N1, d.freq) for d in data]
+    out = []
+    for d in data:
+        Ha = point_accelerances(model, d.points, d.F_N1, d.freq)
+        out.append({s: from_accelerance(h, d.freq, d.quantity) for s, h in Ha.items()})
+    return out
 
 
-def residuals(cfg: Config, data: list[FRFData]) -> tuple[dict, list[dict]]:
-    """({"FRF <sensor>": weighted log-magnitude residuals over all tests}, model H per test)."""
+def residuals(cfg: Config, data: list[FRFData]) -> tuple[dict, list[dict], float | None]:
+    """({"FRF <sensor>": weighted log-magnitude residuals over all tests}, model H per test (the
+    drive-voltage tests' times the force scale), the force scale [N/V] profiled out (module
+    docstring) or None without drive-voltage tests)."""
     Hm = model_H(cfg, data)
-    r = {s: [] for s in SENSORS}
-    for d, h in zip(data, Hm):
-        for s in d.sel:
-            r[s].append((d.ln_h[s] - np.log(np.maximum(np.abs(h[s][d.sel[s]]), 1e-300))) / d.sigma[s])
-    return {f"FRF {s}": np.concatenate(v) for s, v in r.items() if v}, Hm
+    raw = [{s: (d.ln_h[s] - np.log(np.maximum(np.abs(h[s][d.sel[s]]), 1e-300))) for s in d.sel}
+           for d, h in zip(data, Hm)]
+    scale = None
+    if any(d.per_volt for d in data):
+        num = sum(float(np.sum(r[s] / d.sigma[s] ** 2)) for d, r in zip(data, raw) if d.per_volt for s in r)
+        den = sum(float(np.sum(1.0 / d.sigma[s] ** 2)) for d, r in zip(data, raw) if d.per_volt for s in r)
+        ln_s = min(max(num / den, math.log(FORCE_SCALE_N_PER_V[0])), math.log(FORCE_SCALE_N_PER_V[1]))
+        scale = math.exp(ln_s)
+        for d, r, h in zip(data, raw, Hm):
+            if d.per_volt:
+                for s in r:
+                    r[s] = r[s] - ln_s
+                    h[s] = h[s] * scale
+    out = {}
+    for d, r in zip(data, raw):
+        for s in r:
+            out.setdefault(f"FRF {s}", []).append(r[s] / d.sigma[s])
+    return {k: np.concatenate(v) for k, v in out.items()}, Hm, scale
 
 
 class Fit(NamedTuple):
@@ -158,49 +273,126 @@ class Fit(NamedTuple):
     J: dict              # parameter -> Jacobian column at theta (reused by the candidates)
 
 
+def _theta(names, x, scale) -> dict:
+    return dict(zip(names, map(float, x))) | ({FORCE_SCALE: scale} if scale is not None else {})
+
+
 def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None) -> Fit:
     """Stage 1 then stage 2 (module docstring) of the calibration alone (effect None) or with the
     effect; with ``calibrated`` stage 2 starts from the better of stage 1 and the calibration with
     the effect at its nominal strength, there with the calibration's Jacobian columns (so a
     candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose_structure's
     Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
-    step fails)."""
+    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
-    lo, hi = bounds(names, effect)
-    steps = np.array([CAL[k][3] if k in CAL else EFFECT_STEP * effect.parameter.default for k in names])
+    log = np.array([k in LOG_SCALE for k in names])
+    lo, hi = (to_z(b, log) for b in bounds(names, effect, CAL_FAR))
+    steps = np.array([math.log1p(CAL_FAR[k][3]) if k in LOG_SCALE else CAL_FAR[k][3] if k in CAL_FAR
+                      else EFFECT_STEP * effect.parameter.default for k in names])
 
-    def evaluate(x):
-        ch, H = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return (ch, H), np.concatenate([*ch.values(), prior(names, x)])
+    def evaluate(z):
+        x = from_z(z, log)
+        ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
+        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x, CAL_FAR, LOG_SCALE)])
 
-    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies)
-    x = np.clip([stage1.get(k, 1.0) for k in names], lo, hi)
-    run, r = evaluate(x)
+    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, cal=CAL_FAR,
+                             log_names=STAGE1_LOG)
+    z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
+    run, r = evaluate(z)
     J = None
     if calibrated is not None and effect is not None:
-        x_cal = np.array([calibrated.theta.get(k, effect.nominal) for k in names])
-        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal)])
+        z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
+        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, from_z(z_cal, log), CAL_FAR, LOG_SCALE)])
         if r_cal @ r_cal < r @ r:
-            x, run, r = x_cal, (calibrated.channels, calibrated.H), r_cal
+            z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
             J = np.column_stack([calibrated.J[k] for k in names[:-1]]
-                                + [jacobian_column(evaluate, x, r, len(names) - 1, steps, hi)])
-    x, (ch, H), r, J = gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps)
-    theta = dict(zip(names, map(float, x)))
+                                + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
+    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR)
+    theta = _theta(names, from_z(z, log), scale)
     return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
 
+def _rms_db(H: np.ndarray, Hm: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((20 * np.log10(np.abs(H) / np.abs(Hm))) ** 2)))
+
+
 def gap_db(data: list[FRFData], Hm: list[dict]) -> dict:
-    """RMS of 20 log10|H_meas / H_model| of a_frf_meas over BAND_HZ per test [dB] and their mean
-    ("structure_frf_db"); "actuator_nrmse" None (no actuator test)."""
+    """Per test: "frf_db", the RMS of 20 log10|H_meas / H_model| of a_frf_meas (else the first
+    sensor) over BAND_HZ (the whole band where the file does not reach into it) [dB], as before
+    issue 18; "frf_db_all", the same over every sensor and all lines; "band_hz" the file's band.
+    Their means over the tests ("structure_frf_db", "structure_frf_db_all"); "actuator_nrmse" None
+    (no actuator test)."""
     out = {}
     for d, h in zip(data, Hm):
         s = "a_frf_meas" if "a_frf_meas" in d.sel else next(iter(d.sel))
         band = (d.freq >= BAND_HZ[0]) & (d.freq <= BAND_HZ[1])
-        out[d.name] = {"frf_db": round(float(np.sqrt(np.mean(
-            (20 * np.log10(np.abs(d.H[s][band]) / np.abs(h[s][band]))) ** 2))), 4)}
+        band = band if band.any() else np.ones(len(d.freq), bool)
+        every = np.concatenate([20 * np.log10(np.abs(d.H[k]) / np.abs(h[k])) for k in d.sel])
+        out[d.name] = {"frf_db": round(_rms_db(d.H[s][band], h[s][band]), 4),
+                       "frf_db_all": round(float(np.sqrt(np.mean(every ** 2))), 4),
+                       "band_hz": [float(d.freq[0]), float(d.freq[-1])]}
     out["structure_frf_db"] = round(float(np.mean([out[d.name]["frf_db"] for d in data])), 4)
+    out["structure_frf_db_all"] = round(float(np.mean([out[d.name]["frf_db_all"] for d in data])), 4)
     out["actuator_nrmse"] = None
     return out
+
+
+FIXES = {
+    "E": "widen CAL_FAR's E range only if a factor 2 in E is plausible; check the nominal E and density of the "
+         "beams (plant.beams.*.E, rho) and the structure's dimensions",
+    "k_t": "check the nominal plant.interface.k_t (more than a factor 100 off?) and whether the joint is stuck at "
+           "the test's level and where the model puts it",
+    "modal_damping": "check the nominal plant.modal_damping; at the upper bound the data have more damping than a "
+                     "stuck linear model gives (slip, an effect not in the library)",
+    FORCE_SCALE: "check the sidecar's quantity and the FRF's units (V or mV, g or m/s^2, m or mm)",
+}
+NO_FORCE_HINT = "; or the data have no force: if the FRF is per drive voltage, set the sidecar's excitation to drive_voltage"
+
+
+def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool) -> list[dict]:
+    """{"parameter", "value", "bound", "fix"} for every fitted parameter within BOUND_REL of a bound
+    (relative to the bound; on ln for the LOG_SCALE ones and the force scale; relative to the range
+    for a bound 0)."""
+    out = []
+    for k, v in theta.items():
+        if k == FORCE_SCALE:
+            lo, hi, log = *FORCE_SCALE_N_PER_V, True
+        elif k in CAL_FAR:
+            lo, hi, _, _ = CAL_FAR[k]
+            log = k in LOG_SCALE
+        else:
+            lo, hi, log = effect.parameter.lo, effect.parameter.hi, False
+        for b in (lo, hi):
+            near = (abs(math.log(v / b)) <= math.log1p(BOUND_REL) if log
+                    else abs(v - b) <= BOUND_REL * (abs(b) if b != 0 else hi - lo))
+            if near:
+                fix = FIXES.get(k, f"widen the range of {k} ({lo:g}..{hi:g}) or check where the model puts the effect")
+                if k in CAL_FAR and not per_volt:
+                    fix += NO_FORCE_HINT
+                out.append({"parameter": k, "value": float(f"{v:.6g}"), "bound": b, "fix": fix})
+    return out
+
+
+def level_offset_db(data: list[FRFData], Hm: list[dict]) -> float:
+    """The weighted mean of 20 log10|H_meas / H_model| over the fitted lines of every sensor and
+    test (weights 1 / sigma_k^2) [dB]: a level no calibration parameter can move (a force or unit
+    error) shows here."""
+    num = den = 0.0
+    for d, h in zip(data, Hm):
+        for s in d.sel:
+            w = 1.0 / d.sigma[s] ** 2
+            num += float(np.sum(w * 20 * np.log10(np.abs(d.H[s][d.sel[s]]) / np.abs(h[s][d.sel[s]]))))
+            den += float(np.sum(w))
+    return num / den
+
+
+def level_warning(offset_db: float, per_volt: bool) -> list[dict]:
+    """A warning (bound None) if the final model's FRFs lie LEVEL_DB or more off the data throughout."""
+    if abs(offset_db) < LEVEL_DB or per_volt:
+        return []
+    return [{"parameter": "level_offset_db", "value": round(offset_db, 3), "bound": None,
+             "fix": "the measured FRFs lie this far from the calibrated model at every line: check the units "
+                    "(g or m/s^2, mm or m, mV or V) and the quantity" + NO_FORCE_HINT}]
 
 
 def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=None) -> dict:
@@ -237,11 +429,12 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     tests = load_frf_folder(folder)                          # bad input raises before any progress line
     try:
         data = prepare(tests, nominal)
+        nominal, _ = with_sensor_points(tests, nominal)
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     if not any(d.sel for d in data):
         raise ValueError(f"{folder}: no FRF line above the noise in any test")
-    ch0, H0 = residuals(nominal, data)
+    ch0, H0, scale0 = residuals(nominal, data)
     say("fit calibration only")
     fits = {None: fit(nominal, data, None)}
     candidates, why_not = _candidates(nominal)
@@ -253,15 +446,40 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     base, ranked, winner = rank(results)
     final = winner or base
     m0 = build_plant(quiet(nominal))
-    localise = {d.name: {"F_N1_N": round(d.F_N1, 1), "frf_db_nominal": gap_db([d], [h])[d.name]["frf_db"],
-                         "modes": modes_table(undamped_frequencies(m0, d.F_N1), d.f_modes)}
-                for d, h in zip(data, H0)}
+    localise = {}
+    for d, h in zip(data, H0):
+        table = modes_table(undamped_frequencies(m0, d.F_N1), d.f_modes)
+        for j, row in table.items():
+            mac = d.mac[int(j) - 1] if d.mac is not None else math.nan
+            if math.isfinite(mac):
+                row["mac"] = round(float(mac), 3)
+        localise[d.name] = {"F_N1_N": round(d.F_N1, 1), "frf_db_nominal": gap_db([d], [h])[d.name]["frf_db"],
+                            "frf_db_all_nominal": gap_db([d], [h])[d.name]["frf_db_all"], "modes": table,
+                            "paired_by": "shape (MAC)" if len(d.H) >= MAC_SENSORS else "order",
+                            "unpaired_measured_hz": list(d.unpaired_hz)}
     gap = {"gap_before": gap_db(data, H0), "gap_calibrated": gap_db(data, base["fit"].H),
            "gap_after": gap_db(data, final["fit"].H)}
     m1 = build_plant(quiet(final["cfg"]))
     modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
     out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
     out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
+    per_volt = any(d.per_volt for d in data)
+    offset = level_offset_db(data, final["fit"].H)
+    out["level_offset_db"] = round(offset, 4)
+    out["warnings"] = bound_warnings(final["theta"], next((e for e in candidates if e.name == final["effect"]), None),
+                                     per_volt) + level_warning(offset, per_volt)
+    out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
+    if per_volt:
+        out["excitation"] = {
+            "kind": "drive_voltage", FORCE_SCALE: float(f"{final['theta'][FORCE_SCALE]:.6g}"),
+            "force_scale_nominal_N_per_V": float(f"{scale0:.6g}"),
+            "note": "the data have no force: the FRFs are per drive volt; one force scale [N/V] fitted for the "
+                    "folder. The absolute mass and stiffness scale (every mass and stiffness by one factor: beam "
+                    "density and E, lumped masses, contact and bolt stiffnesses) cannot be separated from it; E "
+                    "is fitted from the frequencies relative to the nominal density, and the scale absorbs an "
+                    "error in the nominal mass scale"}
     return out | {"input": "frf_files", "not_tried_reasons": why_not,
                   "_plots": {"frf": [(d.name, d.F_N1, d.freq, d.H, h0, h1)
-                                     for d, h0, h1 in zip(data, H0, final["fit"].H)], "act": []}}
+                                     for d, h0, h1 in zip(data, H0, final["fit"].H)], "act": [],
+                             "frf_units": {d.name: d.unit for d in data},
+                             "frf_quantity": {d.name: d.quantity for d in data}}}

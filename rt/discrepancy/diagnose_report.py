@@ -1,8 +1,10 @@
 """Report folder of ``frictionrt diagnose --out``: diagnose.json (the JSON of the workflow),
 model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (the overlays
 for rerun: rt.discrepancy.diagnose_rrd), and overlay PNGs: per impulse
-test |H| measured / nominal model (before) / updated model (after), per actuator test the bolt
-force F_cell over time. Written into a temporary folder beside REPORT_DIR, then renamed."""
+test |H| measured / nominal model (before) / updated model (after) over BAND_HZ, per FRF file the
+same for every sensor over the file's whole band, in its quantity and unit (issue 18), per
+actuator test the bolt force F_cell over time. Written into a temporary folder beside REPORT_DIR,
+then renamed."""
 from __future__ import annotations
 
 import json
@@ -30,11 +32,33 @@ LABELS = {"measured": ("measured", "k-"), "before": ("nominal model (before)", "
           "after": ("updated model (after)", "C0-")}
 
 
+def _frf_file_plots(pl: dict, folder: Path, plt) -> list[str]:
+    """Per FRF file one PNG, a panel per sensor: |H| measured, before, after over the whole band."""
+    names = []
+    for name, F_N1, f, H, H0, H1 in pl["frf"]:
+        fig, axes = plt.subplots(len(H), 1, figsize=(8, 1.5 + 3 * len(H)), sharex=True, squeeze=False)
+        for ax, s in zip(axes[:, 0], H):
+            for k, (lab, st) in LABELS.items():
+                ax.loglog(f, np.abs({"measured": H, "before": H0, "after": H1}[k][s]), st, lw=0.8, label=lab)
+            ax.set_ylabel(f"{pl['frf_quantity'][name]} |{s}| [{pl['frf_units'][name]}]")
+            ax.grid(True, which="both", lw=0.3)
+        axes[0, 0].set_title(f"{name}: F_N1 = {F_N1:.0f} N")
+        axes[0, 0].legend()
+        axes[-1, 0].set_xlabel("frequency [Hz]")
+        fig.tight_layout()
+        names.append(f"frf_{name}.png")
+        fig.savefig(folder / names[-1], dpi=110)
+        plt.close(fig)
+    return names
+
+
 def _plots(res: dict, folder: Path) -> list[str]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     pl = res["_plots"]
+    if "frf_units" in pl:
+        return _frf_file_plots(pl, folder, plt)
     names = []
     for name, F_N1, f, H in frf_overlays(pl):
         fig, ax = plt.subplots(figsize=(8, 4.5))
@@ -104,6 +128,10 @@ def report_md(res: dict, pngs: list[str]) -> str:
     if "stepsine_ratio_db" in gb:
         lines.append(f"| all step-sine tests | F_amp / drive log-magnitude RMS [dB] | {gb['stepsine_ratio_db']} | "
                      f"{gc['stepsine_ratio_db']} | {ga['stepsine_ratio_db']} |")
+    if res.get("input") == "frf_files":
+        lines += [f"| all FRF files | mean over every sensor and the whole band [dB] | {gb['structure_frf_db_all']} | "
+                  f"{gc['structure_frf_db_all']} | {ga['structure_frf_db_all']} |"]
+    lines += _frf_file_sections(res)
     lines += ["", "## What calibration, the effect and the remainder explain", "", verdict(res), "",
               "```json", json.dumps(res["gap_budget"], indent=1), "```"]
     lines += ["", "## Localisation (nominal model vs measurement)", "",
@@ -119,6 +147,24 @@ def _not_tried(res: dict) -> str:
     """The effects not tried, each with its reason where the result gives one (FRF-file input)."""
     why = res.get("not_tried_reasons", {})
     return ", ".join(f"{e} ({why[e]})" if e in why else e for e in res["not_tried"])
+
+
+def _frf_file_sections(res: dict) -> list[str]:
+    """The FRF-file input's warnings, excitation and sensors (issue 18)."""
+    out = []
+    if res.get("warnings"):
+        out += ["", "## Warnings: parameters on a bound, level", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]
+        out += [f"| {w['parameter']} | {w['value']:g} | {'-' if w['bound'] is None else format(w['bound'], 'g')} | "
+                f"{w['fix']} |" for w in res["warnings"]]
+    exc = res.get("excitation")
+    if exc:
+        out += ["", "## Excitation: drive voltage, no force", "",
+                f"Fitted force scale: **{exc['force_scale_N_per_V']:g} N/V** (with the nominal model "
+                f"{exc['force_scale_nominal_N_per_V']:g} N/V). {exc['note']}."]
+    if res.get("sensors"):
+        out += ["", "## Sensors", "", "| sensor | model point | quantity | unit |", "| --- | --- | --- | --- |"]
+        out += [f"| {s} | {v['point']} | {v['quantity']} | {v['unit']} |" for s, v in res["sensors"].items()]
+    return out
 
 
 def write_report(res: dict, out: str | os.PathLike) -> Path:

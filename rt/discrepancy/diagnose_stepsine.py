@@ -71,12 +71,14 @@ class StepsineData(NamedTuple):
 
 
 def load_stepsine(folder: str | Path) -> list[FRFTest]:
-    """The step-sine tests with force and drive amplitudes in the folder (none: [])."""
+    """The step-sine tests with force and drive amplitudes in the folder (none: []): accelerances per
+    newton (the sidecar's default quantity and excitation) of a_frf_meas."""
     if not frf_files(folder):
         return []
     return [t for t in load_frf_folder(folder)
             if t.meta["kind"] == "stepsine" and t.F_amp_N is not None and t.drive_amp is not None
-            and t.meta["amplitude_n"] is not None and "a_frf_meas" in t.H]
+            and t.meta["amplitude_n"] is not None and "a_frf_meas" in t.H
+            and (t.quantity, t.excitation) == ("accelerance", "force")]
 
 
 def model_branches(cfg: Config, tests: list[FRFTest]) -> list[Branch]:

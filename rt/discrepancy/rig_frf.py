@@ -19,9 +19,16 @@ effect.
 
 A structure without an adaptive screw (ordinary bolts only, or the bare beam: docs/plant.md 5.3)
 has no F_N1 to hold: one test, frf_01.csv, with F_N1_N = 0 in its sidecar.
+
+Issue 18 (the file kinds a lab has; arguments of ``make_frf_campaign``, defaults as above): the
+response as ``quantity`` (rt.log.frf_files.QUANTITIES: H_a / (i w)^(2 - k)), the excitation as a
+drive voltage with a force scale s [N/V] (H per volt = s H per newton: a voltage-driven shaker
+without force transducer; the noise floor is scaled alike), and other sensors {name: (beam, x_m)}
+at massless points added to the true structure (``add_points``) instead of the two accelerometers.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
@@ -29,10 +36,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from plant.model import build_plant
-from rt.common.config import Config, adaptive_screw
+from rt.common.config import Config, Point, adaptive_screw, with_sets
 from rt.discrepancy.effects import get
 from rt.log.data_format import ACCELEROMETER_POINTS
-from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
+from rt.log.frf_files import FORMAT, FRFTest, from_accelerance, write_frf_csv, write_frf_uff
 from plant.linear_frf import point_accelerances
 from rt.discrepancy.chain import sensor_point
 from rt.discrepancy.rig import FN1_LEVELS_N, new_folder, true_structure
@@ -49,20 +56,32 @@ def sensor_points(cfg: Config) -> dict[str, str]:
     return {s: sensor_point(cfg, role) for s, role in ACCELEROMETER_POINTS.items()}
 
 
-def frf_meta(cfg: Config, F_N1: float, description: str) -> dict:
-    """The sidecar of a rig FRF test on structure ``cfg`` at the held F_N1 [N]."""
+def add_points(cfg: Config, points: dict[str, tuple[str, float]]) -> Config:
+    """``cfg`` with a massless point {name: (beam, x_m)} added for each entry (a mesh node there)."""
+    if not points:
+        return cfg
+    new = tuple(Point(name=n, beam=b, x_m=float(x)) for n, (b, x) in points.items())
+    return with_sets(dataclasses.replace(cfg, plant=dataclasses.replace(cfg.plant, points=cfg.plant.points + new)), [])
+
+
+def frf_meta(cfg: Config, F_N1: float, description: str, sensors: dict[str, str] | None = None, **extra) -> dict:
+    """The sidecar of a rig FRF test on structure ``cfg`` at the held F_N1 [N]; ``sensors``
+    {sensor: point} (default: the accelerometers), ``extra`` optional sidecar keys (quantity, ...)."""
     pts = {p.name: p.x_m for p in cfg.plant.points}
     return {"format": FORMAT, "kind": "frf", "excitation_x_m": pts[cfg.plant.excitation_point],
-            "sensor_positions_m": {s: pts[p] for s, p in sensor_points(cfg).items()},
-            "F_N1_N": F_N1, "amplitude_n": FORCE_N, "description": description}
+            "sensor_positions_m": {s: pts[p] for s, p in (sensors or sensor_points(cfg)).items()},
+            "F_N1_N": F_N1, "amplitude_n": FORCE_N, "description": description} | extra
 
 
 def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
-                      seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N,
-                      other_form: bool = False) -> list[Path]:
+                      seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N, quantity: str = "accelerance",
+                      force_scale_N_per_V: float | None = None,
+                      sensors: dict[str, tuple[str, float]] | None = None, other_form: bool = False) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
-    then renamed). Arguments as rt.discrepancy.rig.make_campaign; returns the data files written. ValueError
-    for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
+    then renamed). Arguments as rt.discrepancy.rig.make_campaign; ``quantity`` of the files,
+    ``force_scale_N_per_V`` (given: the excitation is a drive voltage, H per volt = s H per
+    newton), ``sensors`` {name: (beam, x_m)} instead of the accelerometers; returns the data files
+    written. ValueError for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
     if effect != "none" and not get(effect).visible_in_frf_files():
         raise ValueError(f"effect {effect!r} leaves the structure linearised with the contact stuck unchanged "
                          "(it acts through slip or the actuator), so linear FRF files cannot show it; write FRFs "
@@ -71,19 +90,26 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
     true = true_structure(cfg, effect, strength, rng, other_form)
     held = adaptive_screw(true) is not None
     names = []
+    true = add_points(true, sensors or {})
+    points = {s: s for s in sensors} if sensors else sensor_points(true)
+    extra = ({"quantity": quantity} if quantity != "accelerance" else {}) | (
+        {"excitation": "drive_voltage", "amplitude_n": None} if force_scale_N_per_V is not None else {})
+    gain = 1.0 if force_scale_N_per_V is None else float(force_scale_N_per_V)
     with threadpool_limits(1), new_folder(out_dir) as tmp:
         model = build_plant(true)
         for j, level in enumerate(levels_n if held else (0.0,)):
             F_N1 = round(level * (1.0 + HOLD_REL * rng.standard_normal()), 2) if held else 0.0
-            H = point_accelerances(model, sensor_points(true), F_N1, FREQ_HZ)
+            H = point_accelerances(model, points, F_N1, FREQ_HZ)
             for s, h in H.items():
                 z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
-                H[s] = h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w
+                H[s] = gain * from_accelerance(h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w, FREQ_HZ, quantity)
             name = f"frf_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
+            drive = (f"{FORCE_N:g} N" if force_scale_N_per_V is None
+                     else "shaker driven by a voltage, no force transducer")
             held_text = f"adaptive screw held at about {level:g} N by the stack" if held else "no adaptive screw"
             test = FRFTest(Path(name).stem, FREQ_HZ, H, None, None, frf_meta(
-                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {FORCE_N:g} N, "
-                + held_text))
+                true, F_N1, f"low-level FRF, force at the excitation point (contact stuck), {drive}, {held_text}",
+                points, **extra))
             (write_frf_uff if j % 2 else write_frf_csv)(tmp / name, test)
             names.append(name)
     return [Path(out_dir) / n for n in names]

@@ -1,6 +1,13 @@
-"""Measured FRF files (issue 7): accelerances a_s / F_exc of the accelerometers over frequency
-lines, one file per test (one excitation level, one bolt force F_N1), as a lab exports them, with a
-JSON sidecar that says what was measured where. Format: docs/data-format.md, "FRF files".
+"""Measured FRF files (issues 7, 18): frequency responses H_s = response_s / excitation of the
+sensors over frequency lines, one file per test (one excitation level, one bolt force F_N1), as a
+lab exports them, with a JSON sidecar that says what was measured where. Format:
+docs/data-format.md, "FRF files".
+
+The response is the sidecar's ``quantity`` (``QUANTITIES``: accelerance (m/s^2)/N, the default,
+mobility (m/s)/N or receptance m/N), the excitation its ``excitation`` (``EXCITATIONS``: the
+measured force, the default, or the shaker's drive voltage, then H is per volt). A sensor is any
+name that is a ROS 2 field name (rt.log.registry.FIELD_RE, lowercase snake_case), placed by
+``sensor_positions_m`` (and, where beams overlap, ``sensor_beams``).
 
 * CSV ``<stem>.csv``: header ``freq_hz[,F_amp_N][,drive_amp_N],<sensor>_re,<sensor>_im,...``,
   one row per frequency line; written with ``repr`` floats, so a round trip is bit-exact.
@@ -11,7 +18,13 @@ JSON sidecar that says what was measured where. Format: docs/data-format.md, "FR
   with 6 significant digits (E13.5, relative error <= 5e-6), the ordinate with 12 (E20.11,
   relative error <= 5e-12); binary 58b files go to pyuff's reader too (not tested).
 * sidecar ``<stem>.json``: {"format": "frictionrt-frf/1", "kind": "stepsine" | "frf",
-  "excitation_x_m", "sensor_positions_m": {sensor: x_m}, "F_N1_N", "amplitude_n", "description"}.
+  "excitation_x_m", "sensor_positions_m": {sensor: x_m}, "F_N1_N", "amplitude_n", "description"}
+  and optionally "quantity", "excitation", "sensor_beams": {sensor: beam} (``OPTIONAL_KEYS``, their
+  defaults those of a file without them: accelerance per newton, beams found from x).
+* UFF ordinate data characteristics: numerator 8 / 11 / 12 (displacement, velocity, acceleration)
+  for receptance / mobility / accelerance, denominator 13 (excitation force) or 0 (unknown: a
+  voltage has no code) for a drive voltage; a reader checks a stated numerator (8, 11, 12) and
+  denominator (13) against the sidecar.
 
 Readers raise ValueError naming the file, the problem and the fix. Writers are atomic (a temporary
 file in the same folder, then ``os.replace``); the sidecar is in place before its data file
@@ -32,15 +45,23 @@ from pathlib import Path
 import numpy as np
 
 from rt.log.data_format import ACCELEROMETER_POINTS
+from rt.log.registry import FIELD_RE, RESERVED
 
 FORMAT = "frictionrt-frf/1"
 KINDS = ("stepsine", "frf")
-SENSORS = tuple(ACCELEROMETER_POINTS)          # a_tip_meas, a_frf_meas
+SENSORS = tuple(ACCELEROMETER_POINTS)          # a_tip_meas, a_frf_meas: the measurement format's accelerometers
+QUANTITIES = {"accelerance": (2, "m/s^2", 12), "mobility": (1, "m/s", 11), "receptance": (0, "m", 8)}
+"""quantity -> (time derivatives of the displacement k, response unit, UFF 58 ordinate data characteristic):
+H_quantity = H_accelerance / (i omega)^(2 - k)."""
+EXCITATIONS = {"force": ("N", 13), "drive_voltage": ("V", 0)}
+"""excitation -> (unit of the FRF's denominator, UFF 58 ordinate-denominator data characteristic)."""
+OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}}
+"""Sidecar keys a file may omit, with the value a file without them has (issue 18)."""
 AMPLITUDES = ("F_amp_N", "drive_amp_N")         # optional per-line columns [N]
 UFF_SUFFIXES = (".uff", ".unv")
 SUFFIXES = (".csv",) + UFF_SUFFIXES
 FUNC_FRF, FUNC_GENERAL = 4, 0                   # UFF 58 function types
-SPEC_FREQUENCY, SPEC_ACCELERATION, SPEC_FORCE = 18, 12, 13   # UFF 58 data characteristics
+SPEC_FREQUENCY, SPEC_FORCE = 18, 13              # UFF 58 data characteristics
 SIDECAR_KEYS = ("format", "kind", "excitation_x_m", "sensor_positions_m", "F_N1_N", "amplitude_n", "description")
 FIX_DOC = 'docs/data-format.md, "FRF files"'
 
@@ -50,7 +71,7 @@ class FRFTest:
     """One FRF measurement at one excitation level."""
     name: str                       # file stem
     freq_hz: np.ndarray             # (n,) strictly increasing, > 0 [Hz]
-    H: dict                         # sensor name -> complex (n,) accelerance [(m/s^2)/N]
+    H: dict                         # sensor name -> complex (n,) FRF of the sidecar's quantity and excitation
     F_amp_N: np.ndarray | None      # (n,) measured force amplitude per line [N] (step-sine), or None
     drive_amp: np.ndarray | None    # (n,) shaker drive amplitude per line as an ideal source's force [N], or None
     meta: dict                      # the sidecar
@@ -59,6 +80,34 @@ class FRFTest:
     def F_N1(self) -> float:
         """Mean bolt force during the test [N] (sidecar F_N1_N)."""
         return float(self.meta["F_N1_N"])
+
+    @property
+    def quantity(self) -> str:
+        """accelerance, mobility or receptance (sidecar quantity, default accelerance)."""
+        return self.meta.get("quantity", OPTIONAL_KEYS["quantity"])
+
+    @property
+    def excitation(self) -> str:
+        """force or drive_voltage (sidecar excitation, default force)."""
+        return self.meta.get("excitation", OPTIONAL_KEYS["excitation"])
+
+    @property
+    def unit(self) -> str:
+        """The unit of H, e.g. (m/s^2)/N, m/V."""
+        return frf_unit(self.quantity, self.excitation)
+
+
+def frf_unit(quantity: str, excitation: str) -> str:
+    """Unit of an FRF of ``quantity`` per ``excitation``: (m/s^2)/N, (m/s)/V, m/N, ..."""
+    num, den = QUANTITIES[quantity][1], EXCITATIONS[excitation][0]
+    return f"{num}/{den}" if num == "m" else f"({num})/{den}"
+
+
+def from_accelerance(H_a: np.ndarray, freq_hz: np.ndarray, quantity: str) -> np.ndarray:
+    """An accelerance [(m/s^2)/N] on freq_hz [Hz] as ``quantity``: H_a / (i omega)^(2 - k), k the
+    quantity's time derivatives of the displacement (QUANTITIES)."""
+    k = QUANTITIES[quantity][0]
+    return H_a if k == 2 else H_a / (2j * np.pi * np.asarray(freq_hz, float)) ** (2 - k)
 
 
 def sidecar_path(path: str | os.PathLike) -> Path:
@@ -101,13 +150,37 @@ def check_meta(meta) -> dict:
     pos = meta["sensor_positions_m"]
     if not isinstance(pos, dict) or not pos:
         raise ValueError(f"sidecar sensor_positions_m is {pos!r}; give an object {{sensor: x_m}} for the "
-                         f"sensors of the file ({', '.join(SENSORS)})")
+                         f"sensors of the file (e.g. {', '.join(SENSORS)})")
     for s, x in pos.items():
-        if s not in SENSORS:
-            raise ValueError(f"sidecar sensor_positions_m names the unknown sensor {s!r}; the sensors are "
-                             f"{', '.join(SENSORS)}")
+        check_sensor_name(s, "sidecar sensor_positions_m names the sensor")
         _finite(x, f"sidecar sensor_positions_m.{s}")
+    for key, allowed in (("quantity", QUANTITIES), ("excitation", EXCITATIONS)):
+        v = meta.get(key, OPTIONAL_KEYS[key])
+        if not isinstance(v, str) or v not in allowed:
+            raise ValueError(f"sidecar {key} is {str(v)[:40]!r}; give one of {', '.join(allowed)} (default "
+                             f"{OPTIONAL_KEYS[key]}; {FIX_DOC})")
+    beams = meta.get("sensor_beams", {})
+    if not isinstance(beams, dict):
+        raise ValueError(f"sidecar sensor_beams is {str(beams)[:40]!r}; give an object {{sensor: beam name}} or "
+                         "leave it out")
+    for s, b in beams.items():
+        if s not in pos:
+            raise ValueError(f"sidecar sensor_beams names {str(s)[:40]!r}, which has no sensor_positions_m entry; "
+                             "place the sensor there too")
+        if not isinstance(b, str) or not b:
+            raise ValueError(f"sidecar sensor_beams.{s} is {str(b)[:40]!r}; give the name of a beam of the structure")
     return meta
+
+
+def check_sensor_name(s, what: str = "sensor") -> str:
+    """``s`` if it is a valid sensor name: a ROS 2 field name (rt.log.registry.FIELD_RE: lowercase
+    letters, digits and single underscores, starting with a letter) other than stamp, tick;
+    ValueError otherwise."""
+    if not isinstance(s, str) or not FIELD_RE.match(s) or s in RESERVED:
+        raise ValueError(f"{what} {str(s)[:40]!r}, which is not a valid sensor name: name sensors in lowercase "
+                         f"snake_case (a ROS 2 field name: letters a-z, digits, single underscores, a letter first, "
+                         f"not {' or '.join(RESERVED)}; e.g. v_tip_laser, a_frf_meas)")
+    return s
 
 
 def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict) -> None:
@@ -128,10 +201,9 @@ def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict) ->
                          f"{float(freq_hz[i])!r} Hz; "
                          "sort the lines and drop repeated frequencies")
     if not H:
-        raise ValueError(f"no sensor; give the accelerance of at least one of {', '.join(SENSORS)}")
+        raise ValueError("no sensor; give the FRF of at least one sensor")
     for s, h in H.items():
-        if s not in SENSORS:
-            raise ValueError(f"unknown sensor {s!r}; the sensors are {', '.join(SENSORS)}")
+        check_sensor_name(s)
         if s not in meta["sensor_positions_m"]:
             raise ValueError(f"sensor {s} has no position in the sidecar; add sensor_positions_m.{s}")
         _check_array(h, s, n)
@@ -175,7 +247,7 @@ def _atomic_write(path: Path, write, before_replace=None) -> None:
 
 
 def _write_sidecar(path: Path, test: FRFTest) -> None:
-    meta = {k: test.meta[k] for k in SIDECAR_KEYS}
+    meta = {k: test.meta[k] for k in (*SIDECAR_KEYS, *OPTIONAL_KEYS) if k in test.meta}
     _atomic_write(sidecar_path(path), lambda p: p.write_text(json.dumps(meta, indent=1) + "\n"))
 
 
@@ -196,13 +268,13 @@ def write_frf_csv(path: str | os.PathLike, test: FRFTest) -> None:
     _atomic_write(path, lambda p: p.write_text(text), lambda: _write_sidecar(path, test))
 
 
-def _uff_record(x: np.ndarray, data: np.ndarray, id1: str, func_type: int, node: int, spec: int) -> dict:
+def _uff_record(x: np.ndarray, data: np.ndarray, id1: str, func_type: int, node: int, spec: int,
+                denom: int = 0, units: str = "N") -> dict:
     return {"type": 58, "binary": 0, "id1": id1, "id2": "frictionrt FRF file", "func_type": func_type,
             "rsp_node": node, "rsp_dir": 3, "ref_node": 0, "ref_dir": 3, "abscissa_spacing": 0,
             "abscissa_spec_data_type": SPEC_FREQUENCY, "abscissa_axis_lab": "frequency",
             "abscissa_axis_units_lab": "Hz", "ordinate_spec_data_type": spec,
-            "orddenom_spec_data_type": SPEC_FORCE if func_type == FUNC_FRF else 0,
-            "ordinate_axis_units_lab": "m/s^2/N" if func_type == FUNC_FRF else "N", "x": x, "data": data}
+            "orddenom_spec_data_type": denom, "ordinate_axis_units_lab": units, "x": x, "data": data}
 
 
 def write_frf_uff(path: str | os.PathLike, test: FRFTest) -> None:
@@ -214,12 +286,20 @@ def write_frf_uff(path: str | os.PathLike, test: FRFTest) -> None:
     if np.any(np.diff(np.array([float(f"{v:.5e}") for v in x])) <= 0):
         raise ValueError(f"{path}: frequency lines closer than the 6 significant digits UFF ASCII keeps (E13.5); "
                          "write this test as CSV")
-    sets = [_uff_record(x, np.asarray(h, complex), s, FUNC_FRF, SENSORS.index(s) + 1, SPEC_ACCELERATION)
-            for s, h in test.H.items()]
+    spec, denom = QUANTITIES[test.quantity][2], EXCITATIONS[test.excitation][1]
+    units = f"{QUANTITIES[test.quantity][1]}/{EXCITATIONS[test.excitation][0]}"   # m/s^2/N as before
+    sets = [_uff_record(x, np.asarray(h, complex), s, FUNC_FRF, _uff_node(s, j), spec, denom, units)
+            for j, (s, h) in enumerate(test.H.items())]
     sets += [_uff_record(x, np.asarray(a, float), name, FUNC_GENERAL, 0, SPEC_FORCE)
              for name, a in zip(AMPLITUDES, (test.F_amp_N, test.drive_amp)) if a is not None]
     _atomic_write(path, lambda p: pyuff.UFF(str(p)).write_sets(sets, mode="overwrite"),
                   lambda: _write_sidecar(path, test))
+
+
+def _uff_node(sensor: str, j: int) -> int:
+    """UFF response node of the j-th sensor: 1, 2 for a_tip_meas, a_frf_meas (as before issue 18),
+    3 + j for any other."""
+    return SENSORS.index(sensor) + 1 if sensor in SENSORS else len(SENSORS) + 1 + j
 
 
 # --- readers -------------------------------------------------------------------------------------
@@ -256,15 +336,16 @@ def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarr
         dup = next(h for h in header if header.count(h) > 1)
         raise ValueError(f"header column {dup[:40]!r} appears twice; name each column once")
     for h in header[1:]:
-        if h not in AMPLITUDES and not (h.endswith(("_re", "_im")) and h[:-3] in SENSORS):
+        if h not in AMPLITUDES and not (h.endswith(("_re", "_im")) and FIELD_RE.match(h[:-3])):
             raise ValueError(f"unknown header column {h[:40]!r}; columns are freq_hz, F_amp_N, drive_amp_N and "
-                             f"<sensor>_re, <sensor>_im for the sensors {', '.join(SENSORS)}")
+                             f"<sensor>_re, <sensor>_im for each sensor (a lowercase snake_case name, e.g. "
+                             f"{', '.join(SENSORS)})")
     sensors = list(dict.fromkeys(h[:-3] for h in header[1:] if h not in AMPLITUDES))
     for s in sensors:
         for part in ("_re", "_im"):
             if s + part not in header:
                 raise ValueError(f"column {s}{part} missing (sensor {s} has only the other part of its complex "
-                                 f"accelerance); give both {s}_re and {s}_im")
+                                 f"FRF); give both {s}_re and {s}_im")
     vals = np.empty((len(lines) - 1, len(header)))
     for i, line in enumerate(lines[1:]):
         fields = line.split(",")
@@ -305,18 +386,33 @@ def _uff_sets(path: Path) -> list[dict]:
     return sets
 
 
-def _parse_uff(path: Path) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
+def _check_characteristics(d: dict, name: str, meta: dict) -> None:
+    """A stated ordinate numerator (8, 11, 12) and denominator (13) of an FRF data set agree with
+    the sidecar's quantity and excitation (others, 0 = unknown among them, are not statements)."""
+    q = meta.get("quantity", OPTIONAL_KEYS["quantity"])
+    e = meta.get("excitation", OPTIONAL_KEYS["excitation"])
+    by_spec = {v[2]: k for k, v in QUANTITIES.items()}
+    num, den = d.get("ordinate_spec_data_type"), d.get("orddenom_spec_data_type")
+    if num in by_spec and by_spec[num] != q:
+        raise ValueError(f"FRF data set {name}: ordinate data characteristic {num} ({by_spec[num]}), but the sidecar "
+                         f"says quantity {q!r}; set the sidecar's quantity to {by_spec[num]!r} or export the file "
+                         f"as {q}")
+    if den == SPEC_FORCE and e != "force":
+        raise ValueError(f"FRF data set {name}: ordinate denominator {SPEC_FORCE} (excitation force), but the sidecar "
+                         f"says excitation {e!r}; correct one of them")
+
+
+def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
     x, H, amp = None, {}, {}
     for d in _uff_sets(path):
         name = str(d.get("id1", "")).strip()
         ft = d.get("func_type")
         if ft == FUNC_FRF:
-            if name not in SENSORS:
-                raise ValueError(f"FRF data set with ID line 1 {name[:40]!r}: unknown sensor; ID line 1 names the "
-                                 f"sensor, one of {', '.join(SENSORS)}")
+            check_sensor_name(name, "FRF data set with ID line 1 (the sensor's name)")
             if d.get("ord_data_type") not in (5, 6):
                 raise ValueError(f"FRF data set {name}: real ordinate (type {d.get('ord_data_type')}); an FRF is "
                                  "complex (ordinate data type 5 or 6)")
+            _check_characteristics(d, name, meta)
             target = H
         elif ft == FUNC_GENERAL and name in AMPLITUDES:
             if d.get("ord_data_type") not in (2, 4):
@@ -362,7 +458,7 @@ def read_frf(path: str | os.PathLike) -> FRFTest:
                 raise ValueError("not UTF-8 text; an FRF CSV is plain text") from None
             freq, H, F_amp, drive = _parse_csv(text)
         else:
-            freq, H, F_amp, drive = _parse_uff(path)
+            freq, H, F_amp, drive = _parse_uff(path, meta)
         check_lines(freq, H, F_amp, drive, meta)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
