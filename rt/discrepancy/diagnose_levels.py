@@ -19,8 +19,8 @@ Residuals: rt.discrepancy.diagnose_frf's, (ln|H_meas| - ln|H_model|) / sigma_k o
 noise, every sensor. Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
 of the scales, within ``BOUNDS``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength). A line where the harmonic balance does not converge is
-dropped from that evaluation's residuals with a constant penalty (``NO_SOLUTION``), so a parameter
-set that leaves the balance without a solution is never preferred.
+given the constant weighted residual rt.discrepancy.diagnose_frf.NO_SOLUTION, so a parameter set that
+leaves the balance without a solution is never preferred.
 
 Ranking of the candidates on the calibration levels: BIC as rt.discrepancy.diagnose, named under its
 three conditions (rank). Prediction: at every level not calibrated on, the gap [dB] = RMS of
@@ -42,16 +42,15 @@ from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet, scaled
 from rt.discrepancy.diagnose import bic, rank
-from rt.discrepancy.diagnose_frf import FRFData, fit, model_H, prepare, undamped_frequencies
+from rt.discrepancy.diagnose_frf import (FRFData, fit, model_H, prepare, undamped_frequencies, weighted_residuals,
+                                         with_sensor_points)
 from rt.discrepancy.effects import Effect, implemented
-from rt.discrepancy.rig_frf import sensor_points
-from rt.log.frf_files import FRFTest, load_frf_folder
+from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
 BOUNDS = {"E": (0.5, 2.0), "k_t": (0.01, 100.0), "mu": (0.1, 10.0), "modal_damping": (0.1, 10.0)}
 """Calibration scales' bounds (x nominal): a first model tens of percent off in E, decades in k_t."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
-NO_SOLUTION = 30.0          # weighted residual of a line where the balance has no solution
 CANDIDATES = ("micro_slip",)
 
 
@@ -92,29 +91,17 @@ def _cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
 
 
 def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float]) -> list[dict]:
-    """The harmonic balance's accelerances {sensor: H} (NaN where it has no solution) on every test's
-    lines at its level [N]."""
+    """The harmonic balance's FRFs {sensor: H per newton, in the test's quantity} (NaN where it has no
+    solution) on every test's lines at its level [N]; ``cfg`` holds the sensors' points."""
     model = build_plant(quiet(cfg))
-    pts = sensor_points(cfg)
     out, systems = [], {}
     for d, amp in zip(data, levels):
-        names = tuple(sorted(d.sel))
-        if (d.F_N1, names) not in systems:
-            systems[d.F_N1, names] = harmonic_system(model, {s: pts[s] for s in names}, F_N1=d.F_N1)
-        r = harmonic_accelerances(systems[d.F_N1, names], amp, d.freq, method="df", branches=False)
-        out.append(r.H)
+        key = (d.F_N1, tuple(sorted(d.points.items())))
+        if key not in systems:
+            systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
+        r = harmonic_accelerances(systems[key], amp, d.freq, method="df", branches=False)
+        out.append({s: from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
     return out
-
-
-def residuals(data: list[FRFData], H: list[dict]) -> dict:
-    """{"FRF <sensor>": weighted log-magnitude residuals} over the tests (module docstring)."""
-    r: dict[str, list] = {}
-    for d, h in zip(data, H):
-        for s in d.sel:
-            hm = np.abs(h[s][d.sel[s]])
-            v = (d.ln_h[s] - np.log(np.where(np.isfinite(hm) & (hm > 0), hm, 1.0))) / d.sigma[s]
-            r.setdefault(f"FRF {s}", []).append(np.where(np.isfinite(hm), v, NO_SOLUTION))
-    return {k: np.concatenate(v) for k, v in r.items()}
 
 
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
@@ -131,13 +118,13 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
         return {k: (math.exp(v) if k in BOUNDS else float(v)) for k, v in zip(names, x)}
 
     def r(x):
-        return np.concatenate(list(residuals(data, nonlinear_H(_cfg(nominal, theta_of(x), effect), data,
-                                                               levels)).values()))
+        ch, _, _ = weighted_residuals(data, nonlinear_H(_cfg(nominal, theta_of(x), effect), data, levels))
+        return np.concatenate(list(ch.values()))
 
     sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
     theta = theta_of(sol.x)
     cfg = _cfg(nominal, theta, effect)
-    return {"theta": theta, "channels": residuals(data, nonlinear_H(cfg, data, levels)), "cfg": cfg,
+    return {"theta": theta, "channels": weighted_residuals(data, nonlinear_H(cfg, data, levels))[0], "cfg": cfg,
             "evaluations": int(sol.nfev)}
 
 
@@ -187,8 +174,12 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
     tests = load_frf_folder(folder)
     cal, rest = split(tests, calibrate_on)
     levels = [level_of(t) for t in tests]
+    if any(t.excitation == "drive_voltage" for t in tests):
+        raise ValueError(f"{folder}: --calibrate-on takes force-excited FRFs (sidecar excitation force); a force "
+                         "scale per drive volt across levels is not fitted yet")
     try:
         data = prepare(tests, nominal)
+        nominal, _ = with_sensor_points(tests, nominal)
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
@@ -241,3 +232,52 @@ def summary(res: dict) -> str:
                      f"{p['gap_linear_db']:.3f} / {p['gap_nonlinear_db']:.3f}  ({p['gap_linear_all_db']:.3f} / "
                      f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}")
     return "\n".join(lines)
+
+
+def write_levels_report(res: dict, out: str | Path) -> Path:
+    """The report folder (a new folder, written beside and renamed: never half a report):
+    diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
+    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction)."""
+    import json
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rt.common.config import dumps
+    from rt.discrepancy.rig import new_folder
+    with new_folder(out) as tmp:
+        (tmp / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
+                                                      indent=1) + "\n")
+        (tmp / "model.toml").write_text(dumps(res["_config"]))
+        plots = res["_plots"]
+        fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
+        for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):
+            s = next(iter(H))
+            ax.semilogy(f, np.abs(H[s]), "k.", ms=3, label=f"measured {s}")
+            ax.semilogy(f, np.abs(h0[s]), "C1-", lw=0.8, label="linear (stuck)")
+            ax.semilogy(f, np.abs(h1[s]), "C0-", lw=0.8, label="harmonic balance")
+            ax.axvspan(*res["softening_band_hz"], color="0.9", zorder=0)
+            cal = "calibrated on" if a in res["calibrate_on_n"] else "predicted"
+            ax.set_title(f"{name}: {a:g} N ({cal})", fontsize=9)
+            ax.grid(True, lw=0.3)
+        axes[0, 0].legend(fontsize=7)
+        axes[-1, 0].set_xlabel("f [Hz]")
+        fig.tight_layout()
+        fig.savefig(tmp / "levels.png", dpi=110)
+        plt.close(fig)
+        rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "
+                f"{p['gap_nonlinear_db']} | {p['ratio']} | {p['gap_linear_all_db']} | {p['gap_nonlinear_all_db']} |"
+                for p in res["prediction"]]
+        (tmp / "report.md").write_text("\n".join([
+            "# Amplitude dependence: calibrated at some levels, predicted at the others", "",
+            f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} N. Softening mode "
+            f"{res['softening_mode']}, band {res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz "
+            "(docs/discrepancy.md, \"Amplitude dependence\").", "",
+            f"**Named effect: {res['named_effect'] or 'no missing effect found'}**", "",
+            f"Harmonic-balance calibration: `{json.dumps(res['nonlinear']['fitted'])}`; linear: "
+            f"`{json.dumps(res['linear']['fitted'])}`.", "",
+            "| level [N] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
+            "harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- |", *rows, "",
+            "![levels.png](levels.png)", ""]))
+    return Path(out)

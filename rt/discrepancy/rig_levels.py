@@ -119,13 +119,14 @@ def sweep_level(model: PlantModel, F_N1: float, amp_n: float, lines_hz: np.ndarr
 
 
 def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Generator,
-                      progress=None) -> list[str]:
-    """Run the level sweeps on the true structure and write them into ``folder`` (module docstring);
-    returns the data file names. ``progress(msg)`` is told of each level."""
+                      progress=None, band_hz=BAND_HZ) -> list[str]:
+    """Run the level sweeps on the true structure and write them into ``folder`` (module docstring;
+    lines around the modes in ``band_hz`` [Hz]); returns the data file names. ``progress(msg)`` is
+    told of each level."""
     with threadpool_limits(1):
         model = build_plant(true)
         F_N1 = stack_force(true, hold_voltage(true, F_N1_N)) if adaptive_screw(true) is not None else 0.0
-        lines = level_lines(model, F_N1)
+        lines = level_lines(model, F_N1, band_hz)
     names = []
     for j, amp in enumerate(levels_n):
         if progress:
@@ -148,10 +149,10 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
 
 def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N, other_form: bool = False,
-                        progress=None) -> list[Path]:
+                        progress=None, band_hz=BAND_HZ) -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed), from the true structure of rt.discrepancy.rig.true_structure (the same scatter draw and
-    hidden effect for the seed); returns the data files written. ValueError for an effect of the actuator
+    hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]); returns the data files written. ValueError for an effect of the actuator
     or the shaker (FRF files of the structure do not record them) or a level that is not a positive
     finite force."""
     if effect != "none" and get(effect).channel != "structure":
@@ -163,5 +164,5 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng, other_form)
     with new_folder(out_dir) as tmp:
-        names = write_level_tests(tmp, true, sorted(levels), rng, progress)
+        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz)
     return [Path(out_dir) / n for n in names]
