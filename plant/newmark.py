@@ -589,6 +589,7 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     bolt_rows, bolt_k, bolt_ref = p.bolt_rows, p.bolt_k, p.bolt_ref
     o = o_bar + n_pts
     nb = bolt_k.shape[0]
+    y[o + 2 * nb] = 0.0   # dF_N1 of a structure without an adaptive screw (else overwritten below)
     for b in range(nb):
         gb = 0.0
         for i in range(n):

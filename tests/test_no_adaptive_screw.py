@@ -185,3 +185,18 @@ def test_frf_files_and_diagnose_without_adaptive_screw(tmp_path, capsys):
     # the nominal model on its own scattered truth: modes 1-5 found within the scatter of E (2 %)
     loc = res["localisation"]["frf_01"]["modes"]
     assert all(abs(loc[str(m)]["shift_rel"]) < 0.04 for m in range(1, 6)), loc
+
+
+@pytest.mark.parametrize("path", [BARE, LAP_AL], ids=["bare", "lap_al"])
+def test_every_output_is_written_without_an_adaptive_screw(path):
+    """The plant step writes every output row, dF_N1 (0) included, where there is no adaptive screw:
+    an unwritten row held whatever np.empty left there, and plant.simulate.run refused the run as
+    NaN in about one of three processes (the row prefilled with NaN catches it every time)."""
+    from plant.model import build_plant
+    from plant.newmark import _plant_step
+    model = build_plant(load(path))
+    x = model.initial_state(0.0)
+    x_next, y = np.full_like(x, np.nan), np.full(len(model.output_labels()), np.nan)
+    _plant_step(0, x, np.array([1.0, 0.0]), model.params, x_next, y, model.new_work())
+    assert np.all(np.isfinite(x_next)) and np.all(np.isfinite(y)), [
+        model.output_labels()[i] for i in np.nonzero(~np.isfinite(y))[0]]
