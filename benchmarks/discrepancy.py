@@ -8,6 +8,12 @@ seconds), then the confusion matrix: hidden effect (rows) against named
 effect (columns), counts over seeds and strengths.
 
     .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0] [--effects A,B] [--jobs N] [--stepsine]
+        [--model-form] [--frf-files]
+
+--model-form: the truth of another model form (rig --model-form, rt.discrepancy.rig.model_form); the
+table then also gives the gap's budget (rt.discrepancy.remainder: calibration / effect / remainder
+shares of the excess RSS, and whether the remainder dominates). --frf-files: linear FRF-file campaigns
+(rig --frf-files) of the structural effects they can show, diagnosed by rt.discrepancy.diagnose_frf.
 
 Campaigns get step-sine tests (rig --stepsine) when the hidden effect shows only there
 (channel "stepsine": shaker_interaction), or all of them with --stepsine (~10 s more each).
@@ -22,17 +28,25 @@ from pathlib import Path
 from joblib import Parallel, delayed
 
 from rt.discrepancy.diagnose import diagnose
+from rt.discrepancy.diagnose_frf import diagnose_frf
 from rt.discrepancy.effects import get, implemented
 from rt.discrepancy.rig import make_campaign
+from rt.discrepancy.rig_frf import make_frf_campaign
 
 
-def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool) -> tuple[dict, float]:
+def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool, other_form: bool,
+         frf_files: bool) -> tuple[dict, float]:
     """(diagnose result, seconds) of one hidden case."""
     t0 = time.perf_counter()
     stepsine = stepsine or (name != "none" and get(name).channel == "stepsine")
     with tempfile.TemporaryDirectory() as d:
-        make_campaign(Path(d) / "c", name, s, seed=seed, record_s=record_s, stepsine=stepsine)
-        r = diagnose(Path(d) / "c")
+        if frf_files:
+            make_frf_campaign(Path(d) / "c", name, s, seed=seed, other_form=other_form)
+            r = diagnose_frf(Path(d) / "c")
+        else:
+            make_campaign(Path(d) / "c", name, s, seed=seed, record_s=record_s, stepsine=stepsine,
+                          other_form=other_form)
+            r = diagnose(Path(d) / "c")
     r.pop("_config"), r.pop("_plots")
     return r, time.perf_counter() - t0
 
@@ -47,9 +61,13 @@ def row(seed: int, name: str, s: float | None, r: dict, secs: float) -> str:
     gb, ga = r["gap_before"], r["gap_after"]
     act = (f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}" if gb.get("actuator_nrmse") is not None else "")
     ss = f"{gb['stepsine_ratio_db']:.2f} -> {ga['stepsine_ratio_db']:.2f}" if "stepsine_ratio_db" in gb else ""
+    b = r["gap_budget"]
+    shares = ("" if b["remainder_share"] is None else
+              f"{100 * b['calibration_share']:.0f} / {100 * b['effect_share']:.0f} / {100 * b['remainder_share']:.0f}"
+              + (" dominates" if b["remainder_dominates"] else ""))
     return (f"| {seed} | {name} | {'' if s is None else f'{s:g}'} | {named or '-'} | {fitted} | "
             f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {r['runner_up']} | "
-            f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | {act} | {ss} | {secs:.0f} |")
+            f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | {act} | {ss} | {shares} | {secs:.0f} |")
 
 
 def matrix(hidden: list[str], named: Counter) -> str:
@@ -67,16 +85,22 @@ def main() -> None:
     ap.add_argument("--effects", help="comma-separated effect names (default: every implemented effect)")
     ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed in parallel processes")
     ap.add_argument("--stepsine", action="store_true", help="step-sine tests in every campaign")
+    ap.add_argument("--model-form", action="store_true", help="the truth of another model form (rig --model-form)")
+    ap.add_argument("--frf-files", action="store_true", help="linear FRF-file campaigns (rig --frf-files)")
     args = ap.parse_args()
     effects = [get(n) for n in args.effects.split(",")] if args.effects else implemented()
+    if args.frf_files:
+        effects = [e for e in effects if e.visible_in_frf_files()]
     cases = [("none", None)] + [(e.name, e.nominal + f * (e.parameter.default - e.nominal))
                                 for e in effects for f in (1.0, 0.5)]
     print("| seed | hidden effect | strength | named | fitted (error) | best: dBIC, RSS reduction | runner-up | "
-          "FRF gap [dB] before -> after | actuator NRMSE before -> after | step-sine F_amp/drive gap [dB] | s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
+          "FRF gap [dB] before -> after | actuator NRMSE before -> after | step-sine F_amp/drive gap [dB] | "
+          "calibration / effect / remainder [%] | s |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
     todo = [(seed, name, s) for seed in args.seeds for name, s in cases]
     named = Counter()
-    runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s, args.stepsine)
+    runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s, args.stepsine,
+                                                                            args.model_form, args.frf_files)
                                                               for c in todo)
     for (seed, name, s), (r, secs) in zip(todo, runs):
         print(row(seed, name, s, r, secs), flush=True)

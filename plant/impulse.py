@@ -67,10 +67,13 @@ def fit_mode(freq: np.ndarray, frf: np.ndarray, f_lo: float, f_hi: float) -> tup
 
     A, B, C (complex) are solved linearly for each (omega_n, zeta), which scipy's
     least_squares then optimises. Returns (f_n [Hz], zeta [-]); NaN if the optimum sits on
-    the band edge (no mode in the band).
+    the band edge (no mode in the band) or the band holds fewer than 4 lines (a sparse stepped sine:
+    3 complex coefficients and 2 parameters need more).
     """
     from scipy.optimize import least_squares
     sel = (freq >= f_lo) & (freq <= f_hi)
+    if sel.sum() < 4:
+        return np.nan, np.nan
     omega, H = 2 * np.pi * freq[sel], frf[sel]
     w_pk = omega[np.argmax(np.abs(H))]
     lo, hi = 2 * np.pi * f_lo, 2 * np.pi * f_hi

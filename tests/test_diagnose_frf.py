@@ -59,6 +59,9 @@ def test_hidden_effect_is_named_from_frf_files(campaigns, effect):
     assert abs(fitted / effect.parameter.default - 1.0) < 0.30, fitted
     before, after = res["gap_before"]["structure_frf_db"], res["gap_after"]["structure_frf_db"]
     assert before >= 3.0 * after, (before, after)
+    # the budget: the effect explains a real share (seed 3, moving_mass: 23 %), nothing dominant remains
+    b = res["gap_budget"]
+    assert b["effect_share"] > 0.1 and abs(b["remainder_share"]) < 0.01 and not b["remainder_dominates"], b
 
 
 def test_true_parameters_fit_at_noise_level(campaigns):
@@ -83,6 +86,8 @@ def test_no_effect_names_nothing_through_the_cli(campaigns, tmp_path, capsys):
     assert res["named_effect"] is None, res["ranking"]
     assert res["ranking"][0]["delta_bic"] <= 10.0 and res["input"] == "frf_files"
     assert set(res["fitted_parameters"]) == {"E", "k_t", "modal_damping"}
+    b = res["gap_budget"]   # the model form is the truth's: calibration explains all but the noise
+    assert b["calibration_share"] > 0.99 and b["rms_final"] < 1.0 and not b["remainder_dominates"], b
     assert json.loads((out / "diagnose.json").read_text()) == res
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["diagnose.json", "model.toml", "report.md", "diagnosis.rrd"] + [f"frf_frf_0{j}.png" for j in (1, 2, 3)])

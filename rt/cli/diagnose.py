@@ -20,14 +20,18 @@ About 10-25 s per campaign on 2 cores (30-50 s with step-sine tests).
 A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
 docs/data-format.md "FRF files") is fitted with the linear stuck-contact model of the --config
 structure: E, k_t, modal damping and each structural effect on the log-magnitude FRFs (mu cannot
-act there), about 10 s. Method: docs/discrepancy.md."""
+act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force amplitudes, e.g. from
+rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
+are calibrated on the files at those levels only and predict the others; the report gives both
+predictions' gaps around the softening mode (1-2 min). Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
   frictionrt diagnose logs/campaign_acc --json --out logs/diag_acc   # report.md, model.toml, PNGs, diagnosis.rrd
   frictionrt diagnose logs/campaign_ss --dask tcp://10.0.0.5:8786   # fits and model step-sines on a cluster
   frictionrt --config logs/diag_acc/model.toml impulse     # the updated model in other commands
-  frictionrt --config configs/lap_joint.toml diagnose lab/frf_tests --out lab/diag   # FRF files, any structure"""
+  frictionrt --config configs/lap_joint.toml diagnose lab/frf_tests --out lab/diag   # FRF files, any structure
+  frictionrt diagnose logs/frf_levels --calibrate-on 0.5,1 --out logs/diag_levels   # predict the higher levels"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -46,6 +50,9 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the candidates' fits and the model step-sines on this dask scheduler's workers instead "
                         "(frictionrt installed there; the same result); a folder of FRF files is diagnosed here")
+    p.add_argument("--calibrate-on", metavar="A,B,..", help="FRF files at several levels: calibrate on the files at "
+                   "these force amplitudes [N] (sidecar amplitude_n) and predict the others, linear model against "
+                   "the harmonic balance of the joints (rt/discrepancy/diagnose_levels.py)")
     return p
 
 
@@ -58,6 +65,8 @@ def cmd_diagnose(cfg, args) -> int:
     if args.jobs is not None and args.jobs < 1:
         return fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
     say = None if args.json else lambda m: print(f"  {m}", file=sys.stderr)
+    if args.calibrate_on is not None:
+        return _levels(cfg, args, say)
     try:
         if is_frf_folder(args.folder):
             res = diagnose_frf(args.folder, cfg, progress=say)
@@ -71,4 +80,26 @@ def cmd_diagnose(cfg, args) -> int:
         from rt.discrepancy.diagnose_report import write_report
         write_report(res, args.out)
     print(json.dumps(public(res)) if args.json else summary(res))
+    return 0
+
+
+def _levels(cfg, args, say) -> int:
+    """``diagnose --calibrate-on``: rt.discrepancy.diagnose_levels."""
+    from rt.cli.common import parse_list
+    from rt.discrepancy.diagnose_frf import is_frf_folder
+    from rt.discrepancy.diagnose_levels import diagnose_levels, summary, write_levels_report
+    try:
+        levels = parse_list(args.calibrate_on, float, "diagnose --calibrate-on", "0.5,1")
+    except ValueError as exc:
+        return fail(str(exc))
+    if not is_frf_folder(args.folder):
+        return fail(f"diagnose --calibrate-on: {args.folder} is not a folder of FRF files (rig --frf-files --levels "
+                    "writes one)")
+    try:
+        res = diagnose_levels(args.folder, levels, cfg, progress=say)
+    except ValueError as exc:
+        return fail(f"diagnose: {exc}")
+    if args.out:
+        write_levels_report(res, args.out)
+    print(json.dumps({k: v for k, v in res.items() if not k.startswith("_")}) if args.json else summary(res))
     return 0

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 
-from rt.cli.common import add_out, fail
+from rt.cli.common import add_out, fail, parse_list
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
@@ -23,7 +24,13 @@ of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz
 of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars; a structure
 without an adaptive screw gets one test, frf_01.csv (F_N1_N = 0). Without --frf-files the campaign
 needs the adaptive screw (its actuator tests). --quantity writes mobilities or receptances instead,
---force-scale S FRFs per drive volt of a shaker without force transducer (H per volt = S x H per newton)."""
+--force-scale S FRFs per drive volt of a shaker without force transducer (H per volt = S x H per newton).
+With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from stepped-sine up-sweeps of
+the nonlinear plant (the adaptive screw, if any, held at 100 N; lines around the stuck structure's
+modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff).
+--model-form: the truth is of another model form than the nominal (half the element length and
+contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
+so that no calibration of the nominal model fits it exactly, as with a real structure."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
@@ -32,7 +39,10 @@ EXAMPLES = """examples:
   frictionrt rig --effect none -o logs/campaign_clean && frictionrt diagnose logs/campaign_clean
   frictionrt rig --effect clamp_compliance --frf-files -o logs/frf_clamp && frictionrt diagnose logs/frf_clamp
   frictionrt rig --effect shaker_interaction --stepsine --seed 3 -o logs/campaign_shaker
-  frictionrt rig --effect moving_mass --frf-files --quantity mobility --force-scale 0.37 -o logs/frf_volt"""
+  frictionrt rig --effect moving_mass --frf-files --quantity mobility --force-scale 0.37 -o logs/frf_volt
+
+  frictionrt rig --effect micro_slip --frf-files --levels 0.5,1,2,5,10,20 -o logs/frf_levels
+  frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -56,6 +66,12 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                         "files hold H per volt = N_PER_V x H per newton (sidecar excitation drive_voltage)")
     p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
                    "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
+    p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] of stepped-sine "
+                   "tests of the nonlinear plant, one file per level (rt/discrepancy/rig_levels.py), instead of "
+                   "the linear FRFs at three F_N1")
+    p.add_argument("--model-form", action="store_true", help="the truth of another model form: finer mesh and "
+                   "contact pitch, substeps, other interface damping, beams not copies of the nominal's "
+                   "(rt.discrepancy.rig.model_form)")
     add_out(p, "DIR", "new campaign folder (must not exist or be empty: a campaign is never replaced, no --force)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
@@ -96,15 +112,32 @@ def cmd_rig(cfg, args) -> int:
         return fail("rig --quantity, --force-scale: they apply to --frf-files only; add it or drop them")
     if args.force_scale is not None and not (math.isfinite(args.force_scale) and args.force_scale > 0):
         return fail(f"rig --force-scale {args.force_scale:g}: give a force per volt > 0 [N/V]")
+    if args.levels is not None and not args.frf_files:
+        return fail("rig --levels: the level tests are FRF files; add --frf-files")
+    if args.levels is not None and (args.quantity != "accelerance" or args.force_scale is not None):
+        return fail("rig --levels: the level tests are accelerances per newton; --quantity and --force-scale apply "
+                    "to the linear FRF files only, drop them")
+    levels = None
+    if args.levels is not None:
+        try:
+            levels = parse_list(args.levels, float, "rig --levels", "0.5,1,2,5")
+        except ValueError as exc:
+            return fail(str(exc))
     from rt.discrepancy.rig import make_campaign
     from rt.discrepancy.rig_frf import make_frf_campaign
+    from rt.discrepancy.rig_levels import make_level_campaign
     try:
-        if args.frf_files:
+        if levels is not None:
+            files = make_level_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
+                                        force_levels_n=levels, other_form=args.model_form,
+                                        progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
+        elif args.frf_files:
             files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                      quantity=args.quantity, force_scale_N_per_V=args.force_scale)
+                                      quantity=args.quantity, force_scale_N_per_V=args.force_scale,
+                                      other_form=args.model_form)
         else:
             files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                  record_s=args.record_s, stepsine=args.stepsine)
+                                  record_s=args.record_s, stepsine=args.stepsine, other_form=args.model_form)
     except ValueError as exc:
         return fail(f"rig -o: {exc}")
     if args.json:

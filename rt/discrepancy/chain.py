@@ -59,6 +59,13 @@ def hold_voltage(cfg: Config, F_N1: float) -> float:
     return min(max((F_N1 - a.F0_N) / a.c_v, a.V_min), a.V_max)
 
 
+def stack_force(cfg: Config, V_cmd: float) -> float:
+    """The adaptive screw's force [N] when the stack holds V_cmd [V] at rest (the actuator's initial state)."""
+    pa, _ = _chain(cfg)
+    _, Ya = run_actuator(pa, np.full(1, V_cmd), initial_state(pa, V=V_cmd))
+    return float(Ya[0, output_index()["F_stack"]])
+
+
 def measure_impulse(model: PlantModel, F_exc: np.ndarray, V_cmd: float, seed: int) -> dict[str, np.ndarray]:
     """The channels of an impulse test: the plant at the F_N1 the stack holds at V_cmd [V], driven by
     F_exc [N] per tick, read by the sensors of ``model.cfg`` (their noise from ``seed``).
@@ -70,8 +77,7 @@ def measure_impulse(model: PlantModel, F_exc: np.ndarray, V_cmd: float, seed: in
     pa, ps = _chain(cfg)
     _, Ya = run_actuator(pa, np.full(n, V_cmd), initial_state(pa, V=V_cmd))
     ia = output_index()
-    F_N1 = float(Ya[0, ia["F_stack"]])
-    Y, _, _ = run(model, F_exc, F_N1)
+    Y, _, _ = run(model, F_exc, stack_force(cfg, V_cmd))
     io = model.output_index()
     U = np.empty((n, 4))
     U[0, :2] = 0.0

@@ -57,6 +57,7 @@ from rt.discrepancy.diagnose_stepsine import gap_db as stepsine_gap_db
 from rt.discrepancy.diagnose_stepsine import prepare as prepare_stepsine
 from rt.discrepancy.diagnose_stepsine import residuals as stepsine_residuals
 from rt.discrepancy.effects import Effect, get, implemented
+from rt.discrepancy.remainder import budget, verdict
 from rt.log.mcap_log import read_mcap
 from rt.discrepancy.chain import measure_actuator, quiet, scaled
 
@@ -356,8 +357,11 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
                             "slew_model_V_per_us": _r(_slew(r["V_a"], t.dt), 4),
                             "F_per_V_meas": _r(_gain(t.data["V_a"], t.data["F_cell"]), 4),
                             "F_per_V_model": _r(_gain(r["V_a"], r["F_cell"]), 4)}
+    m1 = build_plant(quiet(final["cfg"]))
+    modes_after = {t.name: modes_table(model_frequencies(m1, d.F_N1), d.f_modes) for t, d in zip(imp, data)}
     res = ranking_result(base, ranked, winner, {"gap_before": gap_before, "gap_calibrated": gap_cal,
-                                                "gap_after": gap_after}, localise)
+                                                "gap_after": gap_after}, localise,
+                         {f"FRF {s}": v for s, v in run0.r.items()}, modes_after)
     if not ss_tests:
         res["not_tried"] += [e.name for e in implemented() if e.channel == "stepsine"]
     return res | {
@@ -387,9 +391,12 @@ def feat_gap(res: dict) -> float:
     return round(float(np.sqrt(np.mean(np.concatenate(list(res["channels"].values())) ** 2))), 4)
 
 
-def ranking_result(base: dict, ranked: list[dict], winner: dict | None, gap: dict, localisation: dict) -> dict:
+def ranking_result(base: dict, ranked: list[dict], winner: dict | None, gap: dict, localisation: dict,
+                   nominal_channels: dict, modes_after: dict) -> dict:
     """The result (docs/discrepancy.md) of the ranking, with the gap metrics ``gap`` (gap_before,
-    gap_calibrated, gap_after) and the ``localisation``; the updated configuration under "_config"."""
+    gap_calibrated, gap_after), the ``localisation`` and the gap's budget (rt.discrepancy.remainder: from
+    the nominal model's channels and the final model's ``modes_after``); the updated configuration
+    under "_config"."""
     final = winner or base
     ranking = [{"effect": r["effect"], "score": round(r["score"], 2), "delta_bic": round(base["score"] - r["score"], 2),
                 "rss_reduction": round(r["rss_reduction"], 4),
@@ -401,6 +408,7 @@ def ranking_result(base: dict, ranked: list[dict], winner: dict | None, gap: dic
                                                      "fitted": {k: float(f"{v:.5g}") for k, v in base["theta"].items()}},
             "threshold_delta_bic": NAME_THRESHOLD, **gap,
             "fitted_parameters": {k: float(f"{v:.6g}") for k, v in final["theta"].items()},
+            "gap_budget": budget(nominal_channels, base["channels"], final["channels"], modes_after),
             "localisation": localisation, "not_tried": [e for e in _unimplemented()],
             "_config": final["cfg"]}
 
@@ -468,6 +476,7 @@ def summary(result: dict) -> str:
         lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  RSS -{100 * r['rss_reduction']:5.1f} %  "
                      f"fitted {json.dumps(r['fitted'])}")
     lines.append(f"structure FRF gap [dB]: {gb['structure_frf_db']:.3f} -> {ga['structure_frf_db']:.3f}")
+    lines.append(verdict(result))
     if "stepsine_ratio_db" in gb:
         lines.append(f"step-sine F_amp/drive gap [dB]: {gb['stepsine_ratio_db']:.3f} -> {ga['stepsine_ratio_db']:.3f}")
     if gb["actuator_nrmse"] is not None:

@@ -244,13 +244,24 @@ def residuals(cfg: Config, data: list[FRFData]) -> tuple[dict, list[dict], float
     """({"FRF <sensor>": weighted log-magnitude residuals over all tests}, model H per test (the
     drive-voltage tests' times the force scale), the force scale [N/V] profiled out (module
     docstring) or None without drive-voltage tests)."""
-    Hm = model_H(cfg, data)
+    return weighted_residuals(data, model_H(cfg, data))
+
+
+NO_SOLUTION = 30.0   # weighted residual of a line where the model has no value (a harmonic balance without solution)
+
+
+def weighted_residuals(data: list[FRFData], Hm: list[dict]) -> tuple[dict, list[dict], float | None]:
+    """``residuals`` of the model FRFs ``Hm`` {sensor: H per newton} per test (any model: the stuck
+    linear one, rt.discrepancy.diagnose_levels' harmonic balance). A line where the model is not finite
+    gets the residual ``NO_SOLUTION`` and stays out of the force scale."""
     raw = [{s: (d.ln_h[s] - np.log(np.maximum(np.abs(h[s][d.sel[s]]), 1e-300))) for s in d.sel}
            for d, h in zip(data, Hm)]
     scale = None
     if any(d.per_volt for d in data):
-        num = sum(float(np.sum(r[s] / d.sigma[s] ** 2)) for d, r in zip(data, raw) if d.per_volt for s in r)
-        den = sum(float(np.sum(1.0 / d.sigma[s] ** 2)) for d, r in zip(data, raw) if d.per_volt for s in r)
+        ok = [{s: np.isfinite(r[s]) for s in r} for r in raw]
+        num = sum(float(np.sum(r[s][k[s]] / d.sigma[s][k[s]] ** 2))
+                  for d, r, k in zip(data, raw, ok) if d.per_volt for s in r)
+        den = sum(float(np.sum(1.0 / d.sigma[s][k[s]] ** 2)) for d, r, k in zip(data, raw, ok) if d.per_volt for s in r)
         ln_s = min(max(num / den, math.log(FORCE_SCALE_N_PER_V[0])), math.log(FORCE_SCALE_N_PER_V[1]))
         scale = math.exp(ln_s)
         for d, r, h in zip(data, raw, Hm):
@@ -261,7 +272,7 @@ def residuals(cfg: Config, data: list[FRFData]) -> tuple[dict, list[dict], float
     out = {}
     for d, r in zip(data, raw):
         for s in r:
-            out.setdefault(f"FRF {s}", []).append(r[s] / d.sigma[s])
+            out.setdefault(f"FRF {s}", []).append(np.where(np.isfinite(r[s]), r[s] / d.sigma[s], NO_SOLUTION))
     return {k: np.concatenate(v) for k, v in out.items()}, Hm, scale
 
 
@@ -434,7 +445,7 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
         raise ValueError(f"{folder}: {exc}") from None
     if not any(d.sel for d in data):
         raise ValueError(f"{folder}: no FRF line above the noise in any test")
-    _, H0, scale0 = residuals(nominal, data)
+    ch0, H0, scale0 = residuals(nominal, data)
     say("fit calibration only")
     fits = {None: fit(nominal, data, None)}
     candidates, why_not = _candidates(nominal)
@@ -459,7 +470,9 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
                             "unpaired_measured_hz": list(d.unpaired_hz)}
     gap = {"gap_before": gap_db(data, H0), "gap_calibrated": gap_db(data, base["fit"].H),
            "gap_after": gap_db(data, final["fit"].H)}
-    out = ranking_result(base, ranked, winner, gap, localise)
+    m1 = build_plant(quiet(final["cfg"]))
+    modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
+    out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
     out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
     per_volt = any(d.per_volt for d in data)
     offset = level_offset_db(data, final["fit"].H)

@@ -17,6 +17,7 @@ import numpy as np
 
 from rt.common.config import dumps
 from rt.discrepancy.diagnose_rrd import write_diagnosis_rrd
+from rt.discrepancy.remainder import verdict
 from rt.discrepancy.diagnose import (
     BAND_HZ,
     MIN_RSS_REDUCTION,
@@ -131,6 +132,8 @@ def report_md(res: dict, pngs: list[str]) -> str:
         lines += [f"| all FRF files | mean over every sensor and the whole band [dB] | {gb['structure_frf_db_all']} | "
                   f"{gc['structure_frf_db_all']} | {ga['structure_frf_db_all']} |"]
     lines += _frf_file_sections(res)
+    lines += ["", "## What calibration, the effect and the remainder explain", "", verdict(res), "",
+              "```json", json.dumps(res["gap_budget"], indent=1), "```"]
     lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
               f"Not tried (not implemented yet, or not seen by this input: no step-sine tests for "

@@ -76,7 +76,7 @@ def frf_meta(cfg: Config, F_N1: float, description: str, sensors: dict[str, str]
 def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                       seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N, quantity: str = "accelerance",
                       force_scale_N_per_V: float | None = None,
-                      sensors: dict[str, tuple[str, float]] | None = None) -> list[Path]:
+                      sensors: dict[str, tuple[str, float]] | None = None, other_form: bool = False) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed). Arguments as rt.discrepancy.rig.make_campaign; ``quantity`` of the files,
     ``force_scale_N_per_V`` (given: the excitation is a drive voltage, H per volt = s H per
@@ -84,10 +84,10 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
     written. ValueError for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
     if effect != "none" and not get(effect).visible_in_frf_files():
         raise ValueError(f"effect {effect!r} leaves the structure linearised with the contact stuck unchanged "
-                         "(it acts through slip or the actuator), so FRF files cannot show it; write a time-series "
-                         "campaign instead (rig without --frf-files)")
+                         "(it acts through slip or the actuator), so linear FRF files cannot show it; write FRFs "
+                         "at several force levels (--levels) or a time-series campaign (rig without --frf-files)")
     rng = np.random.default_rng(seed)
-    true = true_structure(cfg, effect, strength, rng)
+    true = true_structure(cfg, effect, strength, rng, other_form)
     held = adaptive_screw(true) is not None
     names = []
     true = add_points(true, sensors or {})

@@ -1,0 +1,283 @@
+"""FRFs at several excitation levels: calibrate at some, predict the others (``diagnose --calibrate-on``,
+issue 18; docs/discrepancy.md "Amplitude dependence").
+
+Input: a folder of FRF files (rt.log.frf_files) of one structure at one bolt force and several force
+amplitudes (sidecar ``amplitude_n`` [N]; e.g. ``rig --frf-files --levels``). The question a lab asks:
+calibrated where the joint just starts to slip (the lowest levels), does the model predict the
+higher ones? Two models, both calibrated on the tests at the levels ``calibrate_on`` only:
+
+* linear: rt.discrepancy.diagnose_frf's stuck model (plant.linear_frf), the same FRF at every level,
+  calibrated as there (E, k_t, modal damping);
+* nonlinear: the harmonic balance of the joints at each test's force amplitude (plant.harmonic_frf,
+  method "df": each closed pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force
+  mu f_n at its static normal force; 0.1-0.2 s per level of ~70 lines), calibrated in E, k_t, mu and
+  the modal damping, alone and with each slip candidate of the library that it can represent
+  (micro_slip: the Iwan spread; Stribeck friction is velocity-dependent, which a describing function
+  of the displacement does not hold: not tried).
+
+Residuals: rt.discrepancy.diagnose_frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
+noise, every sensor. Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
+of the scales, within ``BOUNDS``, from the linear calibration's E, k_t and damping and mu x 1 (the
+candidate from its default strength). A line where the harmonic balance does not converge is
+given the constant weighted residual rt.discrepancy.diagnose_frf.NO_SOLUTION, so a parameter set that
+leaves the balance without a solution is never preferred.
+
+Ranking of the candidates on the calibration levels: BIC as rt.discrepancy.diagnose, named under its
+three conditions (rank). Prediction: at every level not calibrated on, the gap [dB] = RMS of
+20 log10|H_meas / H_model| over the band of the softening mode (``softening_band``: +-``HALF_WIDTH``
+around the stuck model's mode whose measured peak moves most from the lowest to the highest level)
+and over all lines, for both models, and their ratio.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
+
+from plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from plant.model import build_plant
+from rt.common.config import Config, with_sets
+from rt.discrepancy.chain import quiet, scaled
+from rt.discrepancy.diagnose import bic, rank
+from rt.discrepancy.diagnose_frf import (FRFData, fit, model_H, prepare, undamped_frequencies, weighted_residuals,
+                                         with_sensor_points)
+from rt.discrepancy.effects import Effect, implemented
+from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
+
+CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
+BOUNDS = {"E": (0.5, 2.0), "k_t": (0.01, 100.0), "mu": (0.1, 10.0), "modal_damping": (0.1, 10.0)}
+"""Calibration scales' bounds (x nominal): a first model tens of percent off in E, decades in k_t."""
+HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
+CANDIDATES = ("micro_slip",)
+
+
+def level_of(test: FRFTest) -> float:
+    """The test's force amplitude [N] (sidecar amplitude_n); ValueError if the sidecar has none."""
+    a = test.meta.get("amplitude_n")
+    if a is None or not math.isfinite(float(a)) or float(a) <= 0:
+        raise ValueError(f"{test.name}: sidecar amplitude_n is {a!r}; FRFs at several levels need each test's "
+                         "force amplitude in N")
+    return float(a)
+
+
+def split(tests: list[FRFTest], calibrate_on) -> tuple[list[int], list[int]]:
+    """(indices of the tests at the levels ``calibrate_on`` [N], the others). ValueError naming the
+    levels when one matches no test, when all tests would be calibrated on, or when the folder has
+    fewer than two levels or more than one bolt force."""
+    levels = sorted({level_of(t) for t in tests})
+    if len(levels) < 2:
+        raise ValueError(f"the folder has one excitation level ({levels[0]:g} N); --calibrate-on needs FRFs at "
+                         "two levels or more (rig --frf-files --levels)")
+    if len({round(t.F_N1, 6) for t in tests}) > 1:
+        raise ValueError("the folder's tests are at several bolt forces F_N1; --calibrate-on compares levels at one")
+    want = [float(a) for a in calibrate_on]
+    for a in want:
+        if not any(math.isclose(a, b, rel_tol=1e-6) for b in levels):
+            raise ValueError(f"--calibrate-on {a:g}: no test at that level; the folder's levels [N]: "
+                             + ", ".join(f"{b:g}" for b in levels))
+    cal = [i for i, t in enumerate(tests) if any(math.isclose(level_of(t), a, rel_tol=1e-6) for a in want)]
+    rest = [i for i in range(len(tests)) if i not in cal]
+    if not rest:
+        raise ValueError("--calibrate-on names every level of the folder: leave at least one to predict")
+    return cal, rest
+
+
+def _cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
+    cfg = scaled(nominal, {k: theta[k] for k in CAL_NAMES})
+    return effect.apply(cfg, theta[effect.name]) if effect is not None else cfg
+
+
+def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float]) -> list[dict]:
+    """The harmonic balance's FRFs {sensor: H per newton, in the test's quantity} (NaN where it has no
+    solution) on every test's lines at its level [N]; ``cfg`` holds the sensors' points."""
+    model = build_plant(quiet(cfg))
+    out, systems = [], {}
+    for d, amp in zip(data, levels):
+        key = (d.F_N1, tuple(sorted(d.points.items())))
+        if key not in systems:
+            systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
+        r = harmonic_accelerances(systems[key], amp, d.freq, method="df", branches=False)
+        out.append({s: from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
+    return out
+
+
+def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
+                  effect: Effect | None) -> dict:
+    """Calibration (and the effect) of the harmonic-balance model on ``data``: {"theta", "channels",
+    "cfg", "evaluations"}."""
+    names = list(CAL_NAMES) + ([effect.name] if effect else [])
+    lo = [math.log(BOUNDS[k][0]) if k in BOUNDS else effect.parameter.lo for k in names]
+    hi = [math.log(BOUNDS[k][1]) if k in BOUNDS else effect.parameter.hi for k in names]
+    x0 = [math.log(start.get(k, 1.0)) for k in CAL_NAMES] + ([effect.parameter.default] if effect else [])
+    x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
+
+    def theta_of(x):
+        return {k: (math.exp(v) if k in BOUNDS else float(v)) for k, v in zip(names, x)}
+
+    def r(x):
+        ch, _, _ = weighted_residuals(data, nonlinear_H(_cfg(nominal, theta_of(x), effect), data, levels))
+        return np.concatenate(list(ch.values()))
+
+    sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
+    theta = theta_of(sol.x)
+    cfg = _cfg(nominal, theta, effect)
+    return {"theta": theta, "channels": weighted_residuals(data, nonlinear_H(cfg, data, levels))[0], "cfg": cfg,
+            "evaluations": int(sol.nfev)}
+
+
+def gap_db(d: FRFData, h: dict, band: tuple[float, float] | None) -> float:
+    """RMS of 20 log10|H_meas / H_model| over the lines in ``band`` [Hz] (None: all), every sensor [dB]."""
+    e = []
+    for s in d.sel:
+        m = (d.freq >= band[0]) & (d.freq <= band[1]) if band else np.ones(len(d.freq), bool)
+        e.append(20.0 * np.log10(np.abs(d.H[s][m]) / np.abs(h[s][m])))
+    e = np.concatenate(e)
+    return round(float(np.sqrt(np.nanmean(e ** 2))), 4)
+
+
+def softening_band(nominal: Config, data: list[FRFData], levels: list[float]) -> tuple[float, float, int]:
+    """(low, high [Hz], mode number): +-HALF_WIDTH around the stuck model's mode whose measured peak
+    (first sensor, in that band) moves most from the lowest to the highest level."""
+    lo_i, hi_i = int(np.argmin(levels)), int(np.argmax(levels))
+    f_modes = undamped_frequencies(build_plant(quiet(nominal)), data[lo_i].F_N1)
+    best = None
+    for j, fm in enumerate(f_modes):
+        band = (fm * (1 - HALF_WIDTH), fm * (1 + HALF_WIDTH))
+        peaks = []
+        for i in (lo_i, hi_i):
+            d = data[i]
+            s = next(iter(d.sel))
+            m = (d.freq >= band[0]) & (d.freq <= band[1])
+            if m.sum() < 3:
+                break
+            peaks.append(d.freq[m][np.argmax(np.abs(d.H[s][m]))])
+        if len(peaks) == 2 and (best is None or abs(peaks[1] / peaks[0] - 1) > best[0]):
+            best = (abs(peaks[1] / peaks[0] - 1), band, j + 1)
+    if best is None:
+        raise ValueError("no mode of the model has three measured lines or more within +-12 %: the levels' "
+                         "lines do not cover a resonance")
+    return best[1][0], best[1][1], best[2]
+
+
+def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None) -> dict:
+    """The workflow (module docstring) on a folder of FRF files at several levels; a JSON-ready dict
+    with the calibrated configuration under "_config" and plotting data under "_plots"."""
+    with threadpool_limits(1):
+        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None))
+
+
+def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
+    nominal = nominal if nominal is not None else with_sets(Config(), [])
+    tests = load_frf_folder(folder)
+    cal, rest = split(tests, calibrate_on)
+    levels = [level_of(t) for t in tests]
+    if any(t.excitation == "drive_voltage" for t in tests):
+        raise ValueError(f"{folder}: --calibrate-on takes force-excited FRFs (sidecar excitation force); a force "
+                         "scale per drive volt across levels is not fitted yet")
+    try:
+        data = prepare(tests, nominal)
+        nominal, _ = with_sensor_points(tests, nominal)
+    except ValueError as exc:
+        raise ValueError(f"{folder}: {exc}") from None
+    dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
+    say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N")
+    lin = fit(nominal, dc, None)
+    H_lin = model_H(lin.cfg, data)
+    start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping")}
+    say("harmonic balance, calibration only")
+    fits = {None: fit_nonlinear(nominal, dc, lc, start, None)}
+    for name in CANDIDATES:
+        eff = next(e for e in implemented() if e.name == name)
+        say(f"harmonic balance with {name}")
+        fits[eff] = fit_nonlinear(nominal, dc, lc, fits[None]["theta"], eff)
+    results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
+                "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
+    base, ranked, winner = rank(results)
+    final = winner or base
+    say("prediction at the other levels")
+    H_nl = nonlinear_H(final["cfg"], data, levels)
+    band = softening_band(nominal, data, levels)
+    pred = []
+    for i, (d, a) in enumerate(zip(data, levels)):
+        g = {"test": d.name, "level_n": a, "calibrated_on": i in cal,
+             "gap_linear_db": gap_db(d, H_lin[i], band[:2]), "gap_nonlinear_db": gap_db(d, H_nl[i], band[:2]),
+             "gap_linear_all_db": gap_db(d, H_lin[i], None), "gap_nonlinear_all_db": gap_db(d, H_nl[i], None)}
+        g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
+        pred.append(g)
+    return {"input": "frf_levels", "calibrate_on_n": lc, "levels_n": sorted(set(levels)),
+            "softening_band_hz": [round(band[0], 2), round(band[1], 2)], "softening_mode": band[2],
+            "named_effect": winner["effect"] if winner else None,
+            "ranking": [{"effect": r["effect"], "delta_bic": round(base["score"] - r["score"], 2),
+                         "rss_reduction": round(r["rss_reduction"], 4),
+                         "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}} for r in ranked],
+            "linear": {"fitted": {k: float(f"{v:.5g}") for k, v in lin.theta.items()}},
+            "nonlinear": {"fitted": {k: float(f"{v:.5g}") for k, v in final["theta"].items()},
+                          "evaluations": fits[None]["evaluations"]},
+            "prediction": pred, "_config": final["cfg"],
+            "_plots": [(d.name, a, d.freq, d.H, h0, h1) for d, a, h0, h1 in zip(data, levels, H_lin, H_nl)]}
+
+
+def summary(res: dict) -> str:
+    """The text the CLI prints."""
+    lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} N; softening mode "
+             f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
+             f"named effect: {res['named_effect'] or 'no missing effect found'}",
+             f"fitted (harmonic balance): {res['nonlinear']['fitted']}",
+             "level [N]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  ratio"]
+    for p in res["prediction"]:
+        lines.append(f"  {p['level_n']:>7g}  {'yes' if p['calibrated_on'] else 'no':>10}  "
+                     f"{p['gap_linear_db']:.3f} / {p['gap_nonlinear_db']:.3f}  ({p['gap_linear_all_db']:.3f} / "
+                     f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}")
+    return "\n".join(lines)
+
+
+def write_levels_report(res: dict, out: str | Path) -> Path:
+    """The report folder (a new folder, written beside and renamed: never half a report):
+    diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
+    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction)."""
+    import json
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rt.common.config import dumps
+    from rt.discrepancy.rig import new_folder
+    with new_folder(out) as tmp:
+        (tmp / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
+                                                      indent=1) + "\n")
+        (tmp / "model.toml").write_text(dumps(res["_config"]))
+        plots = res["_plots"]
+        fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
+        for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):
+            s = next(iter(H))
+            ax.semilogy(f, np.abs(H[s]), "k.", ms=3, label=f"measured {s}")
+            ax.semilogy(f, np.abs(h0[s]), "C1-", lw=0.8, label="linear (stuck)")
+            ax.semilogy(f, np.abs(h1[s]), "C0-", lw=0.8, label="harmonic balance")
+            ax.axvspan(*res["softening_band_hz"], color="0.9", zorder=0)
+            cal = "calibrated on" if a in res["calibrate_on_n"] else "predicted"
+            ax.set_title(f"{name}: {a:g} N ({cal})", fontsize=9)
+            ax.grid(True, lw=0.3)
+        axes[0, 0].legend(fontsize=7)
+        axes[-1, 0].set_xlabel("f [Hz]")
+        fig.tight_layout()
+        fig.savefig(tmp / "levels.png", dpi=110)
+        plt.close(fig)
+        rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "
+                f"{p['gap_nonlinear_db']} | {p['ratio']} | {p['gap_linear_all_db']} | {p['gap_nonlinear_all_db']} |"
+                for p in res["prediction"]]
+        (tmp / "report.md").write_text("\n".join([
+            "# Amplitude dependence: calibrated at some levels, predicted at the others", "",
+            f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} N. Softening mode "
+            f"{res['softening_mode']}, band {res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz "
+            "(docs/discrepancy.md, \"Amplitude dependence\").", "",
+            f"**Named effect: {res['named_effect'] or 'no missing effect found'}**", "",
+            f"Harmonic-balance calibration: `{json.dumps(res['nonlinear']['fitted'])}`; linear: "
+            f"`{json.dumps(res['linear']['fitted'])}`.", "",
+            "| level [N] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
+            "harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- |", *rows, "",
+            "![levels.png](levels.png)", ""]))
+    return Path(out)

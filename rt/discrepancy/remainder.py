@@ -1,0 +1,98 @@
+"""What the diagnosis explains and what remains (issue 18, docs/discrepancy.md "What remains: model form").
+
+A measurement never comes from the model that fits it. The structure channels' weighted residuals r
+(ln|H| differences over their noise sigma, rt.discrepancy.diagnose_structure / diagnose_frf) give, for
+the nominal model (0), calibration alone (c) and the final model (f: calibrated, with the named effect
+if one is named),
+
+    RSS_x = sum r_x^2 over the structure channels,   n = number of residuals,
+    excess = RSS_0 - n                                 (the part of the gap the noise model does not explain:
+                                                        E[RSS] = n for residuals of unit variance)
+    calibration share = (RSS_0 - RSS_c) / excess,   effect share = (RSS_c - RSS_f) / excess,
+    remainder share   = (RSS_f - n) / excess,        the three summing to 1.
+
+The remainder *dominates* when it is more than ``DOMINATES`` of what calibration leaves
+(remainder share > DOMINATES (effect share + remainder share)) and the final residuals' rms is above
+``NOISE_X`` times the noise model's (1): then the model form differs from the measurement in a way
+no calibration scale and no effect of the library describes, and the report says so, with where:
+the modes the final model misses by more than ``MODE_TOL`` (relative frequency, identified from the
+measurement against the final model's undamped frequency, per test) and the sensors ranked by the rms
+of their final residuals.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rt.discrepancy.effects import get
+
+DOMINATES = 0.5        # share of what calibration leaves above which the remainder dominates
+NOISE_X = 2.0          # ... and the final weighted residuals' rms above this (noise model: 1)
+MODE_TOL = 0.003       # a mode the final model misses by more than 0.3 % of its frequency is listed
+                       # (the identification's scatter on the rig's noise: ~0.05 %; the effects shift 1-3 %)
+
+
+def _rss(channels: dict) -> tuple[float, int]:
+    r = [v for k, v in channels.items() if k.startswith("FRF")]
+    if not r:
+        return 0.0, 0
+    r = np.concatenate(r)
+    return float(r @ r), len(r)
+
+
+def budget(nominal: dict, calibrated: dict, final: dict, modes_after: dict) -> dict:
+    """The gap's budget (module docstring) from the structure channels {name: weighted residuals} of
+    the nominal, calibrated and final models, and ``modes_after`` {test: rt.discrepancy.diagnose.modes_table
+    of the final model}. Returns {"calibration_share", "effect_share", "remainder_share", "rms_final",
+    "remainder_dominates", "modes_missed": [{"test", "mode", "shift_rel"}], "sensors": [{"sensor",
+    "rms"}]}; shares None when the nominal model is already within the noise (excess <= 0)."""
+    (r0, n), (rc, _), (rf, _) = _rss(nominal), _rss(calibrated), _rss(final)
+    excess = r0 - n
+    rms_f = math.sqrt(rf / n) if n else 0.0
+    shares = ({"calibration_share": round((r0 - rc) / excess, 4), "effect_share": round((rc - rf) / excess, 4),
+               "remainder_share": round((rf - n) / excess, 4)} if excess > 0 else
+              {"calibration_share": None, "effect_share": None, "remainder_share": None})
+    dominates = bool(excess > 0 and rf - n > DOMINATES * (rc - n) and rms_f > NOISE_X)
+    missed = sorted(({"test": t, "mode": int(m), "shift_rel": row["shift_rel"]}
+                     for t, rows in modes_after.items() for m, row in rows.items()
+                     if row["shift_rel"] is not None and abs(row["shift_rel"]) > MODE_TOL),
+                    key=lambda x: -abs(x["shift_rel"]))
+    sensors = sorted(({"sensor": k.removeprefix("FRF ").strip(), "rms": round(float(np.sqrt(np.mean(v ** 2))), 3)}
+                      for k, v in final.items() if k.startswith("FRF") and len(v)), key=lambda x: -x["rms"])
+    return shares | {"rms_final": round(rms_f, 3), "remainder_dominates": dominates,
+                     "modes_missed": missed, "sensors": sensors}
+
+
+def verdict(res: dict) -> str:
+    """One paragraph for the report: what calibration, the named effect and the remainder explain,
+    and, when the remainder dominates, that the model form differs and where."""
+    b = res["gap_budget"]
+    if b["remainder_share"] is None:
+        return "The nominal model already agrees with the measurement within its noise."
+    pct = {k: 100 * min(max(b[k], 0.0), 1.0) for k in ("calibration_share", "effect_share", "remainder_share")}
+    named = res["named_effect"]
+    if named is None:
+        effect = "no effect is named"
+    elif get(named).channel == "structure":
+        effect = f"the named effect ({named}) {pct['effect_share']:.0f} %"
+    else:
+        effect = f"the named effect ({named}) acts on the {get(named).channel} channels, not counted here,"
+    text = (f"Of the structure's gap beyond the noise, calibration explains {pct['calibration_share']:.0f} %, "
+            f"{effect} and {pct['remainder_share']:.0f} % remains "
+            f"(final weighted residuals' rms {b['rms_final']:.2f}, noise 1).")
+    if not b["remainder_dominates"]:
+        return text
+    best = res["ranking"][0] if res["ranking"] else None
+    modes = ", ".join(f"mode {m['mode']} in {m['test']} ({100 * m['shift_rel']:+.2f} %)" for m in b["modes_missed"][:6])
+    sens = ", ".join(f"{s['sensor']} (rms {s['rms']:.2f})" for s in b["sensors"])
+    return (text + " **The remainder dominates: the model form differs from the measurement in ways the library "
+            "does not describe** (no calibration scale and no effect of the library explains it; e.g. the joint's "
+            "contact discretisation, the mesh, the beams' sections or the damping model)"
+            + (f"; the measured modes the final model misses most: {modes}" if modes else "")
+            + (f"; residuals by sensor: {sens}" if sens else "")
+            + (f". The best candidate, {best['effect']}, would remove {100 * best['rss_reduction']:.0f} % of the "
+               f"residual (dBIC {best['delta_bic']:.0f}); it is not named on that evidence." if best and
+               not res["named_effect"] else ".")
+            + " Refine the model form (docs/discrepancy.md, \"What remains: model form\") before reading a "
+              "named effect or a fitted strength.")
