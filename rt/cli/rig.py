@@ -27,7 +27,8 @@ needs the adaptive screw (its actuator tests). --quantity writes mobilities or r
 --force-scale S FRFs per drive volt of a shaker without force transducer (H per volt = S x H per newton).
 With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from stepped-sine up-sweeps of
 the nonlinear plant (the adaptive screw, if any, held at 100 N; lines around the stuck structure's
-modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff).
+modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff); with
+--force-scale S the levels are drive voltages [V] of a shaker without force transducer.
 --model-form: the truth is of another model form than the nominal (half the element length and
 contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
 so that no calibration of the nominal model fits it exactly, as with a real structure."""
@@ -66,7 +67,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                         "files hold H per volt = N_PER_V x H per newton (sidecar excitation drive_voltage)")
     p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
                    "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
-    p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] of stepped-sine "
+    p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] (drive voltages [V] with --force-scale) of stepped-sine "
                    "tests of the nonlinear plant, one file per level (rt/discrepancy/rig_levels.py), instead of "
                    "the linear FRFs at three F_N1")
     p.add_argument("--model-form", action="store_true", help="the truth of another model form: finer mesh and "
@@ -114,9 +115,9 @@ def cmd_rig(cfg, args) -> int:
         return fail(f"rig --force-scale {args.force_scale:g}: give a force per volt > 0 [N/V]")
     if args.levels is not None and not args.frf_files:
         return fail("rig --levels: the level tests are FRF files; add --frf-files")
-    if args.levels is not None and (args.quantity != "accelerance" or args.force_scale is not None):
-        return fail("rig --levels: the level tests are accelerances per newton; --quantity and --force-scale apply "
-                    "to the linear FRF files only, drop them")
+    if args.levels is not None and args.quantity != "accelerance":
+        return fail("rig --levels: the level tests are accelerances; --quantity applies to the linear FRF files "
+                    "only, drop it")
     levels = None
     if args.levels is not None:
         try:
@@ -130,6 +131,7 @@ def cmd_rig(cfg, args) -> int:
         if levels is not None:
             files = make_level_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
                                         force_levels_n=levels, other_form=args.model_form,
+                                        force_scale_N_per_V=args.force_scale,
                                         progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
         elif args.frf_files:
             files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,

@@ -250,14 +250,16 @@ def residuals(cfg: Config, data: list[FRFData]) -> tuple[dict, list[dict], float
 NO_SOLUTION = 30.0   # weighted residual of a line where the model has no value (a harmonic balance without solution)
 
 
-def weighted_residuals(data: list[FRFData], Hm: list[dict]) -> tuple[dict, list[dict], float | None]:
+def weighted_residuals(data: list[FRFData], Hm: list[dict], profile_scale: bool = True
+                       ) -> tuple[dict, list[dict], float | None]:
     """``residuals`` of the model FRFs ``Hm`` {sensor: H per newton} per test (any model: the stuck
     linear one, rt.discrepancy.diagnose_levels' harmonic balance). A line where the model is not finite
-    gets the residual ``NO_SOLUTION`` and stays out of the force scale."""
+    gets the residual ``NO_SOLUTION`` and stays out of the force scale. ``profile_scale`` False: the
+    drive-voltage tests' ``Hm`` are per volt already (a nonlinear model, whose force the scale sets)."""
     raw = [{s: (d.ln_h[s] - np.log(np.maximum(np.abs(h[s][d.sel[s]]), 1e-300))) for s in d.sel}
            for d, h in zip(data, Hm)]
     scale = None
-    if any(d.per_volt for d in data):
+    if profile_scale and any(d.per_volt for d in data):
         ok = [{s: np.isfinite(r[s]) for s in r} for r in raw]
         num = sum(float(np.sum(r[s][k[s]] / d.sigma[s][k[s]] ** 2))
                   for d, r, k in zip(data, raw, ok) if d.per_volt for s in r)
@@ -360,14 +362,16 @@ FIXES = {
 NO_FORCE_HINT = "; or the data have no force: if the FRF is per drive voltage, set the sidecar's excitation to drive_voltage"
 
 
-def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool) -> list[dict]:
+def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, log_bounds: dict | None = None) -> list[dict]:
     """{"parameter", "value", "bound", "fix"} for every fitted parameter within BOUND_REL of a bound
-    (relative to the bound; on ln for the LOG_SCALE ones and the force scale; relative to the range
-    for a bound 0)."""
+    (relative to the bound; on ln for the LOG_SCALE ones, the force scale and those of ``log_bounds``
+    {name: (lo, hi)}; relative to the range for a bound 0)."""
     out = []
     for k, v in theta.items():
         if k == FORCE_SCALE:
             lo, hi, log = *FORCE_SCALE_N_PER_V, True
+        elif log_bounds and k in log_bounds:
+            lo, hi, log = *log_bounds[k], True
         elif k in CAL_FAR:
             lo, hi, _, _ = CAL_FAR[k]
             log = k in LOG_SCALE

@@ -42,24 +42,29 @@ from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet, scaled
 from rt.discrepancy.diagnose import bic, rank
-from rt.discrepancy.diagnose_frf import (FRFData, fit, model_H, prepare, undamped_frequencies, weighted_residuals,
-                                         with_sensor_points)
+from rt.discrepancy.diagnose_frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
+                                         prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
+from rt.discrepancy.diagnose_structure import CAL_FAR
 from rt.discrepancy.effects import Effect, implemented
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
-BOUNDS = {"E": (0.5, 2.0), "k_t": (0.01, 100.0), "mu": (0.1, 10.0), "modal_damping": (0.1, 10.0)}
-"""Calibration scales' bounds (x nominal): a first model tens of percent off in E, decades in k_t."""
+BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.1, 10.0),
+                                                                         FORCE_SCALE: FORCE_SCALE_N_PER_V}
+"""Bounds of the calibration scales (x nominal; the FRF files' far calibration, mu within a decade) and of
+the drive-voltage tests' force scale [N/V]; all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
 CANDIDATES = ("micro_slip",)
 
 
 def level_of(test: FRFTest) -> float:
-    """The test's force amplitude [N] (sidecar amplitude_n); ValueError if the sidecar has none."""
-    a = test.meta.get("amplitude_n")
-    if a is None or not math.isfinite(float(a)) or float(a) <= 0:
-        raise ValueError(f"{test.name}: sidecar amplitude_n is {a!r}; FRFs at several levels need each test's "
-                         "force amplitude in N")
+    """The test's level: its force amplitude [N] (sidecar amplitude_n), or a drive-voltage test's drive
+    amplitude [V] (drive_amplitude_v); ValueError if the sidecar has none."""
+    key = "drive_amplitude_v" if test.excitation == "drive_voltage" else "amplitude_n"
+    a = test.meta.get(key)
+    if a is None:
+        raise ValueError(f"{test.name}: sidecar {key} is missing; FRFs at several levels need each test's "
+                         + ("drive amplitude in V" if key == "drive_amplitude_v" else "force amplitude in N"))
     return float(a)
 
 
@@ -76,8 +81,8 @@ def split(tests: list[FRFTest], calibrate_on) -> tuple[list[int], list[int]]:
     want = [float(a) for a in calibrate_on]
     for a in want:
         if not any(math.isclose(a, b, rel_tol=1e-6) for b in levels):
-            raise ValueError(f"--calibrate-on {a:g}: no test at that level; the folder's levels [N]: "
-                             + ", ".join(f"{b:g}" for b in levels))
+            raise ValueError(f"--calibrate-on {a:g}: no test at that level; the folder's levels (N, or V for drive "
+                             "voltages): " + ", ".join(f"{b:g}" for b in levels))
     cal = [i for i, t in enumerate(tests) if any(math.isclose(level_of(t), a, rel_tol=1e-6) for a in want)]
     rest = [i for i in range(len(tests)) if i not in cal]
     if not rest:
@@ -90,42 +95,48 @@ def _cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
     return effect.apply(cfg, theta[effect.name]) if effect is not None else cfg
 
 
-def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float]) -> list[dict]:
-    """The harmonic balance's FRFs {sensor: H per newton, in the test's quantity} (NaN where it has no
-    solution) on every test's lines at its level [N]; ``cfg`` holds the sensors' points."""
+def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: float = 1.0) -> list[dict]:
+    """The harmonic balance's FRFs {sensor: H in the test's quantity, per newton or, for a drive-voltage
+    test, per volt} (NaN where it has no solution) on every test's lines at its level (force amplitude
+    [N], or drive amplitude [V] times the force scale ``scale`` [N/V]); ``cfg`` holds the sensors' points."""
     model = build_plant(quiet(cfg))
     out, systems = [], {}
     for d, amp in zip(data, levels):
         key = (d.F_N1, tuple(sorted(d.points.items())))
         if key not in systems:
             systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
-        r = harmonic_accelerances(systems[key], amp, d.freq, method="df", branches=False)
-        out.append({s: from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
+        g = scale if d.per_volt else 1.0
+        r = harmonic_accelerances(systems[key], amp * g, d.freq, method="df", branches=False)
+        out.append({s: g * from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
     return out
 
 
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
                   effect: Effect | None) -> dict:
-    """Calibration (and the effect) of the harmonic-balance model on ``data``: {"theta", "channels",
-    "cfg", "evaluations"}."""
-    names = list(CAL_NAMES) + ([effect.name] if effect else [])
-    lo = [math.log(BOUNDS[k][0]) if k in BOUNDS else effect.parameter.lo for k in names]
-    hi = [math.log(BOUNDS[k][1]) if k in BOUNDS else effect.parameter.hi for k in names]
-    x0 = [math.log(start.get(k, 1.0)) for k in CAL_NAMES] + ([effect.parameter.default] if effect else [])
+    """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
+    model on ``data``: {"theta", "channels", "cfg", "evaluations"}."""
+    per_volt = any(d.per_volt for d in data)
+    logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
+    names = logs + ([effect.name] if effect else [])
+    lo = [math.log(BOUNDS[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
+    hi = [math.log(BOUNDS[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
+    x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default] if effect else [])
     x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
 
     def theta_of(x):
         return {k: (math.exp(v) if k in BOUNDS else float(v)) for k, v in zip(names, x)}
 
+    def H_of(theta):
+        return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0))
+
     def r(x):
-        ch, _, _ = weighted_residuals(data, nonlinear_H(_cfg(nominal, theta_of(x), effect), data, levels))
+        ch, _, _ = weighted_residuals(data, H_of(theta_of(x)), profile_scale=False)
         return np.concatenate(list(ch.values()))
 
     sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
     theta = theta_of(sol.x)
-    cfg = _cfg(nominal, theta, effect)
-    return {"theta": theta, "channels": weighted_residuals(data, nonlinear_H(cfg, data, levels))[0], "cfg": cfg,
-            "evaluations": int(sol.nfev)}
+    return {"theta": theta, "channels": weighted_residuals(data, H_of(theta), profile_scale=False)[0],
+            "cfg": _cfg(nominal, theta, effect), "evaluations": int(sol.nfev)}
 
 
 def gap_db(d: FRFData, h: dict, band: tuple[float, float] | None) -> float:
@@ -174,9 +185,8 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
     tests = load_frf_folder(folder)
     cal, rest = split(tests, calibrate_on)
     levels = [level_of(t) for t in tests]
-    if any(t.excitation == "drive_voltage" for t in tests):
-        raise ValueError(f"{folder}: --calibrate-on takes force-excited FRFs (sidecar excitation force); a force "
-                         "scale per drive volt across levels is not fitted yet")
+    if len({t.excitation for t in tests}) > 1:
+        raise ValueError(f"{folder}: the tests mix force and drive-voltage excitation; --calibrate-on takes one kind")
     try:
         data = prepare(tests, nominal)
         nominal, _ = with_sensor_points(tests, nominal)
@@ -186,7 +196,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N")
     lin = fit(nominal, dc, None)
     H_lin = model_H(lin.cfg, data)
-    start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping")}
+    start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
     say("harmonic balance, calibration only")
     fits = {None: fit_nonlinear(nominal, dc, lc, start, None)}
     for name in CANDIDATES:
@@ -197,8 +207,12 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
     base, ranked, winner = rank(results)
     final = winner or base
+    winner_effect = next((e for e in fits if e is not None and e.name == final["effect"]), None)
+    per_volt = any(d.per_volt for d in data)
     say("prediction at the other levels")
-    H_nl = nonlinear_H(final["cfg"], data, levels)
+    H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0))
+    H_lin = [{s: h * lin.theta.get(FORCE_SCALE, 1.0) if d.per_volt else h for s, h in hs.items()}
+             for d, hs in zip(data, H_lin)]
     band = softening_band(nominal, data, levels)
     pred = []
     for i, (d, a) in enumerate(zip(data, levels)):
@@ -208,6 +222,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
         pred.append(g)
     return {"input": "frf_levels", "calibrate_on_n": lc, "levels_n": sorted(set(levels)),
+            "level_unit": "V" if any(d.per_volt for d in data) else "N",
             "softening_band_hz": [round(band[0], 2), round(band[1], 2)], "softening_mode": band[2],
             "named_effect": winner["effect"] if winner else None,
             "ranking": [{"effect": r["effect"], "delta_bic": round(base["score"] - r["score"], 2),
@@ -216,17 +231,24 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
             "linear": {"fitted": {k: float(f"{v:.5g}") for k, v in lin.theta.items()}},
             "nonlinear": {"fitted": {k: float(f"{v:.5g}") for k, v in final["theta"].items()},
                           "evaluations": fits[None]["evaluations"]},
-            "prediction": pred, "_config": final["cfg"],
+            "prediction": pred,
+            "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt)]
+                        + [w | {"model": "harmonic balance"} for w in bound_warnings(
+                            final["theta"], winner_effect, per_volt, {k: v for k, v in BOUNDS.items() if k != FORCE_SCALE})],
+            "_config": final["cfg"],
             "_plots": [(d.name, a, d.freq, d.H, h0, h1) for d, a, h0, h1 in zip(data, levels, H_lin, H_nl)]}
 
 
 def summary(res: dict) -> str:
     """The text the CLI prints."""
-    lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} N; softening mode "
+    lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}; softening mode "
              f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
              f"named effect: {res['named_effect'] or 'no missing effect found'}",
              f"fitted (harmonic balance): {res['nonlinear']['fitted']}",
-             "level [N]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  ratio"]
+             *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
+               for w in res["warnings"]],
+             f"level [{res['level_unit']}]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  "
+             "ratio"]
     for p in res["prediction"]:
         lines.append(f"  {p['level_n']:>7g}  {'yes' if p['calibrated_on'] else 'no':>10}  "
                      f"{p['gap_linear_db']:.3f} / {p['gap_nonlinear_db']:.3f}  ({p['gap_linear_all_db']:.3f} / "
@@ -259,7 +281,7 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
             ax.semilogy(f, np.abs(h1[s]), "C0-", lw=0.8, label="harmonic balance")
             ax.axvspan(*res["softening_band_hz"], color="0.9", zorder=0)
             cal = "calibrated on" if a in res["calibrate_on_n"] else "predicted"
-            ax.set_title(f"{name}: {a:g} N ({cal})", fontsize=9)
+            ax.set_title(f"{name}: {a:g} {res['level_unit']} ({cal})", fontsize=9)
             ax.grid(True, lw=0.3)
         axes[0, 0].legend(fontsize=7)
         axes[-1, 0].set_xlabel("f [Hz]")
@@ -271,13 +293,17 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
                 for p in res["prediction"]]
         (tmp / "report.md").write_text("\n".join([
             "# Amplitude dependence: calibrated at some levels, predicted at the others", "",
-            f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} N. Softening mode "
+            f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}. Softening mode "
             f"{res['softening_mode']}, band {res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz "
             "(docs/discrepancy.md, \"Amplitude dependence\").", "",
             f"**Named effect: {res['named_effect'] or 'no missing effect found'}**", "",
             f"Harmonic-balance calibration: `{json.dumps(res['nonlinear']['fitted'])}`; linear: "
             f"`{json.dumps(res['linear']['fitted'])}`.", "",
-            "| level [N] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
+            f"| level [{res['level_unit']}] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
             "harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- |", *rows, "",
+            *(["", "## Warnings: parameters on a bound", "", "| model | parameter | value | bound | fix |",
+               "| --- | --- | --- | --- | --- |"]
+              + [f"| {w['model']} | {w['parameter']} | {w['value']:g} | {w['bound']:g} | {w['fix']} |"
+                 for w in res["warnings"]] if res["warnings"] else []), "",
             "![levels.png](levels.png)", ""]))
     return Path(out)

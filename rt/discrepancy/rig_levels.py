@@ -119,27 +119,34 @@ def sweep_level(model: PlantModel, F_N1: float, amp_n: float, lines_hz: np.ndarr
 
 
 def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Generator,
-                      progress=None, band_hz=BAND_HZ) -> list[str]:
+                      progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None) -> list[str]:
     """Run the level sweeps on the true structure and write them into ``folder`` (module docstring;
     lines around the modes in ``band_hz`` [Hz]); returns the data file names. ``progress(msg)`` is
-    told of each level."""
+    told of each level. ``force_scale_N_per_V`` s: a voltage-driven shaker without force transducer,
+    the levels are drive amplitudes V [V], the force s V, the files' FRFs per volt (s H) with the
+    sidecar's excitation drive_voltage and drive_amplitude_v V."""
     with threadpool_limits(1):
         model = build_plant(true)
         F_N1 = stack_force(true, hold_voltage(true, F_N1_N)) if adaptive_screw(true) is not None else 0.0
         lines = level_lines(model, F_N1, band_hz)
     names = []
+    gain = 1.0 if force_scale_N_per_V is None else float(force_scale_N_per_V)
+    unit = "N" if force_scale_N_per_V is None else "V"
     for j, amp in enumerate(levels_n):
         if progress:
-            progress(f"level {j + 1}/{len(levels_n)}: {amp:g} N, {len(lines)} lines")
-        sw = sweep_level(model, F_N1, float(amp), lines)
+            progress(f"level {j + 1}/{len(levels_n)}: {amp:g} {unit}, {len(lines)} lines")
+        sw = sweep_level(model, F_N1, float(amp) * gain, lines)
         H = {}
         for s, h in sw.H.items():
             z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
-            H[s] = (h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w)[sw.settled]
+            H[s] = gain * (h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w)[sw.settled]
         held = f"adaptive screw held at about {F_N1_N:g} N by the stack" if F_N1 else "no adaptive screw"
-        meta = frf_meta(true, round(F_N1, 2), f"stepped-sine up-sweep, force amplitude held at {amp:g} N at the "
-                        f"excitation point, {held}; lines that did not settle within {SETTLE.max_s:g} s left "
-                        "out") | {"amplitude_n": float(amp)}
+        drive = (f"force amplitude held at {amp:g} N" if force_scale_N_per_V is None else
+                 f"shaker driven by a voltage of {amp:g} V amplitude, no force transducer")
+        extra = ({"amplitude_n": float(amp)} if force_scale_N_per_V is None else
+                 {"amplitude_n": None, "excitation": "drive_voltage", "drive_amplitude_v": float(amp)})
+        meta = frf_meta(true, round(F_N1, 2), f"stepped-sine up-sweep, {drive} at the excitation point, {held}; "
+                        f"lines that did not settle within {SETTLE.max_s:g} s left out") | extra
         name = f"level_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
         (write_frf_uff if j % 2 else write_frf_csv)(folder / name, FRFTest(
             Path(name).stem, sw.freq_hz[sw.settled], H, None, None, meta))
@@ -149,10 +156,11 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
 
 def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N, other_form: bool = False,
-                        progress=None, band_hz=BAND_HZ) -> list[Path]:
+                        progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None) -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed), from the true structure of rt.discrepancy.rig.true_structure (the same scatter draw and
-    hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]); returns the data files written. ValueError for an effect of the actuator
+    hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
+    levels are drive voltages, as write_level_tests); returns the data files written. ValueError for an effect of the actuator
     or the shaker (FRF files of the structure do not record them) or a level that is not a positive
     finite force."""
     if effect != "none" and get(effect).channel != "structure":
@@ -160,9 +168,10 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
                          "structure do not record; write a time-series campaign instead (rig without --frf-files)")
     levels = [float(a) for a in force_levels_n]
     if not levels or not all(math.isfinite(a) and a > 0 for a in levels):
-        raise ValueError(f"force levels {list(force_levels_n)}: give positive amplitudes in N, e.g. 0.5,1,2,5")
+        raise ValueError(f"levels {list(force_levels_n)}: give positive amplitudes (N, or V with a force scale), "
+                         "e.g. 0.5,1,2,5")
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng, other_form)
     with new_folder(out_dir) as tmp:
-        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz)
+        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz, force_scale_N_per_V)
     return [Path(out_dir) / n for n in names]

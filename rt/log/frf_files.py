@@ -19,7 +19,8 @@ name that is a ROS 2 field name (rt.log.registry.FIELD_RE, lowercase snake_case)
   relative error <= 5e-12); binary 58b files go to pyuff's reader too (not tested).
 * sidecar ``<stem>.json``: {"format": "frictionrt-frf/1", "kind": "stepsine" | "frf",
   "excitation_x_m", "sensor_positions_m": {sensor: x_m}, "F_N1_N", "amplitude_n", "description"}
-  and optionally "quantity", "excitation", "sensor_beams": {sensor: beam} (``OPTIONAL_KEYS``, their
+  and optionally "quantity", "excitation", "sensor_beams": {sensor: beam}, "drive_amplitude_v" (the drive
+  voltage's amplitude [V] of a drive_voltage test at one level) (``OPTIONAL_KEYS``, their
   defaults those of a file without them: accelerance per newton, beams found from x).
 * UFF ordinate data characteristics: numerator 8 / 11 / 12 (displacement, velocity, acceleration)
   for receptance / mobility / accelerance, denominator 13 (excitation force) or 0 (unknown: a
@@ -55,7 +56,7 @@ QUANTITIES = {"accelerance": (2, "m/s^2", 12), "mobility": (1, "m/s", 11), "rece
 H_quantity = H_accelerance / (i omega)^(2 - k)."""
 EXCITATIONS = {"force": ("N", 13), "drive_voltage": ("V", 0)}
 """excitation -> (unit of the FRF's denominator, UFF 58 ordinate-denominator data characteristic)."""
-OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}}
+OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}, "drive_amplitude_v": None}
 """Sidecar keys a file may omit, with the value a file without them has (issue 18)."""
 AMPLITUDES = ("F_amp_N", "drive_amp_N")         # optional per-line columns [N]
 UFF_SUFFIXES = (".uff", ".unv")
@@ -159,6 +160,11 @@ def check_meta(meta) -> dict:
         if not isinstance(v, str) or v not in allowed:
             raise ValueError(f"sidecar {key} is {str(v)[:40]!r}; give one of {', '.join(allowed)} (default "
                              f"{OPTIONAL_KEYS[key]}; {FIX_DOC})")
+    if meta.get("drive_amplitude_v") is not None:
+        if meta.get("excitation", OPTIONAL_KEYS["excitation"]) != "drive_voltage":
+            raise ValueError("sidecar drive_amplitude_v is given, but the excitation is a force; give excitation "
+                             "drive_voltage or leave drive_amplitude_v out")
+        _finite(meta["drive_amplitude_v"], "sidecar drive_amplitude_v", positive=True)
     beams = meta.get("sensor_beams", {})
     if not isinstance(beams, dict):
         raise ValueError(f"sidecar sensor_beams is {str(beams)[:40]!r}; give an object {{sensor: beam name}} or "
