@@ -23,7 +23,8 @@ SIGALRM watchdog), never a partly written output (the output folder is checked a
                     diagnose (their sidecar places the excitation off the model's point, so a file
                     that survives the damage stops at that check, exit 2, instead of a 10 s fit);
                     crafted sidecars of issue 18's keys and file kinds: a quantity, excitation,
-                    sensor name or sensor_beams that is not one of the allowed, a sensor of a
+                    sensor name, sensor_beams or drive_amplitude_v (a level in volts: > 0, with
+                    excitation drive_voltage only) that is not one of the allowed, a sensor of a
                     valid name off every beam (the excitation then on the model's point), each
                     as CSV and UFF
 
@@ -681,8 +682,8 @@ SENSOR_NAME = st.text(st.sampled_from("abcxyzAZ_09- .é"), min_size=0, max_size=
 
 def _bad_kind(data, suffix: str) -> tuple[dict, str, str]:
     """(sidecar changes, sensor name, expected words of the error) of one crafted issue-18 case."""
-    case = data.draw(st.sampled_from(["quantity", "excitation", "sensor name", "sensor_beams", "off every beam"]),
-                     label="case")
+    case = data.draw(st.sampled_from(["quantity", "excitation", "sensor name", "sensor_beams", "off every beam",
+                                      "drive_amplitude_v"]), label="case")
     if case in ("quantity", "excitation"):
         allowed = ("accelerance", "mobility", "receptance") if case == "quantity" else ("force", "drive_voltage")
         v = data.draw(st.one_of(st.text(max_size=12).filter(lambda t: t not in allowed), st.integers(), st.none(),
@@ -692,6 +693,12 @@ def _bad_kind(data, suffix: str) -> tuple[dict, str, str]:
         name = data.draw(SENSOR_NAME.filter(lambda t: not re.fullmatch(r"(?!.*__)(?!.*_\Z)[a-z][a-z0-9_]*", t)
                                             or t in ("stamp", "tick")), label="name")
         return {}, name, "not a valid sensor name"
+    if case == "drive_amplitude_v":   # a level in volts: positive and finite, and only with a drive voltage
+        v = data.draw(st.one_of(st.floats(max_value=0.0), st.just(float("nan")), st.just(float("inf")), st.text(max_size=4),
+                                st.booleans()), label="volts")
+        drive = data.draw(st.booleans(), label="drive")
+        return ({"drive_amplitude_v": v} | ({"excitation": "drive_voltage", "amplitude_n": None} if drive else {}),
+                "v_tip", "drive_amplitude_v")
     if case == "sensor_beams":
         v = data.draw(st.one_of(st.integers(), st.text(max_size=6), st.lists(st.text(max_size=3), max_size=2),
                                 st.dictionaries(st.sampled_from(["v_tip", "v_nowhere"]), st.one_of(
