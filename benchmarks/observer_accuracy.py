@@ -1,6 +1,7 @@
-"""Observer accuracy table (docs/observer.md section 6): both laws on the observer at the
-passive resonances of modes 2-5 (70, 196, 370, 608 Hz) and two excitation amplitudes, 1 s
-each; NRMSE of v_rel and u_rel against the plant's band-limited truth, the RT1 amplitude
+"""Observer accuracy table (docs/observer.md section 6): both laws on the observer near the
+passive resonances of modes 2-5 (plant.modes.passive_resonance_hz: the plant's own modes with the
+adaptive screw's pairs sliding at F_min, as tests/test_observer.py) and two excitation
+amplitudes, 1 s each; NRMSE of v_rel and u_rel against the plant's band-limited truth, the RT1 amplitude
 error, and the first-harmonic acceleration at 0.45 m next to the oracle's and passive's.
 
     python benchmarks/observer_accuracy.py [--duration S] [--jobs 2]
@@ -14,9 +15,10 @@ from pathlib import Path
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
 from rt.common.config import load  # noqa: E402
+from plant.modes import passive_resonance_hz  # noqa: E402
 from rt.loop import build_loop, run, summary  # noqa: E402
 
-MODES_HZ = {2: 70.0, 3: 196.0, 4: 370.0, 5: 608.0}
+MODES_HZ = {m: passive_resonance_hz(load(), m) for m in (2, 3, 4, 5)}
 AMPS_N = (5.0, 10.0)
 
 
