@@ -45,7 +45,7 @@ from rt.discrepancy.diagnose import bic, rank
 from rt.discrepancy.diagnose_frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
 from rt.discrepancy.diagnose_structure import CAL_FAR
-from rt.discrepancy.effects import Effect, implemented
+from rt.discrepancy.effects import Effect, get
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
@@ -200,7 +200,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
     say("harmonic balance, calibration only")
     fits = {None: fit_nonlinear(nominal, dc, lc, start, None)}
     for name in CANDIDATES:
-        eff = next(e for e in implemented() if e.name == name)
+        eff = get(name)
         say(f"harmonic balance with {name}")
         fits[eff] = fit_nonlinear(nominal, dc, lc, fits[None]["theta"], eff)
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
