@@ -13,7 +13,8 @@ and the accelerance at output point j is
     H_j(Omega) = -Omega^2 r_j^T (K - Omega^2 I + i Omega C)^{-1} b_exc   [(m/s^2)/N].
 
 The plant's step is the trapezoidal rule on this system (the quasi-static modes above
-plant.quasi_static_hz: their static response to the substep's mean load, docs/plant.md 2.6):
+plant.quasi_static_hz: omega^2 (x1 + theta x0) / (1 + theta) equals the substep's mean load,
+docs/plant.md 2.6):
 per substep h, with the inputs held over the tick and the contact forces as means over the substep,
 
     v1 - v0 = h (b_exc F - C (v0 + v1)/2 - K (x0 + x1)/2),   x1 - x0 = h (v0 + v1)/2,
@@ -73,6 +74,7 @@ class StuckModel(NamedTuple):
     r: np.ndarray      # (n,) modal -> displacement at the output point
     dyn: np.ndarray    # (n,) 1 for a mode stepped by Newmark, 0 for a quasi-static one (PlantParams.dyn)
     omega2: np.ndarray  # (n,) omega^2 of the modes [1/s^2]
+    theta: float       # the quasi-static modes' theta (PlantParams.qs_theta) [-]
 
 
 def stuck_model(model: PlantModel, point: str, F_N1: float | None = None) -> StuckModel:
@@ -87,7 +89,8 @@ def stuck_model(model: PlantModel, point: str, F_N1: float | None = None) -> Stu
     C = stuck_damping(model, pairs, np.maximum(-x0[model.state_slots()["g"]][0::2], 0.0))
     C_m = np.diag(p.c)
     return StuckModel(K=stuck_stiffness(model, pairs), C_m=C_m, C_c=C - C_m, b=p.b_exc,
-                      r=p.out_rows[names.index(point)], dyn=p.dyn.copy(), omega2=p.omega2.copy())
+                      r=p.out_rows[names.index(point)], dyn=p.dyn.copy(), omega2=p.omega2.copy(),
+                      theta=float(p.qs_theta))
 
 
 def continuous_accelerance(lin: StuckModel, freq_hz) -> np.ndarray:
@@ -109,14 +112,16 @@ def _substep_maps(lin: StuckModel, dt: float, substeps: int):
     eye = np.eye(n)
     K, Cm, Cc = lin.K, lin.C_m, lin.C_c
     # dynamic modes: the trapezoid (the dashpots as C_c (x1 - x0) / h, their mean force);
-    # quasi-static modes (docs/plant.md 2.6): omega^2 x1 = b F + the contact's mean force, v = 0
+    # quasi-static modes (docs/plant.md 2.6): omega^2 (x1 + theta x0) / (1 + theta) = b F + the
+    # contact's mean force, v = 0
     Kc = K - np.diag(lin.omega2)
     M1 = np.block([[eye, -0.5 * h * eye], [0.5 * h * K + Cc, eye + 0.5 * h * Cm]])
     M0 = np.block([[eye, 0.5 * h * eye], [-0.5 * h * K + Cc, eye - 0.5 * h * Cm]])
     u = np.concatenate([np.zeros(n), h * lin.b])
     for i in np.flatnonzero(lin.dyn == 0):
-        M1[i] = np.concatenate([lin.omega2[i] * eye[i] + 0.5 * Kc[i] + Cc[i] / h, np.zeros(n)])
-        M0[i] = np.concatenate([-0.5 * Kc[i] + Cc[i] / h, np.zeros(n)])
+        k_qs = lin.omega2[i] / (1.0 + lin.theta)
+        M1[i] = np.concatenate([k_qs * eye[i] + 0.5 * Kc[i] + Cc[i] / h, np.zeros(n)])
+        M0[i] = np.concatenate([-lin.theta * k_qs * eye[i] - 0.5 * Kc[i] + Cc[i] / h, np.zeros(n)])
         M1[n + i], M0[n + i] = np.concatenate([np.zeros(n), eye[i]]), 0.0
         u[i], u[n + i] = lin.b[i], 0.0
     Phi_s = np.linalg.solve(M1, M0)

@@ -136,14 +136,15 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     omega, Phi = _modal_basis(K, sla.block_diag(*[sub.M for sub in st.subs]), T)
     # rigid-body modes of free substructures (numerically ~0): exactly 0, undamped
     omega = np.where(omega < RIGID_BODY_RAD_S, 0.0, omega)
-    # modes above plant.quasi_static_hz have no inertia (docs/plant.md 2.7): the step would only
+    # modes above plant.quasi_static_hz have no inertia (docs/plant.md 2.6): the step would only
     # ring them at Nyquist (the trapezoidal rule's amplification tends to -1 for omega h >> 1)
     dyn = (omega <= 2 * np.pi * cfg.plant.quasi_static_hz).astype(float)
     c = np.where(omega > 0.0, 2.0 * cfg.plant.modal_damping * omega, 0.0) * dyn
     h = cfg.dt_s / cfg.plant.substeps
     h_fine = h / cfg.plant.fallback_split
-    s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c + 4.0 / hh**2), 1.0 / np.maximum(omega, 1.0)**2)
-                   for hh in (h, h_fine))
+    theta = float(cfg.plant.quasi_static_theta)
+    s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c + 4.0 / hh**2),
+                            (1.0 + theta) / np.maximum(omega, 1.0)**2) for hh in (h, h_fine))
     G = np.ascontiguousarray(st.gap_rows @ Phi)
     out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
@@ -155,7 +156,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         c_n=st.k_n * cfg.plant.interface.tau_s, c_t=st.k_t * cfg.plant.interface.tau_s,
         dashpot_depth=float(cfg.plant.interface.dashpot_depth_m), h=float(h),
         substeps=int(cfg.plant.substeps), s2_fine=s2_fine, W_fine=np.ascontiguousarray((G * s2_fine) @ G.T),
-        h_fine=float(h_fine), fine_split=int(cfg.plant.fallback_split), tol=float(cfg.plant.newton_tol_m),
+        h_fine=float(h_fine), qs_theta=theta, fine_split=int(cfg.plant.fallback_split),
+        tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter), static_excess=float(cfg.plant.interface.static_excess),
         stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s), **iwan_fractions(cfg),
         bolt_rows=np.ascontiguousarray(st.bolt_rows @ Phi), bolt_k=st.bolt_k.copy(), bolt_F=st.bolt_F.copy(),

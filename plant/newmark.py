@@ -3,8 +3,9 @@ iterations on the contact gaps (SPEC section 2, "Time integration"). RT-safe, al
 
 Condensation. The beams' (Craig-Bampton reduced or full) linear part with the bolts' springs is
 diagonalised once at design time: M = I, D = diag(c), K = diag(omega^2) in modal coordinates q,
-with c = 2 zeta omega; modes with dyn = 0 are quasi-static (no inertia: q1 = their static
-response to the step's mean load, s2 = 1/omega^2, qd = 0; docs/plant.md 2.6). Average-acceleration Newmark (beta = 1/4, gamma = 1/2) is the trapezoidal
+with c = 2 zeta omega; modes with dyn = 0 are quasi-static (no inertia: q1 = (1 + theta) q_s -
+theta q0 with q_s their static response to the step's mean load, s2 = (1 + theta)/omega^2, qd = 0;
+docs/plant.md 2.6). Average-acceleration Newmark (beta = 1/4, gamma = 1/2) is the trapezoidal
 rule; in its mean form over a step of length h, with dq = q1 - q0,
 
     (qd1 - qd0)/h + c (qd0 + qd1)/2 + omega^2 (q0 + q1)/2 = f_mean + (G^T Lambda)_i,
@@ -91,6 +92,7 @@ class PlantParams(NamedTuple):
     s2_fine: np.ndarray    # (n,) s2 for the fallback substep h_fine
     W_fine: np.ndarray     # (2p, 2p) W for the fallback substep h_fine
     h_fine: float          # h / fine_split [s]
+    qs_theta: float        # theta of the quasi-static modes: q1 = (1 + theta) q_static - theta q0 [-]
     fine_split: int        # fallback substeps per failed substep
     tol: float             # Newton tolerance on |r|_2 [m]
     max_iter: int
@@ -427,6 +429,8 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     m = g.shape[0]
     npair = m // 2
     a2 = 2.0 / h
+    # a quasi-static mode's surplus work per (omega^2 dq^2): (1 - theta) / (2 (1 + theta)) >= 0
+    qs_loss = 0.5 * (1.0 - p.qs_theta) / (1.0 + p.qs_theta)
     # --- predictor: linear part with the contact forces off
     for i in range(n):
         f = b_exc[i] * F_exc + b_N1[i] * F_N1 + f_const[i]
@@ -461,9 +465,9 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
         dq = q_pred[i] - q[i] + s2[i] * f_c[i]
         qd_new = (a2 * dq - qd[i]) * dyn[i]   # a quasi-static mode (dyn 0) keeps qd = 0
         v_mid = 0.5 * (qd[i] + qd_new)
-        # a quasi-static mode (dyn 0) is the implicit Euler of its static equilibrium: the load does
-        # 1/2 omega^2 dq^2 more work than its potential energy gains (booked as damping, >= 0)
-        dE_damp += h * c[i] * v_mid * v_mid + (1.0 - dyn[i]) * 0.5 * omega2[i] * dq * dq
+        # a quasi-static mode (dyn 0) steps q1 = (1 + theta) q_static - theta q0: the load does
+        # qs_loss omega^2 dq^2 more work than its potential energy gains (booked as damping, >= 0)
+        dE_damp += h * c[i] * v_mid * v_mid + (1.0 - dyn[i]) * qs_loss * omega2[i] * dq * dq
         dW_exc += b_exc[i] * dq
         f_screw = b_N1[i] * F_N1 + f_const[i]
         dW_screw += f_screw * dq

@@ -52,9 +52,11 @@ def run(model: PlantModel, F_exc: np.ndarray, F_N1: np.ndarray | float, x0: np.n
     step_ns = np.empty(len(F_exc), dtype=np.int64)
     x, failed = _run(x0, U, model.params, model.new_work(), Y, step_ns)
     if failed:
+        undamped = (" or give the interface its dashpots (plant.interface.tau_s = 0 here; 1e-6 s or more: "
+                    "docs/plant.md 2.6)" if model.cfg.plant.interface.tau_s == 0.0 else "")
         raise RuntimeError(f"the contact solve did not converge in {failed} of {len(U)} steps, even on "
                            f"{model.cfg.plant.fallback_split} fallback substeps; raise plant.substeps or "
-                           "plant.fallback_split (e.g. --set plant.substeps=2)")
+                           f"plant.fallback_split (e.g. --set plant.substeps=2){undamped}")
     if not np.all(np.isfinite(Y)):
         raise RuntimeError("the plant produced NaN/Inf: check the configuration's stiffnesses and inputs")
     return Y, x, step_ns

@@ -163,10 +163,11 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0
 # --- the plant step ---------------------------------------------------------------------------
 
 def newmark_compliance(P, h):
-    """s2 = 2 / (omega^2 + (2/h) c + 4/h^2) per dynamic mode, 1 / omega^2 per quasi-static one
-    (P.dyn = 0) [s^2], and W = G diag(s2) G^T [m/N]."""
+    """s2 = 2 / (omega^2 + (2/h) c + 4/h^2) per dynamic mode, (1 + theta) / omega^2 per quasi-static
+    one (P.dyn = 0) [s^2], and W = G diag(s2) G^T [m/N]."""
     dyn = P.dyn > 0
-    s2 = np.where(dyn, 2.0 / (P.omega2 + (2.0 / h) * P.c + 4.0 / h**2), 1.0 / np.where(dyn, 1.0, P.omega2))
+    s2 = np.where(dyn, 2.0 / (P.omega2 + (2.0 / h) * P.c + 4.0 / h**2),
+                  (1.0 + P.qs_theta) / np.where(dyn, 1.0, P.omega2))
     return s2, (P.G * s2) @ P.G.T
 
 
@@ -177,8 +178,9 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     f_screw = P.b_N1 * F_N1 + P.f_const
     f = P.b_exc * F_exc + f_screw
     dyn = P.dyn > 0
-    # dynamic modes: the mean form; quasi-static ones: the static response to the held load
-    q_pred = np.where(dyn, q + s2 * (f + (2.0 / h) * qd - P.omega2 * q), s2 * f)
+    # dynamic modes: the mean form; quasi-static ones: (1 + theta) x the static response to the
+    # held load, minus theta q0
+    q_pred = np.where(dyn, q + s2 * (f + (2.0 / h) * qd - P.omega2 * q), s2 * f - P.qs_theta * q)
     g_pred = P.G @ q_pred
     cn_h, ct_h = P.c_n / h, P.c_t / h
     g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu, cn_h, ct_h, P.dashpot_depth)
@@ -190,8 +192,10 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     f_t0 = P.k_t * (g[1::2] - w)          # spring force at the start
     f_t1 = -lam1[1::2]                     # and at the end
     E["E_fric"] += float(np.sum(0.5 * (f_t0 + f_t1) * (w1 - w)))
-    # the quasi-static modes' surplus work: load (= omega^2 q1) . dq minus the potential's gain
-    surplus = np.where(dyn, 0.0, P.omega2 * q1 * dq - 0.5 * P.omega2 * (q1**2 - q**2))
+    # the quasi-static modes' surplus work: load (= omega^2 (q1 + theta q0) / (1 + theta)) . dq
+    # minus the potential's gain
+    load = P.omega2 * (q1 + P.qs_theta * q) / (1.0 + P.qs_theta)
+    surplus = np.where(dyn, 0.0, load * dq - 0.5 * P.omega2 * (q1**2 - q**2))
     E["E_damp"] += float(h * np.sum(P.c * (0.5 * (qd + qd1)) ** 2)) - float(Ld @ (g1 - g)) + float(surplus.sum())
     E["W_exc"] += F_exc * float(P.b_exc @ dq)
     E["W_screw"] += float(f_screw @ dq)
