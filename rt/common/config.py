@@ -114,7 +114,7 @@ class Interface:
     x_end_m: float = param(0.625, "m", doc="last contact pair")
     pitch_m: float = param(0.020, "m", lo=0.0, lo_inclusive=False, doc="pair spacing")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
-    k_n: float = param(1.6e9, "N/m", lo=0.0, lo_inclusive=False,
+    k_n: float = param(1.7e9, "N/m", lo=0.0, lo_inclusive=False,
                       doc="normal penalty stiffness per pair, calibrated to the paper's mode-3 peak at 230 Hz "
                           "(python -m benchmarks.calibrate_contact; docs/plant.md 6)")
     tau_s: float = param(2e-6, "s", lo=0.0, hi=1e-3,
@@ -122,7 +122,7 @@ class Interface:
                              "damps the contact modes the 21 kHz step cannot resolve")
     dashpot_depth_m: float = param(1e-8, "m", lo=0.0, lo_inclusive=False,
                                    doc="penetration over which the tangential dashpot fades in (A)")
-    k_t: float = param(1.32e9, "N/m", lo=0.0, lo_inclusive=False,
+    k_t: float = param(1.4e9, "N/m", lo=0.0, lo_inclusive=False,
                       doc="Jenkins tangential stiffness per pair (Mindlin ratio 2 (1 - nu) / (2 - nu) = 0.82 k_n)")
     static_excess: float = param(0.0, "-", lo=0.0, hi=1.0,
                                  doc="Stribeck friction: static excess s, mu(v) = mu (1 + s exp(-(v/v_s)^2)), "
