@@ -253,17 +253,17 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
     for i, w in enumerate(2.0 * np.pi * f):
         d = 1.0 / (1j * w - hs.lam)
         df_starts = ([] if prev is None or method == "aft" else [prev]) + (["stuck", "sliding"] if branches else [])
-        if method == "df" and not df_starts:
-            df_starts = ["stuck"]
-        if method == "aft":
-            df_starts = df_starts or ["stuck"]
-        sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
-        if method == "aft":
+        df_starts = df_starts or ["stuck"]
+        if method == "df":
+            sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
+        else:
             aft = AftLine(hs, w, F_amp, n_harm, n_t)
-            df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0])) for s in sols if s[1]]
             sols = [] if prev is None else [continued(hs, f[i - 1], f[i], prev, F_amp, n_harm, n_t, tol, max_iter)]
-            starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
-            sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
+            if branches or not sols[:1] or not sols[0][1]:   # without branches: the df start only if needed
+                df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0]))
+                        for s in _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter) if s[1]]
+                starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
+                sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
             if not any(sl[1] for sl in sols):
                 sols.append(ramped(hs, f[i], F_amp, n_harm, n_t, tol, max_iter))
         good = [s for s in sols if s[1]]
