@@ -12,7 +12,7 @@ from plant.model import build_plant
 from rt.common.config import load
 from rt.discrepancy.chain import quiet
 from rt.discrepancy.diagnose_frf import prepare, with_sensor_points
-from rt.discrepancy.diagnose_levels import diagnose_levels, gap_db, level_of, nonlinear_H
+from rt.discrepancy.diagnose_levels import contact_note, contact_of, diagnose_levels, gap_db, level_of, nonlinear_H
 from rt.discrepancy.rig import true_structure
 from rt.discrepancy.rig_levels import make_level_campaign
 from rt.log.frf_files import load_frf_folder
@@ -34,14 +34,20 @@ def test_aft_holds_the_gaping_joint_that_df_does_not(campaign):
     """At the true structure (the campaign's own scatter draw and spread 0.5), the 10 N level: "aft" is
     within 0.3 dB rms of the time-stepped plant on mode 2's lines (measured 0.08 dB), "df" more than
     0.8 dB off (measured 1.15 dB; it keeps the outer pairs closed, which open for up to 45 % of the
-    period here)."""
+    period here), and the df report's note names the level."""
     truth = true_structure(CFG, "micro_slip", None, np.random.default_rng(3))
     tests = load_frf_folder(campaign)
     data = prepare(tests, CFG)
     truth, _ = with_sensor_points(tests, truth)
     i = [level_of(t) for t in tests].index(10.0)
-    gaps = {m: gap_db(data[i], nonlinear_H(truth, data[i:i + 1], [10.0], method=m)[0], None) for m in ("df", "aft")}
+    hb = {"df": [], "aft": []}
+    gaps = {m: gap_db(data[i], nonlinear_H(truth, data[i:i + 1], [10.0], method=m, details=hb[m])[0], None) for m in hb}
     assert gaps["aft"] < 0.3 and gaps["df"] > 0.8, gaps
+    # df's report says so: the normal gap swings more than the static gap (measured 1.8), aft's pairs open (43 %)
+    rows = {m: [{"level_n": 10.0} | contact_of(hb[m][0])] for m in hb}
+    assert rows["df"][0]["normal_ratio_max"] > 1.0 and rows["aft"][0]["open_fraction_max"] > 0.3, rows
+    assert contact_note(rows["df"], "df", "N").startswith("at 10 N a closed pair's normal gap swings")
+    assert contact_note(rows["aft"], "aft", "N") is None
 
 
 def test_single_start_aft_is_the_multi_start_solution():
@@ -61,3 +67,4 @@ def test_single_start_aft_is_the_multi_start_solution():
 def test_an_unknown_method_is_refused(campaign):
     with pytest.raises(ValueError, match="method 'hb': expected one of df, aft"):
         diagnose_levels(campaign, [1.0], CFG, method="hb")
+

@@ -59,6 +59,9 @@ BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.
 the drive-voltage tests' force scale [N/V]; all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
 CANDIDATES = ("micro_slip",)
+AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lines take 1-9 on the lap joint; a start
+#                             that fails (the continuation across a jump) then costs a third of the default 60, and
+#                             gives the same FRFs there (2.4 instead of 6.5 s at 10 N)
 
 
 def level_of(test: FRFTest) -> float:
@@ -113,7 +116,8 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
         if key not in systems:
             systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
         g = scale if d.per_volt else 1.0
-        r = harmonic_accelerances(systems[key], amp * g, d.freq, method=method, branches=False)
+        r = harmonic_accelerances(systems[key], amp * g, d.freq, method=method, branches=False,
+                                  **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
         if details is not None:
             details.append(r)
         out.append({s: g * from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
@@ -182,6 +186,25 @@ def softening_band(nominal: Config, data: list[FRFData], levels: list[float]) ->
     return best[1][0], best[1][1], best[2]
 
 
+def contact_of(r) -> dict:
+    """A level's contact in the harmonic balance r (plant.harmonic_frf.HarmonicFRF), over its lines and
+    closed pairs: the largest normal ratio |g^_n| / |g_n0| (> 1: the contact opens and closes in the
+    cycle) and the largest fraction of the period a pair is open (df: 0, it keeps them closed)."""
+    return {"normal_ratio_max": round(float(np.nanmax(r.normal_ratio[:, r.closed], initial=0.0)), 3),
+            "open_fraction_max": round(float(np.nanmax(r.open_fraction[:, r.closed], initial=0.0)), 3)}
+
+
+def contact_note(pred: list[dict], method: str, unit: str) -> str | None:
+    """The report's note for method df where the prediction rows ``pred`` (``contact_of`` keys, level_n in
+    ``unit``) have a normal ratio above 1; None for aft or a joint that stays closed."""
+    gaping = [g["level_n"] for g in pred if g["normal_ratio_max"] > 1.0]
+    if method != "df" or not gaping:
+        return None
+    return (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} a closed pair's normal gap swings more than its static "
+            "gap (normal ratio > 1): the contact opens and closes in the cycle, which method df keeps linear; "
+            "--harmonic-method aft holds it")
+
+
 def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None,
                     method: str = "df") -> dict:
     """The workflow (module docstring) on a folder of FRF files at several levels, the harmonic balance
@@ -234,10 +257,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
              "gap_linear_db": gap_db(d, H_lin[i], band[:2]), "gap_nonlinear_db": gap_db(d, H_nl[i], band[:2]),
              "gap_linear_all_db": gap_db(d, H_lin[i], None), "gap_nonlinear_all_db": gap_db(d, H_nl[i], None)}
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
-        g["normal_ratio_max"] = round(float(np.nanmax(hb[i].normal_ratio[:, hb[i].closed], initial=0.0)), 3)
-        g["open_fraction_max"] = round(float(np.nanmax(hb[i].open_fraction[:, hb[i].closed], initial=0.0)), 3)
-        pred.append(g)
-    gaping = [g["level_n"] for g in pred if g["normal_ratio_max"] > 1.0]
+        pred.append(g | contact_of(hb[i]))
     return {"input": "frf_levels", "calibrate_on_n": lc, "levels_n": sorted(set(levels)),
             "level_unit": "V" if any(d.per_volt for d in data) else "N", "harmonic_method": method,
             "softening_band_hz": [round(band[0], 2), round(band[1], 2)], "softening_mode": band[2],
@@ -249,10 +269,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
             "nonlinear": {"fitted": {k: float(f"{v:.5g}") for k, v in final["theta"].items()},
                           "evaluations": fits[None]["evaluations"]},
             "prediction": pred,
-            "contact_note": (f"at {', '.join(f'{a:g}' for a in gaping)} {'V' if per_volt else 'N'} a closed pair's "
-                             "normal gap swings more than its static gap (normal ratio > 1): the contact opens and "
-                             "closes in the cycle, which method df keeps linear; --harmonic-method aft holds it"
-                             if method == "df" and gaping else None),
+            "contact_note": contact_note(pred, method, "V" if per_volt else "N"),
             "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt)]
                         + [w | {"model": "harmonic balance"} for w in bound_warnings(
                             final["theta"], winner_effect, per_volt, {k: v for k, v in BOUNDS.items() if k != FORCE_SCALE})],
