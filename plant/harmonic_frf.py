@@ -42,7 +42,8 @@ step-sine in that direction: the joint makes the response multi-valued near a re
 jump of a step-sine); "aft" subdivides the step to the line when the direct continuation fails
 and, if every start fails, ramps the force up from 1/64 of F on that line. ``branches`` also solves
 each line from the stuck and the df (or sliding) starts and counts the distinct solutions
-(``n_solutions`` > 1: multi-valued; the reported one is the continued one). A line where no start
+(``n_solutions`` > 1: multi-valued; the reported one is the continued one); without it "aft" tries
+the df start only where the continuation fails (the cheap solve of a fit). A line where no start
 converges has converged False and NaN values (``HarmonicFRF.check`` raises naming them): never
 a silent value.
 
@@ -221,7 +222,8 @@ def harmonic_accelerances(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: 
     "df" solution. tol: Newton's relative residual (default 1e-10 df; 1e-8 aft, whose marched law
     is piecewise linear in the samples). branches: also solve from the stuck and the sliding
     (df) or stuck (aft) starts and count the distinct solutions (False: fewer starts, about half
-    the cost; n_solutions then counts only those)."""
+    the cost, aft's df start only where the continuation from the previous line fails; n_solutions
+    then counts only those)."""
     f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
     if method not in METHODS:
         raise ValueError(f"method {method!r}: expected one of {', '.join(METHODS)}")

@@ -23,7 +23,8 @@ structure: E, k_t, modal damping and each structural effect on the log-magnitude
 act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force amplitudes, e.g. from
 rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
 are calibrated on the files at those levels only and predict the others; the report gives both
-predictions' gaps around the softening mode (1-2 min). Method: docs/discrepancy.md."""
+predictions' gaps around the softening mode (1-2 min); --harmonic-method aft for a joint whose contact
+opens and closes (about 2 min on configs/lap_joint_al.toml). Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
