@@ -42,7 +42,8 @@ step-sine in that direction: the joint makes the response multi-valued near a re
 jump of a step-sine); "aft" subdivides the step to the line when the direct continuation fails
 and, if every start fails, ramps the force up from 1/64 of F on that line. ``branches`` also solves
 each line from the stuck and the df (or sliding) starts and counts the distinct solutions
-(``n_solutions`` > 1: multi-valued; the reported one is the continued one). A line where no start
+(``n_solutions`` > 1: multi-valued; the reported one is the continued one); without it "aft" tries
+the df start only where the continuation fails (the cheap solve of a fit). A line where no start
 converges has converged False and NaN values (``HarmonicFRF.check`` raises naming them): never
 a silent value.
 
@@ -221,7 +222,8 @@ def harmonic_accelerances(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: 
     "df" solution. tol: Newton's relative residual (default 1e-10 df; 1e-8 aft, whose marched law
     is piecewise linear in the samples). branches: also solve from the stuck and the sliding
     (df) or stuck (aft) starts and count the distinct solutions (False: fewer starts, about half
-    the cost; n_solutions then counts only those)."""
+    the cost, aft's df start only where the continuation from the previous line fails; n_solutions
+    then counts only those)."""
     f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
     if method not in METHODS:
         raise ValueError(f"method {method!r}: expected one of {', '.join(METHODS)}")
@@ -253,17 +255,17 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
     for i, w in enumerate(2.0 * np.pi * f):
         d = 1.0 / (1j * w - hs.lam)
         df_starts = ([] if prev is None or method == "aft" else [prev]) + (["stuck", "sliding"] if branches else [])
-        if method == "df" and not df_starts:
-            df_starts = ["stuck"]
-        if method == "aft":
-            df_starts = df_starts or ["stuck"]
-        sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
-        if method == "aft":
+        df_starts = df_starts or ["stuck"]
+        if method == "df":
+            sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
+        else:
             aft = AftLine(hs, w, F_amp, n_harm, n_t)
-            df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0])) for s in sols if s[1]]
             sols = [] if prev is None else [continued(hs, f[i - 1], f[i], prev, F_amp, n_harm, n_t, tol, max_iter)]
-            starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
-            sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
+            if branches or not sols[:1] or not sols[0][1]:   # without branches: the df start only if needed
+                df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0]))
+                        for s in _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter) if s[1]]
+                starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
+                sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
             if not any(sl[1] for sl in sols):
                 sols.append(ramped(hs, f[i], F_amp, n_harm, n_t, tol, max_iter))
         good = [s for s in sols if s[1]]

@@ -30,8 +30,8 @@ def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys
     """Calibrated on 1.35 and 2.7 V (0.5 and 1 N), the harmonic balance predicts the 27 V FRF at least 3x
     closer than the linear model calibrated on the same files (measured, the whole 50-1200 Hz plan of
     seed 3: 0.75 against 10.44 dB; mode 3's band only, here: 0.94 against 9.91 dB), with the force
-    scale within 15 % (measured +9 % on the whole plan, -0.04 % here: on the whole plan the describing
-    function's model form trades it with k_t, mu and the damping), and it is the softening mode the
+    scale within 15 % (measured +9 % on the whole plan, -0.04 % here: on the whole plan k_t, mu and the
+    damping trade with it, with method aft as well: docs/discrepancy.md), and it is the softening mode the
     report finds; the linear model's damping ends on its bound (10) and is warned."""
     out = tmp_path / "report"
     assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(out)]) == 0

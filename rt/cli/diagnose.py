@@ -23,7 +23,8 @@ structure: E, k_t, modal damping and each structural effect on the log-magnitude
 act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force amplitudes, e.g. from
 rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
 are calibrated on the files at those levels only and predict the others; the report gives both
-predictions' gaps around the softening mode (1-2 min). Method: docs/discrepancy.md."""
+predictions' gaps around the softening mode (1-2 min); --harmonic-method aft for a joint whose contact
+opens and closes (about 2 min on configs/lap_joint_al.toml). Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
@@ -53,6 +54,12 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--calibrate-on", metavar="A,B,..", help="FRF files at several levels: calibrate on the files at "
                    "these force amplitudes [N] (sidecar amplitude_n) and predict the others, linear model against "
                    "the harmonic balance of the joints (rt/discrepancy/diagnose_levels.py)")
+    p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
+                   help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df (default): "
+                        "describing functions with the normal contact linear, fast (0.1-0.2 s a level), exact while "
+                        "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
+                        "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "
+                        "overlap ends (about 4x the cost; docs/discrepancy.md \"Amplitude dependence\")")
     return p
 
 
@@ -96,7 +103,7 @@ def _levels(cfg, args, say) -> int:
         return fail(f"diagnose --calibrate-on: {args.folder} is not a folder of FRF files (rig --frf-files --levels "
                     "writes one)")
     try:
-        res = diagnose_levels(args.folder, levels, cfg, progress=say)
+        res = diagnose_levels(args.folder, levels, cfg, progress=say, method=args.harmonic_method)
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     if args.out:

@@ -9,11 +9,15 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
 * linear: rt.discrepancy.diagnose_frf's stuck model (plant.linear_frf), the same FRF at every level,
   calibrated as there (E, k_t, modal damping);
 * nonlinear: the harmonic balance of the joints at each test's force amplitude (plant.harmonic_frf,
-  method "df": each closed pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force
-  mu f_n at its static normal force; 0.1-0.2 s per level of ~70 lines), calibrated in E, k_t, mu and
-  the modal damping, alone and with each slip candidate of the library that it can represent
-  (micro_slip: the Iwan spread; Stribeck friction is velocity-dependent, which a describing function
-  of the displacement does not hold: not tried).
+  one start per line), calibrated in E, k_t, mu and the modal damping, alone and with each slip
+  candidate of the library that it can represent (micro_slip: the Iwan spread; Stribeck friction is
+  velocity-dependent, which neither method holds: not tried). ``method`` "df" (default): each closed
+  pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force mu f_n at its static normal
+  force, the normal contact linear; 0.1-0.2 s per level of ~45-70 lines. "aft": the plant's own pair law
+  marched over the period (contact opening and closing, slip limit mu f_n(t)), 3 harmonics; 0.5-0.9 s
+  per level of 45 lines on the aluminium lap joint, whose overlap ends gape (there df's 10 N
+  prediction is 2.9x closer than the linear model's, aft's 49x: docs/discrepancy.md). With "df" the
+  prediction reports where a closed pair's normal gap swings more than its static gap (``contact_note``).
 
 Residuals: rt.discrepancy.diagnose_frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
 noise, every sensor. Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
@@ -37,7 +41,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from plant.harmonic_frf import METHODS, harmonic_accelerances, harmonic_system
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet, scaled
@@ -55,6 +59,9 @@ BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.
 the drive-voltage tests' force scale [N/V]; all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
 CANDIDATES = ("micro_slip",)
+AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lines take 1-9 on the lap joint; a start
+#                             that fails (the continuation across a jump) then costs a third of the default 60, and
+#                             gives the same FRFs there (2.4 instead of 6.5 s at 10 N)
 
 
 def level_of(test: FRFTest) -> float:
@@ -95,10 +102,13 @@ def _cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
     return effect.apply(cfg, theta[effect.name]) if effect is not None else cfg
 
 
-def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: float = 1.0) -> list[dict]:
+def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: float = 1.0,
+                method: str = "df", details: list | None = None) -> list[dict]:
     """The harmonic balance's FRFs {sensor: H in the test's quantity, per newton or, for a drive-voltage
     test, per volt} (NaN where it has no solution) on every test's lines at its level (force amplitude
-    [N], or drive amplitude [V] times the force scale ``scale`` [N/V]); ``cfg`` holds the sensors' points."""
+    [N], or drive amplitude [V] times the force scale ``scale`` [N/V]) by plant.harmonic_frf's ``method``
+    ("df" or "aft", one start per line); ``cfg`` holds the sensors' points. ``details``: a list that gets
+    each test's plant.harmonic_frf.HarmonicFRF (the pairs' slip and contact per line)."""
     model = build_plant(quiet(cfg))
     out, systems = [], {}
     for d, amp in zip(data, levels):
@@ -106,13 +116,16 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
         if key not in systems:
             systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
         g = scale if d.per_volt else 1.0
-        r = harmonic_accelerances(systems[key], amp * g, d.freq, method="df", branches=False)
+        r = harmonic_accelerances(systems[key], amp * g, d.freq, method=method, branches=False,
+                                  **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
+        if details is not None:
+            details.append(r)
         out.append({s: g * from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
     return out
 
 
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
-                  effect: Effect | None) -> dict:
+                  effect: Effect | None, method: str = "df") -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
     model on ``data``: {"theta", "channels", "cfg", "evaluations"}."""
     per_volt = any(d.per_volt for d in data)
@@ -127,7 +140,7 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
         return {k: (math.exp(v) if k in BOUNDS else float(v)) for k, v in zip(names, x)}
 
     def H_of(theta):
-        return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0))
+        return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
 
     def r(x):
         ch, _, _ = weighted_residuals(data, H_of(theta_of(x)), profile_scale=False)
@@ -173,14 +186,37 @@ def softening_band(nominal: Config, data: list[FRFData], levels: list[float]) ->
     return best[1][0], best[1][1], best[2]
 
 
-def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None) -> dict:
-    """The workflow (module docstring) on a folder of FRF files at several levels; a JSON-ready dict
-    with the calibrated configuration under "_config" and plotting data under "_plots"."""
+def contact_of(r) -> dict:
+    """A level's contact in the harmonic balance r (plant.harmonic_frf.HarmonicFRF), over its lines and
+    closed pairs: the largest normal ratio |g^_n| / |g_n0| (> 1: the contact opens and closes in the
+    cycle) and the largest fraction of the period a pair is open (df: 0, it keeps them closed)."""
+    return {"normal_ratio_max": round(float(np.nanmax(r.normal_ratio[:, r.closed], initial=0.0)), 3),
+            "open_fraction_max": round(float(np.nanmax(r.open_fraction[:, r.closed], initial=0.0)), 3)}
+
+
+def contact_note(pred: list[dict], method: str, unit: str) -> str | None:
+    """The report's note for method df where the prediction rows ``pred`` (``contact_of`` keys, level_n in
+    ``unit``) have a normal ratio above 1; None for aft or a joint that stays closed."""
+    gaping = [g["level_n"] for g in pred if g["normal_ratio_max"] > 1.0]
+    if method != "df" or not gaping:
+        return None
+    return (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} a closed pair's normal gap swings more than its static "
+            "gap (normal ratio > 1): the contact opens and closes in the cycle, which method df keeps linear; "
+            "--harmonic-method aft holds it")
+
+
+def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None,
+                    method: str = "df") -> dict:
+    """The workflow (module docstring) on a folder of FRF files at several levels, the harmonic balance
+    by ``method`` (METHODS); a JSON-ready dict with the calibrated configuration under "_config" and
+    plotting data under "_plots"."""
+    if method not in METHODS:
+        raise ValueError(f"harmonic-balance method {method!r}: expected one of {', '.join(METHODS)}")
     with threadpool_limits(1):
-        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None))
+        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method)
 
 
-def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
+def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_frf_folder(folder)
     cal, rest = split(tests, calibrate_on)
@@ -197,12 +233,12 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
     lin = fit(nominal, dc, None)
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
-    say("harmonic balance, calibration only")
-    fits = {None: fit_nonlinear(nominal, dc, lc, start, None)}
+    say(f"harmonic balance ({method}), calibration only")
+    fits = {None: fit_nonlinear(nominal, dc, lc, start, None, method)}
     for name in CANDIDATES:
         eff = get(name)
         say(f"harmonic balance with {name}")
-        fits[eff] = fit_nonlinear(nominal, dc, lc, fits[None]["theta"], eff)
+        fits[eff] = fit_nonlinear(nominal, dc, lc, fits[None]["theta"], eff, method)
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
     base, ranked, winner = rank(results)
@@ -210,7 +246,8 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
     winner_effect = next((e for e in fits if e is not None and e.name == final["effect"]), None)
     per_volt = any(d.per_volt for d in data)
     say("prediction at the other levels")
-    H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0))
+    hb = []
+    H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0), method, hb)
     H_lin = [{s: h * lin.theta.get(FORCE_SCALE, 1.0) if d.per_volt else h for s, h in hs.items()}
              for d, hs in zip(data, H_lin)]
     band = softening_band(nominal, data, levels)
@@ -220,9 +257,9 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
              "gap_linear_db": gap_db(d, H_lin[i], band[:2]), "gap_nonlinear_db": gap_db(d, H_nl[i], band[:2]),
              "gap_linear_all_db": gap_db(d, H_lin[i], None), "gap_nonlinear_all_db": gap_db(d, H_nl[i], None)}
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
-        pred.append(g)
+        pred.append(g | contact_of(hb[i]))
     return {"input": "frf_levels", "calibrate_on_n": lc, "levels_n": sorted(set(levels)),
-            "level_unit": "V" if any(d.per_volt for d in data) else "N",
+            "level_unit": "V" if any(d.per_volt for d in data) else "N", "harmonic_method": method,
             "softening_band_hz": [round(band[0], 2), round(band[1], 2)], "softening_mode": band[2],
             "named_effect": winner["effect"] if winner else None,
             "ranking": [{"effect": r["effect"], "delta_bic": round(base["score"] - r["score"], 2),
@@ -232,6 +269,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
             "nonlinear": {"fitted": {k: float(f"{v:.5g}") for k, v in final["theta"].items()},
                           "evaluations": fits[None]["evaluations"]},
             "prediction": pred,
+            "contact_note": contact_note(pred, method, "V" if per_volt else "N"),
             "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt)]
                         + [w | {"model": "harmonic balance"} for w in bound_warnings(
                             final["theta"], winner_effect, per_volt, {k: v for k, v in BOUNDS.items() if k != FORCE_SCALE})],
@@ -241,10 +279,12 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say) -> dict:
 
 def summary(res: dict) -> str:
     """The text the CLI prints."""
-    lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}; softening mode "
+    lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']} (harmonic balance: "
+             f"{res['harmonic_method']}); softening mode "
              f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
              f"named effect: {res['named_effect'] or 'no missing effect found'}",
              f"fitted (harmonic balance): {res['nonlinear']['fitted']}",
+             *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
              *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
                for w in res["warnings"]],
              f"level [{res['level_unit']}]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  "
@@ -297,6 +337,8 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
             f"{res['softening_mode']}, band {res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz "
             "(docs/discrepancy.md, \"Amplitude dependence\").", "",
             f"**Named effect: {res['named_effect'] or 'no missing effect found'}**", "",
+            f"Harmonic balance: method {res['harmonic_method']}." + (f" Note: {res['contact_note']}." if res["contact_note"]
+                                                                     else ""), "",
             f"Harmonic-balance calibration: `{json.dumps(res['nonlinear']['fitted'])}`; linear: "
             f"`{json.dumps(res['linear']['fitted'])}`.", "",
             f"| level [{res['level_unit']}] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
