@@ -45,9 +45,12 @@ def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
 
 def test_a_stuck_level_is_the_linear_frf(nominal):
     """At 0.01 N the contact stays stuck: the stepped sine of the nonlinear plant is the continuous
-    linear FRF up to the Newmark step's period error (~(w dt)^2 / 12: 0.07 % at 500 Hz), away from
-    resonances and antiresonances within 0.5 % in magnitude (the lines' own settling tolerance: 1 %;
-    measured 0.05-0.3 %) and 2 deg in phase (measured up to 1.1 deg at a_frf: the plant's dashpots fade in
+    linear FRF up to the Newmark step's period error (~(w dt)^2 / 12: 0.07 % at 500 Hz) and the
+    quasi-static modes' missing acceleration (docs/plant.md 2.6: the modes above 3 kHz carry none,
+    ~(f / 3 kHz)^2 of their static share), away from resonances and antiresonances within 1.5 % in
+    magnitude (measured 0.06-0.09 % at 120 and 160 Hz, +1.10 % at the tip at 500 Hz, where the
+    plant's own discrete FRF, plant.linear_frf.discrete_accelerance, is +1.18 % off the continuous one
+    and -0.02 % with every mode stepped) and 2 deg in phase (measured up to 1.1 deg at a_frf: the plant's dashpots fade in
     with the penetration, the linear model's are whole; the diagnosis fits magnitudes). Near the tip's
     antiresonance at ~300 Hz the same frequency error gives 1.6 %: not a line for this check."""
     model = build_plant(nominal)
@@ -56,7 +59,7 @@ def test_a_stuck_level_is_the_linear_frf(nominal):
     assert sw.settled.all()
     ref = point_accelerances(model, sensor_points(nominal), F_N1, lines)
     for s, h in sw.H.items():
-        assert np.max(np.abs(np.abs(h / ref[s]) - 1.0)) < 5e-3, (s, h / ref[s])
+        assert np.max(np.abs(np.abs(h / ref[s]) - 1.0)) < 1.5e-2, (s, h / ref[s])
         assert np.max(np.abs(np.angle(h / ref[s], deg=True))) < 2.0, (s, h / ref[s])
 
 
