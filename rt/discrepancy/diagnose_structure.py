@@ -18,8 +18,9 @@ test (one the nominal model at mu x ``SLIP_MU`` keeps stuck) and accelerometer (
 identify on a ``PAD``-times zero-padded FFT: mode 1 at 9.8 Hz has ~10 cycles in a 1 s record)
 against the model's: eigenvalues of the stuck linearised plant at the test's F_N1 (plant.model.
 stuck_stiffness), mapped through the plant step's trapezoidal rule, f_d = atan(pi f h) / (pi h).
-E and the candidate by scipy.optimize.least_squares; k_t moves these frequencies by < 0.1 % over
-its tolerance, mu and the modal damping not at all (left to stage 2).
+E, ln k_t (over its decades k_t moves these frequencies by tens of percent; over a lab's tolerance of
+10 % by < 0.1 %) and the candidate by scipy.optimize.least_squares; mu and the modal damping do not
+move them (left to stage 2, which starts from the best damping scale of ``DAMPING_GRID``).
 
 Stage 2 (the fit that counts; ~0.1 s per model): the log-magnitude residuals
 r = (ln|H_meas| - ln|H_model|) / sigma_k over ``BAND_HZ`` of both accelerometers and all tests:
