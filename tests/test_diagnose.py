@@ -65,7 +65,7 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
 
 
 def test_stribeck_is_not_a_friction_coefficient_change(diagnosed):
-    """Calibration alone (mu free within +-40 %) cannot make Stribeck friction: the pairs break away
+    """Calibration alone (mu free within a factor 2) cannot make Stribeck friction: the pairs break away
     at mu_s but slide at mu_k, so a higher mu that matches the joint modes' shift leaves their
     damping too low. Measured on seed 5, FRF gap nominal / calibrated / with stribeck [dB]: AMD
     EPYC (Zen 5) 3.06 / 1.31 / 0.16, Intel Xeon 3.06 / 0.95 / 0.37 (the design's BLAS kernels

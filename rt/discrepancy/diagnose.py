@@ -44,6 +44,7 @@ from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.diagnose_structure import (
     StructureFit,
+    fit_cost,
     fit_structure,
     model_frequencies,
     prepare,
@@ -259,10 +260,6 @@ def _one_blas_thread(f, args: tuple, kwargs: dict):
         return f(*args, **kwargs)
 
 
-def _cost(fit: StructureFit) -> float:
-    return float(sum(v @ v for v in fit.channels.values()))
-
-
 def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_address: str | None) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_campaign(folder)
@@ -293,7 +290,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
     for e in struct_eff:
         th = {k: v for k, v in struct_fits[e].theta.items() if k != e.name}
         run = run_shape(struct_cfg(nominal, th, None), data)
-        if sum(v @ v for v in run.r.values()) < _cost(cal):
+        if sum(v @ v for v in run.r.values()) < fit_cost(cal):
             cal = StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, None), cal.J)
     if cal is not struct_fits[None]:
         say("fit calibration only, continued")

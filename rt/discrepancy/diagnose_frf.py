@@ -68,12 +68,12 @@ from rt.discrepancy.chain import quiet
 from rt.discrepancy.diagnose import BAND_HZ, bic, modes_table, rank, ranking_result
 from rt.discrepancy.diagnose_structure import (
     CAL_FAR,
-    EFFECT_STEP,
     FLOOR,
     LOG_SCALE,
     MAX_SIGMA,
     MODES,
     bounds,
+    fd_steps,
     fit_frequencies,
     from_z,
     gauss_newton_broyden,
@@ -91,7 +91,6 @@ NOISE_LINES = 31                 # running-median window of the noise estimate [
 POSITION_TOL_M = 1e-3            # sidecar positions must match the model's points within this [m]
 CAL_NAMES = ("E", "k_t", "modal_damping")
 MAX_STEPS_FAR = 30               # stage-2 steps at most (a start a decade off needs more than MAX_STEPS)
-STAGE1_LOG = ("k_t",)           # the contact stiffness fitted on the frequencies too (stage 1)   # mu cannot act on the stuck linear model
 FORCE_SCALE = "force_scale_N_per_V"          # the drive-voltage tests' force scale, a fitted parameter
 FORCE_SCALE_N_PER_V = (1e-3, 1e3)            # its bounds [N/V]: a shaker amplifier's 0.1-100 N/V, widely
 BOUND_REL = 0.005                # a parameter within this of a bound (relative; on ln for log-scale ones) is a warning
@@ -299,23 +298,21 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
-    lo, hi = (to_z(b, log) for b in bounds(names, effect, CAL_FAR))
-    steps = np.array([math.log1p(CAL_FAR[k][3]) if k in LOG_SCALE else CAL_FAR[k][3] if k in CAL_FAR
-                      else EFFECT_STEP * effect.parameter.default for k in names])
+    lo, hi = (to_z(b, log) for b in bounds(names, effect))
+    steps = fd_steps(names, effect)
 
     def evaluate(z):
         x = from_z(z, log)
         ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x, CAL_FAR, LOG_SCALE)])
+        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x)])
 
-    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, cal=CAL_FAR,
-                             log_names=STAGE1_LOG)
+    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies)
     z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
     run, r = evaluate(z)
     J = None
     if calibrated is not None and effect is not None:
         z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
-        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, from_z(z_cal, log), CAL_FAR, LOG_SCALE)])
+        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, from_z(z_cal, log))])
         if r_cal @ r_cal < r @ r:
             z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
             J = np.column_stack([calibrated.J[k] for k in names[:-1]]
