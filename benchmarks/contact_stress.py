@@ -3,7 +3,7 @@
     python -m benchmarks.contact_stress [--set KEY=VALUE ...]
 
 The plant alone (plant.simulate.run) over 0.2 s per run, on a grid of normal contact stiffness
-k_n (2e8, 1e9, 1e10 N/m), constant F_N1 (40, 100, 600 N) and excitations at the excitation
+k_n (2e8, 1e9, 1e10 N/m; k_t stays at its default, so the pairs' k_t / k_n ratio varies too), constant F_N1 (40, 100, 600 N) and excitations at the excitation
 point: half-sine hammers of 50 and 500 N (0.5 ms), sines of 40 and 500 N at 220 Hz (36 runs).
 Per run: substep fallbacks (Newton stalled, redone on plant.fallback_split fine substeps), whether
 the run failed (a fine substep did not converge either), and the Newton iterations per step
