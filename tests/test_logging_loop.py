@@ -267,3 +267,45 @@ def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp
     rec = read_mcap(tmp_path / "run.mcap")
     assert 0 < len(rec.k) < 30 * RATE and np.array_equal(rec.k, np.arange(len(rec.k)))
     assert not any(t.name in ("frictionrt-loop", "frictionrt-writer") for t in threading.enumerate())
+
+
+def _ctrl_c_to_the_main_thread_in(seconds: float) -> None:
+    """SIGINT to this (the main) thread after `seconds`, as a terminal's Ctrl-C reaches it."""
+    import signal
+    threading.Timer(seconds, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT)).start()
+
+
+def test_a_ctrl_c_during_the_wait_never_ends_it_before_the_loop_ends():
+    """cpython#90882: before CPython 3.13, a ``Thread.join`` cut short by Ctrl-C marks the still
+    running thread as stopped. Waiting that way, ``watch`` returned while the loop ran its last
+    tick and the writer took the ticks before it as final (seen in CI: a paced run's log one
+    tick short of its count). Here a target that needs 0.5 s after the stop request: ``watch``
+    returns after it, interrupted, the stop flag set, the thread gone."""
+    from rt.common.clock import CLK_SIZE, CLK_STOP
+    from rt.loop.driver import watch
+    ended = []
+
+    def target():
+        time.sleep(0.5)
+        ended.append(1)
+
+    clk = np.zeros(CLK_SIZE, np.int64)
+    _ctrl_c_to_the_main_thread_in(0.15)
+    assert watch(target, "frictionrt-test-loop", clk) is True
+    assert ended == [1] and clk[CLK_STOP] == 1
+    assert not any(t.name == "frictionrt-test-loop" for t in threading.enumerate())
+
+
+def test_a_ctrl_c_during_finish_returns_after_the_files_are_closed():
+    """The writer's ``finish`` waits for its thread the same way (cpython#90882): a Ctrl-C while a
+    slow sink takes its last block (0.6 s) cuts nothing short; the sink is closed on return."""
+    from rt.common.clock import CLK_SIZE, CLK_TICKS
+    sink = SlowSink(delay=0.6)
+    w = LogWriter([sink], block_ticks=10, ring_s=None)
+    clk = np.zeros(CLK_SIZE, np.int64)
+    w.start(np.zeros((10, 3)), clk, 0, False)
+    clk[CLK_TICKS] = 10   # the loop ran one block
+    _ctrl_c_to_the_main_thread_in(0.15)
+    w.finish()
+    assert sink.closed and len(sink.blocks) == 1 and w.interrupted
+    assert not any(t.name == "frictionrt-writer" for t in threading.enumerate())

@@ -369,6 +369,7 @@ class LogWriter:
         self.interrupted = False   # a Ctrl-C reached finish() or cut the writing short (module docstring)
         self.error: BaseException | None = None
         self._done = threading.Event()
+        self._ended = threading.Event()   # the thread's files are closed (not Thread.join: finish())
         self._abort = threading.Event()
         self._thread: threading.Thread | None = None
         self._closed = False
@@ -386,7 +387,7 @@ class LogWriter:
 
     def finish(self) -> None:
         """The loop is done: write the complete rows not yet written (paced: within the ring),
-        close the sinks, join the thread. After a Ctrl-C (the loop's stop flag, or one during
+        close the sinks, wait for the thread. After a Ctrl-C (the loop's stop flag, or one during
         this call, which it absorbs) at most ``INTERRUPT_DRAIN_S`` more of writing. Errors are
         kept in ``error``."""
         from rt.common.clock import CLK_STOP
@@ -395,15 +396,19 @@ class LogWriter:
             return
         self._done.set()
         deadline = time.monotonic() + INTERRUPT_DRAIN_S if self._clk[CLK_STOP] else None
-        while self._thread.is_alive():
+        while not self._ended.is_set():   # not join: one cut short by Ctrl-C can end early (cpython#90882)
             try:
-                self._thread.join(POLL_S)
+                self._ended.wait(POLL_S)
             except KeyboardInterrupt:
                 self.interrupted = True
                 if deadline is None:
                     deadline = time.monotonic() + INTERRUPT_DRAIN_S
             if deadline is not None and time.monotonic() >= deadline:
                 self._abort.set()
+        try:
+            self._thread.join()   # ended: it only returns
+        except KeyboardInterrupt:
+            self.interrupted = True
         self.interrupted |= self._abort.is_set()
 
     # --- the thread ------------------------------------------------------------------------
@@ -425,7 +430,10 @@ class LogWriter:
         finally:
             from rt.common.clock import CLK_WRITTEN, NO_WAIT
             self._clk[CLK_WRITTEN] = NO_WAIT   # an offline loop must not wait for a writer that stopped
-            self._close()
+            try:
+                self._close()
+            finally:
+                self._ended.set()
 
     def _step(self, done: int, final: bool) -> bool:
         """Drop the blocks the loop has overwritten (paced), then take one block out of the

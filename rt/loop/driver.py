@@ -193,8 +193,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         interrupted = False
         try:
             if in_thread:
-                interrupted = watch(threading.Thread(target=worker, name="frictionrt-loop", daemon=True), clk,
-                                    progress)
+                interrupted = watch(worker, "frictionrt-loop", clk, progress)
             else:
                 worker()
         finally:
@@ -220,18 +219,37 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                rts.describe() if paced else None)
 
 
-def watch(thread: threading.Thread, clk: np.ndarray, progress=None) -> bool:
-    """Start ``thread`` (a compiled loop's, nogil) and wait for it in the calling thread: every
-    0.1 s ``progress(n)`` with the ticks run since (``clk[CLK_TICKS]``), Ctrl-C as a stop request
-    (``clk[CLK_STOP]``: the loop ends after its tick, the ticks run so far are kept). On any other
-    exception here the loop is stopped and joined before it propagates, so its rows are final.
-    Returns True if interrupted. The loop (``run``), the replay and the null loop share it."""
-    thread.start()
+def watch(target, name: str, clk: np.ndarray, progress=None) -> bool:
+    """Run ``target`` (a compiled loop's call, nogil) in a thread named ``name`` and wait for it
+    in the calling thread: every 0.1 s ``progress(n)`` with the ticks run since
+    (``clk[CLK_TICKS]``), Ctrl-C as a stop request (``clk[CLK_STOP]``: the loop ends after its
+    tick, the ticks run so far are kept). On any other exception here the loop is stopped and
+    waited for before it propagates, so its rows are final. Returns True if interrupted. The
+    loop (``run``), the replay and the null loop share it.
+
+    The end of ``target`` is an Event the thread sets, not ``Thread.join``/``is_alive``: on
+    CPython before 3.13 a join interrupted by Ctrl-C can mark a still-running thread as stopped
+    (cpython#90882), and the log writer would then take the ticks before the loop's last one as
+    final (seen: a paced run's log one tick short)."""
+    done = threading.Event()
+
+    def body():
+        try:
+            target()
+        finally:
+            done.set()
+
     shown, interrupted = 0, False
+    thread = threading.Thread(target=body, name=name, daemon=True)
     try:
-        while thread.is_alive():
+        thread.start()
+    except KeyboardInterrupt:  # in start's wait for the new thread, which then runs: stop it
+        clk[CLK_STOP] = 1
+        interrupted = True
+    try:
+        while not done.is_set():
             try:
-                thread.join(0.1)
+                done.wait(0.1)
             except KeyboardInterrupt:
                 clk[CLK_STOP] = 1
                 interrupted = True
@@ -240,10 +258,26 @@ def watch(thread: threading.Thread, clk: np.ndarray, progress=None) -> bool:
                 progress(ticks - shown)
                 shown = ticks
     finally:
-        if thread.is_alive():
+        if not done.is_set():
             clk[CLK_STOP] = 1
-            thread.join()
+        interrupted |= _wait_absorbing_ctrl_c(done, thread)
     return interrupted
+
+
+def _wait_absorbing_ctrl_c(done: threading.Event, thread: threading.Thread) -> bool:
+    """Wait for ``done`` (a stopped loop's end: within a tick), then for ``thread`` to return;
+    a Ctrl-C does not cut the wait short. True if one came."""
+    ctrl_c = False
+    while not done.is_set():
+        try:
+            done.wait(0.1)
+        except KeyboardInterrupt:
+            ctrl_c = True
+    try:
+        thread.join()   # done: it only returns
+    except KeyboardInterrupt:
+        ctrl_c = True
+    return ctrl_c
 
 
 def _in_tick_order(ring: np.ndarray, n_run: int) -> np.ndarray:

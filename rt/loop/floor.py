@@ -54,7 +54,7 @@ def null_loop(rt_cfg, dt_s: float, seconds: float) -> dict:
             except BaseException as exc:  # re-raised in the calling thread
                 errors.append(exc)
 
-        watch(threading.Thread(target=worker, name="frictionrt-null-loop", daemon=True), clk)
+        watch(worker, "frictionrt-null-loop", clk)
     if errors:
         raise errors[0]
     overruns = int(clk[CLK_OVERRUNS])

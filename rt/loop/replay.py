@@ -215,7 +215,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
 
         # as rt.loop.driver.run: the compiled replay in its own thread, Ctrl-C becomes a stop request
         t0 = time.perf_counter()
-        interrupted = watch(threading.Thread(target=worker, name="frictionrt-replay", daemon=True), clk)
+        interrupted = watch(worker, "frictionrt-replay", clk)
     wall = time.perf_counter() - t0
     if errors:
         raise errors[0]
