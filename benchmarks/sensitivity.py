@@ -44,6 +44,15 @@ def _both_screws(key: str, value: float) -> tuple[str, ...]:
     return tuple(f"plant.screws.{s}.{key}={value!r}" for s in ("normal", "adaptive"))
 
 
+def _cone_resolved(pitch_m: float = 0.01) -> tuple[str, ...]:
+    """--set assignments of a pair pitch of pitch_m [m] with the configured stiffness per area
+    (k_n, k_t per pair scaled by pitch_m / the configured pitch)."""
+    i = load().plant.interface
+    r = pitch_m / i.pitch_m
+    return (f"plant.interface.pitch_m={pitch_m!r}", f"plant.interface.k_n={i.k_n * r:.4g}",
+            f"plant.interface.k_t={i.k_t * r:.4g}")
+
+
 VARIANTS = (
     Variant("default", "-", (), "the configuration as it is"),
     Variant("mu_low", "mu", ("plant.interface.mu=0.25",),
@@ -55,7 +64,7 @@ VARIANTS = (
     Variant("cone_large", "pressure law", _both_screws("head_diameter_m", 0.024),
             "DIN 9021 large washer (24 mm) under head and stack: cone radius 15.2 mm"),
     Variant("cone_resolved", "pressure law",
-            ("plant.interface.pitch_m=0.01", "plant.interface.k_n=8e8", "plant.interface.k_t=6.56e8"),
+            _cone_resolved(),
             "the cone resolved: pairs every 10 mm, one under each screw (weights 0.89 / 0.054 / 0.054), the "
             "same stiffness per area (k_n, k_t per pair halved)"),
     Variant("tau_low", "tau", ("plant.interface.tau_s=1e-6",),
