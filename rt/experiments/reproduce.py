@@ -19,8 +19,9 @@ What is measured (``measure``):
    Frequencies: ``Plan.n_points`` evenly over f_c (1 -/+ w_m) with f_c the middle of the mode's
    (f_slip, f_stuck) band (rt.experiments.stepsine.mode_bands_hz) and w_m = ``HALF_WIDTH[m]``: one grid per
    mode, the same for every law and F_N1. Then up to ``Plan.refine_rounds`` refinement rounds:
-   a sweep whose largest |H| point has a neighbour more than ``RESOLVED_REL`` (10 %) below it
-   gets the midpoints between that point and such neighbours (``refine_points``), run as a new
+   a sweep whose largest |H| point has a neighbour more than ``RESOLVED_REL`` (10 %) below it,
+   or whose 1/|H|^2 parabola through that point and its neighbours predicts a peak more than
+   1 / (1 - RESOLVED_REL) above it, gets the midpoints toward them (``refine_points``), run as a new
    up-sweep from rest (the detector waits the start transient out); all FRFs in parallel, each
    FRF's next round as soon as its previous one is in.
    The peak is the largest measured |H| (``peak``); unsettled points count and are flagged.
@@ -112,16 +113,30 @@ def mode_grids(cfg: Config, modes: Sequence[int], n_points: int,
 
 def refine_points(freq_hz: np.ndarray, H_abs: np.ndarray, resolved_rel: float = RESOLVED_REL,
                   min_step_rel: float = MIN_STEP_REL) -> list[float]:
-    """New frequencies [Hz] that resolve the peak of a measured |H| (freq_hz increasing):
-    the midpoint between the largest point i and each neighbour j with
-    |H_j| < (1 - resolved_rel) |H_i| and |f_j - f_i| > min_step_rel f_i. Empty: resolved."""
+    """New frequencies [Hz] that resolve the peak of a measured |H| (freq_hz increasing), around
+    the largest point i, each only where its step would exceed min_step_rel f_i. Empty: resolved.
+
+    * the midpoint between i and each neighbour j with |H_j| < (1 - resolved_rel) |H_i|;
+    * a peak narrower than the grid: near a resonance 1 / |H|^2 is a parabola in f (one mode:
+      |H|^-2 ~ (f - f_0)^2 + b^2 within its half-power band b), so the parabola through i and its
+      two neighbours predicts the peak 1 / sqrt(min) at its vertex f_0; if that is more than
+      1 / (1 - resolved_rel) times |H_i|, the midpoint between i and the neighbour on f_0's side
+      too. Without it two points of similar |H| on either flank of a sharp peak (mode 2: zeta ~0.1 %,
+      half-power band 0.15 Hz against a 1.2 Hz grid) passed as resolved, 3.4 dB below it."""
     i = int(np.argmax(H_abs))
-    new = []
+    new = set()
     for j in (i - 1, i + 1):
-        if 0 <= j < len(freq_hz) and H_abs[j] < (1.0 - resolved_rel) * H_abs[i] \
-                and abs(freq_hz[j] - freq_hz[i]) > min_step_rel * freq_hz[i]:
-            new.append(0.5 * (freq_hz[i] + freq_hz[j]))
-    return new
+        if 0 <= j < len(freq_hz) and H_abs[j] < (1.0 - resolved_rel) * H_abs[i]:
+            new.add(j)
+    if 0 < i < len(freq_hz) - 1:
+        f, y = freq_hz[i - 1:i + 2] - freq_hz[i], 1.0 / np.asarray(H_abs[i - 1:i + 2], dtype=float) ** 2
+        c2, c1, c0 = np.polyfit(f, y, 2)
+        if c2 > 0:
+            f0, y0 = -c1 / (2 * c2), c0 - c1 * c1 / (4 * c2)
+            if y0 <= 0 or 1.0 / math.sqrt(y0) > H_abs[i] / (1.0 - resolved_rel):
+                new.add(i + 1 if f0 > 0 else i - 1)
+    return [0.5 * (freq_hz[i] + freq_hz[j]) for j in sorted(new)
+            if abs(freq_hz[j] - freq_hz[i]) > min_step_rel * freq_hz[i]]
 
 
 def merge(results: Sequence[StepSineResult]) -> StepSineResult:
