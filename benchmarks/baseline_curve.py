@@ -100,10 +100,11 @@ def baseline(result: dict, dt: float, tol_db: float = TOL_DB) -> dict:
     return dict(sorted((m, dict(sorted(v.items()))) for m, v in out.items()))
 
 
-def plot(curves: dict, path: str) -> None:
+def plot(curves: dict, path: str, ylabel: str = "step-sine peak |H| [dB re 1 (m/s^2)/N]",
+         crossed: str = "not settled") -> None:
     """Peak |H| [dB re 1 (m/s^2)/N] against F_N1 [N] (log axis), one panel per mode, one line per
-    amplitude; the minimum ringed, filled if the one-minimum check holds; a peak whose point did
-    not settle crossed. PNG."""
+    amplitude; the minimum ringed, filled if the one-minimum check holds; a peak whose
+    ``settled_by_fn1`` is False crossed (``crossed`` says what that means). PNG."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -131,13 +132,26 @@ def plot(curves: dict, path: str) -> None:
         ax.set_title(f"mode {m}", fontsize=9)
         ax.set_xlabel("constant F_N1 [N]", fontsize=8)
         ax.grid(True, which="both", lw=0.3)
-    axes[0][0].set_ylabel("step-sine peak |H| [dB re 1 (m/s^2)/N]", fontsize=8)
+    axes[0][0].set_ylabel(ylabel, fontsize=8)
     axes[0][-1].legend(fontsize=7, title="amplitude", title_fontsize=7)
     fig.suptitle("passive law at constant F_N1: peak |a(0.45 m) / F_exc|\n(ring: minimum, filled: one minimum "
-                 "within 0.5 dB; x: not settled)", fontsize=8)
+                 f"within 0.5 dB; x: {crossed})", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
+
+
+def print_table(curves: dict, starred: str) -> None:
+    """One line per mode and amplitude: the check, the minimum, the peaks per F_N1 ("*": the
+    peak's ``settled_by_fn1`` is False, which ``starred`` names), the worst wiggle."""
+    print(f"{'mode':>4} {'amp':>5} {'one min':>7} {'at':>6}  peaks per F_N1 [(m/s^2)/N] (*: {starred})")
+    for m, by_amp in curves.items():
+        for a, c in by_amp.items():
+            ch = c["check"]
+            peaks = ", ".join(f"{x:g}: {v:.3g}" + ("" if c["settled_by_fn1"][x] else "*")
+                              for x, v in c["peaks_by_fn1"].items())
+            print(f"{m:>4} {a:>5g} {'yes' if ch['holds'] else 'NO':>7} {ch['fn1_min_n']:>6g}  {peaks}"
+                  f"  (worst wiggle {ch['worst_wiggle_db']:.2f} dB at {ch['at_n']:g} N)")
 
 
 def main(argv=None) -> int:
@@ -168,14 +182,7 @@ def main(argv=None) -> int:
            "sets": args.sets, "wall_s": time.perf_counter() - t0}
     (out / "baseline_curve.json").write_text(json.dumps(jsonable(doc), indent=1))
     plot(curves, str(out / "baseline_curve.png"))
-    print(f"{'mode':>4} {'amp':>5} {'one min':>7} {'at':>6}  peaks per F_N1 [(m/s^2)/N] (*: not settled)")
-    for m, by_amp in curves.items():
-        for a, c in by_amp.items():
-            ch = c["check"]
-            peaks = ", ".join(f"{x:g}: {v:.3g}" + ("" if c["settled_by_fn1"][x] else "*")
-                              for x, v in c["peaks_by_fn1"].items())
-            print(f"{m:>4} {a:>5g} {'yes' if ch['holds'] else 'NO':>7} {ch['fn1_min_n']:>6g}  {peaks}"
-                  f"  (worst wiggle {ch['worst_wiggle_db']:.2f} dB at {ch['at_n']:g} N)")
+    print_table(curves, "not settled")
     print(f"written: {out / 'baseline_curve.json'}, {out / 'baseline_curve.png'}; wall {doc['wall_s']:.0f} s")
     return 0
 

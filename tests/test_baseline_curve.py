@@ -64,3 +64,26 @@ def test_a_tiny_real_baseline(cfg, tmp_path):
         assert math.isfinite(c["hysteresis"]["vs_best_db"]) and c["lyapunov"]["vs_best_db"] >= -60
     plot(curves, str(tmp_path / "b.png"))
     assert (tmp_path / "b.png").stat().st_size > 1000
+
+
+def test_the_harmonic_balance_peak_of_a_stuck_joint_is_the_linear_peak(cfg):
+    """benchmarks.baseline_hb.hb_peak at 1 mN, where every closed pair sticks (the aft law then
+    adds nothing to the stuck model, plant/harmonic_frf.py): mode 3's peak equals the stuck
+    linear accelerance's (plant.linear_frf on 4001 lines) within 0.5 % in |H| and 0.02 % in
+    frequency; the tolerance is the parabola through three lines of a peak a few lines wide."""
+    import numpy as np
+
+    from benchmarks.baseline_hb import hb_peak
+    from plant.harmonic_frf import harmonic_system
+    from plant.linear_frf import point_accelerances
+    from rt.experiments.stepsine import mode_bands_hz
+    from rt.loop import build_loop
+    model = build_loop(cfg, "passive").plant
+    f_slip, f_stuck = mode_bands_hz(cfg, (3,))[3]
+    band = (0.9 * f_slip, 1.01 * f_stuck)
+    p = hb_peak(harmonic_system(model, {"a": cfg.plant.frf_point}, 100.0), 1e-3, band)
+    f = np.linspace(*band, 4001)
+    H = np.abs(point_accelerances(model, {"a": cfg.plant.frf_point}, 100.0, f)["a"])
+    k = int(np.argmax(H))
+    assert p["converged"] and not p["at_band_edge"]
+    assert p["H_abs"] == pytest.approx(H[k], rel=5e-3) and p["peak_hz"] == pytest.approx(f[k], rel=2e-4)
