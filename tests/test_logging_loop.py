@@ -276,8 +276,9 @@ def _ctrl_c_to_the_main_thread_in(seconds: float) -> None:
 
 
 def test_a_ctrl_c_during_the_wait_never_ends_it_before_the_loop_ends():
-    """cpython#90882: before CPython 3.13, a ``Thread.join`` cut short by Ctrl-C marks the still
-    running thread as stopped. Waiting that way, ``watch`` returned while the loop ran its last
+    """cpython#90882 (reported for CPython 3.9-3.11; seen here on 3.11): a ``Thread.join`` cut
+    short by Ctrl-C marks the still running thread as stopped. Waiting that way, ``watch``
+    returned while the loop ran its last
     tick and the writer took the ticks before it as final (seen in CI: a paced run's log one
     tick short of its count). Here a target that needs 0.5 s after the stop request: ``watch``
     returns after it, interrupted, the stop flag set, the thread gone."""

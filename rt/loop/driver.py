@@ -228,9 +228,9 @@ def watch(target, name: str, clk: np.ndarray, progress=None) -> bool:
     loop (``run``), the replay and the null loop share it.
 
     The end of ``target`` is an Event the thread sets, not ``Thread.join``/``is_alive``: on
-    CPython before 3.13 a join interrupted by Ctrl-C can mark a still-running thread as stopped
-    (cpython#90882), and the log writer would then take the ticks before the loop's last one as
-    final (seen: a paced run's log one tick short)."""
+    CPython 3.11 (cpython#90882, reported for 3.9-3.11) a join interrupted by Ctrl-C can mark a
+    still-running thread as stopped, and the log writer would then take the ticks before the
+    loop's last one as final (seen: a paced run's log one tick short)."""
     done = threading.Event()
 
     def body():
