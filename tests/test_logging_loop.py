@@ -269,44 +269,64 @@ def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp
     assert not any(t.name in ("frictionrt-loop", "frictionrt-writer") for t in threading.enumerate())
 
 
-def _ctrl_c_to_the_main_thread_in(seconds: float) -> None:
-    """SIGINT to this (the main) thread after `seconds`, as a terminal's Ctrl-C reaches it."""
+def _ctrl_c_to_the_main_thread() -> None:
+    """SIGINT to the main thread, as a terminal's Ctrl-C reaches it."""
     import signal
-    threading.Timer(seconds, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT)).start()
+    signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+
+
+def _until(cond, timeout_s: float = 10.0) -> None:
+    """Poll cond() every 10 ms, at most timeout_s."""
+    t_end = time.monotonic() + timeout_s
+    while not cond() and time.monotonic() < t_end:
+        time.sleep(0.01)
 
 
 def test_a_ctrl_c_during_the_wait_never_ends_it_before_the_loop_ends():
     """cpython#90882 (reported for CPython 3.9-3.11; seen here on 3.11): a ``Thread.join`` cut
     short by Ctrl-C marks the still running thread as stopped. Waiting that way, ``watch``
-    returned while the loop ran its last
-    tick and the writer took the ticks before it as final (seen in CI: a paced run's log one
-    tick short of its count). Here a target that needs 0.5 s after the stop request: ``watch``
-    returns after it, interrupted, the stop flag set, the thread gone."""
+    returned while the loop ran its last tick and the writer took the ticks before it as final
+    (seen in CI: a paced run's log one tick short of its count). Here the target sends the
+    Ctrl-C itself (so it reaches ``watch`` while it waits), waits for the stop request and runs
+    0.3 s more: ``watch`` returns after it, interrupted, the stop flag set, the thread gone (the
+    join-based wait returned at once)."""
     from rt.common.clock import CLK_SIZE, CLK_STOP
     from rt.loop.driver import watch
+    clk = np.zeros(CLK_SIZE, np.int64)
     ended = []
 
     def target():
-        time.sleep(0.5)
+        _ctrl_c_to_the_main_thread()
+        _until(lambda: clk[CLK_STOP])
+        time.sleep(0.3)
         ended.append(1)
 
-    clk = np.zeros(CLK_SIZE, np.int64)
-    _ctrl_c_to_the_main_thread_in(0.15)
     assert watch(target, "frictionrt-test-loop", clk) is True
     assert ended == [1] and clk[CLK_STOP] == 1
     assert not any(t.name == "frictionrt-test-loop" for t in threading.enumerate())
 
 
+class CtrlCSink(SlowSink):
+    """A sink that, on its block, sends a Ctrl-C to the main thread, waits until the writer has
+    seen it (``writer.interrupted``) and then takes 0.3 s more."""
+
+    def write_block(self, k0, block):
+        _ctrl_c_to_the_main_thread()
+        _until(lambda: self.writer.interrupted)
+        super().write_block(k0, block)
+
+
 def test_a_ctrl_c_during_finish_returns_after_the_files_are_closed():
-    """The writer's ``finish`` waits for its thread the same way (cpython#90882): a Ctrl-C while a
-    slow sink takes its last block (0.6 s) cuts nothing short; the sink is closed on return."""
+    """The writer's ``finish`` waits for its thread the same way (cpython#90882): a Ctrl-C while
+    the sink takes the last, partial block (written only once ``finish`` asked for it) cuts
+    nothing short; the sink is closed and the block written on return."""
     from rt.common.clock import CLK_SIZE, CLK_TICKS
-    sink = SlowSink(delay=0.6)
-    w = LogWriter([sink], block_ticks=10, ring_s=None)
+    sink = CtrlCSink(delay=0.3)
+    w = LogWriter([sink], block_ticks=20, ring_s=None)
+    sink.writer = w
     clk = np.zeros(CLK_SIZE, np.int64)
+    clk[CLK_TICKS] = 10   # the loop ran half a block
     w.start(np.zeros((10, 3)), clk, 0, False)
-    clk[CLK_TICKS] = 10   # the loop ran one block
-    _ctrl_c_to_the_main_thread_in(0.15)
     w.finish()
-    assert sink.closed and len(sink.blocks) == 1 and w.interrupted
+    assert sink.closed and len(sink.blocks) == 1 and len(sink.blocks[0][1]) == 10 and w.interrupted
     assert not any(t.name == "frictionrt-writer" for t in threading.enumerate())
