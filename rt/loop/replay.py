@@ -26,7 +26,6 @@ without comparison: the controller's outputs are reported (``bit_exact`` None).
 from __future__ import annotations
 
 import json
-import threading
 import time
 from pathlib import Path
 
