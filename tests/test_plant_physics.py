@@ -278,19 +278,21 @@ def test_identification_matches_linear_theory(cfg, reduced):
 
 def test_contact_solve_falls_back_to_fine_substeps():
     """A step whose contact Newton stalls is redone on fine substeps; the run completes and the
-    energy balance still closes. Without interface damping (F_N1 = 40 N, 500 N hammer) and with
-    Newton limited to 6 iterations, the steps in which several pairs change state stall (134 of
-    6300 here, redone on 16 substeps: with 8, one of the k_n = 1.7e9 plant's fine substeps failed
-    too; with the default 40 iterations a stall is a rare event, one step on one machine and none
-    on another, so the mechanism is tested where it is frequent)."""
+    energy balance still closes. Without interface damping (F_N1 = 40 N, 1000 N hammer) and with
+    Newton limited to 7 iterations, the steps in which several pairs change state stall (53-63 of
+    6300 on an AMD EPYC, with the design's BLAS on one thread or two), redone on 16 substeps; with
+    the default 40 iterations a stall is a rare event, so the mechanism is tested where it is
+    frequent. Not 6 iterations (the test before): there a fine substep's solve can stall too, and
+    the run then stalls in every later step (5859 of 6300 with the design's BLAS on one thread,
+    none on two): which one happens was decided by the design's last bits."""
     # the quasi-static modes as before issue 15's lag-free step (tests/test_kernels_reference.py
     # UNDAMPED_QS: with the defaults the capped solves stall in runs and the fine substeps fail too)
-    cfg = load(sets=["plant.interface.tau_s=0", "plant.newton_max_iter=6", "plant.fallback_split=16",
+    cfg = load(sets=["plant.interface.tau_s=0", "plant.newton_max_iter=7", "plant.fallback_split=16",
                      "plant.quasi_static_theta=0", "plant.quasi_static_hz=10500"])
     m = build_plant(cfg)
     n = int(round(0.3 / cfg.dt_s))
     x0 = m.initial_state(40.0)
-    Y, x, _ = run(m, hammer_force(n, cfg.dt_s, 500.0, 0.5e-3), 40.0, x0=x0)
+    Y, x, _ = run(m, hammer_force(n, cfg.dt_s, 1000.0, 0.5e-3), 40.0, x0=x0)
     assert Y[:, m.output_index()["substep_fallbacks"]].sum() >= 20
     b = balance(m, x0, x)
     assert abs(b["residual"]) < 1e-6 * b["W_exc"]
