@@ -47,14 +47,16 @@ H_AGREE of the measured one and its shape, the ratio of the two accelerometers' 
 (SHAPE_SENSOR over a_frf_meas), within SHAPE_AGREE of the measured ratio (elsewhere the model is on
 another stick-slip branch, or has a resonance or antiresonance a little off, and its R_exc / H says
 nothing about the measured R). Why the shape gate and the k_n spread (issue 18, a truth of another
-model form, ``rig --model-form``, seeds 3 and 11, 0.1 kg hidden): the truth's own R_exc / H differs from
-the nominal contact pitch's by 0.09-37x next to the stuck modes, and the calibrated model's estimate
-of R was 21x off at 212 Hz (300 N, 5 N; seed 11) and 4-7x off at 500 Hz (a driving-point
-antiresonance) where |H| agreed within 1-25 %: with the |H| gate and a constant 10 % alone the fit
-gave 0.041 and 0.043 kg. The shape gate removes the 212 Hz line (shape 0.77 in ln) and the k_n spread
-weights the 500 Hz lines down (0.15-0.57): 0.1005 and 0.0977 kg, the weighted RSS 66 and 88 over 29
-and 30 lines (shape gate alone: 0.098 both, RSS 125 and 123). The campaign's true structure as the
-model keeps 88 of 93 lines and fits 0.0995 kg. ``gap_db`` uses the same weights (dB at the scale of a well-conditioned line).
+model form, ``rig --model-form``, seeds 3 and 11, 0.1 kg hidden): the truth's own R_exc / H differs
+from the nominal contact pitch's by 0.19-37x next to the stuck modes (0.09x at 1100 Hz), and the
+calibrated model's estimate of R was 21x off at 212 Hz (300 N, 5 N; seed 11) and 4-7x off at 500 Hz
+(a driving-point antiresonance) where |H| agreed within 1-25 %: with the |H| gate and a constant
+10 % alone the fit gave 0.041 and 0.043 kg. The shape gate removes the 212 Hz line (shape 0.77 in ln)
+and the k_n spread weights the 500 Hz lines down (0.15-0.57): 0.1005 and 0.0977 kg, the weighted RSS
+66 and 88 over 29 and 30 lines (shape gate alone: 0.098 both, RSS 125 and 123). The campaign's true
+structure as the model keeps 88 of 93 lines and fits 0.0995 kg.
+
+``gap_db`` uses the same weights (dB at the scale of a well-conditioned line).
 """
 from __future__ import annotations
 
