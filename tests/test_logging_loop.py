@@ -278,10 +278,12 @@ def _ctrl_c_to_the_main_thread() -> None:
 @pytest.fixture
 def ctrl_c_raises():
     """Ctrl-C as a terminal gives it to a Python program: Python's own SIGINT handler (it raises
-    KeyboardInterrupt) and SIGINT not blocked in the main thread; both restored afterwards. Alone
-    these tests have that anyway; in the whole suite (fresh clone, AMD EPYC) an earlier test left
-    the process so that the SIGINT never raised (the stop flag stayed 0 for the 10 s wait), and
-    both tests failed."""
+    KeyboardInterrupt) and SIGINT not blocked in the main thread; both restored afterwards. A
+    process started in the background by a non-interactive shell (``make test &``, nohup) inherits
+    SIGINT ignored, and Python then leaves it ignored. A whole suite started that way had SIG_IGN
+    from its start to these tests (a handler check after every test), the SIGINT they send never
+    raised (the stop flag stayed 0 for the 10 s wait) and both failed; run alone that way they
+    passed, for a reason not found."""
     handler = signal.signal(signal.SIGINT, signal.default_int_handler)
     mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     try:
