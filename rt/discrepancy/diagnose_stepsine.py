@@ -130,15 +130,19 @@ def prepare(cfg: Config, tests: list[FRFTest], jobs: int | None = None,
         if SHAPE_SENSOR in t.H:
             shape = (t.H[SHAPE_SENSOR] / H_meas) / (r.H_sensors[SHAPE_SENSOR] / H_model)
             keep &= np.abs(np.log(np.abs(shape))) <= math.log(1.0 + SHAPE_AGREE)
-        Q = r.R_exc / H_model
-        spread = np.max([np.abs(np.log(np.abs((v.R_exc / v.H_sensors["a_frf_meas"]) / Q)))
-                         for v in (runs[n + i], runs[2 * n + i])], axis=0)
+        Q = _transfer(r)
+        spread = np.max([np.abs(np.log(np.abs(_transfer(v) / Q))) for v in (runs[n + i], runs[2 * n + i])], axis=0)
         ratio = np.asarray(t.F_amp_N, float) / np.asarray(t.drive_amp, float)
         freq.append(np.asarray(t.freq_hz, float)[keep])
         rho.append(ratio[keep])
         R.append((H_meas * Q)[keep])
         sigma.append(np.sqrt(SIGMA ** 2 + (np.maximum(DELTA_R_FLOOR, spread) * np.abs(1.0 - ratio))[keep] ** 2))
     return StepsineData(tests, freq, rho, R, sigma)
+
+
+def _transfer(r) -> np.ndarray:
+    """R_exc / H of a model step-sine ``r``: the excitation point's receptance over a_frf's accelerance."""
+    return r.R_exc / r.H_sensors["a_frf_meas"]
 
 
 def residuals(cfg: Config, data: StepsineData) -> np.ndarray:
