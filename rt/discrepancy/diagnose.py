@@ -6,8 +6,10 @@ Method, on a campaign of the measurement format (impulse tests at several F_N1, 
 1. Structure (rt.discrepancy.diagnose_structure): calibration scales E, k_t, mu, modal damping alone and
    with each structural candidate, fitted to the log-magnitude FRFs of both accelerometers over
    4-1600 Hz at every F_N1 (weighted by their noise), the model being the rig's own chain
-   (rt.discrepancy.rig.measure_impulse, noise off) driven by the windowed measured hammer force; started from
-   the identified frequencies of modes 1-8 against the stuck plant's eigenvalues.
+   (rt.discrepancy.rig.measure_impulse, noise off) driven by the windowed measured hammer force, read at
+   the data's frequencies through the dispersion c (the data's time step against the plant's:
+   diagnose_structure.warp); started from the identified frequencies of modes 1-8 against the stuck
+   plant's eigenvalues.
 2. Actuator: c_v (and an actuator candidate) by bounded nonlinear least squares
    (scipy.optimize.least_squares) on the exact chain, residuals per signal divided by the signal's
    noise rms estimated on the record's first 2 ms at rest.
@@ -43,14 +45,16 @@ from threadpoolctl import threadpool_limits
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.diagnose_structure import (
+    ShapeRun,
     StructureFit,
     fit_cost,
     fit_structure,
     model_frequencies,
+    model_frf,
     prepare,
     run_shape,
     struct_cfg,
-    windowed_frf,
+    unwarp,
 )
 from rt.discrepancy.diagnose_stepsine import CHANNEL as SS_CHANNEL
 from rt.discrepancy.diagnose_stepsine import fit_shaker, load_stepsine
@@ -123,12 +127,13 @@ def load_campaign(folder: str | Path) -> list[Test]:
 
 # --- features (rt.discrepancy.diagnose_structure) ------------------------------------------------------------
 
-def frf(t: Test, a: np.ndarray):
+def frf(t: Test, a: np.ndarray, warp: tuple = (0.0, 0.0)):
     """(freq [Hz], H) of accelerance a / F_exc, the force windowed around the hammer pulse, the
-    response exponentially (tau = T / 4): rt.discrepancy.diagnose_structure.windowed_frf."""
+    response exponentially (tau = T / 4): rt.discrepancy.diagnose_structure.windowed_frf; a model's
+    response read through its dispersion ``warp`` = (c, h) (diagnose_structure.model_frf)."""
     from rt.discrepancy.diagnose_structure import force_window
-    freq, H, _ = windowed_frf(force_window(t.data["F_exc"], t.dt), a, t.dt)
-    return freq, H
+    _, H = model_frf(force_window(t.data["F_exc"], t.dt), a, t.dt, *warp)
+    return np.fft.rfftfreq(len(a), t.dt), H
 
 
 def run_actuator_tests(cfg: Config, tests: list[Test]) -> list[dict]:
@@ -138,10 +143,10 @@ def run_actuator_tests(cfg: Config, tests: list[Test]) -> list[dict]:
 
 # --- gap metrics ----------------------------------------------------------------------------------
 
-def frf_gap_db(t: Test, a_model: np.ndarray) -> float:
-    """RMS of 20 log10 |H_meas / H_model| over BAND_HZ [dB]."""
+def frf_gap_db(t: Test, a_model: np.ndarray, warp: tuple = (0.0, 0.0)) -> float:
+    """RMS of 20 log10 |H_meas / H_model| over BAND_HZ [dB], the model read through ``warp`` (``frf``)."""
     freq, Hm = frf(t, t.data["a_frf_meas"])
-    _, Hs = frf(t, a_model)
+    _, Hs = frf(t, a_model, warp)
     sel = (freq >= BAND_HZ[0]) & (freq <= BAND_HZ[1])
     return float(np.sqrt(np.mean((20 * np.log10(np.abs(Hm[sel]) / np.abs(Hs[sel]))) ** 2)))
 
@@ -152,11 +157,13 @@ def nrmse_std(meas: np.ndarray, model: np.ndarray) -> float:
     return float(np.linalg.norm(meas - model) / np.linalg.norm(meas - np.mean(meas)))
 
 
-def gaps(imp: list[Test], act: list[Test], a_frf: list, aruns: list[dict]) -> dict:
-    """Gap metrics per test and their summaries (mean FRF dB over impulse tests, mean NRMSE)."""
+def gaps(imp: list[Test], act: list[Test], run: ShapeRun, aruns: list[dict]) -> dict:
+    """Gap metrics per test and their summaries (mean FRF dB over impulse tests, mean NRMSE); the
+    model's impulse responses of ``run`` (its FRFs read through its dispersion)."""
     out = {}
-    for t, a in zip(imp, a_frf):
-        out[t.name] = {"frf_db": round(frf_gap_db(t, a), 4), "nrmse_a_frf": round(nrmse_std(t.data["a_frf_meas"], a), 5)}
+    for t, a in zip(imp, run.a):
+        out[t.name] = {"frf_db": round(frf_gap_db(t, a, run.warp), 4),
+                       "nrmse_a_frf": round(nrmse_std(t.data["a_frf_meas"], a), 5)}
     for t, r in zip(act, aruns):
         out[t.name] = {"nrmse_F_cell": round(nrmse_std(t.data["F_cell"], r["F_cell"]), 5),
                        "nrmse_V_a": round(nrmse_std(t.data["V_a"], r["V_a"]), 5)}
@@ -270,7 +277,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
     say("nominal model")
     run0 = run_shape(nominal, data)
     arun0 = run_actuator_tests(nominal, act)
-    gap_before = gaps(imp, act, run0.a, arun0)
+    gap_before = gaps(imp, act, run0, arun0)
     struct_eff = [e for e in implemented() if e.channel == "structure"]
     act_eff = [e for e in implemented() if e.channel == "actuator"]
     ss_tests = load_stepsine(folder)
@@ -289,7 +296,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
     cal = struct_fits[None]
     for e in struct_eff:
         th = {k: v for k, v in struct_fits[e].theta.items() if k != e.name}
-        run = run_shape(struct_cfg(nominal, th, None), data)
+        run = run_shape(struct_cfg(nominal, th, None), data, th["dispersion"])
         if sum(v @ v for v in run.r.values()) < fit_cost(cal):
             cal = StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, None), cal.J)
     if cal is not struct_fits[None]:
@@ -335,8 +342,8 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
     final = winner or base
     say("gap after")
     arun1 = run_actuator_tests(final["cfg"], act)
-    gap_after = gaps(imp, act, final["run"].a, arun1)
-    gap_cal = gaps(imp, act, base["run"].a, run_actuator_tests(base["cfg"], act))
+    gap_after = gaps(imp, act, final["run"], arun1)
+    gap_cal = gaps(imp, act, base["run"], run_actuator_tests(base["cfg"], act))
     if ss_data is not None:  # nominal and calibrated: an ideal source (ratio 1)
         for g, c in ((gap_before, nominal), (gap_cal, base["cfg"]), (gap_after, final["cfg"])):
             g["stepsine_ratio_db"] = round(stepsine_gap_db(c, ss_data), 4)
@@ -355,7 +362,8 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
                             "F_per_V_meas": _r(_gain(t.data["V_a"], t.data["F_cell"]), 4),
                             "F_per_V_model": _r(_gain(r["V_a"], r["F_cell"]), 4)}
     m1 = build_plant(quiet(final["cfg"]))
-    modes_after = {t.name: modes_table(model_frequencies(m1, d.F_N1), d.f_modes) for t, d in zip(imp, data)}
+    modes_after = {t.name: modes_table(unwarp(model_frequencies(m1, d.F_N1), *final["run"].warp), d.f_modes)
+                   for t, d in zip(imp, data)}
     res = ranking_result(base, ranked, winner, {"gap_before": gap_before, "gap_calibrated": gap_cal,
                                                 "gap_after": gap_after}, localise,
                          {f"FRF {s}": v for s, v in run0.r.items()}, modes_after)
@@ -423,7 +431,8 @@ def frf_overlays(plots: dict) -> list[tuple]:
     (run0, _), (run1, _) = plots["before"], plots["after"]
     out = []
     for t, a0, a1 in zip(plots["imp"], run0.a, run1.a):
-        H = {k: frf(t, a) for k, a in zip(("measured", "before", "after"), (t.data["a_frf_meas"], a0, a1))}
+        H = {k: frf(t, a, w) for k, a, w in zip(("measured", "before", "after"), (t.data["a_frf_meas"], a0, a1),
+                                                ((0.0, 0.0), run0.warp, run1.warp))}
         out.append((t.name, float(np.mean(t.data["F_cell"])), H["measured"][0], {k: v[1] for k, v in H.items()}))
     return out
 

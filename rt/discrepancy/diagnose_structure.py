@@ -19,14 +19,16 @@ identify on a ``PAD``-times zero-padded FFT: mode 1 at 9.8 Hz has ~10 cycles in 
 against the model's: eigenvalues of the stuck linearised plant at the test's F_N1 (plant.model.
 stuck_stiffness), mapped through the plant step's trapezoidal rule, f_d = atan(pi f h) / (pi h).
 E, ln k_t (over its decades k_t moves these frequencies by tens of percent; over a lab's tolerance of
-10 % by < 0.1 %) and the candidate by scipy.optimize.least_squares; mu and the modal damping do not
-move them (left to stage 2, which starts from the best damping scale of ``DAMPING_GRID``).
+10 % by < 0.1 %), the dispersion c (``warp``: the data's time step against the plant's) and the
+candidate by scipy.optimize.least_squares; mu and the modal damping do not move them (left to stage
+2, which starts from the best damping scale of ``DAMPING_GRID``).
 
 Stage 2 (the fit that counts; ~0.1 s per model): the log-magnitude residuals
 r = (ln|H_meas| - ln|H_model|) / sigma_k over ``BAND_HZ`` of both accelerometers and all tests:
 modes, antiresonances and the amplitude dependence across F_N1. The model runs the rig's own
 chain (rt.discrepancy.rig.measure_impulse: nonlinear plant, hence slip at a low F_N1, and sensors, noise off)
-driven by the windowed measured force. Gauss-Newton steps from stage 1 with bounds
+driven by the windowed measured force; its FRFs are read at the data's frequencies through the
+dispersion c (``model_frf``). Gauss-Newton steps from stage 1 with bounds
 (scipy.optimize.lsq_linear) on a forward-difference Jacobian (plant rebuilt per column, 12 ms)
 kept up to date by Broyden's rank-one updates, plus Gaussian priors on the calibration scales
 (``CAL_FAR``: far from the nominal, issue 18; k_t and the modal damping moved as ln(scale),
@@ -82,6 +84,8 @@ STAGE1_LOG_STEP = 0.01                  # their finite-difference step in stage 
 EFFECT_STEP = 0.05                      # finite-difference step / the effect's default strength
 DAMPING_GRID = tuple(np.geomspace(0.1, 10.0, 7))   # modal damping scales tried for stage 2's start
                                         # (CAL_FAR's range; the frequencies of stage 1 do not see it)
+DISPERSION = (-1.0, 2.0, 0.02)          # bounds and finite-difference step of the dispersion c (``warp``)
+WARP_PAD = 8                            # zero padding of the model's FFT that the warped bins are read from
 
 
 class ImpulseFRF(NamedTuple):
@@ -112,6 +116,43 @@ def windowed_frf(F_w: np.ndarray, a: np.ndarray, dt: float, pad: int = 1):
     n = len(a) * pad
     freq, H = accelerance_frf(np.pad(F_w, (0, n - len(a))), np.pad(a, (0, n - len(a))), dt, tau)
     return freq, H, H * np.fft.rfft(np.pad(F_w, (0, n - len(a))))
+
+
+def warp(f, c: float, h: float):
+    """The model's frequency [Hz] at which the data's frequency f [Hz] is read: g(f) = f (1 - c (pi f h)^2 / 3).
+
+    The plant steps with the trapezoidal rule at h = dt / substeps [s], which shows a mode of frequency
+    f0 at f_d = atan(pi f0 h) / (pi h) = f0 (1 - (pi f0 h)^2 / 3 + ...): a period error that rises as f^2
+    (-1.4 % at 1.4 kHz at the rig's 21 kHz tick). Data taken with a step h_d show it as
+    (h_d / h)^2 of the model's, so that with c = 1 - (h_d / h)^2 a mode the data show at f lies in the
+    model at g(f) to second order: c = 0 the model's own step (the virtual rig), c = 3 / 4 half the
+    step (``rig --model-form``: two substeps), c = 1 continuous time (a laboratory's data). The
+    dispersion c is a calibration parameter of the impulse tests (``DISPERSION``; docs/discrepancy.md
+    Method 3): no scale of E, k_t, mu or the damping makes a shift that rises as f^2."""
+    return f * (1.0 - c * (np.pi * f * h) ** 2 / 3.0)
+
+
+def unwarp(f_model, c: float, h: float):
+    """The data's frequency [Hz] whose ``warp`` is f_model [Hz] (Newton's method; g is monotonic
+    while c (pi f h)^2 < 1, i.e. below 5.8 kHz for c <= 2 at the rig's tick)."""
+    f = np.array(f_model, dtype=float)
+    for _ in range(4):
+        f = f - (warp(f, c, h) - f_model) / (1.0 - c * (np.pi * f * h) ** 2)
+    return f
+
+
+def model_frf(F_w: np.ndarray, a: np.ndarray, dt: float, c: float = 0.0, h: float = 0.0):
+    """(freq [Hz], H) of the model's response a to F_w on the data's bins (``windowed_frf``), read
+    at the warped frequencies g(freq) (``warp``; c = 0: the bins themselves) from a ``WARP_PAD``
+    times zero-padded FFT, interpolated linearly in the real and imaginary parts."""
+    if c == 0.0:
+        freq, H, _ = windowed_frf(F_w, a, dt)
+        return freq, H
+    n = len(a) * WARP_PAD
+    fp, Hp = accelerance_frf(np.pad(F_w, (0, n - len(a))), np.pad(a, (0, n - len(a))), dt, len(a) * dt / 4.0)
+    freq = np.fft.rfftfreq(len(a), dt)
+    g = warp(freq, c, h)
+    return freq, np.interp(g, fp, Hp.real) + 1j * np.interp(g, fp, Hp.imag)
 
 
 def model_frequencies(model, F_N1: float) -> np.ndarray:
@@ -194,24 +235,26 @@ def struct_cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
 
 
 def bounds(names, effect):
-    """(lower, upper) bounds of the parameters ``names``: CAL_FAR's, the effect's."""
-    lo = [CAL_FAR[k][0] if k in CAL_FAR else effect.parameter.lo for k in names]
-    hi = [CAL_FAR[k][1] if k in CAL_FAR else effect.parameter.hi for k in names]
+    """(lower, upper) bounds of the parameters ``names``: CAL_FAR's, DISPERSION's, the effect's."""
+    lo = [CAL_FAR[k][0] if k in CAL_FAR else DISPERSION[0] if k == "dispersion" else effect.parameter.lo for k in names]
+    hi = [CAL_FAR[k][1] if k in CAL_FAR else DISPERSION[1] if k == "dispersion" else effect.parameter.hi for k in names]
     return np.array(lo), np.array(hi)
 
 
 def prior(names, x) -> np.ndarray:
     """Prior residuals of the calibration scales x (CAL_FAR's sigma): (x - 1) / sigma, ln(x) / sigma for
-    the LOG_SCALE ones."""
+    the LOG_SCALE ones (none on the dispersion: the data decide between the rig's step and continuous time)."""
     return np.array([(math.log(v) if k in LOG_SCALE else v - 1.0) / CAL_FAR[k][2]
                      for k, v in zip(names, x) if k in CAL_FAR])
 
 
 def fd_steps(names, effect) -> np.ndarray:
     """Finite-difference steps of the optimiser's variables (``to_z``) of the parameters ``names``:
-    CAL_FAR's (relative, i.e. ln(1 + step), for the LOG_SCALE ones), EFFECT_STEP x the effect's default."""
+    CAL_FAR's (relative, i.e. ln(1 + step), for the LOG_SCALE ones), DISPERSION's, EFFECT_STEP x the effect's
+    default."""
     return np.array([math.log1p(CAL_FAR[k][3]) if k in LOG_SCALE else CAL_FAR[k][3] if k in CAL_FAR
-                     else EFFECT_STEP * effect.parameter.default for k in names])
+                     else DISPERSION[2] if k == "dispersion" else EFFECT_STEP * effect.parameter.default
+                     for k in names])
 
 
 def to_z(x, log: np.ndarray) -> np.ndarray:
@@ -227,12 +270,14 @@ def from_z(z, log: np.ndarray) -> np.ndarray:
 # --- stage 1: frequencies -------------------------------------------------------------------------
 
 def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
-                    frequencies=model_frequencies) -> dict:
+                    frequencies=model_frequencies, step: float | None = None) -> dict:
     """E, ln k_t (``STAGE1_LOG``: over its decades the contact stiffness moves the frequencies by tens
-    of percent) and the effect on the identified frequencies (``f_modes``: per sensor, or per pairing
-    of the FRF-file input; the same keys in every test) in the stuck tests; the model's are
-    ``frequencies(model, F_N1)`` (default: as the plant step shows them); bounds and prior CAL_FAR's."""
-    names = ["E", *STAGE1_LOG] + ([effect.name] if effect else [])
+    of percent), with ``step`` (the plant's h [s]) the dispersion (``warp``), and the effect on the
+    identified frequencies (``f_modes``: per sensor, or per pairing of the FRF-file input; the same keys
+    in every test) in the stuck tests; the model's are ``frequencies(model, F_N1)`` (default: as the
+    plant step shows them, then ``unwarp``ed); bounds and prior CAL_FAR's."""
+    disp = ["dispersion"] if step is not None else []
+    names = ["E", *STAGE1_LOG, *disp] + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     data = [d for d in data if d.stuck] or data
     meas = np.array([list(d.f_modes.values()) for d in data])                  # (tests, sensors, modes)
@@ -240,15 +285,19 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
 
     def res(z):
         x = from_z(z, log)
-        model = build_plant(quiet(struct_cfg(nominal, dict(zip(names, x)), effect)))
+        th = dict(zip(names, x))
+        model = build_plant(quiet(struct_cfg(nominal, th, effect)))
         fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
+        if disp:
+            fm = unwarp(fm, th["dispersion"], step)
         r = ((meas - fm) / meas / SIGMA_F)[ok]
         return np.concatenate([r, prior(names, x)])
 
     lo, hi = (to_z(b, log) for b in bounds(names, effect))
-    x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + ([effect.parameter.default] if effect else [])
-    x0 = [1.0] + [0.0] * len(STAGE1_LOG) + ([effect.parameter.default] if effect else [])
-    h_min = np.array([1e-4] + [STAGE1_LOG_STEP] * len(STAGE1_LOG) + ([1e-4 * effect.parameter.default] if effect else []))
+    x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + ([effect.parameter.default] if effect else [])
+    x0 = [1.0] + [0.0] * len(STAGE1_LOG) + [0.0] * len(disp) + ([effect.parameter.default] if effect else [])
+    h_min = np.array([1e-4] + [STAGE1_LOG_STEP] * len(STAGE1_LOG) + [1e-3] * len(disp)
+                     + ([1e-4 * effect.parameter.default] if effect else []))
 
     def jac(z):
         """Forward differences: 1e-4 of E and of the effect's strength, STAGE1_LOG_STEP on ln k_t
@@ -268,21 +317,29 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
 class ShapeRun(NamedTuple):
     r: dict              # sensor -> weighted residuals (all tests)
     a: list              # model a_frf_meas per test
+    warp: tuple = (0.0, 0.0)   # (dispersion c, the plant's step h [s]) its FRFs are read with (model_frf)
 
 
-def run_shape(cfg: Config, data: list[ImpulseFRF]) -> ShapeRun:
+def model_step(cfg: Config) -> float:
+    """The plant's time step h = dt / substeps [s] (the trapezoidal rule's, ``warp``)."""
+    return cfg.dt_s / cfg.plant.substeps
+
+
+def run_shape(cfg: Config, data: list[ImpulseFRF], dispersion: float = 0.0) -> ShapeRun:
     """The model's weighted log-magnitude residuals: the rig's chain (noise off) on each test's
-    windowed force at its F_N1."""
+    windowed force at its F_N1, its FRFs read at the data's frequencies through the dispersion
+    (``model_frf``)."""
     model = build_plant(quiet(cfg))
+    w = (float(dispersion), model_step(cfg))
     r = {s: [] for s in SENSORS}
     a_frf = []
     for d in data:
         ch = measure_impulse(model, d.F_w, hold_voltage(cfg, d.F_N1), seed=0)
         for s in SENSORS:
-            _, H, _ = windowed_frf(d.F_w, ch[s], d.dt)
+            _, H = model_frf(d.F_w, ch[s], d.dt, *w)
             r[s].append((d.ln_h[s] - np.log(np.maximum(np.abs(H[d.sel[s]]), 1e-300))) / d.sigma[s])
         a_frf.append(ch["a_frf_meas"])
-    return ShapeRun({s: np.concatenate(v) for s, v in r.items()}, a_frf)
+    return ShapeRun({s: np.concatenate(v) for s, v in r.items()}, a_frf, w)
 
 
 def damping_start(nominal: Config, data: list[ImpulseFRF], effect: Effect | None, start: dict) -> dict:
@@ -294,7 +351,8 @@ def damping_start(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     1.88 for the true 1.02, the grid's damping 0.22, the fit from there RSS / n 2.61 against 0.21
     from 1.0): calibration alone runs stage 2 from both and keeps the better, a candidate has
     calibration's own result among its starts."""
-    cost = [sum(float(v @ v) for v in run_shape(struct_cfg(nominal, start | {"modal_damping": g}, effect), data).r.values())
+    cost = [sum(float(v @ v) for v in run_shape(struct_cfg(nominal, start | {"modal_damping": g}, effect), data,
+                                                start.get("dispersion", 0.0)).r.values())
             for g in DAMPING_GRID]
     return start | {"modal_damping": float(DAMPING_GRID[int(np.argmin(cost))])}
 
@@ -320,19 +378,20 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     (relative) or ``MAX_STEPS``, on z: ln(scale) for the LOG_SCALE parameters, the value itself for
     the others (``to_z``). ``start``: stage-2 start values instead of stage 1."""
     if start is None:
-        stage1 = fit_frequencies(nominal, data, effect)
+        stage1 = fit_frequencies(nominal, data, effect, step=model_step(nominal))
         start = damping_start(nominal, data, effect, stage1)
         if effect is None and start["modal_damping"] != 1.0:   # calibration alone: from both (damping_start)
             return min((fit_structure(nominal, data, None, start=s) for s in (stage1, start)), key=fit_cost)
-    names = ["E", "k_t", "mu", "modal_damping"] + ([effect.name] if effect else [])
+    names = ["E", "k_t", "mu", "modal_damping", "dispersion"] + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     lo, hi = (to_z(b, log) for b in bounds(names, effect))
-    z = np.clip(to_z(np.array([start.get(k, 1.0) for k in names]), log), lo, hi)
+    z = np.clip(to_z(np.array([start.get(k, 0.0 if k == "dispersion" else 1.0) for k in names]), log), lo, hi)
     steps = fd_steps(names, effect)
 
     def evaluate(z):
         x = from_z(z, log)
-        run = run_shape(struct_cfg(nominal, dict(zip(names, x)), effect), data)
+        th = dict(zip(names, x))
+        run = run_shape(struct_cfg(nominal, th, effect), data, th["dispersion"])
         return run, np.concatenate([*run.r.values(), prior(names, x)])
 
     run, r = evaluate(z)
