@@ -9,7 +9,8 @@ import sys
 from rt.cli.common import add_out, fail
 
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
-V_cmd), calibrates E, mu, k_t, modal damping and c_v, fits each implemented effect of the library
+V_cmd), calibrates E, mu, k_t, modal damping, c_v and the dispersion (the data's time step against
+the model's: 0 for the virtual rig's own data, ~1 for a lab's), fits each implemented effect of the library
 jointly with the calibration (structure: on the log-magnitude FRFs of both accelerometers at every
 F_N1; actuator: on V_a, i, F_cell; with step-sine files (rig --stepsine): the shaker on the force
 ratio F_amp/drive), ranks them by BIC and names the best only if it beats calibration alone by more
