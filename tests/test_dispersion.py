@@ -113,3 +113,11 @@ def test_stage1_finds_the_datas_time_step(stage1_by_substeps):
     for sub in (1, 2):
         assert c[sub] == pytest.approx(1 - 1 / sub ** 2, abs=0.15)
     assert c[2] - c[1] == pytest.approx(0.75, abs=0.1)
+
+
+def test_report_says_what_the_dispersion_means():
+    """report.md turns c into the data's step: c = 0.75 is half the plant's step, c = 1 continuous time."""
+    from rt.discrepancy.diagnose_report import dispersion_note
+    assert "0.50 x the model's plant step" in dispersion_note(0.75)
+    assert "0.00 x the model's plant step" in dispersion_note(1.0)
+    assert "beyond continuous time" in dispersion_note(1.2)

@@ -8,6 +8,7 @@ then renamed."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -95,6 +96,15 @@ def _plots(res: dict, folder: Path) -> list[str]:
     return names
 
 
+def dispersion_note(c: float) -> str:
+    """One line of report.md on the fitted dispersion c (diagnose_structure.warp)."""
+    step = (f"the data's time step is {math.sqrt(1.0 - c):.2f} x the model's plant step" if c <= 1.0 else
+            "beyond continuous time (c > 1): the warp takes a model-form error that rises with frequency")
+    return (f"Dispersion c = {c:.3g}: the model's FRFs are read at f (1 - c (pi f h)^2 / 3), h the plant's step; "
+            f"{step} (0: the virtual rig's own data, 1: continuous time, a laboratory's; docs/discrepancy.md, "
+            "Method 3d). The written model.toml does not carry it.")
+
+
 def report_md(res: dict, pngs: list[str]) -> str:
     named = res["named_effect"]
     gb, gc, ga = res["gap_before"], res["gap_calibrated"], res["gap_after"]
@@ -111,8 +121,10 @@ def report_md(res: dict, pngs: list[str]) -> str:
         lines.append(f"| {r['effect']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | {r['score']:.1f} | "
                      f"{r['gap_after']:.3f} | {json.dumps(r['fitted'])} |")
     c = res["calibration_only"]
-    lines += [f"| calibration only | 0 | 0 % | {c['score']:.1f} | {c['gap_after']:.3f} | {json.dumps(c['fitted'])} |",
-              "",
+    lines += [f"| calibration only | 0 | 0 % | {c['score']:.1f} | {c['gap_after']:.3f} | {json.dumps(c['fitted'])} |"]
+    if "dispersion" in res["fitted_parameters"]:
+        lines += ["", dispersion_note(res["fitted_parameters"]["dispersion"])]
+    lines += ["",
               "## Gap", "", "| test | metric | nominal (before) | calibrated only | updated (after) |",
               "| --- | --- | --- | --- | --- |"]
     for name, row in gb.items():
