@@ -132,8 +132,7 @@ def frf(t: Test, a: np.ndarray, warp: tuple = (0.0, 0.0)):
     response exponentially (tau = T / 4): rt.discrepancy.diagnose_structure.windowed_frf; a model's
     response read through its dispersion ``warp`` = (c, h) (diagnose_structure.model_frf)."""
     from rt.discrepancy.diagnose_structure import force_window
-    _, H = model_frf(force_window(t.data["F_exc"], t.dt), a, t.dt, *warp)
-    return np.fft.rfftfreq(len(a), t.dt), H
+    return model_frf(force_window(t.data["F_exc"], t.dt), a, t.dt, *warp)
 
 
 def run_actuator_tests(cfg: Config, tests: list[Test]) -> list[dict]:

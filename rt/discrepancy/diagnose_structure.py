@@ -128,13 +128,13 @@ def warp(f, c: float, h: float):
     model at g(f) to second order: c = 0 the model's own step (the virtual rig), c = 3 / 4 half the
     step (``rig --model-form``: two substeps), c = 1 continuous time (a laboratory's data). The
     dispersion c is a calibration parameter of the impulse tests (``DISPERSION``; docs/discrepancy.md
-    Method 3): no scale of E, k_t, mu or the damping makes a shift that rises as f^2."""
+    Method 3d): no scale of E, k_t, mu or the damping makes a shift that rises as f^2."""
     return f * (1.0 - c * (np.pi * f * h) ** 2 / 3.0)
 
 
 def unwarp(f_model, c: float, h: float):
     """The data's frequency [Hz] whose ``warp`` is f_model [Hz] (Newton's method; g is monotonic
-    while c (pi f h)^2 < 1, i.e. below 5.8 kHz for c <= 2 at the rig's tick)."""
+    while c (pi f h)^2 < 1, i.e. below 4.7 kHz for c <= 2 at the rig's tick, everywhere for c <= 0)."""
     f = np.array(f_model, dtype=float)
     for _ in range(4):
         f = f - (warp(f, c, h) - f_model) / (1.0 - c * (np.pi * f * h) ** 2)
