@@ -118,6 +118,10 @@ def windowed_frf(F_w: np.ndarray, a: np.ndarray, dt: float, pad: int = 1):
     return freq, H, H * np.fft.rfft(np.pad(F_w, (0, n - len(a))))
 
 
+def model_step(cfg: Config) -> float:
+    """The plant's time step h = dt / substeps [s] (the trapezoidal rule's, ``warp``)."""
+    return cfg.dt_s / cfg.plant.substeps
+
 def warp(f, c: float, h: float):
     """The model's frequency [Hz] at which the data's frequency f [Hz] is read: g(f) = f (1 - c (pi f h)^2 / 3).
 
@@ -161,7 +165,7 @@ def model_frequencies(model, F_N1: float) -> np.ndarray:
     lam = np.linalg.eigvalsh(stuck_stiffness(model, preloaded_pairs(model, F_N1)))
     f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
     f = f[f > 1e-3][:len(MODES)]
-    h = model.cfg.dt_s / model.cfg.plant.substeps
+    h = model_step(model.cfg)
     return np.arctan(np.pi * f * h) / (np.pi * h)
 
 
@@ -301,7 +305,8 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
 
     def jac(z):
         """Forward differences: 1e-4 of E and of the effect's strength, STAGE1_LOG_STEP on ln k_t
-        (scipy's relative steps would take ~1e-8 at ln k_t = 0: there the basis roughness decides)."""
+        (scipy's relative steps would take ~1e-8 at ln k_t = 0: there the basis roughness decides),
+        at least 1e-3 on the dispersion."""
         r0 = res(z)
         h = np.where(log, h_min, np.maximum(1e-4 * np.abs(z), h_min))
         h = np.where(z + h > hi, -h, h)
@@ -319,10 +324,6 @@ class ShapeRun(NamedTuple):
     a: list              # model a_frf_meas per test
     warp: tuple = (0.0, 0.0)   # (dispersion c, the plant's step h [s]) its FRFs are read with (model_frf)
 
-
-def model_step(cfg: Config) -> float:
-    """The plant's time step h = dt / substeps [s] (the trapezoidal rule's, ``warp``)."""
-    return cfg.dt_s / cfg.plant.substeps
 
 
 def run_shape(cfg: Config, data: list[ImpulseFRF], dispersion: float = 0.0) -> ShapeRun:
