@@ -121,8 +121,8 @@ def format_summary(s: dict) -> str:
     if err and max(err) > REDUCTION_TOL:
         k = int(np.argmax(err))
         lines.append(f"warning: the reduced model misses SPEC's {100 * REDUCTION_TOL:g} % on mode {k + 1} "
-                     f"({100 * err[k]:.3f} %); step the full model (--set plant.reduced=false) or use a contact pitch and elements "
-                     "of 2.5 mm or more (docs/plant.md 6, 'Contact pitch')")
+                     f"({100 * err[k]:.3f} %); step the full model (--set plant.reduced=false) or use a contact "
+                     "pitch and elements of 2.5 mm or more (docs/plant.md 6, 'Contact pitch')")
     lines.append(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
                  f"closed by the screws {s['closed_pairs']}; "
                  + ("no adaptive screw" if k_T is None else f"k_T at the adaptive screw {k_T:.3g} N/m"))
