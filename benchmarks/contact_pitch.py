@@ -6,8 +6,8 @@ The interface is a row of node-to-node pairs (SPEC 2: default pitch 20 mm). Refi
 same stiffness per unit length of joint (k_n and k_t per pair x pitch / 20 mm, elements no longer
 than min(pitch, 2.5 mm)), the script prints per pitch: the pairs the screws close at F_N1 = 100 N,
 the preloaded stuck eigenfrequencies of modes 1-9 (plant.model.stuck_frequencies_hz of the full,
-unreduced model: at 1.25 mm the Craig-Bampton model's mode 1 is 0.5 % low) and their offset from
-the finest pitch, and the calibration's observable, the simulated 50 N hammer test's
+unreduced model; mode 1 is resolved only to ~0.6 % at 1.25 mm, docs/plant.md 6) and their offset
+from the finest pitch, and the calibration's observable, the simulated 50 N hammer test's
 mode-3 frequency and damping at 100 N (plant.impulse, as benchmarks.calibrate_contact). The joint's
 pressure varies over the Winkler length lambda = (4 EI / k')^(1/4) of a beam on the contact's
 foundation (k' = k_n / pitch per unit length): ~11 mm here, so pitches of 20 and 10 mm do not

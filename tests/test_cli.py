@@ -30,16 +30,26 @@ def test_modes_json_keys_and_values(capsys):
 
 
 def test_modes_table_warns_when_the_reduction_misses_spec():
-    """SPEC 2 "Reduction": reduced within 0.5 % of full below 2 kHz; the table says when not (docs/plant.md
-    6: at a 1.25 mm pitch mode 1 is 0.53 % off) and names the mode, silent at 0.4 %."""
+    """SPEC 2 "Reduction": reduced within 0.5 % of full below 2 kHz. The table says when not, names the
+    mode and tells the reduction's error (fix: cb_cutoff_hz or the full model) from the eigensolver's
+    round-off on a fine mesh (docs/plant.md 6: at a 1.25 mm pitch mode 1 is resolved to ~0.6 % only,
+    fix: coarser elements); silent at 0.4 %."""
     from plant.modes import format_summary
     s = {"bare_cantilever_hz": [11.13], "full_stuck_hz": [9.76, 74.07], "reduced_stuck_hz": [9.70, 74.07],
-         "preloaded_stuck_hz": [9.69, 73.79], "sliding_joint_hz": None, "n_dof_full": 2247, "n_dof_reduced": 794,
-         "n_pairs": 129, "closed_pairs": [0], "k_T_adaptive_N_per_m": None}
-    warning = [ln for ln in format_summary(s).splitlines() if ln.startswith("warning")]
-    assert len(warning) == 1 and "mode 1 (0.615 %)" in warning[0] and "plant.reduced=false" in warning[0]
+         "eig_resolution_rel": [6.2e-3, 1e-4], "preloaded_stuck_hz": [9.69, 73.79], "sliding_joint_hz": None,
+         "n_dof_full": 2247, "n_dof_reduced": 794, "n_pairs": 129, "closed_pairs": [0],
+         "k_T_adaptive_N_per_m": None}
+
+    def warning():
+        w = [ln for ln in format_summary(s).splitlines() if ln.startswith("warning")]
+        assert len(w) <= 1
+        return w[0] if w else ""
+
+    assert "mode 1" in warning() and "0.615 %" in warning() and "2.5 mm" in warning()
+    s["eig_resolution_rel"] = [1.6e-6, 1e-8]
+    assert "mode 1" in warning() and "cb_cutoff_hz" in warning() and "plant.reduced=false" in warning()
     s["reduced_stuck_hz"] = [9.76 * 0.996, 74.07]
-    assert "warning" not in format_summary(s)
+    assert warning() == ""
 
 
 def test_spec_orientation_value_all_stuck(capsys):

@@ -349,7 +349,7 @@ def test_one_substep_is_converged_with_interface_damping():
 
 def test_joint_converges_in_its_contact_pitch():
     """docs/plant.md 6 "Contact pitch": refined at the same stiffness per unit length of joint
-    (benchmarks.contact_pitch), the preloaded stuck modes 1-9 at F_N1 = 100 N of the full model
+    (benchmarks.contact_pitch), the preloaded stuck modes 2-9 at F_N1 = 100 N of the full model
     converge once the pairs resolve the pressure's 11 mm Winkler length: 2.5 mm lies within 0.2 % of
     1.25 mm (measured; 0.3 % allowed), and the refinement's step shrinks (2.5 -> 1.25 mm at most
     half of 20 -> 2.5 mm on every mode). The default 20 mm lies 3.3 % above on mode 4 (measured):
@@ -361,7 +361,9 @@ def test_joint_converges_in_its_contact_pitch():
         model = build_plant(refined(base, ["plant.reduced=false"], pitch))
         return stuck_frequencies_hz(model, preloaded_pairs(model, 100.0))[:9]
 
-    f20, f2, f1 = modes(0.02), modes(0.0025), modes(0.00125)
+    # modes 2-9: mode 1 (9.7 Hz) is resolved only to eps lambda_max / (2 lambda_1) = 0.6 % at 1.25 mm
+    # (lambda_max 2e17 1/s^2 there; docs/plant.md 6), and barely involves the joint
+    f20, f2, f1 = (modes(p)[1:] for p in (0.02, 0.0025, 0.00125))
     assert np.max(np.abs(f2 / f1 - 1)) < 3e-3
-    assert np.all(np.abs(f2 - f1) < 0.5 * np.abs(f20 - f2) + 1e-3 * f1)
-    assert 0.023 < f20[3] / f1[3] - 1 < 0.043
+    assert np.all(np.abs(f2 - f1) < 0.5 * np.abs(f20 - f2))
+    assert 0.023 < f20[2] / f1[2] - 1 < 0.043
