@@ -78,9 +78,9 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     frequency, eps lambda_max / (2 lambda_i) of the full model: docs/plant.md 6),
     preloaded_stuck_hz (only the pairs the screws close), sliding_joint_hz (those, with the
     adaptive screw's pairs sliding, at F_N1 = F_min: ``sliding_joint_hz``), n_dof_full,
-    n_dof_reduced, closed_pairs, k_T_adaptive_N_per_m, contact (k_n, k_t, mu). Without an adaptive screw sliding_joint_hz and k_T_adaptive_N_per_m
-    are None; without an interface contact is None too (and every list of frequencies the same
-    beam's).
+    n_dof_reduced, closed_pairs, k_T_adaptive_N_per_m, contact (k_n, k_t, mu). Without an
+    adaptive screw sliding_joint_hz and k_T_adaptive_N_per_m are None; without an interface
+    contact is None too (and every list of frequencies the same beam's).
     """
     full = build_plant(cfg, reduced=False)
     red = build_plant(cfg, reduced=True)
