@@ -22,7 +22,7 @@ import numpy as np
 
 from plant.impulse import impulse_test
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-from rt.common.config import Config, load, with_sets
+from rt.common.config import Config, load, pitch_sets, with_sets
 
 F_N1 = 100.0
 N_MODES = 9
@@ -30,11 +30,8 @@ N_MODES = 9
 
 def refined(base: Config, sets: list[str], pitch: float) -> Config:
     """``base`` at contact pitch ``pitch`` [m], the same stiffness per unit length of joint."""
-    itf = base.plant.interface
-    s = pitch / itf.pitch_m
-    return load(None, sets + [f"plant.interface.pitch_m={pitch!r}",
-                              f"plant.element_length_m={min(base.plant.element_length_m, pitch, 0.0025)!r}",
-                              f"plant.interface.k_n={itf.k_n * s!r}", f"plant.interface.k_t={itf.k_t * s!r}"])
+    return load(None, sets + pitch_sets(base, pitch)
+                + [f"plant.element_length_m={min(base.plant.element_length_m, pitch, 0.0025)!r}"])
 
 
 def winkler_length(cfg: Config) -> float:

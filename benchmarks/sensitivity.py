@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 from benchmarks.report_diff import cells
 from rt.experiments.claims import TOL_DB
-from rt.common.config import load
+from rt.common.config import load, pitch_sets
 from rt.experiments.reproduce import FULL, QUICK, measure
 from rt.experiments.reproduce_report import jsonable
 
@@ -47,10 +47,7 @@ def _both_screws(key: str, value: float) -> tuple[str, ...]:
 def _cone_resolved(pitch_m: float = 0.01) -> tuple[str, ...]:
     """--set assignments of a pair pitch of pitch_m [m] with the configured stiffness per area
     (k_n, k_t per pair scaled by pitch_m / the configured pitch)."""
-    i = load().plant.interface
-    r = pitch_m / i.pitch_m
-    return (f"plant.interface.pitch_m={pitch_m!r}", f"plant.interface.k_n={i.k_n * r:.4g}",
-            f"plant.interface.k_t={i.k_t * r:.4g}")
+    return tuple(pitch_sets(load(), pitch_m))
 
 
 VARIANTS = (

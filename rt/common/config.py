@@ -572,6 +572,16 @@ def with_sets(cfg: Config, sets: list[str] | tuple[str, ...]) -> Config:
     return _resolve(to_dict(cfg), sets)
 
 
+def pitch_sets(cfg: Config, pitch_m: float) -> list[str]:
+    """--set assignments of a contact pair pitch of pitch_m [m] at ``cfg``'s stiffness per unit
+    length of joint: k_n and k_t per pair x pitch_m / the configured pitch (docs/plant.md 6,
+    "Contact pitch")."""
+    itf = cfg.plant.interface
+    r = pitch_m / itf.pitch_m
+    return [f"plant.interface.pitch_m={pitch_m!r}", f"plant.interface.k_n={itf.k_n * r!r}",
+            f"plant.interface.k_t={itf.k_t * r!r}"]
+
+
 def check_key(cfg: Config, key: str) -> None:
     """Raise ConfigError (naming the allowed keys) if ``key`` is not a field that --set reaches."""
     _apply_set(to_dict(cfg), f"{key}=0")

@@ -39,7 +39,7 @@ import numpy as np
 
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from rt.common.config import Config, require_adaptive_screw, with_sets
+from rt.common.config import Config, pitch_sets, require_adaptive_screw, with_sets
 from rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
                                   measure_impulse, scaled)
 from rt.discrepancy.effects import get
@@ -66,8 +66,7 @@ def model_form(cfg: Config) -> Config:
     density x ``MODEL_FORM_BEAMS[k % 2]`` (so that one scale of E or of the density cannot absorb
     them). Everything else (points, screws, actuator, sensors) is ``cfg``'s."""
     p, itf = cfg.plant, cfg.plant.interface
-    sets = [f"plant.element_length_m={p.element_length_m / 2!r}", f"plant.interface.pitch_m={itf.pitch_m / 2!r}",
-            f"plant.interface.k_n={itf.k_n / 2!r}", f"plant.interface.k_t={itf.k_t / 2!r}",
+    sets = [f"plant.element_length_m={p.element_length_m / 2!r}", *pitch_sets(cfg, itf.pitch_m / 2),
             f"plant.substeps={2 * p.substeps}", f"plant.interface.tau_s={itf.tau_s * MODEL_FORM_TAU!r}"]
     for k, b in enumerate(p.beams):
         f = MODEL_FORM_BEAMS[k % len(MODEL_FORM_BEAMS)]
