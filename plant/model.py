@@ -18,6 +18,7 @@ from plant.contact import _jenkins_pair
 from plant.craig_bampton import craig_bampton
 from plant.newmark import N_ENERGY, PlantParams, PlantWork, _plant_step
 from plant.structure import Structure, build_structure
+from rt.common.blas import check as check_blas
 from rt.common.codegen import check as check_codegen
 from rt.common.config import Config
 
@@ -127,6 +128,7 @@ def _modal_basis(K: np.ndarray, M: np.ndarray, T: np.ndarray) -> tuple[np.ndarra
 def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``)."""
     check_codegen()  # the kernels' fixed code-generation target (rt/common/codegen.py)
+    check_blas()     # the design's OpenBLAS kernels and one thread (rt/common/blas.py)
     reduced = cfg.plant.reduced if reduced is None else reduced
     st = build_structure(cfg)
     T = sla.block_diag(*[craig_bampton(sub.K, sub.M, sub.boundary, cfg.plant.cb_cutoff_hz)[0] if reduced

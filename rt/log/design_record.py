@@ -175,12 +175,14 @@ def compare(rebuilt: dict[str, np.ndarray], logged: dict[str, np.ndarray], parts
 
 
 def environment_changes(meta: dict[str, str]) -> list[str]:
-    """What differs between the set-up that wrote a log (its "versions", "kernels" and "codegen"
-    metadata) and this one: e.g. ["numba 0.68.1 -> 0.69.0", "codegen generic -> znver5"]; empty
+    """What differs between the set-up that wrote a log (its "versions", "kernels", "codegen" and
+    "blas" metadata) and this one: e.g. ["numba 0.68.1 -> 0.69.0", "codegen generic -> znver5",
+    "BLAS Haswell x 1 -> SkylakeX x 2"]; empty
     when all agree or the log records none. Bit-exactness is promised only without changes
     (docs/determinism.md)."""
     import json
 
+    from rt.common.blas import state as blas_state
     from rt.common.codegen import compiled_target
     from rt.common.jit_cache import source_hash
     from rt.log.writer import package_versions
@@ -188,8 +190,9 @@ def environment_changes(meta: dict[str, str]) -> list[str]:
     try:
         then = json.loads(meta.get("versions", "{}"))
         target = json.loads(meta["codegen"]) if "codegen" in meta else None
+        blas = json.loads(meta["blas"]) if "blas" in meta else None
     except ValueError:
-        return ["the log's versions or codegen record is unreadable"]
+        return ["the log's versions, codegen or blas record is unreadable"]
     now = package_versions()
     for name in ("python", "numpy", "numba", "llvmlite", "scipy", "control"):
         if isinstance(then, dict) and name in then and then[name] != now.get(name):
@@ -200,6 +203,12 @@ def environment_changes(meta: dict[str, str]) -> list[str]:
         cur = compiled_target()
         if (target.get("cpu"), target.get("features")) != (cur["cpu"], cur["features"]):
             out.append(f"codegen {target.get('cpu')} -> {cur['cpu']}")
+    if isinstance(blas, list):
+        def kernels(libs):
+            return ", ".join(sorted({f"{d.get('kernels') or '?'} x {d.get('threads')}" for d in libs
+                                     if isinstance(d, dict)}))
+        if kernels(blas) != kernels(blas_state()):
+            out.append(f"BLAS {kernels(blas)} -> {kernels(blas_state())}")
     return out
 
 

@@ -527,11 +527,13 @@ def package_versions() -> dict[str, str]:
 def run_metadata(cfg, law: str, estimator: str, seed: int, freq_hz: float, amp_n: float, duration_s: float,
                  paced: bool, argv: list[str] | None = None, start_tick: int = 0) -> dict[str, str]:
     """The "frictionrt" metadata record of a run (all strings; floats as repr, exact)."""
+    from rt.common.blas import state as blas_state
     from rt.common.codegen import compiled_target
     from rt.common.config import dumps
     from rt.common.jit_cache import source_hash
     return {"config": dumps(cfg), "versions": json.dumps(package_versions()),
-            "codegen": json.dumps(compiled_target()), "kernels": source_hash(), "seed": str(seed), "law": law,
+            "codegen": json.dumps(compiled_target()), "blas": json.dumps(blas_state()), "kernels": source_hash(),
+            "seed": str(seed), "law": law,
             "estimator": estimator, "freq_hz": repr(float(freq_hz)), "amp_n": repr(float(amp_n)),
             "duration_s": repr(float(duration_s)), "paced": str(bool(paced)).lower(),
             "start_tick": str(int(start_tick)),
