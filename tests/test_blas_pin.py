@@ -86,3 +86,9 @@ def test_replay_names_another_blas():
     assert any(c.startswith("BLAS SkylakeX x 2 -> ") for c in changes), changes
     assert environment_changes({"blas": json.dumps(now)}) == []
     assert environment_changes({"blas": "{"}) == ["the log's versions, codegen or blas record is unreadable"]
+
+
+def test_a_run_log_records_the_blas_it_ran_on(cfg):
+    from rt.log.writer import run_metadata
+    meta = run_metadata(cfg, "passive", "oracle", 1, 200.0, 5.0, 0.1, False)
+    assert json.loads(meta["blas"]) == blas.state() != []
