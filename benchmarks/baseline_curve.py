@@ -34,6 +34,7 @@ from rt.experiments.claims import TOL_DB
 from rt.common.config import load
 from rt.experiments.reproduce import FULL, QUICK, measure, peak
 from rt.experiments.reproduce_report import jsonable
+from benchmarks.entry import run_main
 
 # constant F_N1 [N] besides the configured F_passive_N (F_min = 40 N): from F_min to F_max = 600 N,
 # roughly log-spaced (ratios 1.3..2), denser where the earlier plant had its minima (120..320 N)
@@ -188,4 +189,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -40,6 +40,7 @@ from plant.harmonic_frf import harmonic_accelerances, harmonic_system
 from rt.common.config import load
 from rt.experiments.stepsine import mode_bands_hz
 from rt.loop import build_loop
+from benchmarks.entry import run_main
 
 N_DF, N_AFT, MOVES = 301, 17, 3
 
@@ -127,4 +128,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -19,6 +19,7 @@ import numpy as np
 from plant.impulse import impulse_test
 from plant.model import build_plant
 from rt.common.config import load
+from benchmarks.entry import run_main
 
 MINDLIN = 2 * (1 - 0.3) / (2 - 0.3)   # k_t / k_n for nu = 0.3
 F_N1 = 100.0
@@ -55,4 +56,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

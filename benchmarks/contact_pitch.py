@@ -23,6 +23,7 @@ import numpy as np
 from plant.impulse import impulse_test
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.common.config import Config, load, pitch_sets, with_sets
+from benchmarks.entry import run_main
 
 F_N1 = 100.0
 N_MODES = 9
@@ -74,4 +75,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -19,6 +19,7 @@ from plant.impulse import hammer_force
 from plant.model import build_plant
 from plant.simulate import run
 from rt.common.config import load
+from benchmarks.entry import run_main
 
 K_N = (2e8, 1e9, 1e10)
 F_N1 = (40.0, 100.0, 600.0)
@@ -71,4 +72,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

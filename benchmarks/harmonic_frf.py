@@ -27,6 +27,7 @@ from plant.harmonic_frf import harmonic_accelerances, harmonic_system
 from rt.common.config import load
 from rt.experiments.stepsine import Settle, sweep
 from rt.loop import build_loop
+from benchmarks.entry import run_main
 
 METHODS = (("df", 1), ("aft", 1), ("aft", 3))
 
@@ -135,4 +136,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

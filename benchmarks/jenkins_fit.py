@@ -21,6 +21,7 @@ import numpy as np
 from plant.structure import adaptive_cone_pairs
 from rt.common.config import load
 from rt.loop import build_loop, run
+from benchmarks.entry import run_main
 
 
 def loop_fit(u: np.ndarray, F: np.ndarray) -> dict:
@@ -83,4 +84,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -18,6 +18,7 @@ from multiprocessing import Pool
 from plant.modes import passive_resonance_hz
 from rt.common.config import load
 from rt.loop import build_loop, run, summary
+from benchmarks.entry import run_main
 
 AMP_N = 5.0
 
@@ -67,4 +68,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -17,6 +17,7 @@ import numpy as np
 
 from rt.common.config import load
 from rt.loop import build_loop, run
+from benchmarks.entry import run_main
 
 HARMONICS = 10      # the excitation frequency and its first 9 harmonics
 BAND = 0.05         # +-5 % around each
@@ -90,4 +91,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

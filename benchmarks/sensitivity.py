@@ -29,6 +29,7 @@ from rt.experiments.claims import TOL_DB
 from rt.common.config import load, pitch_sets
 from rt.experiments.reproduce import FULL, QUICK, measure
 from rt.experiments.reproduce_report import jsonable
+from benchmarks.entry import run_main
 
 
 class Variant(NamedTuple):
@@ -173,4 +174,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)
