@@ -5,7 +5,8 @@ import math
 
 import pytest
 
-from benchmarks.baseline_curve import baseline, one_minimum, plot
+from benchmarks.baseline_curve import baseline, main, one_minimum, plot
+from benchmarks.entry import run_main
 from rt.experiments.reproduce import Plan, measure
 from rt.experiments.stepsine import Settle
 
@@ -87,3 +88,11 @@ def test_the_harmonic_balance_peak_of_a_stuck_joint_is_the_linear_peak(cfg):
     k = int(np.argmax(H))
     assert p["converged"] and not p["at_band_edge"]
     assert p["H_abs"] == pytest.approx(H[k], rel=5e-3) and p["peak_hz"] == pytest.approx(f[k], rel=2e-4)
+
+
+def test_a_bad_set_is_one_line_and_exit_2(capsys):
+    with pytest.raises(SystemExit) as end:
+        run_main(lambda: main(["--set", "plant.interface.pitch_m=0.005"]))
+    assert end.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "plant.interface.pitch_m=0.005" in err[0] and "element_length_m" in err[0], err
