@@ -20,8 +20,10 @@ demo: $(STAMP)
 	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 --plot logs/compare_laws.png --force
 	$(BIN)/frictionrt reproduce --quick --out logs/reproduce_quick --force
 
+# two workers for the suite, then the timing tests alone (pyproject.toml, marker `timing`)
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing"
+	$(BIN)/python -m pytest -q -m timing
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/plant.py

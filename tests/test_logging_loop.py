@@ -172,6 +172,7 @@ def test_offline_writer_follows_and_drops_nothing_even_when_slow(loop):
     np.testing.assert_array_equal(got[:, keep].view(np.uint64), ref[:, keep].view(np.uint64))
 
 
+@pytest.mark.timing
 def test_paced_slow_writer_drops_whole_blocks_and_counts_them(loop):
     """A writer 3x slower than real time on a paced run: the loop never waits (its ticks all
     run), blocks more than the ring span behind are skipped and counted, the rest is written."""

@@ -20,6 +20,7 @@ def loops():
     return {law: build_loop(cfg, law) for law in ("passive", "hysteresis", "lyapunov")}
 
 
+@pytest.mark.timing
 def test_timing_budget_per_component_and_tick(loops):
     # robust on a shared 2-core machine: the median tick far below the budget (a quarter),
     # its p99 below the budget; every component's median below a tenth. The tight figures

@@ -124,6 +124,7 @@ def test_compiled_step_equals_python_control_simulation(design):
         assert np.max(np.abs(Y[i] - ref.outputs[i])) <= 1e-9 * scale, f"output {i}"
 
 
+@pytest.mark.timing
 def test_observer_timing_share_of_the_budget():
     # robust: the estimator's median well inside a tenth of the budget (target 0.2 us lives in
     # `frictionrt budget`); the whole tick's median still far below the budget

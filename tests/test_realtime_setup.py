@@ -37,6 +37,7 @@ def test_next_deadline_skips_whole_periods_and_counts_them():
     assert clk[CLK_DEADLINE] == 1_000_000 + 5 * PERIOD and clk[CLK_DEADLINE] > t_end
 
 
+@pytest.mark.timing
 def test_wait_sleeps_until_the_margin_then_spins_to_the_deadline():
     # 20 ms ahead, 2 ms margin: the wait ends at or after the deadline, and the thread spends
     # about the margin on the CPU, not the 20 ms (thread CPU time; a pure spin spends all of it)

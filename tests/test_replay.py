@@ -95,6 +95,7 @@ def _sensors_only_file(path, rec):
     return path
 
 
+@pytest.mark.timing
 def test_paced_replay_takes_real_time_and_stays_bit_exact(logs, capsys):
     code, r, _ = replay(capsys, logs["oracle"], "--paced")
     assert code == 0 and r["paced"] and r["bit_exact"] is True

@@ -120,6 +120,7 @@ def test_fault_detected_passive_finite_and_no_worse_than_passive(cfg, loops, pas
     assert ratio <= 1 + MARGIN
 
 
+@pytest.mark.timing
 def test_cpu_stall_is_an_overrun_burst_in_paced_mode(cfg, loops, passive, capsys):
     """60 us of busy delay per tick (> the 47.6 us period): every tick overruns; the burst check
     (overrun_count = 50 within 10 ms) trips on the 50th, one tick after it is known."""
