@@ -41,9 +41,10 @@ def sliding_joint_hz(model: PlantModel, F_N1: float | None = None) -> np.ndarray
     """Eigenfrequencies [Hz] of the preloaded model (closed pairs stuck) with the pairs in the
     adaptive screw's pressure cone free to slide (no tangential stiffness): the linear picture of
     the passive damper, where the joint at the adaptive screw slips through most of each cycle.
-    The passive step-sine resonances lie near these (mode 3: 205.1 against 201.5 Hz at 5 N; mode
-    4: 380.1 against 374.2 Hz), which is how tests and the demo place their excitation from the
-    plant's own modes. Rigid-body modes excluded."""
+    The passive step-sine resonances lie 1-2.5 % below these (mode 3: 205.2 against 200.55 Hz at
+    5 N; mode 4: 380.1 against 374.36 Hz; docs/plant.md 9), which is how tests and benchmarks place
+    their excitation from the plant's own modes; ``frictionrt compare --mode`` finds the step-sine
+    peak itself (docs/loop.md). Rigid-body modes excluded."""
     cone = adaptive_cone_pairs(model.cfg, model.structure.x_pairs)
     p = model.params
     closed = preloaded_pairs(model, F_N1)

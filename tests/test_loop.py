@@ -11,7 +11,7 @@ from rt.log.mcap_log import read_mcap
 from rt.log.writer import BLOCK_TICKS
 
 BUDGET_US = 1e6 / 21000
-F3, AMP = 223.6, 5.0  # mode-3 resonance (preloaded, linearised) and a moderate force
+F3, AMP = 223.6, 5.0  # an excitation near mode 3 and a moderate force (the physics tests place their own)
 
 
 @pytest.fixture(scope="module")
@@ -138,6 +138,27 @@ def test_compare_cli_table_and_plot(tmp_path, capsys):
     assert code == 0 and [r["law"] for r in rows] == ["passive", "hysteresis", "lyapunov"]
     assert rows[0]["reduction_pct"] == 0.0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_compare_places_the_laws_at_the_passive_step_sine_peak():
+    """compare --mode finds the passive resonance by step-sine (passive_peak_hz), not at the linear
+    picture of the sliding joint 1.8 % above it. Measured at 5 N, mode 3: |H| 6.64 at 201.64 Hz,
+    6.52 / 5.05 at -/+1 %, 3.87 at the linear 205.2 Hz; there the hysteresis law came out 6.5 %
+    above passive, at the peak it is 31 % below and Lyapunov 56 % (docs/loop.md)."""
+    from plant.modes import passive_resonance_hz
+    from rt.experiments.compare import compare, passive_peak_hz, table
+    from rt.experiments.reproduce import QUICK
+    from rt.experiments.stepsine import sweep
+    cfg = load()
+    f = passive_peak_hz(cfg, 3, AMP)
+    passive = build_loop(cfg, "passive")
+    H = {x: sweep(passive, [x], AMP, settle=QUICK.settle).H_abs[0]
+         for x in (0.99 * f, f, 1.01 * f, passive_resonance_hz(cfg, 3))}
+    h_minus, h_peak, h_plus, h_linear = H.values()
+    assert h_peak > 0.95 * max(h_minus, h_plus)   # the top, to the refinement's resolution
+    assert h_peak > 1.4 * h_linear
+    rows = table(compare(cfg, f, AMP, 1.0))
+    assert 15 < rows[1]["reduction_pct"] < rows[2]["reduction_pct"]
 
 
 def test_bench_loop_against_python_control(capsys):

@@ -122,8 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
     fm = q.add_mutually_exclusive_group()
     fm.add_argument("--freq", type=float, metavar="HZ", help="excitation frequency [Hz]")
     fm.add_argument("--mode", type=int, metavar="M", default=3,
-                    help="excite at the passive resonance of mode M, from the model's own modes (the "
-                         "adaptive joint sliding, plant.modes.passive_resonance_hz; default 3)")
+                    help="excite at the passive resonance of mode M at --amp, found by a short passive "
+                         "step-sine as reproduce --quick finds its peaks (~1-2 s; "
+                         "rt.experiments.compare.passive_peak_hz; default 3)")
     q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
     q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
     q.add_argument("--plot", metavar="FILE", help="write the time histories here (PNG)")
@@ -394,12 +395,14 @@ def _cmd_compare(cfg, args) -> int:
             return fail(f"--plot {out}: give a .png file in an existing folder")
         if msg := refuse_existing([out], args.force, "--plot"):
             return fail(msg)
-    if args.freq is None:
-        from plant.modes import passive_resonance_hz
-        if not 1 <= args.mode <= 9:
-            return fail(f"--mode {args.mode}: give a bending mode 1..9")
-        args.freq = passive_resonance_hz(cfg, args.mode)
+    if args.freq is None and not 1 <= args.mode <= 9:
+        return fail(f"--mode {args.mode}: give a bending mode 1..9")
     try:
+        if args.freq is None:
+            from rt.experiments.compare import passive_peak_hz
+            check_run_input(build_loop(cfg, "passive"), 1.0, args.amp, args.duration)
+            with tqdm(unit="point", disable=args.json, desc=f"passive peak of mode {args.mode}") as bar:
+                args.freq = round(passive_peak_hz(cfg, args.mode, args.amp, progress=bar.update), 2)
         n = check_run_input(build_loop(cfg, "passive"), args.freq, args.amp, args.duration)
         with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:
             runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update)
