@@ -140,6 +140,13 @@ def test_compare_cli_table_and_plot(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_compare_refuses_a_zero_force_in_one_line(capsys):
+    # its table is relative to the passive response, which 0 N leaves at 0 (it printed +4e9 %)
+    assert main(["compare", "--amp", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--amp 0 N" in err[0] and "> 0 N" in err[0]
+
+
 def test_compare_places_the_laws_at_the_passive_step_sine_peak():
     """compare --mode finds the passive resonance by step-sine (passive_peak_hz), not at the linear
     picture of the sliding joint 1.8 % above it. Measured at 5 N, mode 3: |H| 6.64 at 201.64 Hz,

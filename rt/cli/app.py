@@ -397,6 +397,8 @@ def _cmd_compare(cfg, args) -> int:
             return fail(msg)
     if args.freq is None and not 1 <= args.mode <= 9:
         return fail(f"--mode {args.mode}: give a bending mode 1..9")
+    if not args.amp > 0:   # the table is relative to the passive response, which 0 N leaves at 0
+        return fail(f"--amp {args.amp:g} N: compare needs a finite force > 0 N, e.g. --amp 5")
     try:
         if args.freq is None:
             from rt.experiments.compare import passive_peak_hz
