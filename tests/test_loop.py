@@ -157,8 +157,8 @@ def test_compare_places_the_laws_at_the_passive_step_sine_peak():
     from rt.experiments.reproduce import QUICK
     from rt.experiments.stepsine import sweep
     cfg = load()
-    f = passive_peak_hz(cfg, 3, AMP)
     passive = build_loop(cfg, "passive")
+    f = passive_peak_hz(passive, 3, AMP)
     H = {x: sweep(passive, [x], AMP, settle=QUICK.settle).H_abs[0]
          for x in (0.99 * f, f, 1.01 * f, passive_resonance_hz(cfg, 3))}
     h_minus, h_peak, h_plus, h_linear = H.values()

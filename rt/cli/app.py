@@ -400,12 +400,13 @@ def _cmd_compare(cfg, args) -> int:
     if not args.amp > 0:   # the table is relative to the passive response, which 0 N leaves at 0
         return fail(f"--amp {args.amp:g} N: compare needs a finite force > 0 N, e.g. --amp 5")
     try:
+        passive = build_loop(cfg, "passive")
         if args.freq is None:
             from rt.experiments.compare import passive_peak_hz
-            check_run_input(build_loop(cfg, "passive"), 1.0, args.amp, args.duration)
+            check_run_input(passive, 1.0, args.amp, args.duration)  # amplitude and duration before the search
             with tqdm(unit="point", disable=args.json, desc=f"passive peak of mode {args.mode}") as bar:
-                args.freq = round(passive_peak_hz(cfg, args.mode, args.amp, progress=bar.update), 2)
-        n = check_run_input(build_loop(cfg, "passive"), args.freq, args.amp, args.duration)
+                args.freq = round(passive_peak_hz(passive, args.mode, args.amp, progress=bar.update), 2)
+        n = check_run_input(passive, args.freq, args.amp, args.duration)
         with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:
             runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update)
     except ValueError as exc:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rt.common.config import LAWS, Config
-from rt.loop import Run, build_loop, run, summary
+from rt.loop import Loop, Run, build_loop, run, summary
 
 
 def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, progress=None) -> dict[str, Run]:
@@ -12,9 +12,9 @@ def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, progre
     return {law: run(build_loop(cfg, law), freq_hz, amp_n, duration_s, progress=progress) for law in LAWS}
 
 
-def passive_peak_hz(cfg: Config, mode: int, amp_n: float, progress=None) -> float:
-    """The passive step-sine resonance [Hz] of bending mode ``mode`` (1 = first) at the force
-    amplitude amp_n [N], found as ``reproduce --quick`` finds its peaks: a sweep of QUICK.n_points
+def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None) -> float:
+    """The passive step-sine resonance [Hz] of bending mode ``mode`` (1 = first) of a built passive
+    loop at the force amplitude amp_n [N], found as ``reproduce --quick`` finds its peaks: a sweep of QUICK.n_points
     over the mode's band (``mode_bands_hz``, half width ``HALF_WIDTH``, 0.15 for modes outside it),
     then rounds of ``refine_points`` (at most QUICK.refine_rounds), each point settled as QUICK
     settles it. progress(1) after each point.
@@ -26,15 +26,14 @@ def passive_peak_hz(cfg: Config, mode: int, amp_n: float, progress=None) -> floa
     law 6.5 % above passive where at 201.6 Hz it is 31 % below (1 s runs)."""
     from rt.experiments.reproduce import HALF_WIDTH, QUICK, merge, refine_points
     from rt.experiments.stepsine import mode_bands_hz, resonance_grid, sweep
-    lo, hi = mode_bands_hz(cfg, (mode,))[mode]
-    loop = build_loop(cfg, "passive")
-    r = sweep(loop, resonance_grid([0.5 * (lo + hi)], HALF_WIDTH.get(mode, 0.15), QUICK.n_points), amp_n,
+    lo, hi = mode_bands_hz(passive.cfg, (mode,))[mode]
+    r = sweep(passive, resonance_grid([0.5 * (lo + hi)], HALF_WIDTH.get(mode, 0.15), QUICK.n_points), amp_n,
               settle=QUICK.settle, progress=progress)
     for _ in range(QUICK.refine_rounds):
         new = refine_points(r.freq_hz, r.H_abs)
         if not new:
             break
-        r = merge([r, sweep(loop, new, amp_n, settle=QUICK.settle, progress=progress)])
+        r = merge([r, sweep(passive, new, amp_n, settle=QUICK.settle, progress=progress)])
     return float(r.freq_hz[int(np.argmax(r.H_abs))])
 
 
