@@ -122,9 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
     fm = q.add_mutually_exclusive_group()
     fm.add_argument("--freq", type=float, metavar="HZ", help="excitation frequency [Hz]")
     fm.add_argument("--mode", type=int, metavar="M", default=3,
-                    help="excite at the passive resonance of mode M at --amp, found by a short passive "
-                         "step-sine as reproduce --quick finds its peaks (~1-2 s; "
-                         "rt.experiments.compare.passive_peak_hz; default 3)")
+                    help="excite at the passive resonance of mode M at --amp, found by a short passive step-sine "
+                         "as reproduce --quick finds its peaks (~1-2 s; compare.passive_peak_hz; default 3)")
     q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
     q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
     q.add_argument("--plot", metavar="FILE", help="write the time histories here (PNG)")
