@@ -8,9 +8,10 @@ seconds), then the confusion matrix: hidden effect (rows) against named
 effect (columns), counts over seeds and strengths.
 
     .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0] [--effects A,B] [--jobs N] [--stepsine]
-        [--model-form] [--frf-files]
+        [--model-form [PARTS]] [--frf-files]
 
---model-form: the truth of another model form (rig --model-form, rt.discrepancy.rig.model_form); the
+--model-form: the truth of another model form (rig --model-form, rt.discrepancy.rig.model_form; PARTS
+a comma-separated subset of mesh,pitch,substeps,damping,beams, default all); the
 table then also gives the gap's budget (rt.discrepancy.remainder: calibration / effect / remainder
 shares of the excess RSS, and whether the remainder dominates). --frf-files: linear FRF-file campaigns
 (rig --frf-files) of the structural effects they can show, diagnosed by rt.discrepancy.diagnose_frf.
@@ -30,11 +31,11 @@ from joblib import Parallel, delayed
 from rt.discrepancy.diagnose import diagnose
 from rt.discrepancy.diagnose_frf import diagnose_frf
 from rt.discrepancy.effects import get, implemented
-from rt.discrepancy.rig import make_campaign
+from rt.discrepancy.rig import make_campaign, model_form_parts
 from rt.discrepancy.rig_frf import make_frf_campaign
 
 
-def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool, other_form: bool,
+def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool, other_form: tuple[str, ...],
          frf_files: bool) -> tuple[dict, float]:
     """(diagnose result, seconds) of one hidden case."""
     t0 = time.perf_counter()
@@ -61,12 +62,18 @@ def row(seed: int, name: str, s: float | None, r: dict, secs: float) -> str:
     gb, ga = r["gap_before"], r["gap_after"]
     act = (f"{gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}" if gb.get("actuator_nrmse") is not None else "")
     ss = f"{gb['stepsine_ratio_db']:.2f} -> {ga['stepsine_ratio_db']:.2f}" if "stepsine_ratio_db" in gb else ""
+    own = next((c for c in r["ranking"] if c["effect"] == name), None)
+    own = "" if own is None else (f"{own['fitted'][name]:.4g}: {own['delta_bic']:.1f}, "
+                                  f"{100 * own['rss_reduction']:.1f} %")
+    fp = r["fitted_parameters"]
+    cal = " / ".join(f"{fp[k]:.3g}" for k in ("E", "k_t", "mu", "modal_damping", "dispersion") if k in fp)
     b = r["gap_budget"]
     shares = ("" if b["remainder_share"] is None else
               f"{100 * b['calibration_share']:.0f} / {100 * b['effect_share']:.0f} / {100 * b['remainder_share']:.0f}"
               + (" dominates" if b["remainder_dominates"] else ""))
     return (f"| {seed} | {name} | {'' if s is None else f'{s:g}'} | {named or '-'} | {fitted} | "
-            f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {r['runner_up']} | "
+            f"{top['effect']}: {top['delta_bic']:.1f}, {100 * top['rss_reduction']:.1f} % | {own} | {cal} | "
+            f"{r['runner_up']} | "
             f"{gb['structure_frf_db']:.2f} -> {ga['structure_frf_db']:.2f} | {act} | {ss} | {shares} | {secs:.0f} |")
 
 
@@ -85,22 +92,29 @@ def main() -> None:
     ap.add_argument("--effects", help="comma-separated effect names (default: every implemented effect)")
     ap.add_argument("--jobs", type=int, default=1, help="campaigns diagnosed in parallel processes")
     ap.add_argument("--stepsine", action="store_true", help="step-sine tests in every campaign")
-    ap.add_argument("--model-form", action="store_true", help="the truth of another model form (rig --model-form)")
+    ap.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
+                    help="the truth of another model form (rig --model-form): all, or a comma-separated subset of "
+                    "mesh,pitch,substeps,damping,beams")
     ap.add_argument("--frf-files", action="store_true", help="linear FRF-file campaigns (rig --frf-files)")
     args = ap.parse_args()
+    try:
+        form = () if args.model_form is None else model_form_parts(args.model_form)
+    except ValueError as exc:
+        ap.error(f"--model-form: {exc}")
     effects = [get(n) for n in args.effects.split(",")] if args.effects else implemented()
     if args.frf_files:
         effects = [e for e in effects if e.visible_in_frf_files()]
     cases = [("none", None)] + [(e.name, e.nominal + f * (e.parameter.default - e.nominal))
                                 for e in effects for f in (1.0, 0.5)]
-    print("| seed | hidden effect | strength | named | fitted (error) | best: dBIC, RSS reduction | runner-up | "
+    print("| seed | hidden effect | strength | named | fitted (error) | best: dBIC, RSS reduction | "
+          "hidden effect's own fit: strength, dBIC, RSS reduction | E / k_t / mu / damping / dispersion | runner-up | "
           "FRF gap [dB] before -> after | actuator NRMSE before -> after | step-sine F_amp/drive gap [dB] | "
           "calibration / effect / remainder [%] | s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
+    print("| --- |" + " --- |" * 13, flush=True)
     todo = [(seed, name, s) for seed in args.seeds for name, s in cases]
     named = Counter()
     runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s, args.stepsine,
-                                                                            args.model_form, args.frf_files)
+                                                                            form, args.frf_files)
                                                               for c in todo)
     for (seed, name, s), (r, secs) in zip(todo, runs):
         print(row(seed, name, s, r, secs), flush=True)

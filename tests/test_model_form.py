@@ -10,9 +10,9 @@ import pytest
 from plant.linear_frf import point_accelerances
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.cli import main
-from rt.common.config import Config, with_sets
+from rt.common.config import Config, to_dict, with_sets
 from rt.discrepancy.diagnose_frf import diagnose_frf
-from rt.discrepancy.rig import model_form
+from rt.discrepancy.rig import MODEL_FORM_PARTS, model_form
 from rt.discrepancy.rig_frf import make_frf_campaign, sensor_points
 from rt.discrepancy.rig_levels import sweep_level
 
@@ -41,6 +41,47 @@ def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
     shift = np.log(_stuck_hz(true) / _stuck_hz(nominal))
     rest = shift - shift.mean()             # the best single frequency scale (E) removes the mean log shift
     assert 0.01 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
+
+
+def _changed(a: Config, b: Config) -> set[str]:
+    """Dotted keys (list items by name) whose values differ between two configurations."""
+    def flat(d, pre=""):
+        out = {}
+        for k, v in d.items():
+            if isinstance(v, dict):
+                out |= flat(v, f"{pre}{k}.")
+            elif isinstance(v, list) and v and isinstance(v[0], dict):
+                for i, x in enumerate(v):
+                    out |= flat(x, f"{pre}{k}.{x.get('name', i)}.")
+            else:
+                out[pre + k] = v
+        return out
+    fa, fb = flat(to_dict(a)), flat(to_dict(b))
+    return {k for k in fa if fa[k] != fb[k]}
+
+
+def test_each_model_form_part_changes_its_own_keys_and_they_make_the_whole(nominal):
+    """``rig --model-form PARTS`` takes parts of the other form alone (docs/discrepancy.md, "Which part
+    of the model form hides an effect"): each part changes exactly its keys, and the parts applied one
+    after another give the whole form, bit for bit."""
+    beams = {f"plant.beams.{b.name}.{k}" for b in nominal.plant.beams for k in ("height_m", "rho")}
+    own = {"mesh": {"plant.element_length_m"},
+           "pitch": {"plant.interface.pitch_m", "plant.interface.k_n", "plant.interface.k_t"},
+           "substeps": {"plant.substeps"}, "damping": {"plant.interface.tau_s"}, "beams": beams}
+    assert set(own) == set(MODEL_FORM_PARTS)
+    cfg = nominal
+    for part in MODEL_FORM_PARTS:
+        assert _changed(model_form(nominal, (part,)), nominal) == own[part], part
+        cfg = model_form(cfg, (part,))
+    assert to_dict(cfg) == to_dict(model_form(nominal))
+
+
+def test_model_form_parts_are_checked(tmp_path, capsys):
+    """A part that does not exist: one line naming it and the choices, exit 2, no folder."""
+    assert main(["rig", "--effect", "none", "--model-form", "pich,mesh", "-o", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "'pich'" in err and "mesh, pitch, substeps, damping, beams" in err and "\n" not in err, err
+    assert not (tmp_path / "x").exists()
 
 
 def test_a_stuck_level_is_the_linear_frf(nominal):
@@ -95,7 +136,7 @@ def test_the_report_says_when_the_model_form_dominates(tmp_path, capsys):
     """A clean campaign of the other model form: nothing named, and the budget says that the remainder
     dominates (measured, seed 3: calibration 65 %, remainder 35 % of the excess RSS, final weighted rms
     36 against the noise's 1) and lists the modes the final model misses by more than 0.3 %."""
-    folder = make_frf_campaign(tmp_path / "c", "none", seed=3, other_form=True)[0].parent
+    folder = make_frf_campaign(tmp_path / "c", "none", seed=3, other_form=MODEL_FORM_PARTS)[0].parent
     assert main(["diagnose", str(folder), "--json", "--out", str(tmp_path / "r")]) == 0
     res = json.loads(capsys.readouterr().out)
     b = res["gap_budget"]

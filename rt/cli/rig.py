@@ -31,7 +31,9 @@ modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.
 --force-scale S the levels are drive voltages [V] of a shaker without force transducer.
 --model-form: the truth is of another model form than the nominal (half the element length and
 contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
-so that no calibration of the nominal model fits it exactly, as with a real structure."""
+so that no calibration of the nominal model fits it exactly, as with a real structure;
+--model-form PARTS takes only these of its parts (mesh, pitch, substeps, damping, beams), to find
+which part hides an effect (docs/discrepancy.md, "Which part of the model form hides an effect")."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
@@ -43,7 +45,8 @@ EXAMPLES = """examples:
   frictionrt rig --effect moving_mass --frf-files --quantity mobility --force-scale 0.37 -o logs/frf_volt
 
   frictionrt rig --effect micro_slip --frf-files --levels 0.5,1,2,5,10,20 -o logs/frf_levels
-  frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form"""
+  frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form
+  frictionrt rig --effect micro_slip --model-form damping,beams -o logs/campaign_form2"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -70,9 +73,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] (drive voltages [V] with --force-scale) of stepped-sine "
                    "tests of the nonlinear plant, one file per level (rt/discrepancy/rig_levels.py), instead of "
                    "the linear FRFs at three F_N1")
-    p.add_argument("--model-form", action="store_true", help="the truth of another model form: finer mesh and "
-                   "contact pitch, substeps, other interface damping, beams not copies of the nominal's "
-                   "(rt.discrepancy.rig.model_form)")
+    p.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
+                   help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
+                   "damping, beams not copies of the nominal's (rt.discrepancy.rig.model_form); PARTS: all "
+                   "(default) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
     add_out(p, "DIR", "new campaign folder (must not exist or be empty: a campaign is never replaced, no --force)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
@@ -124,22 +128,26 @@ def cmd_rig(cfg, args) -> int:
             levels = parse_list(args.levels, float, "rig --levels", "0.5,1,2,5")
         except ValueError as exc:
             return fail(str(exc))
-    from rt.discrepancy.rig import make_campaign
+    from rt.discrepancy.rig import make_campaign, model_form_parts
+    try:
+        form = () if args.model_form is None else model_form_parts(args.model_form)
+    except ValueError as exc:
+        return fail(f"rig --model-form: {exc}")
     from rt.discrepancy.rig_frf import make_frf_campaign
     from rt.discrepancy.rig_levels import make_level_campaign
     try:
         if levels is not None:
             files = make_level_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                        force_levels_n=levels, other_form=args.model_form,
+                                        force_levels_n=levels, other_form=form,
                                         force_scale_N_per_V=args.force_scale,
                                         progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
         elif args.frf_files:
             files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
                                       quantity=args.quantity, force_scale_N_per_V=args.force_scale,
-                                      other_form=args.model_form)
+                                      other_form=form)
         else:
             files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                  record_s=args.record_s, stepsine=args.stepsine, other_form=args.model_form)
+                                  record_s=args.record_s, stepsine=args.stepsine, other_form=form)
     except ValueError as exc:
         return fail(f"rig -o: {exc}")
     if args.json:

@@ -56,21 +56,45 @@ SCATTER = {"E": 0.02, "mu": 0.05, "k_t": 0.05, "modal_damping": 0.10, "c_v": 0.0
 """Relative standard deviation of the nominal parameters from campaign to campaign."""
 MODEL_FORM_BEAMS = (1.005, 0.995)     # beam k's height and density x these in turn (cycled over the beams)
 MODEL_FORM_TAU = 2.0                  # interface dashpot time constant x this
+MODEL_FORM_PARTS = ("mesh", "pitch", "substeps", "damping", "beams")
+"""The parts of ``model_form``, each selectable alone (``rig --model-form PARTS``)."""
 
 
-def model_form(cfg: Config) -> Config:
+def model_form_parts(text: str) -> tuple[str, ...]:
+    """The parts named by ``text`` ("all" or a comma-separated subset of ``MODEL_FORM_PARTS``).
+    ValueError naming an unknown part and the choices."""
+    if text.strip() == "all":
+        return MODEL_FORM_PARTS
+    parts = tuple(dict.fromkeys(t.strip() for t in text.split(",")))
+    bad = [t for t in parts if t not in MODEL_FORM_PARTS]
+    if bad or not parts:
+        raise ValueError(f"model form part {(bad or [text])[0]!r} is not one of {', '.join(MODEL_FORM_PARTS)}; "
+                         "give all or a comma-separated subset, e.g. substeps,pitch")
+    return parts
+
+
+def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS) -> Config:
     """A truth of another model form than ``cfg`` (``rig --model-form``, docs/discrepancy.md "Model
-    form"): half the element length, half the contact pitch with half the stiffness per pair (the
-    same stiffness per unit length of joint; k_n, k_t), two plant substeps, the interface dashpots'
-    tau_s x ``MODEL_FORM_TAU``, and beams that are not the nominal's copies: beam k's height and
+    form"), made of ``parts`` (``MODEL_FORM_PARTS``): "mesh" half the element length, "pitch" half
+    the contact pitch with half the stiffness per pair (the same stiffness per unit length of joint;
+    k_n, k_t), "substeps" two plant substeps per one of ``cfg``'s, "damping" the interface dashpots'
+    tau_s x ``MODEL_FORM_TAU``, "beams" beams that are not the nominal's copies: beam k's height and
     density x ``MODEL_FORM_BEAMS[k % 2]`` (so that one scale of E or of the density cannot absorb
     them). Everything else (points, screws, actuator, sensors) is ``cfg``'s."""
     p, itf = cfg.plant, cfg.plant.interface
-    sets = [f"plant.element_length_m={p.element_length_m / 2!r}", *pitch_sets(cfg, itf.pitch_m / 2),
-            f"plant.substeps={2 * p.substeps}", f"plant.interface.tau_s={itf.tau_s * MODEL_FORM_TAU!r}"]
-    for k, b in enumerate(p.beams):
-        f = MODEL_FORM_BEAMS[k % len(MODEL_FORM_BEAMS)]
-        sets += [f"plant.beams.{b.name}.height_m={b.height_m * f!r}", f"plant.beams.{b.name}.rho={b.rho * f!r}"]
+    sets = []
+    if "mesh" in parts:
+        sets.append(f"plant.element_length_m={p.element_length_m / 2!r}")
+    if "pitch" in parts:
+        sets += pitch_sets(cfg, itf.pitch_m / 2)
+    if "substeps" in parts:
+        sets.append(f"plant.substeps={2 * p.substeps}")
+    if "damping" in parts:
+        sets.append(f"plant.interface.tau_s={itf.tau_s * MODEL_FORM_TAU!r}")
+    if "beams" in parts:
+        for k, b in enumerate(p.beams):
+            f = MODEL_FORM_BEAMS[k % len(MODEL_FORM_BEAMS)]
+            sets += [f"plant.beams.{b.name}.height_m={b.height_m * f!r}", f"plant.beams.{b.name}.rho={b.rho * f!r}"]
     return with_sets(cfg, sets)
 
 
@@ -112,14 +136,14 @@ def write_measurement(path: Path, cfg: Config, columns: dict[str, np.ndarray], t
 
 def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None, seed: int = 0,
                   cfg: Config | None = None, record_s: float = 1.0, levels_n=FN1_LEVELS_N,
-                  ramps_s=RAMPS_S, stepsine: bool = False, other_form: bool = False) -> list[Path]:
+                  ramps_s=RAMPS_S, stepsine: bool = False, other_form: tuple[str, ...] = ()) -> list[Path]:
     """Write a campaign into the new folder ``out_dir`` (written as a temporary folder beside it,
     then renamed: never half a campaign). ``effect``: a name of rt.discrepancy.effects or "none";
     ``strength`` [the effect's unit] defaults to its moderate strength. Returns the files written.
     ValueError for an unknown or unimplemented effect, a strength out of bounds, or an existing
     non-empty ``out_dir``, or an effect that shows only in step-sine tests without ``stepsine``.
     ``stepsine``: also the step-sine FRF tests of rt.discrepancy.rig_stepsine (CSV + sidecar);
-    ``other_form``: the truth of another model form (``model_form``)."""
+    ``other_form``: the truth of another model form made of these parts (``model_form``; () the nominal's)."""
     if effect != "none" and get(effect).channel == "stepsine" and not stepsine:
         raise ValueError(f"effect {effect!r} shows only in step-sine tests (the shaker's force ratio); add --stepsine")
     rng = np.random.default_rng(seed)
@@ -160,12 +184,12 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
 
 
 def true_structure(cfg: Config | None, effect: str, strength: float | None, rng: np.random.Generator,
-                   other_form: bool = False) -> Config:
+                   other_form: tuple[str, ...] = ()) -> Config:
     """The campaign's true structure: ``cfg`` (default: the defaults) with one draw of the scatter
     from ``rng`` and the effect (a name of rt.discrepancy.effects or "none") at ``strength`` (default: its
-    moderate strength); of another model form (``model_form``) if ``other_form``."""
+    moderate strength); of another model form made of the parts ``other_form`` (``model_form``), if any."""
     nominal = cfg if cfg is not None else with_sets(Config(), [])
-    true = scaled(model_form(nominal) if other_form else nominal, scatter_sets(rng))
+    true = scaled(model_form(nominal, other_form) if other_form else nominal, scatter_sets(rng))
     if effect != "none":
         eff = get(effect)
         true = eff.apply(true, eff.parameter.default if strength is None else strength)

@@ -76,7 +76,8 @@ def frf_meta(cfg: Config, F_N1: float, description: str, sensors: dict[str, str]
 def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                       seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N, quantity: str = "accelerance",
                       force_scale_N_per_V: float | None = None,
-                      sensors: dict[str, tuple[str, float]] | None = None, other_form: bool = False) -> list[Path]:
+                      sensors: dict[str, tuple[str, float]] | None = None,
+                      other_form: tuple[str, ...] = ()) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed). Arguments as rt.discrepancy.rig.make_campaign; ``quantity`` of the files,
     ``force_scale_N_per_V`` (given: the excitation is a drive voltage, H per volt = s H per
