@@ -1,6 +1,6 @@
 """Convergence of the bolted joint in its contact pitch (docs/plant.md 6, "Contact pitch").
 
-    python -m benchmarks.contact_pitch [--pitches-mm 20 10 5 2.5 1.25] [--set KEY=VALUE ...]
+    python -m benchmarks.contact_pitch [--pitches-mm 20 10 5 2.5 1.25] [--onset] [--set KEY=VALUE ...]
 
 The interface is a row of node-to-node pairs (SPEC 2: default pitch 20 mm). Refining it at the
 same stiffness per unit length of joint (k_n and k_t per pair x pitch / 20 mm, elements no longer
@@ -12,6 +12,13 @@ mode-3 frequency and damping at 100 N (plant.impulse, as benchmarks.calibrate_co
 pressure varies over the Winkler length lambda = (4 EI / k')^(1/4) of a beam on the contact's
 foundation (k' = k_n / pitch per unit length): ~11 mm here, so pitches of 20 and 10 mm do not
 resolve it.
+
+--onset (~13 min more): the joint's slip onset per pitch, what the stuck modes do not show. Stepped
+sines of the nonlinear plant at F_N1 = 300 N (rt.discrepancy.rig_levels.sweep_level: 13 lines over
+0.90-1.02 of the stuck mode 3, phase-continuous up-sweeps) at force amplitudes ``ONSET_LEVELS_N``,
+with and without micro_slip at its default spread: the peak |a_frf / F| [(m/s^2)/N] per level. Where
+every pair sticks the peak is the linear one; the first pairs to slip (the least pressed, at the
+contact's edges) lower it. docs/discrepancy.md, "Which part of the model form hides an effect".
 """
 from __future__ import annotations
 
@@ -23,10 +30,14 @@ import numpy as np
 from plant.impulse import impulse_test
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.common.config import Config, load, pitch_sets, with_sets
+from rt.discrepancy.effects import get
+from rt.discrepancy.rig_levels import sweep_level
 from benchmarks.entry import run_main
 
 F_N1 = 100.0
 N_MODES = 9
+ONSET_F_N1 = 300.0                       # [N] the rig's stuck impulse test's bolt force
+ONSET_LEVELS_N = (0.05, 0.2, 0.8)        # [N] force amplitudes of the onset sweeps
 
 
 def refined(base: Config, sets: list[str], pitch: float) -> Config:
@@ -43,9 +54,18 @@ def winkler_length(cfg: Config) -> float:
     return float((4.0 * EI / (cfg.plant.interface.k_n / cfg.plant.interface.pitch_m)) ** 0.25)
 
 
+def onset_peaks(cfg: Config) -> list[float]:
+    """Peak |a_frf / F| [(m/s^2)/N] of mode 3 per ``ONSET_LEVELS_N`` at ``ONSET_F_N1`` (module docstring)."""
+    model = build_plant(cfg)
+    f3 = stuck_frequencies_hz(model, preloaded_pairs(model, ONSET_F_N1))[2]
+    lines = f3 * np.linspace(0.90, 1.02, 13)
+    return [float(np.max(np.abs(sweep_level(model, ONSET_F_N1, a, lines).H["a_frf_meas"]))) for a in ONSET_LEVELS_N]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--pitches-mm", type=float, nargs="+", default=[20.0, 10.0, 5.0, 2.5, 1.25])
+    ap.add_argument("--onset", action="store_true", help="also the slip onset's stepped sines per pitch (~13 min)")
     ap.add_argument("--set", action="append", default=[], dest="sets")
     args = ap.parse_args(argv)
     base = load(None, args.sets)
@@ -71,6 +91,18 @@ def main(argv=None) -> int:
     for p_mm, n_c, n, f, f3, z3, _ in rows:
         cells = " | ".join(f"{x:.1f} ({100 * (x / r0 - 1):+.2f} %)" for x, r0 in zip(f, ref))
         print(f"| {p_mm:g} | {n_c} / {n} | {cells} | {f3:.2f}, {100 * z3:.3f} |")
+    if args.onset:
+        ms = get("micro_slip")
+        print(f"\nSlip onset: peak |a_frf / F| [(m/s^2)/N] of mode 3 at F_N1 = {ONSET_F_N1:g} N, without / with "
+              f"micro_slip {ms.parameter.default:g}:\n")
+        print("| pitch [mm] | " + " | ".join(f"{a:g} N" for a in ONSET_LEVELS_N) + " | s |")
+        print("| --- " * (len(ONSET_LEVELS_N) + 2) + "|", flush=True)
+        for p_mm in args.pitches_mm:
+            t0 = time.perf_counter()
+            cfg = refined(base, args.sets, 1e-3 * p_mm)
+            plain, spread = onset_peaks(cfg), onset_peaks(ms.apply(cfg, ms.parameter.default))
+            print(f"| {p_mm:g} | " + " | ".join(f"{a:.1f} / {b:.1f}" for a, b in zip(plain, spread))
+                  + f" | {time.perf_counter() - t0:.0f} |", flush=True)
     return 0
 
 
