@@ -98,7 +98,7 @@ def main() -> None:
     ap.add_argument("--frf-files", action="store_true", help="linear FRF-file campaigns (rig --frf-files)")
     args = ap.parse_args()
     try:
-        form = () if args.model_form is None else model_form_parts(args.model_form)
+        form = model_form_parts(args.model_form)
     except ValueError as exc:
         ap.error(f"--model-form: {exc}")
     effects = [get(n) for n in args.effects.split(",")] if args.effects else implemented()

@@ -130,7 +130,7 @@ def cmd_rig(cfg, args) -> int:
             return fail(str(exc))
     from rt.discrepancy.rig import make_campaign, model_form_parts
     try:
-        form = () if args.model_form is None else model_form_parts(args.model_form)
+        form = model_form_parts(args.model_form)
     except ValueError as exc:
         return fail(f"rig --model-form: {exc}")
     from rt.discrepancy.rig_frf import make_frf_campaign

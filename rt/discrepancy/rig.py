@@ -60,9 +60,11 @@ MODEL_FORM_PARTS = ("mesh", "pitch", "substeps", "damping", "beams")
 """The parts of ``model_form``, each selectable alone (``rig --model-form PARTS``)."""
 
 
-def model_form_parts(text: str) -> tuple[str, ...]:
-    """The parts named by ``text`` ("all" or a comma-separated subset of ``MODEL_FORM_PARTS``).
-    ValueError naming an unknown part and the choices."""
+def model_form_parts(text: str | None) -> tuple[str, ...]:
+    """The parts named by ``text`` ("all" or a comma-separated subset of ``MODEL_FORM_PARTS``; None:
+    none, the nominal's form). ValueError naming an unknown part and the choices."""
+    if text is None:
+        return ()
     if text.strip() == "all":
         return MODEL_FORM_PARTS
     parts = tuple(dict.fromkeys(t.strip() for t in text.split(",")))
