@@ -17,8 +17,8 @@ resolve it.
 sines of the nonlinear plant at F_N1 = 300 N (rt.discrepancy.rig_levels.sweep_level: 13 lines over
 0.90-1.02 of the stuck mode 3, phase-continuous up-sweeps) at force amplitudes ``ONSET_LEVELS_N``,
 with and without micro_slip at its default spread: the peak |a_frf / F| [(m/s^2)/N] per level. Where
-every pair sticks the peak is the linear one; the first pairs to slip (the least pressed, at the
-contact's edges) lower it. docs/discrepancy.md, "Which part of the model form hides an effect".
+every pair sticks the peak is the linear one; the first pairs to slip lower it. docs/discrepancy.md,
+"Which part of the model form hides an effect".
 """
 from __future__ import annotations
 

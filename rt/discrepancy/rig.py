@@ -69,8 +69,8 @@ def model_form_parts(text: str | None) -> tuple[str, ...]:
         return MODEL_FORM_PARTS
     parts = tuple(dict.fromkeys(t.strip() for t in text.split(",")))
     bad = [t for t in parts if t not in MODEL_FORM_PARTS]
-    if bad or not parts:
-        raise ValueError(f"model form part {(bad or [text])[0]!r} is not one of {', '.join(MODEL_FORM_PARTS)}; "
+    if bad:
+        raise ValueError(f"model form part {bad[0]!r} is not one of {', '.join(MODEL_FORM_PARTS)}; "
                          "give all or a comma-separated subset, e.g. substeps,pitch")
     return parts
 
