@@ -2,15 +2,15 @@
 
     python -m benchmarks.contact_pitch [--pitches-mm 20 10 5 2.5 1.25] [--onset] [--set KEY=VALUE ...]
 
-The interface is a row of node-to-node pairs (SPEC 2: default pitch 20 mm). Refining it at the
-same stiffness per unit length of joint (k_n and k_t per pair x pitch / 20 mm, elements no longer
-than min(pitch, 2.5 mm)), the script prints per pitch: the pairs the screws close at F_N1 = 100 N,
+The interface is a row of node-to-node contact points, each carrying its tributary area (SPEC 2:
+the contact is per unit area, the pitch a numerical choice). Refining the pitch (elements no
+longer than min(pitch, 2.5 mm)) samples the same joint; the script prints per pitch: the pairs the screws close at F_N1 = 100 N,
 the preloaded stuck eigenfrequencies of modes 1-9 (plant.model.stuck_frequencies_hz of the full,
 unreduced model; mode 1 is resolved only to ~0.6 % at 1.25 mm, docs/plant.md 6) and their offset
 from the finest pitch, and the calibration's observable, the simulated 50 N hammer test's
 mode-3 frequency and damping at 100 N (plant.impulse, as benchmarks.calibrate_contact). The joint's
 pressure varies over the Winkler length lambda = (4 EI / k')^(1/4) of a beam on the contact's
-foundation (k' = k_n / pitch per unit length): ~11 mm here, so pitches of 20 and 10 mm do not
+foundation (k' = k_n_area x width per unit length): ~11 mm here, so pitches of 20 and 10 mm do not
 resolve it.
 
 --onset (~13 min more): the joint's slip onset per pitch, what the stuck modes do not show. Stepped
@@ -29,7 +29,8 @@ import numpy as np
 
 from plant.impulse import impulse_test
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-from rt.common.config import Config, load, pitch_sets, with_sets
+from plant.structure import interface_width
+from rt.common.config import Config, load, with_sets
 from rt.discrepancy.effects import get
 from rt.discrepancy.rig_levels import sweep_level
 from benchmarks.entry import run_main
@@ -41,17 +42,18 @@ ONSET_LEVELS_N = (0.05, 0.2, 0.8)        # [N] force amplitudes of the onset swe
 
 
 def refined(base: Config, sets: list[str], pitch: float) -> Config:
-    """``base`` at contact pitch ``pitch`` [m], the same stiffness per unit length of joint."""
-    return load(None, sets + pitch_sets(base, pitch)
-                + [f"plant.element_length_m={min(base.plant.element_length_m, pitch, 0.0025)!r}"])
+    """``base`` at contact pitch ``pitch`` [m] (the contact is per unit area: the same joint),
+    elements no longer than min(pitch, 2.5 mm)."""
+    return load(None, sets + [f"plant.interface.pitch_m={pitch!r}",
+                              f"plant.element_length_m={min(base.plant.element_length_m, pitch, 0.0025)!r}"])
 
 
 def winkler_length(cfg: Config) -> float:
-    """lambda = (4 EI / k')^(1/4) [m]: EI of the upper beam, k' = k_n / pitch [N/m^2]."""
+    """lambda = (4 EI / k')^(1/4) [m]: EI of the upper beam, k' = k_n_area x width [N/m^2]."""
     beams = {b.name: b for b in cfg.plant.beams}
     up = beams[cfg.plant.interface.upper]
     EI = up.E * up.width_m * up.height_m ** 3 / 12.0
-    return float((4.0 * EI / (cfg.plant.interface.k_n / cfg.plant.interface.pitch_m)) ** 0.25)
+    return float((4.0 * EI / (cfg.plant.interface.k_n_area * interface_width(cfg))) ** 0.25)
 
 
 def onset_peaks(cfg: Config) -> list[float]:

@@ -3,7 +3,7 @@
     python -m benchmarks.contact_stress [--set KEY=VALUE ...]
 
 The plant alone (plant.simulate.run) over 0.2 s per run, on a grid of normal contact stiffness
-k_n (2e8, 1e9, 1e10 N/m; k_t stays at its default, so the pairs' k_t / k_n ratio varies too), constant F_N1 (40, 100, 600 N) and excitations at the excitation
+k_n per unit area (2.5e11, 1.25e12, 1.25e13 N/m^3: 2e8, 1e9, 1e10 N/m on a 20 x 40 mm pair; k_t stays at its default, so the pairs' k_t / k_n ratio varies too), constant F_N1 (40, 100, 600 N) and excitations at the excitation
 point: half-sine hammers of 50 and 500 N (0.5 ms), sines of 40 and 500 N at 220 Hz (36 runs).
 Per run: substep fallbacks (Newton stalled, redone on plant.fallback_split fine substeps), whether
 the run failed (a fine substep did not converge either), and the Newton iterations per step
@@ -21,7 +21,7 @@ from plant.simulate import run
 from rt.common.config import load
 from benchmarks.entry import run_main
 
-K_N = (2e8, 1e9, 1e10)
+K_N = (2.5e11, 1.25e12, 1.25e13)   # [N/m^3]
 F_N1 = (40.0, 100.0, 600.0)
 RECORD_S = 0.2
 
@@ -38,7 +38,7 @@ def sweep(sets: list[str]) -> list[dict]:
     """One row per run (module docstring)."""
     rows = []
     for k_n in K_N:
-        model = build_plant(load(None, sets + [f"plant.interface.k_n={k_n}"]))
+        model = build_plant(load(None, sets + [f"plant.interface.k_n_area={k_n}"]))
         idx = model.output_index()
         for fn1 in F_N1:
             for name, F in excitations(model.cfg.dt_s).items():
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
     for r in rows:
         if r["failed"] or r["fallbacks"]:
             what = "FAILED" if r["failed"] else f"{r['fallbacks']} fallbacks"
-            print(f"k_n {r['k_n']:.0e}  F_N1 {r['F_N1']:5.0f} N  {r['excitation']:13s}: {what}")
+            print(f"k_n_area {r['k_n']:.2e}  F_N1 {r['F_N1']:5.0f} N  {r['excitation']:13s}: {what}")
     ok = [r for r in rows if not r["failed"]]
     print(f"{len(rows)} runs: {sum(r['failed'] for r in rows)} failed, "
           f"{sum(r['fallbacks'] for r in ok)} fallback substeps; Newton iterations per step "

@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 from benchmarks.report_diff import cells
 from rt.experiments.claims import TOL_DB
-from rt.common.config import load, pitch_sets
+from rt.common.config import load
 from rt.experiments.reproduce import FULL, QUICK, measure
 from rt.experiments.reproduce_report import jsonable
 from benchmarks.entry import run_main
@@ -46,9 +46,8 @@ def _both_screws(key: str, value: float) -> tuple[str, ...]:
 
 
 def _cone_resolved(pitch_m: float = 0.01) -> tuple[str, ...]:
-    """--set assignments of a pair pitch of pitch_m [m] with the configured stiffness per area
-    (k_n, k_t per pair scaled by pitch_m / the configured pitch)."""
-    return tuple(pitch_sets(load(), pitch_m))
+    """--set assignments of a contact pitch of pitch_m [m] (the contact is per unit area)."""
+    return (f"plant.interface.pitch_m={pitch_m!r}", f"plant.element_length_m={min(load().plant.element_length_m, pitch_m)!r}")
 
 
 VARIANTS = (

@@ -3,14 +3,17 @@ same configuration as the plant.
 
 The simplified structure: the plant's FE beams (``plant.structure``, unreduced) with
 
-* the damper tied at the normal screw: the interface pairs within one pitch of that screw
-  get the plant's stuck contact stiffnesses k_n (normal) and k_t (tangential), which is rigid
-  for the modes the observer keeps (the plant's stuck pairs there never slip: 6000 N preload);
+* the damper tied at the normal screw: the interface under that screw's pressure cone
+  (|x - x_s| <= R_c, plant/bolts.py) gets the plant's stuck contact stiffnesses per unit area
+  k_n_area (normal) and k_t_area (tangential), given to the contact points by the footprint's
+  hat-function integrals (plant/tributary.py, so that the tie is the same physical area at any
+  pitch), which is rigid for the modes the observer keeps (the plant's stuck pairs there never
+  slip: 6000 N preload);
 * no other normal contact;
-* normal springs k_n around the adaptive screw: the pairs within one pitch of it that the
-  screws close at F_N1 = F_min (the plant's static equilibrium; with the default structure the
-  pair at 0.625 m: a spring also at 0.605 m, which is open there, put modes 3 and 4 at 202 and
-  382 Hz against the passive damper's resonances at 196 and 370 Hz), tangentially free: the friction force f_r acts there as an input, on the adaptive screw's tangential
+* normal springs k_n_area around the adaptive screw: the footprint of its cone on the points
+  that the screws close at F_N1 = F_min (the plant's static equilibrium; a spring on an open
+  point put modes 3 and 4 at 202 and 382 Hz against the passive damper's resonances at 196 and
+  370 Hz at the earlier 20 mm pairs), tangentially free: the friction force f_r acts there as an input, on the adaptive screw's tangential
   row t (u_rel = t x), +f_r on the lower beam and -f_r on the upper one (generalised force
   -t^T f_r, opposing v_rel for f_r of the sign of v_rel).
 
@@ -38,8 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from plant.bolts import cone_footprint
 from plant.model import PlantModel, build_plant, preloaded_pairs
-from plant.structure import build_structure, interface_rows
+from plant.structure import build_structure, interface_rows, interface_width, screw_cone_radius
 from rt.common.config import Config, require_adaptive_screw
 
 
@@ -56,7 +60,9 @@ class ObserverModel:
     C_v: np.ndarray      # (2N,) v_rel
     D_u: float           # static correction of u_rel per friction force [m/N]
     x_tied: np.ndarray   # interface positions tied at the normal screw [m]
+    l_tied: np.ndarray   # length of the cone's footprint each of them stands for [m]
     x_springs: np.ndarray  # positions of the normal springs around the adaptive screw [m]
+    l_springs: np.ndarray  # length of the footprint each of them stands for [m]
 
     @property
     def modes_hz(self) -> np.ndarray:
@@ -67,9 +73,12 @@ class ObserverModel:
         return self.A.shape[0]
 
 
-def _near(x_pairs: np.ndarray, x: float, pitch: float) -> np.ndarray:
-    """Interface pair positions within one pitch of x (a little slack for round-off)."""
-    return x_pairs[np.abs(x_pairs - x) <= pitch * (1 + 1e-9)]
+def _footprint(cfg: Config, x_pairs: np.ndarray, screw) -> tuple[np.ndarray, np.ndarray]:
+    """(positions [m], footprint lengths [m]) of the contact points under ``screw``'s pressure
+    cone (plant/bolts.py ``cone_footprint``), the points with a share of it only."""
+    length = cone_footprint(x_pairs, screw.x_m, screw_cone_radius(cfg, screw))
+    hit = length > 0.0
+    return x_pairs[hit], length[hit]
 
 
 def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> ObserverModel:
@@ -86,19 +95,20 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
     M = sla.block_diag(*(s.M for s in st.subs))
     normal = next(s for s in p.screws if not s.adaptive)
     adaptive = require_adaptive_screw(cfg, "the observer")
-    x_tied = _near(st.x_pairs, normal.x_m, itf.pitch_m)
+    x_tied, l_tied = _footprint(cfg, st.x_pairs, normal)
     plant = build_plant(cfg) if plant is None else plant
-    closed = st.x_pairs[preloaded_pairs(plant, cfg.tracking.F_min_N)]
-    x_springs = _near(closed, adaptive.x_m, itf.pitch_m)
-    if len(x_tied) == 0 or len(x_springs) == 0:
-        raise ValueError("observer: no interface pair within one pitch of the "
-                         f"{'normal' if len(x_tied) == 0 else 'adaptive'} screw; check plant.interface")
-    for x in x_tied:
+    closed = preloaded_pairs(plant, cfg.tracking.F_min_N)
+    x_springs, l_springs = _footprint(cfg, st.x_pairs[closed], adaptive)
+    if len(x_springs) == 0:
+        raise ValueError("observer: no closed interface pair under the adaptive screw's pressure cone at "
+                         "F_N1 = tracking.F_min_N; check plant.interface")
+    width = interface_width(cfg)
+    for x, length in zip(x_tied, l_tied):
         r_n, r_t = interface_rows(cfg, st.subs, x)
-        K += itf.k_n * np.outer(r_n, r_n) + itf.k_t * np.outer(r_t, r_t)
-    for x in x_springs:
+        K += width * length * (itf.k_n_area * np.outer(r_n, r_n) + itf.k_t_area * np.outer(r_t, r_t))
+    for x, length in zip(x_springs, l_springs):
         r_n, _ = interface_rows(cfg, st.subs, x)
-        K += itf.k_n * np.outer(r_n, r_n)
+        K += width * length * itf.k_n_area * np.outer(r_n, r_n)
     N = cfg.observer.n_modes
     if N > K.shape[0]:
         raise ValueError(f"observer.n_modes = {N}: the structure has only {K.shape[0]} DOFs")
@@ -122,4 +132,5 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
         omega=omega, zeta=zeta, A=A,
         B_T=np.concatenate([zN, -tPhi]), B_F=np.concatenate([zN, Phi.T @ st.b_exc]),
         C_meas=np.concatenate([zN, tip @ Phi]), C_u=np.concatenate([tPhi, zN]), C_v=np.concatenate([zN, tPhi]),
-        D_u=-(static_full - static_kept), x_tied=x_tied, x_springs=x_springs)
+        D_u=-(static_full - static_kept), x_tied=x_tied, l_tied=l_tied, x_springs=x_springs,
+        l_springs=l_springs)

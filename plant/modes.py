@@ -107,7 +107,8 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
         "n_pairs": int(red.n_pairs),
         "closed_pairs": [int(j) for j in np.nonzero(closed)[0]],
         "k_T_adaptive_N_per_m": float(f"{adaptive_screw_k_T(red):.6g}") if adaptive else None,
-        "contact": {"k_n": itf.k_n, "k_t": itf.k_t, "mu": itf.mu} if itf.enabled else None,
+        "contact": {"k_n_area": itf.k_n_area, "k_t_area": itf.k_t_area, "mu": itf.mu,
+                    "pitch_m": itf.pitch_m} if itf.enabled else None,
     }
 
 

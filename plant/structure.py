@@ -15,6 +15,7 @@ import numpy as np
 
 from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, mesh_nodes
+from plant.tributary import tributary_lengths
 from rt.common.config import Beam, Config, adaptive_screw
 
 
@@ -60,6 +61,9 @@ class Structure:
     (ordinary bolt: the screw's stiffness_N_m; adaptive screw: k_stack, k_screw in series),
     bolt_F[b] its preload [N] (the adaptive screw's comes from the actuator: 0 here),
     bolt_names[b] the screw names, adaptive the index of the adaptive screw.
+    Contact per unit area (SPEC 2): pair_area[j] is the interface area pair j stands for [m^2]
+    (tributary length x the narrower beam's width: the pitch inside, half of it at both ends;
+    plant/tributary.py), and k_n, k_t [N/m] are plant.interface.k_n_area, k_t_area times it.
 
     Without an adaptive screw (ordinary bolts only, or no interface at all: docs/plant.md 5.3)
     adaptive is -1 and b_N1, u_rel_row are zero (F_N1 then acts on nothing, u_rel reads 0),
@@ -76,6 +80,7 @@ class Structure:
     b_N1: np.ndarray
     f_const: np.ndarray
     F_N1_initial: float
+    pair_area: np.ndarray
     k_n: np.ndarray
     k_t: np.ndarray
     mu: np.ndarray
@@ -183,10 +188,17 @@ def build_structure(cfg: Config) -> Structure:
     b_N1 = np.zeros(n) if adaptive is None else -bolt_rows[i_a]
     u_rel_row = np.zeros(n) if adaptive is None else tangential_row(adaptive.x_m)
     f_const = -(bolt_F @ bolt_rows)
+    area = interface_width(cfg) * tributary_lengths(x_pairs) if n_p else np.zeros(0)
     return Structure(tuple(subs), x_pairs, gap_rows, tuple(pt.name for pt in p.points), point_rows,
                      u_rel_row, b_exc, b_N1, f_const, 0.0 if adaptive is None else adaptive.F_N,
-                     np.full(n_p, itf.k_n), np.full(n_p, itf.k_t), np.full(n_p, itf.mu),
+                     area, itf.k_n_area * area, itf.k_t_area * area, np.full(n_p, itf.mu),
                      bolt_rows, bolt_k, bolt_F, tuple(s.name for s in screws), i_a)
+
+
+def interface_width(cfg: Config) -> float:
+    """Width of the contact interface [m]: the narrower of its two beams."""
+    beams = {b.name: b for b in cfg.plant.beams}
+    return min(beams[cfg.plant.interface.upper].width_m, beams[cfg.plant.interface.lower].width_m)
 
 
 def screw_cone_radius(cfg: Config, screw) -> float:
@@ -199,12 +211,12 @@ def screw_cone_radius(cfg: Config, screw) -> float:
 
 
 def adaptive_cone_pairs(cfg: Config, x_pairs: np.ndarray) -> np.ndarray:
-    """Boolean mask of the pairs inside the adaptive screw's pressure cone (plant/bolts.py); all
-    False without an adaptive screw."""
+    """Boolean mask of the pairs inside the adaptive screw's pressure cone, |x - x_s| < R_c
+    (plant/bolts.py); all False without an adaptive screw."""
     screw = adaptive_screw(cfg)
     if screw is None:
         return np.zeros(len(x_pairs), bool)
-    return pressure_weights(x_pairs, screw.x_m, screw_cone_radius(cfg, screw)) > 0
+    return np.abs(np.asarray(x_pairs) - screw.x_m) < screw_cone_radius(cfg, screw)
 
 
 def interface_rows(cfg: Config, subs: tuple[Substructure, ...] | list[Substructure], x: float

@@ -4,7 +4,7 @@ import tomllib
 
 import pytest
 
-from rt.common.config import ConfigError, dumps, load, to_dict
+from rt.common.config import ConfigError, dumps, load, loads, to_dict
 
 
 def test_defaults_are_the_spec_values():
@@ -34,13 +34,29 @@ def test_set_overrides_scalars_and_named_list_elements():
 
 def test_config_file_then_set(tmp_path):
     f = tmp_path / "c.toml"
-    f.write_text("[plant.interface]\nmu = 0.25\nk_t = 4e8\n")
+    f.write_text("[plant.interface]\nmu = 0.25\nk_t_area = 5e11\n")
     cfg = load(f, sets=["plant.interface.mu=0.35"])
-    assert cfg.plant.interface.k_t == 4e8 and cfg.plant.interface.mu == 0.35
+    assert cfg.plant.interface.k_t_area == 5e11 and cfg.plant.interface.mu == 0.35
+
+
+def test_per_pair_contact_keys_refused_in_a_file_converted_in_a_log(tmp_path):
+    """SPEC 2: the contact is per unit area. A user's file with the earlier per-pair k_n [N/m] gets
+    one line with the per-area value (k_n over one 20 x 40 mm pair); a configuration stored in a
+    log (loads(stored=True)) is converted, with a warning, to the same value."""
+    f = tmp_path / "old.toml"
+    f.write_text("[plant.interface]\npitch_m = 0.02\nk_n = 1.6e9\nk_t = 8e8\n")
+    with pytest.raises(ConfigError, match=r"old.toml: plant.interface.k_n = 1600000000.0 N/m per pair .*"
+                                          r"k_n_area = 2e\+12 N/m\^3") as err:
+        load(f)
+    assert "\n" not in str(err.value)
+    with pytest.warns(UserWarning, match="per pair is no longer a key"):
+        cfg = loads(f.read_text(), stored=True)
+    assert cfg.plant.interface.k_n_area == pytest.approx(2e12, rel=1e-15)
+    assert cfg.plant.interface.k_t_area == pytest.approx(1e12, rel=1e-15)
 
 
 def test_dumped_configuration_loads_back_identical(tmp_path):
-    cfg = load(sets=["plant.interface.k_n=2e9", "plant.screws.adaptive.F_N=150"])
+    cfg = load(sets=["plant.interface.k_n_area=2.5e12", "plant.screws.adaptive.F_N=150"])
     f = tmp_path / "resolved.toml"
     text = dumps(cfg)
     tomllib.loads(text)  # valid TOML
@@ -49,8 +65,10 @@ def test_dumped_configuration_loads_back_identical(tmp_path):
 
 
 @pytest.mark.parametrize("assignment, words", [
-    ("plant.interface.k_t=-5e8", ["plant.interface.k_t", "-500000000", "0 <", "N/m"]),
-    ("plant.interface.k_n=0", ["plant.interface.k_n", "0"]),
+    ("plant.interface.k_t_area=-5e11", ["plant.interface.k_t_area", "-500000000000", "0 <", "N/m^3"]),
+    ("plant.interface.k_n_area=0", ["plant.interface.k_n_area", "0"]),
+    ("plant.interface.k_n=1.7e9", ["plant.interface.k_n ", "per pair", "plant.interface.k_n_area = 2.125e+12 N/m^3"]),
+    ("plant.interface.x_end_m=0.465", ["x_end_m", "0.465", "must exceed"]),
     ("tracking.F_min_N=700", ["F_min_N", "700", "F_max_N", "600"]),
     ("plant.screws.adaptive.x_m=0.7", ["adaptive", "0.7", "0.465", "0.625"]),
     ("plant.screws.normal.x_m=0.1", ["normal", "0.1", "outside the damper"]),

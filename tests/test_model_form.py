@@ -30,17 +30,19 @@ def _stuck_hz(cfg):
 
 
 def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
-    """The other model form: twice the pairs at half the stiffness each, and a pattern of frequency
-    shifts that no scale of E removes (measured: 1.49 % rms over modes 1-9 after the best E; the mesh
-    alone changes nothing above 1e-4, the joint's discretisation up to -3.4 % at mode 9)."""
+    """The other model form: twice the contact points (the same contact per unit area), and a
+    pattern of frequency shifts that no scale of E removes (the beams part's 0.5 % in height and
+    density, the joint's discretisation; measured 0.73 % rms over modes 1-9 after the best E, 1.49 %
+    when the pitch part also halved the stiffness per area)."""
     true = model_form(nominal)
     itf, itf0 = true.plant.interface, nominal.plant.interface
-    assert (itf.pitch_m, itf.k_n, itf.k_t, itf.tau_s) == (itf0.pitch_m / 2, itf0.k_n / 2, itf0.k_t / 2, 2 * itf0.tau_s)
+    assert (itf.pitch_m, itf.k_n_area, itf.k_t_area, itf.tau_s) == (itf0.pitch_m / 2, itf0.k_n_area, itf0.k_t_area,
+                                                                   2 * itf0.tau_s)
     assert true.plant.substeps == 2 and true.plant.element_length_m == nominal.plant.element_length_m / 2
     assert [b.height_m / b0.height_m for b, b0 in zip(true.plant.beams, nominal.plant.beams)] == pytest.approx([1.005, 0.995])
     shift = np.log(_stuck_hz(true) / _stuck_hz(nominal))
     rest = shift - shift.mean()             # the best single frequency scale (E) removes the mean log shift
-    assert 0.01 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
+    assert 0.005 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
 
 
 def _changed(a: Config, b: Config) -> set[str]:
@@ -66,7 +68,7 @@ def test_each_model_form_part_changes_its_own_keys_and_they_make_the_whole(nomin
     after another give the whole form, bit for bit."""
     beams = {f"plant.beams.{b.name}.{k}" for b in nominal.plant.beams for k in ("height_m", "rho")}
     own = {"mesh": {"plant.element_length_m"},
-           "pitch": {"plant.interface.pitch_m", "plant.interface.k_n", "plant.interface.k_t"},
+           "pitch": {"plant.interface.pitch_m"},
            "substeps": {"plant.substeps"}, "damping": {"plant.interface.tau_s"}, "beams": beams}
     assert set(own) == set(MODEL_FORM_PARTS)
     cfg = nominal

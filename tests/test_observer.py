@@ -49,12 +49,13 @@ def test_static_correction_completes_the_truncated_compliance():
     st = build_structure(cfg)
     K = sla.block_diag(*(s.K for s in st.subs))
     itf = cfg.plant.interface
-    for x in m.x_tied:
+    b = min(beam.width_m for beam in cfg.plant.beams)
+    for x, length in zip(m.x_tied, m.l_tied):
         r_n, r_t = interface_rows(cfg, st.subs, x)
-        K += itf.k_n * np.outer(r_n, r_n) + itf.k_t * np.outer(r_t, r_t)
-    for x in m.x_springs:
+        K += b * length * (itf.k_n_area * np.outer(r_n, r_n) + itf.k_t_area * np.outer(r_t, r_t))
+    for x, length in zip(m.x_springs, m.l_springs):
         r_n, _ = interface_rows(cfg, st.subs, x)
-        K += itf.k_n * np.outer(r_n, r_n)
+        K += b * length * itf.k_n_area * np.outer(r_n, r_n)
     u_full = st.u_rel_row @ np.linalg.solve(K, -st.u_rel_row * f)
     assert u_model == pytest.approx(u_full, rel=1e-9)
     assert abs(m.D_u * f) > 0.05 * abs(u_full)  # the correction matters (7 modes miss > 5 %)

@@ -19,6 +19,7 @@ import copy
 import dataclasses
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, get_args, get_origin, get_type_hints
@@ -104,6 +105,12 @@ class Point:
 class Interface:
     """Node-to-node contact between the top of `lower` and the bottom of `upper` (SPEC 2).
 
+    The contact parameters are per unit area (SPEC 2): a contact point carries k_n_area, k_t_area
+    times its tributary area (pitch x width, half at both ends; plant/structure.py), so the pitch,
+    the element length and the step refine one physical model. The per-pair keys of earlier
+    versions (``k_n``, ``k_t`` [N/m]) are refused in a file or a --set with the per-area value, and
+    converted with a warning in a configuration stored in a log (``LEGACY_PER_PAIR``).
+
     ``enabled = false``: the structure has no interface, no contact pairs and no screws (the bare
     beam, configs/bare_beam.toml); the other keys of the table are then not used."""
     enabled: bool = param(True, doc="false: no interface, no contact pairs and no screws (plant.screws "
@@ -112,18 +119,22 @@ class Interface:
     upper: str = "damper"
     x_start_m: float = param(0.465, "m", doc="first contact pair")
     x_end_m: float = param(0.625, "m", doc="last contact pair")
-    pitch_m: float = param(0.020, "m", lo=0.0, lo_inclusive=False, doc="pair spacing")
+    pitch_m: float = param(0.020, "m", lo=0.0, lo_inclusive=False,
+                           doc="contact point spacing: a numerical choice (docs/plant.md 6, convergence), "
+                               "not a physical parameter; each point carries its tributary area")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
-    k_n: float = param(1.7e9, "N/m", lo=0.0, lo_inclusive=False,
-                      doc="normal penalty stiffness per pair, calibrated to the paper's mode-3 peak at 230 Hz "
-                          "(python -m benchmarks.calibrate_contact; docs/plant.md 6)")
+    k_n_area: float = param(2.125e12, "N/m^3", lo=0.0, lo_inclusive=False,
+                            doc="normal penalty stiffness per unit area of interface (a pair carries it times "
+                                "its tributary area), calibrated to the paper's mode-3 peak at 230 Hz "
+                                "(python -m benchmarks.calibrate_contact; docs/plant.md 6)")
     tau_s: float = param(2e-6, "s", lo=0.0, hi=1e-3,
                          doc="interface damping: Kelvin-Voigt dashpots c = k tau on the pairs (A); "
                              "damps the contact modes the 21 kHz step cannot resolve")
     dashpot_depth_m: float = param(1e-8, "m", lo=0.0, lo_inclusive=False,
                                    doc="penetration over which the tangential dashpot fades in (A)")
-    k_t: float = param(1.4e9, "N/m", lo=0.0, lo_inclusive=False,
-                      doc="Jenkins tangential stiffness per pair (Mindlin ratio 2 (1 - nu) / (2 - nu) = 0.82 k_n)")
+    k_t_area: float = param(1.75e12, "N/m^3", lo=0.0, lo_inclusive=False,
+                            doc="Jenkins tangential stiffness per unit area of interface (Mindlin ratio "
+                                "2 (1 - nu) / (2 - nu) = 0.82 k_n_area)")
     static_excess: float = param(0.0, "-", lo=0.0, hi=1.0,
                                  doc="Stribeck friction: static excess s, mu(v) = mu (1 + s exp(-(v/v_s)^2)), "
                                      "mu_s = (1 + s) mu; 0 = Coulomb")
@@ -159,7 +170,9 @@ class Plant:
     points: tuple[Point, ...] = field(default_factory=_default_points)
     excitation_point: str = "exc"
     frf_point: str = "frf"
-    element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False, doc="largest FE element")
+    element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False,
+                                    doc="largest FE element (a numerical choice, docs/plant.md 6; the contact "
+                                        "points are nodes, so the interface's elements are at most the pitch)")
     modal_damping: float = param(0.001, "-", lo=0.0, hi=1.0, doc="zeta of the bare beams (A)")
     quasi_static_hz: float = param(3000.0, "Hz", lo=0.0, lo_inclusive=False,
                                    doc="modes of the bolted assembly above this frequency respond quasi-statically "
@@ -173,7 +186,7 @@ class Plant:
     cb_cutoff_hz: float = param(15000.0, "Hz", lo=0.0, lo_inclusive=False,
                                 doc="Craig-Bampton fixed-interface modes kept up to this frequency")
     reduced: bool = param(True, doc="false: step the full FE model instead of Craig-Bampton")
-    substeps: int = param(1, "-", lo=1, hi=64, doc="plant substeps per controller step")
+    substeps: int = param(1, "-", lo=1, hi=256, doc="plant substeps per controller step")
     newton_tol_m: float = param(1e-18, "m", lo=0.0, lo_inclusive=False,
                                 doc="contact Newton tolerance on the gaps (plus 64 eps max|gap|)")
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
@@ -506,12 +519,64 @@ def _parse_value(text: str):
     return doc["v"] if list(doc) == ["v"] else text
 
 
+# --- the per-pair contact keys of earlier versions ------------------------------------------
+
+LEGACY_PER_PAIR = {"k_n": "k_n_area", "k_t": "k_t_area"}
+"""Per-pair contact stiffness keys [N/m] of plant.interface before the contact became per unit
+area, and their per-area successors [N/m^3]."""
+
+
+def _pair_area(data: dict) -> tuple[float, float, float]:
+    """(area [m^2], pitch [m], width [m]) of one interior contact pair in a configuration dict:
+    pitch x the narrower interface beam's width (the conversion of a per-pair stiffness)."""
+    itf = data["plant"]["interface"]
+    widths = [b.get("width_m", Beam.width_m) for b in data["plant"]["beams"]
+              if isinstance(b, dict) and b.get("name") in (itf.get("lower"), itf.get("upper"))]
+    width = float(min(widths)) if widths else Beam.width_m
+    pitch = float(itf.get("pitch_m", Interface.pitch_m))
+    return pitch * width, pitch, width
+
+
+def _per_area_text(data: dict, key: str, value) -> str:
+    """One line: the per-pair ``key`` = ``value`` is gone, and the per-area value that replaces it."""
+    area, pitch, width = _pair_area(data)
+    new = LEGACY_PER_PAIR[key]
+    try:
+        per_area = f"{float(value) / area:.6g}"
+    except (TypeError, ValueError):
+        per_area = "(that value / the pair's area)"
+    return (f"plant.interface.{key} = {_short(value)} N/m per pair is no longer a key: the contact is per unit "
+            f"area (SPEC 2); use plant.interface.{new} = {per_area} N/m^3 (= {key} / ({pitch:g} m pitch x "
+            f"{width:g} m width))")
+
+
+def _legacy_contact(data: dict, stored: bool, source: str) -> None:
+    """Handle per-pair contact keys in ``data`` (a merged configuration dict) in place: a stored
+    configuration (a log's) is converted to the per-area keys with a warning; any other input is
+    refused with the per-area value (ConfigError)."""
+    itf = data.get("plant", {}).get("interface")
+    if not isinstance(itf, dict):
+        return
+    for key, new in LEGACY_PER_PAIR.items():
+        if key not in itf:
+            continue
+        text = _per_area_text(data, key, itf[key])
+        if not stored:
+            raise ConfigError(f"{source}: {text}")
+        area = _pair_area(data)[0]
+        itf[new] = float(itf.pop(key)) / area
+        warnings.warn(f"{source}: {text}; converted (the earlier plant gave the end pairs a whole pair's "
+                      "stiffness, the converted one half)", stacklevel=2)
+
+
 def _apply_set(data: dict, assignment: str) -> None:
     """Apply one ``key=value``; list elements are addressed by their ``name``."""
     if "=" not in assignment:
         raise ConfigError(f"--set {assignment!r}: expected KEY=VALUE, e.g. plant.interface.mu=0.3")
     key, text = assignment.split("=", 1)
     parts = key.strip().split(".")
+    if parts[:2] == ["plant", "interface"] and len(parts) == 3 and parts[2] in LEGACY_PER_PAIR:
+        raise ConfigError(f"--set {_shown(key)}: {_per_area_text(data, parts[2], _parse_value(text.strip()))}")
     node, path = data, ""
     shown = _shown(key)
     for i, part in enumerate(parts):
@@ -556,14 +621,18 @@ def load(config_file: str | Path | None = None, sets: list[str] | tuple[str, ...
     return loads(text, sets, source=str(p))
 
 
-def loads(text: str, sets: list[str] | tuple[str, ...] = (), source: str = "configuration") -> Config:
-    """``load`` of TOML ``text`` (e.g. the configuration stored in a log); ``source`` names the
-    text in messages."""
+def loads(text: str, sets: list[str] | tuple[str, ...] = (), source: str = "configuration",
+          stored: bool = False) -> Config:
+    """``load`` of TOML ``text``; ``source`` names the text in messages. ``stored``: the text is
+    a configuration stored in a log, whose per-pair contact keys of earlier versions are converted
+    with a warning instead of refused (``_legacy_contact``)."""
     try:
         over = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML ({exc})") from None
-    return _resolve(_merge(to_dict(Config()), over), sets, source)
+    data = _merge(to_dict(Config()), over)
+    _legacy_contact(data, stored, source)
+    return _resolve(data, sets, source)
 
 
 def with_sets(cfg: Config, sets: list[str] | tuple[str, ...]) -> Config:
@@ -572,14 +641,15 @@ def with_sets(cfg: Config, sets: list[str] | tuple[str, ...]) -> Config:
     return _resolve(to_dict(cfg), sets)
 
 
-def pitch_sets(cfg: Config, pitch_m: float) -> list[str]:
-    """--set assignments of a contact pair pitch of pitch_m [m] at ``cfg``'s stiffness per unit
-    length of joint: k_n and k_t per pair x pitch_m / the configured pitch (docs/plant.md 6,
-    "Contact pitch")."""
-    itf = cfg.plant.interface
-    r = pitch_m / itf.pitch_m
-    return [f"plant.interface.pitch_m={pitch_m!r}", f"plant.interface.k_n={itf.k_n * r!r}",
-            f"plant.interface.k_t={itf.k_t * r!r}"]
+def refined_sets(cfg: Config, factor: int) -> list[str]:
+    """--set assignments of ``cfg``'s discretisation refined by ``factor``: the contact pitch and
+    the element length divided by it, the plant substeps multiplied by its square (the step's
+    error falls at first order, the pitch's faster; docs/plant.md 6). The physical model (contact
+    per unit area) is unchanged."""
+    p = cfg.plant
+    return [f"plant.interface.pitch_m={p.interface.pitch_m / factor!r}",
+            f"plant.element_length_m={p.element_length_m / factor!r}",
+            f"plant.substeps={p.substeps * factor * factor}"]
 
 
 def check_key(cfg: Config, key: str) -> None:
@@ -747,8 +817,9 @@ def _check_interface(p: Plant, beams: dict, screws: dict) -> None:
     if i.lower == i.upper:
         raise ConfigError(f"plant.interface.upper = {i.upper!r}: lower and upper must be different beams")
     lo_b, up_b = beams[i.lower], beams[i.upper]
-    if i.x_end_m < i.x_start_m:
-        raise ConfigError(f"plant.interface.x_end_m = {i.x_end_m:g} m < x_start_m = {i.x_start_m:g} m")
+    if i.x_end_m <= i.x_start_m:
+        raise ConfigError(f"plant.interface.x_end_m = {i.x_end_m:g} m must exceed x_start_m = {i.x_start_m:g} m "
+                          "(the contact is per unit area: an interface of no length carries nothing)")
     for key in ("x_start_m", "x_end_m"):
         for b in (lo_b, up_b):
             x = getattr(i, key)
@@ -768,9 +839,6 @@ def _check_interface(p: Plant, beams: dict, screws: dict) -> None:
         if not (i.x_start_m - 1e-12 <= s.x_m <= i.x_end_m + 1e-12):
             raise ConfigError(f"plant.screws[{_shown(s.name)}].x_m = {s.x_m:g} m lies outside the damper interface "
                               f"[{i.x_start_m:g}, {i.x_end_m:g}] m")
-    if p.element_length_m > i.pitch_m + 1e-12:
-        raise ConfigError(f"plant.element_length_m = {p.element_length_m:g} m must not exceed "
-                          f"plant.interface.pitch_m = {i.pitch_m:g} m")
 
 
 # --- printing -------------------------------------------------------------------------------

@@ -37,8 +37,10 @@ def scaled(cfg: Config, factors: dict[str, float]) -> Config:
         f = float(f)
         if key == "E":
             sets += [f"plant.beams.{b.name}.E={b.E * f!r}" for b in cfg.plant.beams]
-        elif key in ("mu", "k_t"):
-            sets.append(f"plant.interface.{key}={getattr(cfg.plant.interface, key) * f!r}")
+        elif key == "mu":
+            sets.append(f"plant.interface.mu={cfg.plant.interface.mu * f!r}")
+        elif key == "k_t":   # the tangential stiffness per unit area
+            sets.append(f"plant.interface.k_t_area={cfg.plant.interface.k_t_area * f!r}")
         elif key == "modal_damping":
             sets.append(f"plant.modal_damping={cfg.plant.modal_damping * f!r}")
         elif key == "c_v":

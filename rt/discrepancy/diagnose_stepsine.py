@@ -117,8 +117,9 @@ def prepare(cfg: Config, tests: list[FRFTest], jobs: int | None = None,
     DELTA_R_FLOOR and the spread of R_exc / H over k_n x K_N_SPREAD^{+-1} (module docstring). The
     model's step-sines (3 per test) run in jobs processes or on the dask cluster at dask_address
     (``run_branches``)."""
-    k_n = cfg.plant.interface.k_n
-    variants = [cfg] + [with_sets(cfg, [f"plant.interface.k_n={k_n * f!r}"]) for f in (K_N_SPREAD, 1.0 / K_N_SPREAD)]
+    k_n = cfg.plant.interface.k_n_area
+    variants = [cfg] + [with_sets(cfg, [f"plant.interface.k_n_area={k_n * f!r}"])
+                        for f in (K_N_SPREAD, 1.0 / K_N_SPREAD)]
     runs = run_branches([b for c in variants for b in model_branches(c, tests)], jobs, dask_address,
                         progress=False, desc="model step-sine")
     n = len(tests)

@@ -39,7 +39,7 @@ import numpy as np
 
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from rt.common.config import Config, pitch_sets, require_adaptive_screw, with_sets
+from rt.common.config import Config, require_adaptive_screw, with_sets
 from rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
                                   measure_impulse, scaled)
 from rt.discrepancy.effects import get
@@ -78,8 +78,8 @@ def model_form_parts(text: str | None) -> tuple[str, ...]:
 def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS) -> Config:
     """A truth of another model form than ``cfg`` (``rig --model-form``, docs/discrepancy.md "Model
     form"), made of ``parts`` (``MODEL_FORM_PARTS``): "mesh" half the element length, "pitch" half
-    the contact pitch with half the stiffness per pair (the same stiffness per unit length of joint;
-    k_n, k_t), "substeps" two plant substeps per one of ``cfg``'s, "damping" the interface dashpots'
+    the contact pitch (the contact is per unit area: the same physical joint, sampled twice as
+    finely), "substeps" two plant substeps per one of ``cfg``'s, "damping" the interface dashpots'
     tau_s x ``MODEL_FORM_TAU``, "beams" beams that are not the nominal's copies: beam k's height and
     density x ``MODEL_FORM_BEAMS[k % 2]`` (so that one scale of E or of the density cannot absorb
     them). Everything else (points, screws, actuator, sensors) is ``cfg``'s."""
@@ -88,7 +88,7 @@ def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS) -> Config
     if "mesh" in parts:
         sets.append(f"plant.element_length_m={p.element_length_m / 2!r}")
     if "pitch" in parts:
-        sets += pitch_sets(cfg, itf.pitch_m / 2)
+        sets.append(f"plant.interface.pitch_m={itf.pitch_m / 2!r}")
     if "substeps" in parts:
         sets.append(f"plant.substeps={2 * p.substeps}")
     if "damping" in parts:

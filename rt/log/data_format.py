@@ -297,7 +297,7 @@ def _check_run(meta: dict, rate: int | None, plant_present: bool, problems: list
     if "config" in rec:
         from rt.common.config import ConfigError, loads   # not via rt.loop.replay: that imports the compiled loop (2 s)
         try:
-            cfg = loads(rec["config"], (), source="the stored configuration")
+            cfg = loads(rec["config"], (), source="the stored configuration", stored=True)
         except ConfigError as exc:
             problems.append(Problem("metadata frictionrt.config", "invalid", f"metadata frictionrt.config: {exc}"))
             return

@@ -86,7 +86,7 @@ def _config_of(path: Path, meta: dict[str, str], fallback, sets=()):
     if text is None:
         return fallback
     try:
-        return loads(text, sets, source="the stored configuration")
+        return loads(text, sets, source="the stored configuration", stored=True)
     except ConfigError as exc:  # names the stored configuration or the --set at fault
         raise ValueError(f"{path}: {exc}") from None
 

@@ -1,0 +1,112 @@
+"""Convergence of the joint's figures in its discretisation: contact pitch, element length and
+plant step (docs/plant.md 6, "Convergence"; SPEC 2).
+
+    python -m benchmarks.joint_convergence [--grid P:E:S ...] [--fn1 40 100] [--set KEY=VALUE ...]
+
+Each grid entry P:E:S is a contact pitch P [mm], a largest element E [mm] and S plant substeps per
+controller step; the contact is per unit area, so every entry is the same physical model. Per entry
+and hammer level F_N1 the script runs the simulated hammer test (plant.impulse.impulse_test, the
+configured hammer, 1 s) and prints modes 2-5's identified f [Hz] and zeta [%], their offsets from
+the last (finest) entry, the hammer FRF's distance from the last entry (RMS of 20 log10 |H / H_ref|
+over 50-1200 Hz [dB]) and the plant step's median wall time [us] in that run. Where the grid holds
+three entries of one pitch and element with substeps S, 2S, 4S, it also gives the observed order
+of the step p = log2(|H_S - H_2S| / |H_2S - H_4S|) and each entry's distance from the Richardson
+limit H_4S + (H_4S - H_2S) / (2^p - 1).
+
+Tolerances (issue 31, item 5): f within 0.3 %, zeta within 10 %, hammer FRF within 0.3 dB rms of
+the limit.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from benchmarks.entry import run_main
+from plant.impulse import impulse_test
+from plant.model import build_plant
+from rt.common.config import Config, load, with_sets
+
+BAND_HZ = (50.0, 1200.0)
+DEFAULT_GRID = ("20:10:1", "10:5:1", "5:2.5:1", "2.5:2.5:1")
+
+
+def setting(text: str) -> tuple[float, float, int]:
+    """(pitch [mm], element [mm], substeps) of a grid entry 'P:E:S'."""
+    try:
+        p, e, s = text.split(":")
+        out = (float(p), float(e), int(s))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected PITCH_MM:ELEMENT_MM:SUBSTEPS, e.g. 10:5:4") from None
+    if min(out) <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: pitch, element and substeps must be positive")
+    return out
+
+
+def configured(base: Config, entry: tuple[float, float, int]) -> Config:
+    """``base`` at the entry's pitch, element length and substeps."""
+    p, e, s = entry
+    return with_sets(base, [f"plant.interface.pitch_m={p * 1e-3!r}", f"plant.element_length_m={e * 1e-3!r}",
+                            f"plant.substeps={s}"])
+
+
+def hammer(cfg: Config, F_N1: float) -> dict:
+    """The hammer test at F_N1 [N]: modal f [Hz], zeta [-] of modes 2-5, the FRF in ``BAND_HZ``, wall [s]."""
+    t0 = time.perf_counter()
+    r = impulse_test(build_plant(cfg), F_N1)
+    band = (r.freq > BAND_HZ[0]) & (r.freq < BAND_HZ[1])
+    return {"f": r.freq_hz, "zeta": r.damping_ratio, "H": r.frf[band], "wall_s": time.perf_counter() - t0}
+
+
+def rms_db(H: np.ndarray, ref: np.ndarray) -> float:
+    """RMS of 20 log10 |H / ref| [dB]."""
+    return float(np.sqrt(np.mean((20.0 * np.log10(np.abs(H / ref))) ** 2)))
+
+
+def richardson(H1: np.ndarray, H2: np.ndarray, H4: np.ndarray) -> tuple[float, np.ndarray]:
+    """(observed order p, limit) of three results at steps h, h/2, h/4 (module docstring)."""
+    p = float(np.log2(np.linalg.norm(H1 - H2) / np.linalg.norm(H2 - H4)))
+    return p, H4 + (H4 - H2) / (2.0 ** max(p, 0.1) - 1.0)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--grid", type=setting, nargs="+", default=[setting(g) for g in DEFAULT_GRID],
+                    metavar="P:E:S", help="pitch [mm]:element [mm]:substeps per entry, the finest last "
+                                          f"(default {' '.join(DEFAULT_GRID)})")
+    ap.add_argument("--fn1", type=float, nargs="+", default=[100.0], help="F_N1 levels [N] (default 100)")
+    ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
+    args = ap.parse_args(argv)
+    base = load(None, args.sets)
+    for F_N1 in args.fn1:
+        rows = []
+        for entry in args.grid:
+            rows.append(hammer(configured(base, entry), F_N1))
+            print(f"F_N1 {F_N1:g} N, {entry[0]:g}:{entry[1]:g}:{entry[2]} done ({rows[-1]['wall_s']:.0f} s)", flush=True)
+        ref = rows[-1]
+        print(f"\nHammer test at F_N1 = {F_N1:g} N: modes 2-5, f [Hz] and zeta [%] (offsets from the last entry), "
+              f"FRF distance [dB rms, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz]\n")
+        print("| pitch [mm] | element [mm] | substeps | " + " | ".join(f"mode {m} f" for m in (2, 3, 4, 5)) + " | "
+              + " | ".join(f"mode {m} zeta" for m in (2, 3, 4, 5)) + " | FRF [dB] | wall [s] |")
+        print("| --- " * 14 + "|")
+        for entry, r in zip(args.grid, rows):
+            fs = " | ".join(f"{f:.2f} ({100 * (f / f0 - 1):+.2f} %)" for f, f0 in zip(r["f"], ref["f"]))
+            zs = " | ".join(f"{100 * z:.3f} ({100 * (z / z0 - 1):+.0f} %)" for z, z0 in zip(r["zeta"], ref["zeta"]))
+            print(f"| {entry[0]:g} | {entry[1]:g} | {entry[2]} | {fs} | {zs} | {rms_db(r['H'], ref['H']):.2f} | "
+                  f"{r['wall_s']:.0f} |")
+        by_space: dict[tuple[float, float], dict[int, np.ndarray]] = {}
+        for entry, r in zip(args.grid, rows):
+            by_space.setdefault(entry[:2], {})[entry[2]] = r["H"]
+        for (p, e), Hs in by_space.items():
+            for s in sorted(Hs):
+                if 2 * s in Hs and 4 * s in Hs:
+                    order, limit = richardson(Hs[s], Hs[2 * s], Hs[4 * s])
+                    print(f"\n{p:g} mm / {e:g} mm, substeps {s}, {2 * s}, {4 * s}: observed order {order:.2f}; distance "
+                          "from the Richardson limit [dB rms]: "
+                          + ", ".join(f"{k} substeps {rms_db(Hs[k], limit):.2f}" for k in (s, 2 * s, 4 * s)))
+    return 0
+
+
+if __name__ == "__main__":
+    run_main(main)
