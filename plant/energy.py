@@ -1,7 +1,7 @@
 """Energy bookkeeping of the plant from its state (design time and tests).
 
 Balance (SPEC check 4): W_exc + W_screw = (T + V) - (T + V)_0 + E_fric + E_damp, with
-T = 1/2 qd^T qd, V = 1/2 q^T Omega^2 q + contact spring energy
+T = 1/2 sum m_step qd^2 (m_step = 1 unless period-matched: plant.newmark), V = 1/2 q^T Omega^2 q + contact spring energy
 (1/2 k_n g_n^2 for g_n < 0, 1/2 k_t (g_t - w)^2 on closed pairs; an Iwan element's
 sum_i 1/2 k_i (g_t - w_i)^2).
 """
@@ -17,7 +17,7 @@ def mechanical_energy(model: PlantModel, x: np.ndarray) -> tuple[float, float]:
     sl = model.state_slots()
     q, qd, w, g = x[sl["q"]], x[sl["qd"]], x[sl["w"]], x[sl["g"]]
     p = model.params
-    T = 0.5 * float(qd @ qd)
+    T = 0.5 * float(p.m_step @ qd**2)
     g_n, g_t = g[0::2], g[1::2]
     closed = g_n < 0.0
     V = 0.5 * float(np.sum(model.omega**2 * q**2))

@@ -75,6 +75,8 @@ class StuckModel(NamedTuple):
     dyn: np.ndarray    # (n,) 1 for a mode stepped by Newmark, 0 for a quasi-static one (PlantParams.dyn)
     omega2: np.ndarray  # (n,) omega^2 of the modes [1/s^2]
     theta: float       # the quasi-static modes' theta (PlantParams.qs_theta) [-]
+    m_step: np.ndarray  # (n,) modal mass of the step (PlantParams.m_step; 1 unless period-matched) [-]
+    c_step: np.ndarray  # (n,) modal damping of the step (PlantParams.c_step) [1/s]
 
 
 def stuck_model(model: PlantModel, point: str, F_N1: float | None = None) -> StuckModel:
@@ -90,7 +92,7 @@ def stuck_model(model: PlantModel, point: str, F_N1: float | None = None) -> Stu
     C_m = np.diag(p.c)
     return StuckModel(K=stuck_stiffness(model, pairs), C_m=C_m, C_c=C - C_m, b=p.b_exc,
                       r=p.out_rows[names.index(point)], dyn=p.dyn.copy(), omega2=p.omega2.copy(),
-                      theta=float(p.qs_theta))
+                      theta=float(p.qs_theta), m_step=p.m_step.copy(), c_step=p.c_step.copy())
 
 
 def continuous_accelerance(lin: StuckModel, freq_hz) -> np.ndarray:
@@ -110,13 +112,13 @@ def _substep_maps(lin: StuckModel, dt: float, substeps: int):
     n = len(lin.b)
     h = dt / substeps
     eye = np.eye(n)
-    K, Cm, Cc = lin.K, lin.C_m, lin.C_c
+    K, Cm, Cc, Mm = lin.K, np.diag(lin.c_step), lin.C_c, np.diag(lin.m_step)
     # dynamic modes: the trapezoid (the dashpots as C_c (x1 - x0) / h, their mean force);
     # quasi-static modes (docs/plant.md 2.6): omega^2 (x1 + theta x0) / (1 + theta) = b F + the
     # contact's mean force, v = 0
     Kc = K - np.diag(lin.omega2)
-    M1 = np.block([[eye, -0.5 * h * eye], [0.5 * h * K + Cc, eye + 0.5 * h * Cm]])
-    M0 = np.block([[eye, 0.5 * h * eye], [-0.5 * h * K + Cc, eye - 0.5 * h * Cm]])
+    M1 = np.block([[eye, -0.5 * h * eye], [0.5 * h * K + Cc, Mm + 0.5 * h * Cm]])
+    M0 = np.block([[eye, 0.5 * h * eye], [-0.5 * h * K + Cc, Mm - 0.5 * h * Cm]])
     u = np.concatenate([np.zeros(n), h * lin.b])
     for i in np.flatnonzero(lin.dyn == 0):
         k_qs = lin.omega2[i] / (1.0 + lin.theta)
@@ -152,7 +154,7 @@ def discrete_accelerance(lin: StuckModel, freq_hz, dt: float, substeps: int = 1)
         s_1 = z * s_k                                              # at t_{k+1}
         x_last = (Phi @ s_k + Gam)[:n]                             # at the last substep's start
         x1, v1 = s_1[:n], s_1[n:]
-        a = lin.b - lin.C_m @ v1 - lin.K @ x1 - lin.C_c @ (x1 - x_last) / h
+        a = (lin.b - lin.c_step * v1 - lin.K @ x1 - lin.C_c @ (x1 - x_last) / h) / lin.m_step
         out.append(lin.r @ (lin.dyn * a))   # a quasi-static mode has no acceleration
     return np.array(out)
 

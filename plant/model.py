@@ -125,6 +125,25 @@ def _modal_basis(K: np.ndarray, M: np.ndarray, T: np.ndarray) -> tuple[np.ndarra
     return np.sqrt(np.maximum(lam, 0.0)), T @ V
 
 
+PERIOD_MATCH_MAX = 2.0   # omega h above which a stepped mode is not period-matched (tan grows without bound)
+
+
+def period_matched(omega: np.ndarray, c: np.ndarray, zeta: float, dyn: np.ndarray, h: float,
+                   on: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(m_step [-], c_step [1/s]) of the stepped modes (plant.newmark, "Period matching"): modal mass
+    (omega / omega_d)^2, omega_d = (2/h) tan(omega h / 2), and damping 2 zeta omega^2 / omega_d x
+    omega h / sin(omega h), so that the trapezoidal rule's free mode has the frequency omega and the
+    damping ratio zeta; 1 and c where ``on`` is False, for rigid-body and quasi-static modes and
+    above omega h = PERIOD_MATCH_MAX."""
+    x = omega * h
+    match = on & (dyn > 0) & (omega > 0.0) & (x < PERIOD_MATCH_MAX)
+    xs = np.where(match, x, 1.0)
+    omega_d = 2.0 / h * np.tan(0.5 * xs)
+    m_step = np.where(match, (xs / h / omega_d) ** 2, 1.0)
+    c_step = np.where(match, 2.0 * zeta * (xs / h) ** 2 / omega_d * xs / np.sin(xs), c)
+    return m_step, c_step
+
+
 def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``)."""
     check_codegen()  # the kernels' fixed code-generation target (rt/common/codegen.py)
@@ -145,15 +164,16 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     h = cfg.dt_s / cfg.plant.substeps
     h_fine = h / cfg.plant.fallback_split
     theta = float(cfg.plant.quasi_static_theta)
-    s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c + 4.0 / hh**2),
+    m_step, c_step = period_matched(omega, c, cfg.plant.modal_damping, dyn, h, cfg.plant.period_match)
+    s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c_step + 4.0 / hh**2 * m_step),
                             (1.0 + theta) / np.maximum(omega, 1.0)**2) for hh in (h, h_fine))
     G = np.ascontiguousarray(st.gap_rows @ Phi)
     out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
-        omega2=omega**2, dyn=dyn, c=c, s2=s2, G=G,
+        omega2=omega**2, dyn=dyn, c=c, c_step=c_step, m_step=m_step, s2=s2, G=G,
         W=np.ascontiguousarray((G * s2) @ G.T),
         b_exc=Phi.T @ st.b_exc, b_N1=Phi.T @ st.b_N1, f_const=Phi.T @ st.f_const,
-        out_rows=out_rows, out_G=np.ascontiguousarray((out_rows * dyn) @ G.T),
+        out_rows=out_rows, out_G=np.ascontiguousarray((out_rows * (dyn / m_step)) @ G.T),
         k_n=st.k_n.copy(), k_t=st.k_t.copy(), mu=st.mu.copy(),
         c_n=st.k_n * cfg.plant.interface.tau_s, c_t=st.k_t * cfg.plant.interface.tau_s,
         dashpot_depth=float(cfg.plant.interface.dashpot_depth_m), h=float(h),

@@ -162,11 +162,27 @@ def solve_contact(g0, g_pred, w0, W, k_n, k_t, mu, cn_h=0.0, ct_h=0.0, depth=1.0
 
 # --- the plant step ---------------------------------------------------------------------------
 
+def period_matched(P):
+    """(m, c) of the stepped modes [-, 1/s]: where the plant period-matches its modes (some
+    P.m_step != 1), the modal mass (omega / omega_d)^2 with omega_d = (2/h) tan(omega h / 2) and the
+    damping 2 zeta omega^2 / omega_d x omega h / sin(omega h), zeta = c / (2 omega), for the
+    dynamic modes with 0 < omega h < 2 at the substep h = P.h; else 1 and c."""
+    omega = np.sqrt(P.omega2)
+    x = omega * P.h
+    match = (P.dyn > 0) & (omega > 0) & (x < 2.0) & np.any(P.m_step != 1.0)
+    x = np.where(match, x, 1.0)
+    omega_d = 2.0 / P.h * np.tan(x / 2)
+    zeta = P.c / (2.0 * np.where(match, x / P.h, 1.0))
+    return (np.where(match, (x / P.h / omega_d) ** 2, 1.0),
+            np.where(match, 2.0 * zeta * (x / P.h) ** 2 / omega_d * x / np.sin(x), P.c))
+
+
 def newmark_compliance(P, h):
-    """s2 = 2 / (omega^2 + (2/h) c + 4/h^2) per dynamic mode, (1 + theta) / omega^2 per quasi-static
-    one (P.dyn = 0) [s^2], and W = G diag(s2) G^T [m/N]."""
+    """s2 = 2 / (omega^2 + (2/h) c + 4 m/h^2) per dynamic mode (m, c: ``period_matched``),
+    (1 + theta) / omega^2 per quasi-static one (P.dyn = 0) [s^2], and W = G diag(s2) G^T [m/N]."""
     dyn = P.dyn > 0
-    s2 = np.where(dyn, 2.0 / (P.omega2 + (2.0 / h) * P.c + 4.0 / h**2),
+    m, c = period_matched(P)
+    s2 = np.where(dyn, 2.0 / (P.omega2 + (2.0 / h) * c + 4.0 * m / h**2),
                   (1.0 + P.qs_theta) / np.where(dyn, 1.0, P.omega2))
     return s2, (P.G * s2) @ P.G.T
 
@@ -175,12 +191,13 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     """One substep of length h of mean-form average-acceleration Newmark (see ``plant_step``).
     Returns the new (q, qd, w, g), the end-point contact force lambda1 and diagnostics."""
     s2, W = newmark_compliance(P, h)
+    m, c = period_matched(P)
     f_screw = P.b_N1 * F_N1 + P.f_const
     f = P.b_exc * F_exc + f_screw
     dyn = P.dyn > 0
     # dynamic modes: the mean form; quasi-static ones: (1 + theta) x the static response to the
     # held load, minus theta q0
-    q_pred = np.where(dyn, q + s2 * (f + (2.0 / h) * qd - P.omega2 * q), s2 * f - P.qs_theta * q)
+    q_pred = np.where(dyn, q + s2 * (f + (2.0 / h) * m * qd - P.omega2 * q), s2 * f - P.qs_theta * q)
     g_pred = P.G @ q_pred
     cn_h, ct_h = P.c_n / h, P.c_t / h
     g1, res = solve_contact(g, g_pred, w, W, P.k_n, P.k_t, P.mu, cn_h, ct_h, P.dashpot_depth)
@@ -196,7 +213,7 @@ def newmark_substep(q, qd, w, g, E, F_exc, F_N1, P, h):
     # minus the potential's gain
     load = P.omega2 * (q1 + P.qs_theta * q) / (1.0 + P.qs_theta)
     surplus = np.where(dyn, 0.0, load * dq - 0.5 * P.omega2 * (q1**2 - q**2))
-    E["E_damp"] += float(h * np.sum(P.c * (0.5 * (qd + qd1)) ** 2)) - float(Ld @ (g1 - g)) + float(surplus.sum())
+    E["E_damp"] += float(h * np.sum(c * (0.5 * (qd + qd1)) ** 2)) - float(Ld @ (g1 - g)) + float(surplus.sum())
     E["W_exc"] += F_exc * float(P.b_exc @ dq)
     E["W_screw"] += float(f_screw @ dq)
     info = {"state": state, "moved": moved, "res": res, "gq_mismatch": float(np.max(np.abs(P.G @ q1 - g1)))}
@@ -208,8 +225,9 @@ def plant_step(x, u, P, slots, labels, split=None):
     average-acceleration Newmark on the decoupled modes.
 
     Per substep of length h, with f = b_exc F_exc + b_N1 F_N1 + f_const held:
-        s2     = 2 / (omega^2 + (2/h) c + 4/h^2),  W = G diag(s2) G^T   (computed here)
-        q_pred = q0 + s2 (f + (2/h) qd0 - omega^2 q0)          (contact off)
+        s2     = 2 / (omega^2 + (2/h) c + 4 m/h^2),  W = G diag(s2) G^T   (computed here;
+                 m, c the period-matched modal mass and damping, ``period_matched``)
+        q_pred = q0 + s2 (f + (2/h) m qd0 - omega^2 q0)          (contact off)
         g1     = solve of g1 = G q_pred + W Lambda(g0, g1, w0)
         q1     = q_pred + s2 G^T Lambda,   qd1 = (2/h)(q1 - q0) - qd0
         E_fric  += sum 1/2 (f_t0 + f_t1)(w1 - w0)      f_t = k_t (g_t - w), spring force
@@ -219,7 +237,7 @@ def plant_step(x, u, P, slots, labels, split=None):
     h / split: the kernel's fallback when its Newton fails, which the reference cannot see, so
     the caller passes it.
     Outputs at the end point, by label: w, w' at the points and u_rel, v_rel from out_rows;
-    accelerations out_rows (f - c qd1 - omega^2 q1 + G^T (lambda1 + Ld)); mean accelerations
+    accelerations out_rows (f - c qd1 - omega^2 q1 + G^T (lambda1 + Ld)) / m; mean accelerations
     abar = out_rows (qd1 - qd0) / dt over the controller step; gaps, f_n = lambda1_n,
     f_t = -lambda1_t per pair; the energies. Labels not listed here (solver counters) are NaN.
 
@@ -247,7 +265,8 @@ def plant_step(x, u, P, slots, labels, split=None):
 
     f = P.b_exc * F_exc + P.b_N1 * F_N1 + P.f_const
     # modal acceleration at the end point (none for a quasi-static mode)
-    acc = np.where(P.dyn > 0, f - P.c * qd - P.omega2 * q + P.G.T @ lam_acc, 0.0)
+    m, c = period_matched(P)
+    acc = np.where(P.dyn > 0, (f - c * qd - P.omega2 * q + P.G.T @ lam_acc) / m, 0.0)
     disp, vel, accel = P.out_rows @ q, P.out_rows @ qd, P.out_rows @ acc
     names = [nm for nm, _ in labels]
     y = np.full(len(names), np.nan)

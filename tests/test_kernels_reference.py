@@ -107,8 +107,12 @@ def undamped():
 
 @pytest.fixture(scope="module")
 def small_undamped():
+    """Five contact points (40 mm pitch) at half the default's stiffness per area (the pairs' stiffness
+    of the default pitch before the contact was per area), two substeps, no interface damping."""
+    itf = load().plant.interface
     return build_plant(load(sets=["plant.interface.pitch_m=0.04", "plant.substeps=2", "plant.interface.tau_s=0",
-                                  "plant.fallback_split=8"] + UNDAMPED_QS))
+                                  "plant.fallback_split=8", f"plant.interface.k_n_area={itf.k_n_area / 2!r}",
+                                  f"plant.interface.k_t_area={itf.k_t_area / 2!r}"] + UNDAMPED_QS))
 
 
 def scenario(m, name, n_steps=N_STEPS):
@@ -478,7 +482,7 @@ def newton_cases(m, rng, n_cases):
         w0[new] = (g0[1::2] - rng.uniform(-1.0, 1.0, m.n_pairs) * cone)[new]
         f = P.b_exc * rng.uniform(-500.0, 500.0) + P.b_N1 * rng.uniform(20.0, 300.0) + P.f_const
         qd0 *= rng.uniform(0.5, 4.0)
-        g_pred = P.G @ (q0 + P.s2 * (f + 2.0 / P.h * qd0 - P.omega2 * q0))
+        g_pred = P.G @ (q0 + P.s2 * (f + 2.0 / P.h * P.m_step * qd0 - P.omega2 * q0))
         # and a random relative shift of the pairs, of the order of their penetration (normal)
         # and of their friction cone (tangential)
         g_pred[0::2] += rng.normal(0.0, 0.5, m.n_pairs) * np.abs(g0[0::2])

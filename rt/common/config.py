@@ -187,6 +187,10 @@ class Plant:
                                 doc="Craig-Bampton fixed-interface modes kept up to this frequency")
     reduced: bool = param(True, doc="false: step the full FE model instead of Craig-Bampton")
     substeps: int = param(1, "-", lo=1, hi=256, doc="plant substeps per controller step")
+    period_match: bool = param(True, doc="step the Newmark modes with modal mass (omega / omega_d)^2, omega_d = "
+                                         "(2/h) tan(omega h / 2), and matched damping, so that the trapezoidal "
+                                         "rule's modes keep their exact frequency and damping (no period "
+                                         "elongation; docs/plant.md 2.2); false: the plain trapezoid")
     newton_tol_m: float = param(1e-18, "m", lo=0.0, lo_inclusive=False,
                                 doc="contact Newton tolerance on the gaps (plus 64 eps max|gap|)")
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
