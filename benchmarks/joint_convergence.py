@@ -76,14 +76,19 @@ def main(argv=None) -> int:
                     metavar="P:E:S", help="pitch [mm]:element [mm]:substeps per entry, the finest last "
                                           f"(default {' '.join(DEFAULT_GRID)})")
     ap.add_argument("--fn1", type=float, nargs="+", default=[100.0], help="F_N1 levels [N] (default 100)")
+    ap.add_argument("--save", metavar="FILE.npz", help="also write every entry's f, zeta and FRF (numpy .npz)")
     ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
     args = ap.parse_args(argv)
     base = load(None, args.sets)
+    saved = {}
     for F_N1 in args.fn1:
         rows = []
         for entry in args.grid:
             rows.append(hammer(configured(base, entry), F_N1))
             print(f"F_N1 {F_N1:g} N, {entry[0]:g}:{entry[1]:g}:{entry[2]} done ({rows[-1]['wall_s']:.0f} s)", flush=True)
+        for entry, r in zip(args.grid, rows):
+            key = f"{F_N1:g}N_{entry[0]:g}_{entry[1]:g}_{entry[2]}"
+            saved |= {f"{key}_f": r["f"], f"{key}_zeta": r["zeta"], f"{key}_H": r["H"], f"{key}_wall": r["wall_s"]}
         ref = rows[-1]
         print(f"\nHammer test at F_N1 = {F_N1:g} N: modes 2-5, f [Hz] and zeta [%] (offsets from the last entry), "
               f"FRF distance [dB rms, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz]\n")
@@ -105,6 +110,8 @@ def main(argv=None) -> int:
                     print(f"\n{p:g} mm / {e:g} mm, substeps {s}, {2 * s}, {4 * s}: observed order {order:.2f}; distance "
                           "from the Richardson limit [dB rms]: "
                           + ", ".join(f"{k} substeps {rms_db(Hs[k], limit):.2f}" for k in (s, 2 * s, 4 * s)))
+    if args.save:
+        np.savez(args.save, **saved)
     return 0
 
 

@@ -275,13 +275,13 @@ def test_contact_stiffness_a_decade_off(one_level, k_nominal):
     (measured 0.001-0.01 %), the damping within 1 %, the gap as from the right nominal within
     0.01 dB, no warning."""
     c = Config()
-    nominal = with_sets(Config(), [f"plant.interface.k_t={c.plant.interface.k_t * k_nominal!r}"])
+    nominal = with_sets(Config(), [f"plant.interface.k_t_area={c.plant.interface.k_t_area * k_nominal!r}"])
     true = scaled(c, scatter_sets(np.random.default_rng(SEED)))
     _, ref = one_level("none", "accelerance")
     _, res = one_level("none", "accelerance", nominal)
     assert res["named_effect"] is None and res["warnings"] == []
-    assert res["fitted_parameters"]["k_t"] * k_nominal == pytest.approx(true.plant.interface.k_t / c.plant.interface.k_t,
-                                                                        rel=1e-3)
+    assert res["fitted_parameters"]["k_t"] * k_nominal == pytest.approx(
+        true.plant.interface.k_t_area / c.plant.interface.k_t_area, rel=1e-3)
     assert res["fitted_parameters"]["modal_damping"] == pytest.approx(ref["fitted_parameters"]["modal_damping"], rel=0.01)
     assert res["gap_after"]["structure_frf_db"] == pytest.approx(ref["gap_after"]["structure_frf_db"], abs=0.01)
 

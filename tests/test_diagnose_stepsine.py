@@ -35,7 +35,7 @@ def prepared(monkeypatch):
 
     def fake_run_branches(branches, *args, **kwargs):
         calls.append(branches)
-        k_n = [b.cfg.plant.interface.k_n / cfg.plant.interface.k_n for b in branches]
+        k_n = [b.cfg.plant.interface.k_n_area / cfg.plant.interface.k_n_area for b in branches]
         return [_response(R_EXC * (np.array([1.0, 1.0, 3.0]) if f > 1.5 else np.full(3, 1.02 if f < 0.7 else 1.0)))
                 for f in k_n]
 

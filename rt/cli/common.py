@@ -70,7 +70,7 @@ def add_common(p: argparse.ArgumentParser, top: bool) -> None:
     p.add_argument("--config", metavar="FILE", default=dflt(None),
                    help="TOML file overriding the defaults (SPEC values)")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
-                   help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
+                   help="override one value, e.g. plant.interface.mu=0.3 or plant.screws.adaptive.F_N=200 "
                         "(list elements by name); repeatable")
 
 

@@ -119,20 +119,20 @@ class Interface:
     upper: str = "damper"
     x_start_m: float = param(0.465, "m", doc="first contact pair")
     x_end_m: float = param(0.625, "m", doc="last contact pair")
-    pitch_m: float = param(0.020, "m", lo=0.0, lo_inclusive=False,
+    pitch_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False,
                            doc="contact point spacing: a numerical choice (docs/plant.md 6, convergence), "
                                "not a physical parameter; each point carries its tributary area")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
-    k_n_area: float = param(2.125e12, "N/m^3", lo=0.0, lo_inclusive=False,
+    k_n_area: float = param(9.5e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="normal penalty stiffness per unit area of interface (a pair carries it times "
-                                "its tributary area), calibrated to the paper's mode-3 peak at 230 Hz "
-                                "(python -m benchmarks.calibrate_contact; docs/plant.md 6)")
+                                "its tributary area), calibrated to the paper's mode-3 peak at 230 Hz on the "
+                                "refined joint (python -m benchmarks.calibrate_contact; docs/plant.md 6)")
     tau_s: float = param(2e-6, "s", lo=0.0, hi=1e-3,
                          doc="interface damping: Kelvin-Voigt dashpots c = k tau on the pairs (A); "
                              "damps the contact modes the 21 kHz step cannot resolve")
     dashpot_depth_m: float = param(1e-8, "m", lo=0.0, lo_inclusive=False,
                                    doc="penetration over which the tangential dashpot fades in (A)")
-    k_t_area: float = param(1.75e12, "N/m^3", lo=0.0, lo_inclusive=False,
+    k_t_area: float = param(7.82e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="Jenkins tangential stiffness per unit area of interface (Mindlin ratio "
                                 "2 (1 - nu) / (2 - nu) = 0.82 k_n_area)")
     static_excess: float = param(0.0, "-", lo=0.0, hi=1.0,
@@ -170,7 +170,7 @@ class Plant:
     points: tuple[Point, ...] = field(default_factory=_default_points)
     excitation_point: str = "exc"
     frf_point: str = "frf"
-    element_length_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False,
+    element_length_m: float = param(0.005, "m", lo=0.0, lo_inclusive=False,
                                     doc="largest FE element (a numerical choice, docs/plant.md 6; the contact "
                                         "points are nodes, so the interface's elements are at most the pitch)")
     modal_damping: float = param(0.001, "-", lo=0.0, hi=1.0, doc="zeta of the bare beams (A)")

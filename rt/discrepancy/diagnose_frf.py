@@ -350,7 +350,7 @@ def gap_db(data: list[FRFData], Hm: list[dict]) -> dict:
 FIXES = {
     "E": "widen CAL_FAR's E range only if a factor 2 in E is plausible; check the nominal E and density of the "
          "beams (plant.beams.*.E, rho) and the structure's dimensions",
-    "k_t": "check the nominal plant.interface.k_t (more than a factor 100 off?) and whether the joint is stuck at "
+    "k_t": "check the nominal plant.interface.k_t_area (more than a factor 100 off?) and whether the joint is stuck at "
            "the test's level and where the model puts it",
     "modal_damping": "check the nominal plant.modal_damping; at the upper bound the data have more damping than a "
                      "stuck linear model gives (slip, an effect not in the library)",
