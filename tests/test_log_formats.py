@@ -205,12 +205,14 @@ def test_simulate_writes_a_foxglove_layout_of_the_blueprints_panels(run_log):
     assert plots["Plot!hysteresis"]["xAxisPath"]["value"] == "/plant.u_rel"
 
 
-FOXGLOVE_CHECK = os.environ.get("FOXGLOVE_CHECK_DIR", "")
+FOXGLOVE_CHECK = Path(os.environ.get("FOXGLOVE_CHECK_DIR") or Path(__file__).parents[1] / "tools" / "foxglove")
+"""Foxglove's own decoder (check.mjs in the clone's tools/foxglove; FOXGLOVE_CHECK_DIR: a copy elsewhere),
+usable after ``npm install`` there (Node.js)."""
 
 
-@pytest.mark.skipif(shutil.which("node") is None or not Path(FOXGLOVE_CHECK, "node_modules").is_dir(),
-                    reason="Foxglove's parser: set FOXGLOVE_CHECK_DIR to a copy of /work/shared/tools/foxglove "
-                           "after npm install")
+@pytest.mark.skipif(shutil.which("node") is None or not (FOXGLOVE_CHECK / "node_modules").is_dir(),
+                    reason=f"Foxglove's parser needs Node.js and `npm install` in {FOXGLOVE_CHECK} "
+                           "(or FOXGLOVE_CHECK_DIR naming a folder where it ran)")
 def test_foxglove_parses_every_schema_and_decodes_every_message(run_log):
     out = subprocess.run(["node", "check.mjs", str(run_log)], cwd=FOXGLOVE_CHECK, capture_output=True, text=True,
                          timeout=120).stdout
