@@ -1,4 +1,4 @@
-"""What every ``frictionrt`` verb does the same way (below the verbs; rt/cli/app.py collects them).
+"""What every ``frictionrt`` verb does the same way (below the verbs; rt/cli/app.py assembles them).
 
 - Errors: ``fail(msg)`` prints one line ``frictionrt: error: MSG`` on stderr and returns exit
   code 2; with ``--json`` the same error is also one JSON object on stdout,
