@@ -15,8 +15,9 @@ from rt.cli.common import add_force, fail
 INSPECT = """Convert an MCAP run log or measurement (an MCAP file with some of the topics /rt, /sensors,
 /observer, /tracking, /actuator, /plant and the "signals" record, e.g. /sensors only) to a rerun
 .rrd recording with the default blueprint of `simulate --out`: F_N1 setpoint vs measured, the
-friction hysteresis (if /plant is present) and one time-series tab per topic present. Times are the
-log times (t = k / rate_hz [s]) and ticks k."""
+friction hysteresis (if /plant is present) and one time-series tab per topic present, and beside
+it, as `simulate --out` does, the Foxglove layout of the same panels (NAME.foxglove.json for
+NAME.rrd). Times are the log times (t = k / rate_hz [s]), ticks k and the file's UTC time."""
 
 INSPECT_EXAMPLES = """examples:
   frictionrt inspect logs/run.mcap               # writes logs/run.rrd; then: rerun logs/run.rrd
@@ -35,7 +36,8 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
                    help="the recording (default: RUN.rrd next to the input)")
     add_force(i)
     i.add_argument("--json", action="store_true",
-                   help="one JSON object: input, output, ticks, first_tick, last_tick, topics, entities, seconds")
+                   help="one JSON object: input, output, foxglove_layout, ticks, first_tick, last_tick, topics, "
+                        "entities, seconds")
     return i
 
 
@@ -58,4 +60,5 @@ def cmd_inspect(cfg, args) -> int:
     span = "" if not r["ticks"] else f" (k = {r['first_tick']}..{r['last_tick']})"
     print(f"{r['output']}: {r['ticks']} ticks{span} of {', '.join(r['topics']) or 'no topic'}, "
           f"{len(r['entities'])} entities, in {r['seconds']:.1f} s; open it with: rerun {r['output']}")
+    print(f"Foxglove layout: {r['foxglove_layout']} (Layouts > Import from file, with {args.log} open)")
     return 0
