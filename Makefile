@@ -16,8 +16,8 @@ $(STAMP): $(BIN)/python pyproject.toml
 
 demo: $(STAMP)
 	$(BIN)/frictionrt modes
-	$(BIN)/frictionrt impulse --fn1 100 --plot logs/impulse_fn1_100.png --force
-	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 --plot logs/compare_laws.png --force
+	$(BIN)/frictionrt impulse --fn1 100 -o logs/impulse_fn1_100.png --force
+	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 -o logs/compare_laws.png --force
 	$(BIN)/frictionrt reproduce --quick --out logs/reproduce_quick --force
 
 # two workers for the suite, then the timing tests alone (pyproject.toml, marker `timing`)

@@ -22,7 +22,7 @@ EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, fr
 examples:
   frictionrt config --show
   frictionrt --set plant.interface.mu=0.3 modes --json
-  frictionrt impulse --fn1 100 --plot logs/impulse.png
+  frictionrt impulse --fn1 100 -o logs/impulse.png
   frictionrt simulate --law lyapunov --freq 223.6 --amp 5 --duration 1 --out logs/lyap
   frictionrt replay logs/lyap.mcap
   frictionrt budget

@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import add_force, fail, refuse_existing
+from rt.cli.common import add_deprecated, add_force, add_out, fail, refuse_existing
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -23,7 +23,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                          "as reproduce --quick finds its peaks (~1-2 s; compare.passive_peak_hz; default 3)")
     q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
     q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
-    q.add_argument("--plot", metavar="FILE", help="write the time histories here (PNG)")
+    add_out(q, "FILE.png", "the file to write the time histories to (PNG)", dest="plot")
+    add_deprecated(q, "--plot", "-o/--out", dest="plot")
     add_force(q)
     q.add_argument("--json", action="store_true", help="the table as JSON")
     return q
@@ -37,8 +38,8 @@ def cmd_compare(cfg, args) -> int:
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png" or not out.parent.exists():
-            return fail(f"--plot {out}: give a .png file in an existing folder")
-        if msg := refuse_existing([out], args.force, "--plot"):
+            return fail(f"-o {out}: give a .png file in an existing folder")
+        if msg := refuse_existing([out], args.force, "-o"):
             return fail(msg)
     if args.freq is None and not 1 <= args.mode <= 9:
         return fail(f"--mode {args.mode}: give a bending mode 1..9")

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from rt.cli.common import add_out, fail
+from rt.cli.common import add_force, add_out, fail, write_folder
 
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
 V_cmd), calibrates E, mu, k_t, modal damping, c_v and the dispersion (the data's time step against
@@ -45,8 +45,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "--frf-files)")
     p.add_argument("--json", action="store_true", help="print one JSON object (named_effect, ranking, gap_before, "
                    "gap_after, fitted_parameters, ...)")
-    add_out(p, "REPORT_DIR", "write report.md, diagnose.json, model.toml (the updated model) and FRF/actuator "
-                             "overlay PNGs into this new folder (a diagnosis is never replaced: no --force)")
+    add_out(p, "REPORT_DIR", "a folder it creates for report.md, diagnose.json, model.toml (the updated model), "
+                             "FRF/actuator overlay PNGs and diagnosis.rrd; an existing one is refused, or with "
+                             "--force replaced as a whole")
+    add_force(p, "an existing folder as a whole")
     p.add_argument("--jobs", type=int, metavar="N", help="processes for the candidates' fits and the model "
                    "step-sines (default: the number of cores; 1: in this process); the result is the same for any N")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
@@ -68,8 +70,8 @@ def cmd_diagnose(cfg, args) -> int:
     from rt.discrepancy.diagnose import diagnose, public, summary
     from rt.discrepancy.diagnose_frf import diagnose_frf, is_frf_folder
     from pathlib import Path
-    if args.out and Path(args.out).exists():
-        return fail(f"--out {args.out}: exists; a diagnosis is never replaced, give a new folder")
+    if args.out and Path(args.out).exists() and not args.force:
+        return fail(f"--out {args.out}: exists; pass --force to replace it as a whole, or give a new folder")
     if args.jobs is not None and args.jobs < 1:
         return fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
     say = None if args.json else lambda m: print(f"  {m}", file=sys.stderr)
@@ -86,7 +88,7 @@ def cmd_diagnose(cfg, args) -> int:
         return fail(f"diagnose: {exc}")
     if args.out:
         from rt.discrepancy.diagnose_report import write_report
-        write_report(res, args.out)
+        write_folder(args.out, args.force, lambda: write_report(res, args.out))
     print(json.dumps(public(res)) if args.json else summary(res))
     return 0
 
@@ -108,6 +110,6 @@ def _levels(cfg, args, say) -> int:
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     if args.out:
-        write_levels_report(res, args.out)
+        write_folder(args.out, args.force, lambda: write_levels_report(res, args.out))
     print(json.dumps({k: v for k, v in res.items() if not k.startswith("_")}) if args.json else summary(res))
     return 0

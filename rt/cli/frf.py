@@ -71,7 +71,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="run the sweeps on this dask scheduler's workers instead (frictionrt installed there)")
     p.add_argument("--json", action="store_true", help="print the results as one JSON object (no progress bar)")
     p.add_argument("--plot", metavar="PATH.png", help="write |H| [dB] and phase [deg] against f [Hz] here (PNG)")
-    add_out(p, "PATH.json", "write the results as JSON here")
+    add_out(p, "PATH.json", "the file to write the results to (JSON; --plot and --rrd: the same FRFs as plot and "
+                            "recording)")
     add_force(p)
     p.add_argument("--rrd", metavar="PATH.rrd", help="write the FRFs as a rerun recording here (|H| [dB], phase, "
                    "force amplitude against frequency; open with: rerun PATH.rrd)")

@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import add_force, fail, refuse_existing
+from rt.cli.common import add_deprecated, add_force, add_out, fail, refuse_existing
 from rt.common.config import adaptive_screw
 
 
@@ -19,7 +19,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     i.add_argument("--fn1", type=float, default=None, metavar="N",
                    help="adaptive screw force F_N1 [N] (default: plant.screws.adaptive.F_N); refused for a "
                         "structure without an adaptive screw")
-    i.add_argument("--plot", metavar="FILE", help="write the FRF plot (PNG) here")
+    add_out(i, "FILE.png", "the file to write the FRF plot to (PNG)", dest="plot")
+    add_deprecated(i, "--plot", "-o/--out", dest="plot")
     add_force(i)
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     return i
@@ -39,10 +40,10 @@ def cmd_impulse(cfg, args) -> int:
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png":
-            return fail(f"--plot {out}: the plot is written as PNG; give a file name ending in .png")
+            return fail(f"-o {out}: the plot is written as PNG; give a file name ending in .png")
         if not out.parent.exists():
-            return fail(f"--plot {out}: folder {out.parent} does not exist")
-        if msg := refuse_existing([out], args.force, "--plot"):
+            return fail(f"-o {out}: folder {out.parent} does not exist")
+        if msg := refuse_existing([out], args.force, "-o"):
             return fail(msg)
     res = impulse_test(build_plant(cfg), fn1)
     if args.plot:

@@ -10,7 +10,7 @@ import json
 import time
 from pathlib import Path
 
-from rt.cli.common import add_force, fail
+from rt.cli.common import add_deprecated, add_force, add_out, fail
 
 INSPECT = """Convert an MCAP run log or measurement (an MCAP file with some of the topics /rt, /sensors,
 /observer, /tracking, /actuator, /plant and the "signals" record, e.g. /sensors only) to a rerun
@@ -32,8 +32,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     i = subparsers.add_parser("inspect", parents=parents, help="an MCAP log or measurement as .rrd for rerun",
                               description=INSPECT, epilog=INSPECT_EXAMPLES, formatter_class=fmt)
     i.add_argument("log", metavar="RUN.mcap", help="the MCAP log or measurement")
-    i.add_argument("-o", "--out", "--output", metavar="OUT.rrd", dest="out",
-                   help="the recording (default: RUN.rrd next to the input)")
+    add_out(i, "OUT.rrd", "the file to write the recording to, with its Foxglove layout OUT.foxglove.json beside "
+                          "it (default: RUN.rrd next to the input)")
+    add_deprecated(i, "--output", "-o/--out")
     add_force(i)
     i.add_argument("--json", action="store_true",
                    help="one JSON object: input, output, foxglove_layout, ticks, first_tick, last_tick, topics, "

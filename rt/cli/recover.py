@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from rt.cli.common import add_force, fail
+from rt.cli.common import add_deprecated, add_force, add_out, fail
 
 RECOVER = """Recover a run log whose writer was killed (kill -9, power loss): `frictionrt simulate --out
 NAME` leaves NAME.mcap.part. Every complete chunk (each CRC-checked) is written to a new, finished
@@ -31,8 +31,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     r = subparsers.add_parser("recover", parents=parents, help="salvage a killed run's log (NAME.mcap.part)",
                               description=RECOVER, epilog=RECOVER_EXAMPLES, formatter_class=fmt)
     r.add_argument("src", metavar="BROKEN.mcap", help="the unfinished log, e.g. logs/run.mcap.part")
-    r.add_argument("-o", "--out", "--output", required=True, metavar="FIXED.mcap", dest="out",
-                   help="the recovered log to write (its folder must exist; never the input)")
+    add_out(r, "FIXED.mcap", "the file to write the recovered log to (required; its folder must exist; never the "
+                             "input)")
+    add_deprecated(r, "--output", "-o/--out")
     add_force(r)
     r.add_argument("--json", action="store_true",
                    help="one JSON object: input, output, ticks, first_tick, last_tick, missing_ticks, chunks, "
@@ -42,6 +43,8 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
 
 def cmd_recover(cfg, args) -> int:
     from rt.log.recover import recover
+    if not args.out:   # not required by argparse: the old spelling --output gives it too
+        return fail("recover: give -o FIXED.mcap, the file to write the recovered log to")
     try:
         r = recover(args.src, args.out, overwrite=args.force)
     except ValueError as exc:

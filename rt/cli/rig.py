@@ -6,8 +6,9 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 
-from rt.cli.common import add_out, fail, parse_list
+from rt.cli.common import add_force, add_out, fail, parse_list, write_folder
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
@@ -77,7 +78,9 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
                    "damping, beams not copies of the nominal's (rt.discrepancy.rig.model_form); PARTS: all "
                    "(default) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
-    add_out(p, "DIR", "new campaign folder (must not exist or be empty: a campaign is never replaced, no --force)")
+    add_out(p, "DIR", "a folder it creates for the campaign's files; an existing one (not empty) is refused, or "
+                      "with --force replaced as a whole")
+    add_force(p, "an existing folder as a whole")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
 
@@ -96,6 +99,9 @@ def cmd_rig(cfg, args) -> int:
         return 0
     if not args.effect or not args.out:
         return fail("rig: give --effect NAME (or none) and -o DIR, or --list")
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
+        return fail(f"rig -o {out}: exists; pass --force to replace it as a whole, or give a new folder")
     if args.effect != "none":
         try:
             eff = get(args.effect)
@@ -135,19 +141,20 @@ def cmd_rig(cfg, args) -> int:
         return fail(f"rig --model-form: {exc}")
     from rt.discrepancy.rig_frf import make_frf_campaign
     from rt.discrepancy.rig_levels import make_level_campaign
-    try:
+
+    def write():   # the campaign into the new folder out (moved in once complete; rt.discrepancy.rig.new_folder)
         if levels is not None:
-            files = make_level_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                        force_levels_n=levels, other_form=form,
-                                        force_scale_N_per_V=args.force_scale,
-                                        progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
-        elif args.frf_files:
-            files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                      quantity=args.quantity, force_scale_N_per_V=args.force_scale,
-                                      other_form=form)
-        else:
-            files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                  record_s=args.record_s, stepsine=args.stepsine, other_form=form)
+            return make_level_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, force_levels_n=levels,
+                                       other_form=form, force_scale_N_per_V=args.force_scale,
+                                       progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
+        if args.frf_files:
+            return make_frf_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, quantity=args.quantity,
+                                     force_scale_N_per_V=args.force_scale, other_form=form)
+        return make_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s,
+                             stepsine=args.stepsine, other_form=form)
+
+    try:
+        files = write_folder(out, args.force, write)
     except ValueError as exc:
         return fail(f"rig -o: {exc}")
     if args.json:

@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import (add_force, add_out, add_realtime, fail, realtime_notes, refuse_existing,
+from rt.cli.common import (add_force, add_out, add_realtime, deprecated, fail, realtime_notes, refuse_existing,
                            unpaced_realtime)
 
 
@@ -27,8 +27,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
     add_realtime(s)
     s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
-    add_out(s, "PATH", "write the log to PATH.mcap, PATH.rrd and its Foxglove layout PATH.foxglove.json (a "
-                       ".mcap or .rrd suffix is dropped); the folder must exist")
+    add_out(s, "NAME.mcap", "the file to write the log to, NAME.mcap (.mcap added if missing), with its rerun "
+                            "recording NAME.rrd and Foxglove layout NAME.foxglove.json beside it; the folder must exist")
     add_force(s)
     s.add_argument("--no-rrd", action="store_true", help="with --out: write the MCAP file only")
     s.add_argument("--ring", type=float, default=1.0, metavar="S",
@@ -61,6 +61,8 @@ def cmd_simulate(cfg, args) -> int:
     base = None
     if args.out:
         base = Path(args.out)
+        if base.suffix == ".rrd":   # the old spelling: the stem of all three files
+            deprecated(f"-o {args.out}", f"-o {base.with_suffix('.mcap')}")
         if base.suffix in (".mcap", ".rrd"):
             base = base.with_suffix("")
         if not base.parent.exists():

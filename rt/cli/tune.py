@@ -59,9 +59,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT", help="run the sweeps on this dask scheduler's workers")
-    add_out(p, "DIR", "output folder (default logs/tune_LAW); created if missing; an existing one is refused, or "
-                      "with --force its tune files are replaced")
-    add_force(p)
+    add_out(p, "DIR", "a folder it creates for table.csv, table.md, pareto.png, best.toml, tune.json (default: "
+                      "logs/tune_LAW); an existing one is refused, or with --force its tune files are replaced")
+    add_force(p, "the tune files of an existing folder")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object (no progress bar)")
     return p
 
