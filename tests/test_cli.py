@@ -1,4 +1,5 @@
 """The frictionrt command line: JSON keys, units in --help, clean errors (exit 2, one line)."""
+import argparse
 import json
 import re
 import subprocess
@@ -239,3 +240,33 @@ def test_an_existing_output_is_refused_unless_force_and_errors_are_json_with_jso
         main(["simulate", "--freq", "x", "--amp", "5", "--json"])
     out = capsys.readouterr().out
     assert e.value.code == 2 and json.loads(out)["exit"] == 2 and "--freq" in json.loads(out)["error"]
+
+
+def test_help_shows_defaults_one_way_for_every_verb():
+    # one formatter for all verbs (rt.cli.common.HelpFormatter): a default is "(default: VALUE)" at the
+    # end of its option's help, never "(default 5)" or "(5)"; examples keep their lines
+    from rt.cli.app import build_parser
+    from rt.cli.common import HelpFormatter
+    ap = build_parser()
+    sub = next(a for a in ap._actions if a.dest == "command").choices
+    for name, p in sub.items():
+        assert p.formatter_class is HelpFormatter, name
+        text = " ".join(p.format_help().split())
+        assert not re.search(r"\(default [^:]|default \d", text), (name, re.search(r".{60}\(default [^:].{20}", text))
+        for a in p._actions:
+            if a.option_strings and a.help != argparse.SUPPRESS and a.default not in (None, False, [], argparse.SUPPRESS):
+                assert "default" in (a.help or "") or f"(default: {a.default})" in text, (name, a.option_strings)
+    assert "\n  frictionrt frf --law hysteresis --amp 5 20 --freqs 190,195,200,205 --down --json\n" in \
+        sub["frf"].format_help()
+
+
+def test_shell_completion_is_generated_from_the_parser(tmp_path, capsys):
+    # shtab: every verb and its options in the script; bash parses it
+    with pytest.raises(SystemExit) as e:
+        main(["--print-completion", "bash"])
+    script = capsys.readouterr().out
+    assert e.value.code == 0
+    for word in ("simulate", "diagnose", "--calibrate-on", "--frf-files", "--force", "--print-completion"):
+        assert word in script, word
+    (tmp_path / "frictionrt.bash").write_text(script)
+    assert subprocess.run(["bash", "-n", str(tmp_path / "frictionrt.bash")]).returncode == 0

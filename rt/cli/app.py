@@ -13,6 +13,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+import shtab
+
 from rt.cli import (bench, budget, compare, config, diagnose, frf, impulse, inspect, modes, observer, recover,
                     replay, reproduce, rig, simulate, tune, validate)
 from rt.cli.common import Parser, actuator_verb, add_common, fail, json_errors, realtime_sets
@@ -41,9 +43,11 @@ def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
     add_common(common, top=False)
     ap = Parser(
-        prog="frictionrt", epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        prog="frictionrt", epilog=EPILOG,
         description="Real-time emulation of semi-actively controlled friction dampers (Becker & Gaul).")
     ap.add_argument("--version", action="version", version=version_text())
+    shtab.add_argument_to(ap, "--print-completion", help="print the shell completion script of every verb and "
+                          "option, generated from this parser (README, \"Shell completion\")")
     add_common(ap, top=True)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for verb in VERBS.values():

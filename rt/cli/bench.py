@@ -14,9 +14,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     b.add_argument("target", choices=["plant", "loop"],
                    help="plant: the Newmark/Newton step for 5, 9, 17, 33 pairs; loop: the whole tick and the "
                         "controller part against python-control's nlsys simulation of it")
-    b.add_argument("--steps", type=int, default=21000, metavar="N", help="steps per case (default 21000 = 1 s)")
+    b.add_argument("--steps", type=int, default=21000, metavar="N", help="steps per case (21000 = 1 s)")
     b.add_argument("--pairs", type=int, nargs="+", default=[5, 9, 17, 33], metavar="P",
-                   help="contact pair counts (default 5 9 17 33)")
+                   help="contact pair counts")
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     return b
 

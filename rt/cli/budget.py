@@ -17,9 +17,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                                    "empty tick) and, when installed, cyclictest (rt-tests). With --rt-priority N "
                                    "--cpu K the loop thread alone runs at SCHED_FIFO N on core K "
                                    "(docs/loop.md, 'Real-time set-up').")
-    g.add_argument("--ticks", type=int, default=105000, metavar="N", help="offline ticks (default 105000 = 5 s)")
-    g.add_argument("--paced-s", type=float, default=5.0, metavar="S", help="paced run length [s] (default 5)")
-    g.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov")
+    g.add_argument("--ticks", type=int, default=105000, metavar="N", help="offline ticks (21000 = 1 s)")
+    g.add_argument("--paced-s", type=float, default=5.0, metavar="S", help="paced run length [s]")
+    g.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov", help="control law")
     add_realtime(g)
     g.add_argument("--no-floor", action="store_true", help="leave out the null loop and cyclictest")
     g.add_argument("--json", action="store_true", help="one JSON object instead of a table")

@@ -21,6 +21,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import shtab
+
 _json_errors = False
 
 
@@ -40,7 +42,12 @@ def fail(msg: str) -> int:
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse's parser whose usage errors follow ``fail`` (JSON on stdout if --json was given)."""
+    """argparse's parser whose usage errors follow ``fail`` (JSON on stdout if --json was given); its
+    --help, and every verb's (argparse makes the verbs' parsers of the same class), in ``HelpFormatter``."""
+
+    def __init__(self, *args, **kw):
+        kw.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kw)
 
     def error(self, message: str):
         if _json_errors:
@@ -75,7 +82,7 @@ def add_common(p: argparse.ArgumentParser, top: bool) -> None:
     default to SUPPRESS so they never overwrite what was given before the subcommand."""
     dflt = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
     p.add_argument("--config", metavar="FILE", default=dflt(None),
-                   help="TOML file overriding the defaults (SPEC values)")
+                   help="TOML file overriding the defaults (SPEC values)").complete = shtab.FILE
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
                    help="override one value, e.g. plant.interface.k_t=5e8 or plant.screws.adaptive.F_N=200 "
                         "(list elements by name); repeatable")
@@ -160,10 +167,11 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
         def flush():
             if para:
-                out.append(textwrap.fill(" ".join(para), width, initial_indent=indent, subsequent_indent=indent))
+                out.append(textwrap.fill(" ".join(para), width, initial_indent=indent, subsequent_indent=indent,
+                                         break_on_hyphens=False))
                 para.clear()
         for line in textwrap.dedent(text).splitlines():
-            if not line.strip() or line.startswith(" "):
+            if not line.strip() or line.startswith(" ") or line.rstrip().endswith(":"):   # kept as written
                 flush()
                 out.append(indent + line if line.strip() else "")
             else:

@@ -20,9 +20,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     fm.add_argument("--freq", type=float, metavar="HZ", help="excitation frequency [Hz]")
     fm.add_argument("--mode", type=int, metavar="M", default=3,
                     help="excite at the passive resonance of mode M at --amp, found by a short passive step-sine "
-                         "as reproduce --quick finds its peaks (~1-2 s; compare.passive_peak_hz; default 3)")
-    q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N] (default 5)")
-    q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s] (1)")
+                         "as reproduce --quick finds its peaks (~1-2 s; compare.passive_peak_hz)")
+    q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N]")
+    q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s]")
     add_out(q, "FILE.png", "the file to write the time histories to (PNG)", dest="plot")
     add_deprecated(q, "--plot", "-o/--out", dest="plot")
     add_force(q)

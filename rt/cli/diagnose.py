@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+import shtab
+
 from rt.cli.common import add_force, add_out, fail, write_folder
 
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
@@ -38,11 +40,10 @@ EXAMPLES = """examples:
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p = subparsers.add_parser("diagnose", parents=parents or [], help="find, name and add the missing effect "
-                              "of a measurement campaign", description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              "of a measurement campaign", description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("folder", metavar="DIR", help="campaign folder of *.mcap measurements (impulse and actuator "
                    "tests, e.g. from frictionrt rig), or a folder of FRF files with sidecars (frictionrt rig "
-                   "--frf-files)")
+                   "--frf-files)").complete = shtab.DIRECTORY
     p.add_argument("--json", action="store_true", help="print one JSON object (named_effect, ranking, gap_before, "
                    "gap_after, fitted_parameters, ...)")
     add_out(p, "REPORT_DIR", "a folder it creates for report.md, diagnose.json, model.toml (the updated model), "
@@ -58,7 +59,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "these force amplitudes [N] (sidecar amplitude_n) and predict the others, linear model against "
                    "the harmonic balance of the joints (rt/discrepancy/diagnose_levels.py)")
     p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
-                   help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df (default): "
+                   help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df: "
                         "describing functions with the normal contact linear, fast (0.1-0.2 s a level), exact while "
                         "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
                         "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "

@@ -10,6 +10,8 @@ import json
 import time
 from pathlib import Path
 
+import shtab
+
 from rt.cli.common import add_deprecated, add_force, add_out, fail
 
 INSPECT = """Convert an MCAP run log or measurement (an MCAP file with some of the topics /rt, /sensors,
@@ -28,10 +30,9 @@ TRUNCATED_HINT = "; `frictionrt recover FILE -o FIXED.mcap` salvages its complet
 
 def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     """Register ``inspect`` (parents: frictionrt's --config/--set parser)."""
-    fmt = argparse.RawDescriptionHelpFormatter
     i = subparsers.add_parser("inspect", parents=parents, help="an MCAP log or measurement as .rrd for rerun",
-                              description=INSPECT, epilog=INSPECT_EXAMPLES, formatter_class=fmt)
-    i.add_argument("log", metavar="RUN.mcap", help="the MCAP log or measurement")
+                              description=INSPECT, epilog=INSPECT_EXAMPLES)
+    i.add_argument("log", metavar="RUN.mcap", help="the MCAP log or measurement").complete = shtab.FILE
     add_out(i, "OUT.rrd", "the file to write the recording to, with its Foxglove layout OUT.foxglove.json beside "
                           "it (default: RUN.rrd next to the input)")
     add_deprecated(i, "--output", "-o/--out")

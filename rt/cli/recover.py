@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import json
 
+import shtab
+
 from rt.cli.common import add_deprecated, add_force, add_out, fail
 
 RECOVER = """Recover a run log whose writer was killed (kill -9, power loss): `frictionrt simulate --out
@@ -27,10 +29,9 @@ RECOVER_EXAMPLES = """examples:
 
 def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     """Register ``recover`` (parents: frictionrt's --config/--set parser)."""
-    fmt = argparse.RawDescriptionHelpFormatter
     r = subparsers.add_parser("recover", parents=parents, help="salvage a killed run's log (NAME.mcap.part)",
-                              description=RECOVER, epilog=RECOVER_EXAMPLES, formatter_class=fmt)
-    r.add_argument("src", metavar="BROKEN.mcap", help="the unfinished log, e.g. logs/run.mcap.part")
+                              description=RECOVER, epilog=RECOVER_EXAMPLES)
+    r.add_argument("src", metavar="BROKEN.mcap", help="the unfinished log, e.g. logs/run.mcap.part").complete = shtab.FILE
     add_out(r, "FIXED.mcap", "the file to write the recovered log to (required; its folder must exist; never the "
                              "input)")
     add_deprecated(r, "--output", "-o/--out")

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+import shtab
+
 from rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
 
 
@@ -20,7 +22,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                                    "--set overrides apply to the stored configuration. --plant: instead, the "
                                    "recorded V_cmd [V] and F_exc [N] drive actuator and plant open-loop and "
                                    "every /actuator and /plant signal is compared (docs/data-format.md).")
-    r.add_argument("log", metavar="RUN.mcap", help="the log (frictionrt simulate --out)")
+    r.add_argument("log", metavar="RUN.mcap", help="the log (frictionrt simulate --out)").complete = shtab.FILE
     r.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
     add_realtime(r)
     r.add_argument("--plant", action="store_true", help="replay the recorded V_cmd [V] and F_exc [N] into actuator "

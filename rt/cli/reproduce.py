@@ -33,8 +33,7 @@ EXAMPLES = """examples:
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     """Register ``reproduce`` (parents: frictionrt's --config/--set parser)."""
     p = subparsers.add_parser("reproduce", parents=parents or [], help="the paper's figures and claims C1..C6",
-                              description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--quick", action="store_true",
                    help="modes 3 and 4, amplitudes 5 and 20 N, 9 points per mode, 2 refinement rounds, constant "
                         "F_N1 40, 150, 600 N (~20-40 s on 2 cores); default: modes 2-5, 5, 10, 20 N, 11 points, "

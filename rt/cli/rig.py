@@ -52,20 +52,18 @@ EXAMPLES = """examples:
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p = subparsers.add_parser("rig", parents=parents or [], help="virtual test rig: a measurement campaign "
-                              "with a hidden effect", description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              "with a hidden effect", description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--list", action="store_true", help="print the effects library (name, parameter, unit, "
                    "default strength, bounds, implemented) and exit")
     p.add_argument("--effect", metavar="NAME", help="effect hidden in the true structure (see --list), or none")
     p.add_argument("--strength", type=float, metavar="S",
                    help="effect strength in the parameter's unit (default: its moderate strength, --list)")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise "
-                   "(default 0)")
-    p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s] (default 1)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise")
+    p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s]")
     p.add_argument("--frf-files", action="store_true", help="write FRF files (CSV/UFF + JSON sidecars: linear, "
                    "contact stuck, at each F_N1) instead of the time-series campaign (rt/discrepancy/rig_frf.py)")
     p.add_argument("--quantity", choices=("accelerance", "mobility", "receptance"), default="accelerance",
-                   help="with --frf-files: what the files hold, (m/s^2)/N, (m/s)/N or m/N (default accelerance)")
+                   help="with --frf-files: what the files hold, (m/s^2)/N, (m/s)/N or m/N")
     p.add_argument("--force-scale", type=float, metavar="N_PER_V",
                    help="with --frf-files: the excitation is a drive voltage without force measurement, the "
                         "files hold H per volt = N_PER_V x H per newton (sidecar excitation drive_voltage)")
@@ -77,7 +75,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
                    help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
                    "damping, beams not copies of the nominal's (rt.discrepancy.rig.model_form); PARTS: all "
-                   "(default) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
+                   "(without PARTS) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
     add_out(p, "DIR", "a folder it creates for the campaign's files; an existing one (not empty) is refused, or "
                       "with --force replaced as a whole")
     add_force(p, "an existing folder as a whole")

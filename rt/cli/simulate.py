@@ -23,7 +23,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                    help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md)")
     s.add_argument("--freq", type=float, required=True, metavar="HZ", help="excitation frequency [Hz]")
     s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
-    s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s] (default 1)")
+    s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s]")
     s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
     add_realtime(s)
     s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
@@ -34,7 +34,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     s.add_argument("--ring", type=float, default=1.0, metavar="S",
                    help="with --out: the log is a ring of S seconds [s] (whole 0.1 s blocks) that the writer "
                         "drains; offline the loop waits for it, paced it overwrites and the writer drops and "
-                        "counts those blocks (default 1)")
+                        "counts those blocks")
     s.add_argument("--fault", action="append", default=[], metavar="KIND[/SENSOR][=VALUE]@TIME[:DURATION]",
                    help="inject a fault at TIME [s] for DURATION [s] (default: to the end); repeatable. KIND: "
                         "sensor_dropout, sensor_stuck, sensor_gain, sensor_bias (SENSOR a_tip (default), a_frf, "
