@@ -270,3 +270,16 @@ def test_shell_completion_is_generated_from_the_parser(tmp_path, capsys):
         assert word in script, word
     (tmp_path / "frictionrt.bash").write_text(script)
     assert subprocess.run(["bash", "-n", str(tmp_path / "frictionrt.bash")]).returncode == 0
+
+
+def test_simulate_o_names_the_log_file_and_the_old_rrd_spelling_says_so(tmp_path, capsys):
+    # -o NAME and -o NAME.mcap: NAME.mcap (its .rrd and layout beside it); -o NAME.rrd, the old spelling
+    # of the stem, still writes NAME.mcap with a one-line note
+    args = ["simulate", "--freq", "196", "--amp", "5", "--duration", "0.005", "--no-rrd", "--json"]
+    code, out, err = _run(args + ["-o", str(tmp_path / "a")], capsys)
+    assert code == 0 and json.loads(out)["mcap"] == str(tmp_path / "a.mcap") and err == "", err
+    code, out, err = _run(args + ["-o", str(tmp_path / "b.rrd")], capsys)
+    assert code == 0 and json.loads(out)["mcap"] == str(tmp_path / "b.mcap")
+    assert err.strip() == f"frictionrt: note: -o {tmp_path / 'b.rrd'} is deprecated and goes in the next release; " \
+                          f"say -o {tmp_path / 'b.mcap'}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.foxglove.json", "a.mcap", "b.foxglove.json", "b.mcap"]
