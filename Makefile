@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench clean foxglove
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -24,6 +24,10 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing"
 	$(BIN)/python -m pytest -q -m timing
+
+# Foxglove's own decoder for tests/test_log_formats.py (Node.js and npm; the test is skipped without it)
+foxglove:
+	cd tools/foxglove && npm ci --no-audit --no-fund
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/plant.py

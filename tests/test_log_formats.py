@@ -207,12 +207,12 @@ def test_simulate_writes_a_foxglove_layout_of_the_blueprints_panels(run_log):
 
 FOXGLOVE_CHECK = Path(os.environ.get("FOXGLOVE_CHECK_DIR") or Path(__file__).parents[1] / "tools" / "foxglove")
 """Foxglove's own decoder (check.mjs in the clone's tools/foxglove; FOXGLOVE_CHECK_DIR: a copy elsewhere),
-usable after ``npm install`` there (Node.js)."""
+usable after ``make foxglove`` (``npm ci`` there; Node.js)."""
 
 
 @pytest.mark.skipif(shutil.which("node") is None or not (FOXGLOVE_CHECK / "node_modules").is_dir(),
-                    reason=f"Foxglove's parser needs Node.js and `npm install` in {FOXGLOVE_CHECK} "
-                           "(or FOXGLOVE_CHECK_DIR naming a folder where it ran)")
+                    reason=f"Foxglove's parser needs Node.js and `make foxglove` (npm ci in {FOXGLOVE_CHECK}), "
+                           "or FOXGLOVE_CHECK_DIR naming a folder where npm install ran")
 def test_foxglove_parses_every_schema_and_decodes_every_message(run_log):
     out = subprocess.run(["node", "check.mjs", str(run_log)], cwd=FOXGLOVE_CHECK, capture_output=True, text=True,
                          timeout=120).stdout
