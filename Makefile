@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench clean foxglove
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -16,14 +16,18 @@ $(STAMP): $(BIN)/python pyproject.toml
 
 demo: $(STAMP)
 	$(BIN)/frictionrt modes
-	$(BIN)/frictionrt impulse --fn1 100 --plot logs/impulse_fn1_100.png --force
-	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 --plot logs/compare_laws.png --force
+	$(BIN)/frictionrt impulse --fn1 100 -o logs/impulse_fn1_100.png --force
+	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 -o logs/compare_laws.png --force
 	$(BIN)/frictionrt reproduce --quick --out logs/reproduce_quick --force
 
 # two workers for the suite, then the timing tests alone (pyproject.toml, marker `timing`)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing"
 	$(BIN)/python -m pytest -q -m timing
+
+# Foxglove's own decoder for tests/test_log_formats.py (Node.js and npm; the test is skipped without it)
+foxglove:
+	cd tools/foxglove && npm ci --no-audit --no-fund
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/plant.py

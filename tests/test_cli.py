@@ -1,7 +1,10 @@
 """The frictionrt command line: JSON keys, units in --help, clean errors (exit 2, one line)."""
+import argparse
 import json
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -65,7 +68,7 @@ def test_spec_orientation_value_all_stuck(capsys):
 
 def test_impulse_json_and_plot(tmp_path, capsys):
     png = tmp_path / "frf.png"
-    code, out, _ = _run(["impulse", "--fn1", "100", "--json", "--plot", str(png)], capsys)
+    code, out, _ = _run(["impulse", "--fn1", "100", "--json", "-o", str(png)], capsys)
     assert code == 0
     s = json.loads(out)
     assert s["fn1_n"] == 100.0 and len(s["freq_hz"]) == len(s["damping_ratio"]) == 4
@@ -99,8 +102,8 @@ def test_config_show_is_loadable_toml(tmp_path, capsys):
     (["--set", "plant.interface.k_t=1e9", "modes"], ["plant.interface.k_t_area", "N/m^3"]),
     (["modes", "--set", "tracking.F_min_N=700"], ["F_min_N", "700"]),
     (["impulse", "--fn1", "1000"], ["--fn1", "1000", "600"]),
-    (["impulse", "--plot", "/nonexistent_dir/x.png"], ["/nonexistent_dir"]),
-    (["impulse", "--plot", "x.pdf"], [".png"]),
+    (["impulse", "-o", "/nonexistent_dir/x.png"], ["/nonexistent_dir"]),
+    (["impulse", "-o", "x.pdf"], [".png"]),
     (["--config", "/nonexistent.toml", "modes"], ["/nonexistent.toml", "not found"]),
     (["bench", "plant", "--steps", "5"], ["--steps", "5"]),
 ])
@@ -128,17 +131,104 @@ def test_version_names_the_log_format(capsys):
     assert e.value.code == 0 and capsys.readouterr().out.strip().endswith(f"(log format {FORMAT_VERSION})")
 
 
-def test_every_writing_verb_takes_o_for_out_and_force_where_it_replaces():
+def _writers():
+    """{verb: its parser} of every verb with -o/--out."""
     from rt.cli.app import build_parser
     sub = next(a for a in build_parser()._actions if a.dest == "command").choices
-    writers = {name: p for name, p in sub.items() if any("--out" in a.option_strings for a in p._actions)}
-    assert set(writers) == {"simulate", "frf", "reproduce", "tune", "rig", "diagnose", "recover", "inspect"}
+    return {name: p for name, p in sub.items() if any("--out" in a.option_strings for a in p._actions)}
+
+
+def _readme_out_table() -> dict[str, str]:
+    """{verb: what -o names} from README's table under "Where a verb writes"."""
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    lines = text[text.index("**Where a verb writes"):].splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| verb |"))
+    rows = {}
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        rows.update({verb: cells[1] for verb in re.findall(r"`(\w+)`", cells[0])})
+    return rows
+
+
+def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_what_o_names():
+    # one meaning: -o names the one file a verb writes (its viewer companions beside it) or a folder
+    # it creates; --help says which, as README's table does, and --force replaces it on every verb
+    writers, table = _writers(), _readme_out_table()
+    assert set(writers) == set(table) == {"simulate", "impulse", "compare", "frf", "reproduce", "tune", "rig",
+                                          "diagnose", "recover", "inspect"}
     for name, p in writers.items():
         out = next(a for a in p._actions if "--out" in a.option_strings)
-        assert "-o" in out.option_strings and out.dest == "out", name
-    forced = {name for name, p in sub.items() if any("--force" in a.option_strings for a in p._actions)}
-    # rig and diagnose write new folders only: a campaign or a diagnosis is never replaced
-    assert forced == set(writers) - {"rig", "diagnose"} | {"impulse", "compare"}
+        assert "-o" in out.option_strings, name
+        folder = table[name].startswith("a folder")
+        assert out.help.startswith("a folder it creates" if folder else "the file"), (name, out.help)
+        assert folder or table[name].startswith("the "), (name, table[name])
+        assert any("--force" in a.option_strings for a in p._actions), name
+
+
+@pytest.mark.parametrize("verb, args, existing", [
+    ("simulate", ["--freq", "196", "--amp", "5", "--duration", "0.005"], "r.mcap"),
+    ("impulse", ["--fn1", "100"], "x.png"),
+    ("compare", ["--freq", "200"], "x.png"),
+    ("frf", ["--law", "passive", "--amp", "5", "--freqs", "200"], "x.json"),
+    ("reproduce", ["--quick"], "dir"),
+    ("tune", ["--law", "hysteresis"], "dir"),
+    ("rig", ["--effect", "none"], "dir"),
+    ("diagnose", ["{tmp}"], "dir"),
+    ("recover", ["{tmp}/broken.mcap.part"], "x.mcap"),
+    ("inspect", ["{tmp}/broken.mcap.part"], "x.rrd"),
+])
+def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args, existing, tmp_path, capsys):
+    out = tmp_path / existing
+    if existing == "dir":
+        out.mkdir()
+        (out / "keep.txt").write_text("the user's")
+    else:
+        out.write_bytes(b"the user's")
+    (tmp_path / "broken.mcap.part").write_bytes(b"")
+    argv = [verb, *(a.format(tmp=tmp_path) for a in args), "-o", str(tmp_path / ("r" if verb == "simulate" else existing))]
+    code, _, err = _run(argv, capsys)
+    assert code == 2 and "--force" in err and len(err.strip().splitlines()) == 1, (argv, err)
+    assert (out / "keep.txt" if existing == "dir" else out).read_bytes() == b"the user's"
+
+
+def test_force_replaces_a_folder_as_a_whole_and_keeps_it_when_the_verb_fails(tmp_path):
+    from rt.cli.common import write_folder
+    out = tmp_path / "campaign"
+    out.mkdir()
+    (out / "old.mcap").write_text("old")
+
+    def fill():
+        out.mkdir()
+        (out / "new.mcap").write_text("new")
+        return "done"
+
+    def broken():
+        raise ValueError("a run that failed")
+
+    with pytest.raises(ValueError):
+        write_folder(out, True, broken)
+    assert [p.name for p in tmp_path.iterdir()] == ["campaign"] and (out / "old.mcap").read_text() == "old"
+    assert write_folder(out, True, fill) == "done"
+    assert [p.name for p in out.iterdir()] == ["new.mcap"] and [p.name for p in tmp_path.iterdir()] == ["campaign"]
+
+
+@pytest.mark.parametrize("old, new", [
+    (["impulse", "--plot", "a.png"], ("plot", "a.png")),
+    (["compare", "--plot", "a.png"], ("plot", "a.png")),
+    (["recover", "x.part", "--output", "a.mcap"], ("out", "a.mcap")),
+    (["inspect", "x.mcap", "--output", "a.rrd"], ("out", "a.rrd")),
+])
+def test_old_spellings_work_for_one_release_with_a_one_line_note(old, new, capsys):
+    from rt.cli.app import build_parser
+    args = build_parser().parse_args(old)
+    assert getattr(args, new[0]) == new[1]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"note: {old[-2]} is deprecated" in err[0] and "-o/--out" in err[0]
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([old[0], "--help"])
+    assert old[-2] not in capsys.readouterr().out   # not shown in --help
 
 
 def test_an_existing_output_is_refused_unless_force_and_errors_are_json_with_json(tmp_path, capsys):
@@ -154,3 +244,46 @@ def test_an_existing_output_is_refused_unless_force_and_errors_are_json_with_jso
         main(["simulate", "--freq", "x", "--amp", "5", "--json"])
     out = capsys.readouterr().out
     assert e.value.code == 2 and json.loads(out)["exit"] == 2 and "--freq" in json.loads(out)["error"]
+
+
+def test_help_shows_defaults_one_way_for_every_verb():
+    # one formatter for all verbs (rt.cli.common.HelpFormatter): a default is "(default: VALUE)" at the
+    # end of its option's help, never "(default 5)" or "(5)"; examples keep their lines
+    from rt.cli.app import build_parser
+    from rt.cli.common import HelpFormatter
+    ap = build_parser()
+    sub = next(a for a in ap._actions if a.dest == "command").choices
+    for name, p in sub.items():
+        assert p.formatter_class is HelpFormatter, name
+        text = " ".join(p.format_help().split())
+        assert not re.search(r"\(default [^:]|default \d", text), (name, re.search(r".{60}\(default [^:].{20}", text))
+        for a in p._actions:
+            if a.option_strings and a.help != argparse.SUPPRESS and a.default not in (None, False, [], argparse.SUPPRESS):
+                assert "default" in (a.help or "") or f"(default: {a.default})" in text, (name, a.option_strings)
+    assert "\n  frictionrt frf --law hysteresis --amp 5 20 --freqs 190,195,200,205 --down --json\n" in \
+        sub["frf"].format_help()
+
+
+def test_shell_completion_is_generated_from_the_parser(tmp_path, capsys):
+    # shtab: every verb and its options in the script; bash parses it
+    with pytest.raises(SystemExit) as e:
+        main(["--print-completion", "bash"])
+    script = capsys.readouterr().out
+    assert e.value.code == 0
+    for word in ("simulate", "diagnose", "--calibrate-on", "--frf-files", "--force", "--print-completion"):
+        assert word in script, word
+    (tmp_path / "frictionrt.bash").write_text(script)
+    assert subprocess.run(["bash", "-n", str(tmp_path / "frictionrt.bash")]).returncode == 0
+
+
+def test_simulate_o_names_the_log_file_and_the_old_rrd_spelling_says_so(tmp_path, capsys):
+    # -o NAME and -o NAME.mcap: NAME.mcap (its .rrd and layout beside it); -o NAME.rrd, the old spelling
+    # of the stem, still writes NAME.mcap with a one-line note
+    args = ["simulate", "--freq", "196", "--amp", "5", "--duration", "0.005", "--no-rrd", "--json"]
+    code, out, err = _run(args + ["-o", str(tmp_path / "a")], capsys)
+    assert code == 0 and json.loads(out)["mcap"] == str(tmp_path / "a.mcap") and err == "", err
+    code, out, err = _run(args + ["-o", str(tmp_path / "b.rrd")], capsys)
+    assert code == 0 and json.loads(out)["mcap"] == str(tmp_path / "b.mcap")
+    assert err.strip() == f"frictionrt: note: -o {tmp_path / 'b.rrd'} is deprecated and goes in the next release; " \
+                          f"say -o {tmp_path / 'b.mcap'}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.foxglove.json", "a.mcap", "b.foxglove.json", "b.mcap"]

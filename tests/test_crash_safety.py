@@ -20,7 +20,7 @@ from rt.log.mcap_log import CHUNK_BYTES, read_mcap, topics_of
 from rt.log.recover import scan
 from rt.log.writer import INTERRUPT_DRAIN_S
 from tests.cli_process import start_cli, wait_for_chunks
-from rt.cli.log import RECOVER
+from rt.cli.recover import RECOVER
 from tests.test_logfiles import rrd_column
 from tests.test_logging_loop import clock_columns
 from tests.test_replay import _sensors_only_file

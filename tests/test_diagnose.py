@@ -11,6 +11,7 @@ from mcap.reader import make_reader
 from rt.cli import main
 from rt.common.config import Config, with_sets
 from rt.log.data_format import validate
+from rt.log.mcap_log import start_time_ns
 from rt.discrepancy.diagnose import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
 from rt.discrepancy.diagnose_structure import SENSORS, prepare, run_shape
 from rt.discrepancy.effects import EFFECTS, get, implemented
@@ -140,9 +141,14 @@ def test_files_validate_and_do_not_reveal_the_effect(campaigns):
     assert files == sorted(p.name for p in hidden.glob("*.mcap")) and len(files) == 6
     for name in files:
         assert validate(hidden / name) == [], name
-        # same seed: the same hammer hits and descriptions; the records are identical, no config stored
-        assert _records(clean / name) == _records(hidden / name)
-        assert _records(hidden / name)["frictionrt"] == {}
+        # same seed: the same hammer hits and descriptions; the records are identical but for the time each
+        # file was written (its UTC start), no config stored
+        a, b = _records(clean / name), _records(hidden / name)
+        for r in (a, b):
+            assert set(r["frictionrt"]) == {"start_utc"}
+            start = {"start_utc": r["frictionrt"].pop("start_utc")}
+            assert int(r["signals"].pop("start_ns")) == start_time_ns(start) > 0
+        assert a == b
     text = b"".join((hidden / n).read_bytes() for n in files)
     assert b"accelerometer" not in text and b"mass" not in text
 

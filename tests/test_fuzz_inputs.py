@@ -438,7 +438,8 @@ def feed(capfd, cmd: str, src: Path, out: Path, allowed: tuple[int, ...]) -> int
         assert produced == {}, produced
     else:
         json.loads(res[1])   # one JSON object (--json)
-        assert set(produced) == ({"x.rrd"} if cmd == "inspect" else {"x.mcap"} if cmd == "recover" else set())
+        assert set(produced) == ({"x.rrd", "x.foxglove.json"} if cmd == "inspect" else {"x.mcap"} if cmd == "recover"
+                                 else set())
     return res[0]
 
 

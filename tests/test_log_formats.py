@@ -205,14 +205,65 @@ def test_simulate_writes_a_foxglove_layout_of_the_blueprints_panels(run_log):
     assert plots["Plot!hysteresis"]["xAxisPath"]["value"] == "/plant.u_rel"
 
 
-FOXGLOVE_CHECK = os.environ.get("FOXGLOVE_CHECK_DIR", "")
+FOXGLOVE_CHECK = Path(os.environ.get("FOXGLOVE_CHECK_DIR") or Path(__file__).parents[1] / "tools" / "foxglove")
+"""Foxglove's own decoder (check.mjs in the clone's tools/foxglove; FOXGLOVE_CHECK_DIR: a copy elsewhere),
+usable after ``make foxglove`` (``npm ci`` there; Node.js)."""
 
 
-@pytest.mark.skipif(shutil.which("node") is None or not Path(FOXGLOVE_CHECK, "node_modules").is_dir(),
-                    reason="Foxglove's parser: set FOXGLOVE_CHECK_DIR to a copy of /work/shared/tools/foxglove "
-                           "after npm install")
+@pytest.mark.skipif(shutil.which("node") is None or not (FOXGLOVE_CHECK / "node_modules").is_dir(),
+                    reason=f"Foxglove's parser needs Node.js and `make foxglove` (npm ci in {FOXGLOVE_CHECK}), "
+                           "or FOXGLOVE_CHECK_DIR naming a folder where npm install ran")
 def test_foxglove_parses_every_schema_and_decodes_every_message(run_log):
     out = subprocess.run(["node", "check.mjs", str(run_log)], cwd=FOXGLOVE_CHECK, capture_output=True, text=True,
                          timeout=120).stdout
     assert 'profile: "ros2"' in out and "schema FAIL" not in out
     assert out.count("schema ok:") == 6 and "messages decoded 6300" in out
+
+
+AFTER_2020_NS = 1_577_836_800 * 10**9   # 2020-01-01T00:00:00Z [ns since 1970]
+
+
+def _first_mcap_time_ns(path) -> int:
+    with open(path, "rb") as f:
+        return make_reader(f).get_summary().statistics.message_start_time
+
+
+def _first_rrd_time_ns(path) -> int:
+    """The earliest time of the recording's "utc" timeline [ns since 1970] (0 if it has none)."""
+    from rerun.chunk import RrdReader
+    first = []
+    for c in RrdReader(path).stream().to_chunks():
+        rb = c.to_record_batch()
+        if "utc" in rb.schema.names:
+            first.append(rb.column("utc").cast("int64").to_numpy().min())
+    return int(min(first)) if first else 0
+
+
+def test_every_log_the_project_writes_starts_after_2020(tmp_path, capsys, run_log):
+    """Real UTC stamps, so that Foxglove and rerun show real dates: the first log time of simulate's
+    MCAP and .rrd, a rig campaign's measurements, a recovered log and inspect's .rrd of a campaign
+    file (its UTC from the file) are all after 2020-01-01."""
+    from rt.common.config import load
+    from rt.discrepancy.rig import make_campaign
+    logs = {"simulate mcap": _first_mcap_time_ns(run_log), "simulate rrd": _first_rrd_time_ns(run_log.with_suffix(".rrd"))}
+    files = make_campaign(tmp_path / "camp", record_s=0.01, levels_n=(100.0,), ramps_s=(3e-3,), cfg=load())
+    logs |= {f"rig {f.name}": _first_mcap_time_ns(f) for f in files if f.suffix == ".mcap"}
+    assert cli(capsys, "recover", run_log, "-o", tmp_path / "rec.mcap")[0] == 0
+    logs["recover"] = _first_mcap_time_ns(tmp_path / "rec.mcap")
+    assert cli(capsys, "inspect", files[0], "-o", tmp_path / "meas.rrd")[0] == 0
+    logs["inspect rrd"] = _first_rrd_time_ns(tmp_path / "meas.rrd")
+    late = {name: t for name, t in logs.items() if not t > AFTER_2020_NS}
+    assert len(logs) >= 6 and not late, late
+
+
+def test_inspect_writes_the_foxglove_layout_beside_its_rrd(tmp_path, capsys, run_log):
+    """As simulate does: NAME.foxglove.json beside NAME.rrd, the same panels for the same signals; an
+    existing layout is refused without --force like the recording."""
+    code, out, err = cli(capsys, "inspect", run_log, "-o", tmp_path / "view.rrd", "--json")
+    layout = tmp_path / "view.foxglove.json"
+    assert code == 0 and json.loads(out)["foxglove_layout"] == str(layout), err
+    assert json.loads(layout.read_text()) == json.loads(run_log.with_suffix(".foxglove.json").read_text())
+    (tmp_path / "view.rrd").unlink()
+    code, _, err = cli(capsys, "inspect", run_log, "-o", tmp_path / "view.rrd")
+    assert code == 2 and "view.foxglove.json" in err and "--force" in err
+    assert cli(capsys, "inspect", run_log, "-o", tmp_path / "view.rrd", "--force")[0] == 0

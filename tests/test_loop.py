@@ -133,7 +133,7 @@ def test_simulate_bad_input_exit_2(args, words, capsys):
 
 def test_compare_cli_table_and_plot(tmp_path, capsys):
     png = tmp_path / "laws.png"
-    code = main(["compare", "--duration", "0.2", "--plot", str(png), "--json"])
+    code = main(["compare", "--duration", "0.2", "-o", str(png), "--json"])
     rows = json.loads(capsys.readouterr().out)
     assert code == 0 and [r["law"] for r in rows] == ["passive", "hysteresis", "lyapunov"]
     assert rows[0]["reduction_pct"] == 0.0

@@ -1,4 +1,4 @@
-"""What every ``frictionrt`` verb does the same way (below the verbs; rt/cli/app.py collects them).
+"""What every ``frictionrt`` verb does the same way (below the verbs; rt/cli/app.py assembles them).
 
 - Errors: ``fail(msg)`` prints one line ``frictionrt: error: MSG`` on stderr and returns exit
   code 2; with ``--json`` the same error is also one JSON object on stdout,
@@ -6,15 +6,22 @@
   ``Parser`` does the same for argparse's own usage errors).
 - Options: ``--config``/``--set`` on every verb (``add_common``), comma-separated lists (``parse_list``),
   the paced loop's ``--rt-priority``/``--cpu`` (``add_realtime``, ``realtime_sets``).
-- Output: ``-o``/``--out`` names where a verb writes (``add_out``); an existing output is refused
-  unless ``--force`` (``add_force``, ``refuse_existing``).
+- Output: ``-o``/``--out`` names where a verb writes (``add_out``): the one file it writes (its
+  viewer companions beside it, named after it), or a folder it creates; an existing output is
+  refused unless ``--force`` (``add_force``, ``refuse_existing``), which replaces it (a folder as a
+  whole: ``write_folder``). Old spellings stay for one release with a one-line note
+  (``add_deprecated``). README, "Where a verb writes", has the table.
+- Help: one formatter for every verb (``HelpFormatter``: defaults shown as "(default: VALUE)").
 """
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+import textwrap
 from pathlib import Path
+
+import shtab
 
 _json_errors = False
 
@@ -35,7 +42,12 @@ def fail(msg: str) -> int:
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse's parser whose usage errors follow ``fail`` (JSON on stdout if --json was given)."""
+    """argparse's parser whose usage errors follow ``fail`` (JSON on stdout if --json was given); its
+    --help, and every verb's (argparse makes the verbs' parsers of the same class), in ``HelpFormatter``."""
+
+    def __init__(self, *args, **kw):
+        kw.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kw)
 
     def error(self, message: str):
         if _json_errors:
@@ -44,13 +56,15 @@ class Parser(argparse.ArgumentParser):
 
 
 def add_out(p: argparse.ArgumentParser, metavar: str, help: str, **kw) -> None:
-    """-o/--out: where the verb writes."""
+    """-o/--out: where the verb writes; ``help`` starts with what it names: "the file ..." or "a
+    folder it creates ..." (README, "Where a verb writes")."""
+    assert help.startswith(("the file", "a folder")), help
     p.add_argument("-o", "--out", metavar=metavar, help=help, **kw)
 
 
-def add_force(p: argparse.ArgumentParser) -> None:
+def add_force(p: argparse.ArgumentParser, what: str = "existing output files") -> None:
     """--force: replace an existing output."""
-    p.add_argument("--force", action="store_true", help="replace existing output files (otherwise refused)")
+    p.add_argument("--force", action="store_true", help=f"replace {what} (otherwise refused)")
 
 
 def refuse_existing(paths, force: bool, option: str = "--out") -> str | None:
@@ -68,7 +82,7 @@ def add_common(p: argparse.ArgumentParser, top: bool) -> None:
     default to SUPPRESS so they never overwrite what was given before the subcommand."""
     dflt = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
     p.add_argument("--config", metavar="FILE", default=dflt(None),
-                   help="TOML file overriding the defaults (SPEC values)")
+                   help="TOML file overriding the defaults (SPEC values)").complete = shtab.FILE
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=dflt([]), dest="sets",
                    help="override one value, e.g. plant.interface.mu=0.3 or plant.screws.adaptive.F_N=200 "
                         "(list elements by name); repeatable")
@@ -141,3 +155,80 @@ def actuator_verb(args) -> str | None:
         if not is_frf_folder(args.folder):
             return "diagnose of a time-series campaign"
     return None
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """The one --help layout of every verb: descriptions and epilogs reflowed paragraph by paragraph
+    (indented lines, e.g. the examples, kept as written), and each option's default shown at the end
+    of its help as "(default: VALUE)" unless the help already says what the default is."""
+
+    def _fill_text(self, text, width, indent):
+        out, para = [], []
+
+        def flush():
+            if para:
+                out.append(textwrap.fill(" ".join(para), width, initial_indent=indent, subsequent_indent=indent,
+                                         break_on_hyphens=False))
+                para.clear()
+        for line in textwrap.dedent(text).splitlines():
+            if not line.strip() or line.startswith(" ") or line.rstrip().endswith(":"):   # kept as written
+                flush()
+                out.append(indent + line if line.strip() else "")
+            else:
+                para.append(line.strip())
+        flush()
+        return "\n".join(out)
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        default = action.default
+        if ("default" in text or default is None or default is False or default == [] or default is argparse.SUPPRESS
+                or not action.option_strings):
+            return text
+        return text + " (default: %(default)s)"
+
+
+class DeprecatedSpelling(argparse.Action):
+    """An old spelling of an option, kept for one release: stores like the new one (same ``dest``), says
+    in one stderr line which spelling replaces it, and is left out of --help."""
+
+    def __init__(self, option_strings, dest, new: str = "", **kw):
+        kw.setdefault("help", argparse.SUPPRESS)
+        super().__init__(option_strings, dest, **kw)
+        self.new = new
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        deprecated(option_string, self.new)
+        setattr(namespace, self.dest, values)
+
+
+def add_deprecated(p: argparse.ArgumentParser, old: str, new: str, dest: str = "out", **kw) -> None:
+    """Keep the old spelling ``old`` of the option now spelled ``new`` (``DeprecatedSpelling``)."""
+    p.add_argument(old, dest=dest, action=DeprecatedSpelling, new=new, default=argparse.SUPPRESS, **kw)
+
+
+def write_folder(out, force: bool, write):
+    """Run ``write()``, which creates the folder ``out``, and return its result. With ``force`` an
+    existing ``out`` is moved aside first (a hidden sibling), removed once ``write`` returned and put
+    back if it raised: --force replaces a folder as a whole and never loses the old one to a failed run."""
+    import os
+    import shutil
+    out = Path(out)
+    aside = None
+    if force and out.exists():
+        aside = out.with_name(f".{out.name}.replaced-{os.getpid()}")
+        os.replace(out, aside)
+    try:
+        result = write()
+    except BaseException:
+        if aside is not None and not out.exists():
+            os.replace(aside, out)
+        raise
+    if aside is not None:
+        shutil.rmtree(aside) if aside.is_dir() else aside.unlink()
+    return result
+
+
+def deprecated(old: str, new: str) -> None:
+    """The one-line note for an old spelling kept for one release."""
+    print(f"frictionrt: note: {old} is deprecated and goes in the next release; say {new}", file=sys.stderr)

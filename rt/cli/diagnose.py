@@ -6,7 +6,9 @@ import argparse
 import json
 import sys
 
-from rt.cli.common import add_out, fail
+import shtab
+
+from rt.cli.common import add_force, add_out, fail, write_folder
 
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
 V_cmd), calibrates E, mu, k_t, modal damping, c_v and the dispersion (the data's time step against
@@ -38,15 +40,16 @@ EXAMPLES = """examples:
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p = subparsers.add_parser("diagnose", parents=parents or [], help="find, name and add the missing effect "
-                              "of a measurement campaign", description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              "of a measurement campaign", description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("folder", metavar="DIR", help="campaign folder of *.mcap measurements (impulse and actuator "
                    "tests, e.g. from frictionrt rig), or a folder of FRF files with sidecars (frictionrt rig "
-                   "--frf-files)")
+                   "--frf-files)").complete = shtab.DIRECTORY
     p.add_argument("--json", action="store_true", help="print one JSON object (named_effect, ranking, gap_before, "
                    "gap_after, fitted_parameters, ...)")
-    add_out(p, "REPORT_DIR", "write report.md, diagnose.json, model.toml (the updated model) and FRF/actuator "
-                             "overlay PNGs into this new folder (a diagnosis is never replaced: no --force)")
+    add_out(p, "REPORT_DIR", "a folder it creates for report.md, diagnose.json, model.toml (the updated model), "
+                             "FRF/actuator overlay PNGs and diagnosis.rrd; an existing one is refused, or with "
+                             "--force replaced as a whole")
+    add_force(p, "an existing folder as a whole")
     p.add_argument("--jobs", type=int, metavar="N", help="processes for the candidates' fits and the model "
                    "step-sines (default: the number of cores; 1: in this process); the result is the same for any N")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
@@ -56,7 +59,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "these force amplitudes [N] (sidecar amplitude_n) and predict the others, linear model against "
                    "the harmonic balance of the joints (rt/discrepancy/diagnose_levels.py)")
     p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
-                   help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df (default): "
+                   help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df: "
                         "describing functions with the normal contact linear, fast (0.1-0.2 s a level), exact while "
                         "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
                         "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "
@@ -68,8 +71,8 @@ def cmd_diagnose(cfg, args) -> int:
     from rt.discrepancy.diagnose import diagnose, public, summary
     from rt.discrepancy.diagnose_frf import diagnose_frf, is_frf_folder
     from pathlib import Path
-    if args.out and Path(args.out).exists():
-        return fail(f"--out {args.out}: exists; a diagnosis is never replaced, give a new folder")
+    if args.out and Path(args.out).exists() and not args.force:
+        return fail(f"--out {args.out}: exists; pass --force to replace it as a whole, or give a new folder")
     if args.jobs is not None and args.jobs < 1:
         return fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
     say = None if args.json else lambda m: print(f"  {m}", file=sys.stderr)
@@ -86,7 +89,7 @@ def cmd_diagnose(cfg, args) -> int:
         return fail(f"diagnose: {exc}")
     if args.out:
         from rt.discrepancy.diagnose_report import write_report
-        write_report(res, args.out)
+        write_folder(args.out, args.force, lambda: write_report(res, args.out))
     print(json.dumps(public(res)) if args.json else summary(res))
     return 0
 
@@ -108,6 +111,6 @@ def _levels(cfg, args, say) -> int:
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     if args.out:
-        write_levels_report(res, args.out)
+        write_folder(args.out, args.force, lambda: write_levels_report(res, args.out))
     print(json.dumps({k: v for k, v in res.items() if not k.startswith("_")}) if args.json else summary(res))
     return 0

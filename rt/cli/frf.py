@@ -35,8 +35,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
         add_common(common, top=False)
         parents = [common]
     p = subparsers.add_parser("frf", parents=parents, help="step-sine FRF [(m/s^2)/N] per law and force amplitude",
-                              description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--law", nargs="+", choices=LAWS, required=True, metavar="LAW",
                    help=f"control law(s), one sweep each: {', '.join(LAWS)}")
     p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
@@ -52,26 +51,27 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                            "frequencies over +/- --half-width around the middle of each mode's band between the "
                            "adaptive screw's pair sliding and stuck (rt.experiments.stepsine.mode_bands_hz)")
     p.add_argument("--points", type=int, default=31, metavar="N",
-                   help="frequencies per mode with --around-modes (default 31: 1 %% steps over +/-15 %%)")
+                   help="frequencies per mode with --around-modes (31: 1 %% steps over +/-15 %%)")
     p.add_argument("--half-width", type=float, default=0.15, metavar="REL",
-                   help="half width of each mode's band, relative to its centre (default 0.15)")
+                   help="half width of each mode's band, relative to its centre")
     p.add_argument("--down", action="store_true",
-                   help="sweep from the highest frequency down (default: up); a nonlinear FRF can differ")
+                   help="sweep from the highest frequency down; a nonlinear FRF can differ (default: up)")
     p.add_argument("--sweep-rate", type=float, default=None, metavar="HZ_PER_S",
                    help="instead of step-sine points: a slow continuous sweep (phase-continuous, force amplitude "
                         "held) over the grid's range at this rate [Hz/s] (> 0; the paper sweeps at <= 0.1 Hz/s; "
                         "--down sweeps down), one point per ~0.1 s dwell, after a 4 s lead-in")
     p.add_argument("--tol", type=float, default=0.01, metavar="REL",
-                   help="settled when H's predicted remaining change is below this (relative, default 0.01)")
+                   help="settled when H's predicted remaining change is below this (relative)")
     p.add_argument("--max-time", type=float, default=8.0, metavar="S",
-                   help="simulated time per frequency [s] before the point is measured as not settled (default 8)")
+                   help="simulated time per frequency [s] before the point is measured as not settled")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="local worker processes, one sweep each at a time (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the sweeps on this dask scheduler's workers instead (frictionrt installed there)")
     p.add_argument("--json", action="store_true", help="print the results as one JSON object (no progress bar)")
     p.add_argument("--plot", metavar="PATH.png", help="write |H| [dB] and phase [deg] against f [Hz] here (PNG)")
-    add_out(p, "PATH.json", "write the results as JSON here")
+    add_out(p, "PATH.json", "the file to write the results to (JSON; --plot and --rrd: the same FRFs as plot and "
+                            "recording)")
     add_force(p)
     p.add_argument("--rrd", metavar="PATH.rrd", help="write the FRFs as a rerun recording here (|H| [dB], phase, "
                    "force amplitude against frequency; open with: rerun PATH.rrd)")

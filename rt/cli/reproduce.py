@@ -33,16 +33,15 @@ EXAMPLES = """examples:
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     """Register ``reproduce`` (parents: frictionrt's --config/--set parser)."""
     p = subparsers.add_parser("reproduce", parents=parents or [], help="the paper's figures and claims C1..C6",
-                              description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--quick", action="store_true",
                    help="modes 3 and 4, amplitudes 5 and 20 N, 9 points per mode, 2 refinement rounds, constant "
                         "F_N1 40, 150, 600 N (~20-40 s on 2 cores); default: modes 2-5, 5, 10, 20 N, 11 points, "
                         "4 rounds, F_N1 40, 80, 160, 320, 600 N")
-    add_out(p, "DIR", "folder for fig5.png, fig7.png, fig8.png, report.md, report.json (default logs/reproduce; "
-                      "created if missing; an existing one is refused, or with --force replaced as a whole)",
+    add_out(p, "DIR", "a folder it creates for fig5.png, fig7.png, fig8.png, report.md, report.json (default: "
+                      "logs/reproduce); an existing one is refused, or with --force replaced as a whole",
             default="logs/reproduce")
-    add_force(p)
+    add_force(p, "an existing folder as a whole")
     p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
                    help="estimate of u_rel, v_rel for the controlled laws: oracle (the plant's, band-limited) or "
                         "observer (Kalman-designed, on the tip accelerometer and the force cell)")

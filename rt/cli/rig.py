@@ -6,8 +6,9 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 
-from rt.cli.common import add_out, fail, parse_list
+from rt.cli.common import add_force, add_out, fail, parse_list, write_folder
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
@@ -51,20 +52,18 @@ EXAMPLES = """examples:
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p = subparsers.add_parser("rig", parents=parents or [], help="virtual test rig: a measurement campaign "
-                              "with a hidden effect", description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              "with a hidden effect", description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--list", action="store_true", help="print the effects library (name, parameter, unit, "
                    "default strength, bounds, implemented) and exit")
     p.add_argument("--effect", metavar="NAME", help="effect hidden in the true structure (see --list), or none")
     p.add_argument("--strength", type=float, metavar="S",
                    help="effect strength in the parameter's unit (default: its moderate strength, --list)")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise "
-                   "(default 0)")
-    p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s] (default 1)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise")
+    p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s]")
     p.add_argument("--frf-files", action="store_true", help="write FRF files (CSV/UFF + JSON sidecars: linear, "
                    "contact stuck, at each F_N1) instead of the time-series campaign (rt/discrepancy/rig_frf.py)")
     p.add_argument("--quantity", choices=("accelerance", "mobility", "receptance"), default="accelerance",
-                   help="with --frf-files: what the files hold, (m/s^2)/N, (m/s)/N or m/N (default accelerance)")
+                   help="with --frf-files: what the files hold, (m/s^2)/N, (m/s)/N or m/N")
     p.add_argument("--force-scale", type=float, metavar="N_PER_V",
                    help="with --frf-files: the excitation is a drive voltage without force measurement, the "
                         "files hold H per volt = N_PER_V x H per newton (sidecar excitation drive_voltage)")
@@ -76,8 +75,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
                    help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
                    "damping, beams not copies of the nominal's (rt.discrepancy.rig.model_form); PARTS: all "
-                   "(default) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
-    add_out(p, "DIR", "new campaign folder (must not exist or be empty: a campaign is never replaced, no --force)")
+                   "(without PARTS) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
+    add_out(p, "DIR", "a folder it creates for the campaign's files; an existing one (not empty) is refused, or "
+                      "with --force replaced as a whole")
+    add_force(p, "an existing folder as a whole")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
 
@@ -96,6 +97,9 @@ def cmd_rig(cfg, args) -> int:
         return 0
     if not args.effect or not args.out:
         return fail("rig: give --effect NAME (or none) and -o DIR, or --list")
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
+        return fail(f"rig -o {out}: exists; pass --force to replace it as a whole, or give a new folder")
     if args.effect != "none":
         try:
             eff = get(args.effect)
@@ -135,19 +139,20 @@ def cmd_rig(cfg, args) -> int:
         return fail(f"rig --model-form: {exc}")
     from rt.discrepancy.rig_frf import make_frf_campaign
     from rt.discrepancy.rig_levels import make_level_campaign
-    try:
+
+    def write():   # the campaign into the new folder out (moved in once complete; rt.discrepancy.rig.new_folder)
         if levels is not None:
-            files = make_level_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                        force_levels_n=levels, other_form=form,
-                                        force_scale_N_per_V=args.force_scale,
-                                        progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
-        elif args.frf_files:
-            files = make_frf_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                      quantity=args.quantity, force_scale_N_per_V=args.force_scale,
-                                      other_form=form)
-        else:
-            files = make_campaign(args.out, args.effect, args.strength, seed=args.seed, cfg=cfg,
-                                  record_s=args.record_s, stepsine=args.stepsine, other_form=form)
+            return make_level_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, force_levels_n=levels,
+                                       other_form=form, force_scale_N_per_V=args.force_scale,
+                                       progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
+        if args.frf_files:
+            return make_frf_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, quantity=args.quantity,
+                                     force_scale_N_per_V=args.force_scale, other_form=form)
+        return make_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s,
+                             stepsine=args.stepsine, other_form=form)
+
+    try:
+        files = write_folder(out, args.force, write)
     except ValueError as exc:
         return fail(f"rig -o: {exc}")
     if args.json:

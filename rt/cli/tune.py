@@ -38,20 +38,19 @@ EXAMPLES = """examples:
 def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     """Register ``tune`` on an argparse subparsers object (parents: frictionrt's --config/--set)."""
     p = subparsers.add_parser("tune", parents=parents, help="grid search of a law's gains: table, Pareto plot, best TOML",
-                              description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+                              description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--law", choices=["hysteresis", "lyapunov"], required=True, help="the law to tune")
     p.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="a configuration key and its values (SI units, as in frictionrt config --show); "
                         "repeatable, the candidates are all combinations (default: the law's own gains)")
     p.add_argument("--modes", default="3,4", metavar="M1,M2,...",
-                   help="bending modes whose peaks are scored (default 3,4; mode 1 is at 9.8 Hz)")
+                   help="bending modes whose peaks are scored (mode 1 is at 9.8 Hz)")
     p.add_argument("--amp", nargs="+", type=float, default=[5.0], metavar="N",
-                   help="excitation force amplitude(s) [N], held on the measured force (default 5)")
+                   help="excitation force amplitude(s) [N], held on the measured force")
     p.add_argument("--points", type=int, default=9, metavar="N",
-                   help="step-sine frequencies per mode over +/- --half-width (default 9)")
+                   help="step-sine frequencies per mode over +/- --half-width")
     p.add_argument("--half-width", type=float, default=0.15, metavar="REL",
-                   help="half width of each mode's band, relative to its centre (default 0.15)")
+                   help="half width of each mode's band, relative to its centre")
     p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
                    help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed observer")
     p.add_argument("--max-power", type=float, default=None, metavar="W",
@@ -59,9 +58,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT", help="run the sweeps on this dask scheduler's workers")
-    add_out(p, "DIR", "output folder (default logs/tune_LAW); created if missing; an existing one is refused, or "
-                      "with --force its tune files are replaced")
-    add_force(p)
+    add_out(p, "DIR", "a folder it creates for table.csv, table.md, pareto.png, best.toml, tune.json (default: "
+                      "logs/tune_LAW); an existing one is refused, or with --force its tune files are replaced")
+    add_force(p, "the tune files of an existing folder")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object (no progress bar)")
     return p
 

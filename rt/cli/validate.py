@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import json
 
+import shtab
+
 from rt.cli.common import fail
 
 DESCRIPTION = """Check an MCAP run log or measurement against the measurement format (docs/data-format.md):
@@ -28,9 +30,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     """Register ``validate`` on an argparse subparsers object (parents: frictionrt's --config/--set
     parser; the configuration plays no part in the check)."""
     p = subparsers.add_parser("validate", parents=parents or [], help="check a log or measurement against the "
-                              "documented measurement format", description=DESCRIPTION, epilog=EXAMPLES,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("file", metavar="FILE.mcap", help="the MCAP file to check")
+                              "documented measurement format", description=DESCRIPTION, epilog=EXAMPLES)
+    p.add_argument("file", metavar="FILE.mcap", help="the MCAP file to check").complete = shtab.FILE
     p.add_argument("--json", action="store_true", help='one JSON object: {"file", "valid", "problems": '
                    '[{"where", "kind", "detail"}]}')
     return p

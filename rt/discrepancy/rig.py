@@ -19,8 +19,8 @@ Realism: nominal parameters scatter by ``SCATTER`` (relative standard deviation,
 at 2 sigma, one draw per campaign from the seed); every channel has sensor noise; records are
 finite. Nothing in a file names or parameterises the effect: the metadata is the ``signals`` and
 ``test`` records (kind, excitation point, sensor positions, law none, amplitude, duration, a
-description that is the same for every effect) and an empty ``frictionrt`` record (no configuration:
-a measurement does not know its model). ``--effect none`` gives the scattered nominal structure.
+description that is the same for every effect) and a ``frictionrt`` record with only the UTC start of
+the test, ``start_utc`` (no configuration: a measurement does not know its model). ``--effect none`` gives the scattered nominal structure.
 
 The measurement chain (plant -> sensors: ``measure_impulse``, ``measure_actuator``) is
 rt.discrepancy.chain, which the diagnosis runs on the nominal model with the noise switched off,
@@ -43,6 +43,7 @@ from rt.common.config import Config, require_adaptive_screw, with_sets
 from rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
                                   measure_impulse, scaled)
 from rt.discrepancy.effects import get
+from rt.log.mcap_log import utc_now
 from rt.log.writer import McapBlockWriter
 
 FN1_LEVELS_N = (40.0, 100.0, 300.0)   # impulse tests: bolt force levels [N]
@@ -129,9 +130,10 @@ def test_record(cfg: Config, kind: str, duration_s: float, amplitude_n: float | 
 
 
 def write_measurement(path: Path, cfg: Config, columns: dict[str, np.ndarray], test: dict) -> None:
-    """One file of the campaign: the ``SIGNALS`` columns, the ``test`` record, no configuration."""
+    """One file of the campaign: the ``SIGNALS`` columns, the ``test`` record, no configuration; its
+    stamps start at the UTC time it is written (``start_utc``, as a lab's recorder stamps a test)."""
     block = np.column_stack([columns[name] for name, _, _ in SIGNALS])
-    with McapBlockWriter(path, SIGNALS, cfg.rt.rate_hz, {}) as w:
+    with McapBlockWriter(path, SIGNALS, cfg.rt.rate_hz, {"start_utc": utc_now()}) as w:
         w.add_metadata("test", test)
         w.write_block(0, block)
 

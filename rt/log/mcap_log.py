@@ -135,6 +135,11 @@ def schema_name(owner: str) -> str:
     return f"frictionrt/msg/{owner.capitalize()}"
 
 
+def utc_now() -> str:
+    """Now as the "start_utc" metadata value: ISO 8601, milliseconds, zone +00:00."""
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="milliseconds")
+
+
 def start_time_ns(metadata: dict[str, str]) -> int:
     """A run's UTC start [ns since 1970-01-01] from the metadata's "start_utc" (ISO 8601 with a
     zone, as ``rt.log.writer.run_metadata`` writes it); 0 if there is none. ValueError if unreadable."""

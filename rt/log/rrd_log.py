@@ -13,7 +13,8 @@ The recording (its own ``rr.RecordingStream``, never the global one; nothing is 
                       the slip there. y is -F_t because rerun's 2-D view points y down, so the
                       loop appears with positive force up. Only if u_rel and f_t_* are logged.
     timelines         "t": duration (k * 10**9) // rate_hz [ns] (the MCAP log_time less the
-                      run's start, exact); "tick": sequence k
+                      run's start, exact); "tick": sequence k; "utc": timestamp, the MCAP log_time
+                      (the run's UTC start plus t), when the start is known
     properties        "frictionrt": the caller's metadata strings (configuration TOML, versions,
                       seed, ...), if given
 
@@ -42,7 +43,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.log.mcap_log import check_block, check_owners, check_rate, part_path, tick_runs, tick_time_ns
+from rt.log.mcap_log import (check_block, check_owners, check_rate, part_path, start_time_ns, tick_runs,
+                             tick_time_ns)
 from rt.log.registry import field_names
 from rt.log.views import HYSTERESIS_WINDOW_S, SETPOINT_SIGNALS, SETPOINT_TITLE, hysteresis_columns, topic_columns
 
@@ -73,14 +75,17 @@ class RrdLogWriter:
     path : the .rrd file; written as ``path.part`` and renamed on close.
     signals : (name, unit, owner) per log column.
     rate_hz : tick rate [Hz], a whole number (t_k = k / rate_hz).
-    metadata : strings sent as the recording property "frictionrt".
+    metadata : strings sent as the recording property "frictionrt"; its "start_utc" is the run's UTC start.
+    start_ns : the run's UTC start [ns since 1970] (default: from metadata's "start_utc"); if known
+        (> 0), the timeline "utc" holds start_ns + t.
     blueprint : embed ``default_blueprint(signals)``.
     app_id : rerun application id (blueprints are remembered per application).
     """
 
     def __init__(self, path: str | os.PathLike, signals, rate_hz: float, *, metadata: dict[str, str] | None = None,
-                 blueprint: bool = True, app_id: str = "frictionrt"):
+                 start_ns: int | None = None, blueprint: bool = True, app_id: str = "frictionrt"):
         self.path = Path(path)
+        self.start_ns = start_time_ns(metadata or {}) if start_ns is None else int(start_ns)
         self.signals = tuple(tuple(s) for s in signals)
         self.rate_hz = check_rate(self.path, rate_hz)
         check_owners(self.path, self.signals)
@@ -108,8 +113,10 @@ class RrdLogWriter:
         if n == 0:
             return
         k = np.arange(k0, k0 + n, dtype=np.int64)
-        index = [rr.TimeColumn("t", duration=tick_time_ns(k, self.rate_hz).astype("timedelta64[ns]")),
-                 rr.TimeColumn("tick", sequence=k)]
+        t = tick_time_ns(k, self.rate_hz)
+        index = [rr.TimeColumn("t", duration=t.astype("timedelta64[ns]")), rr.TimeColumn("tick", sequence=k)]
+        if self.start_ns > 0:
+            index.append(rr.TimeColumn("utc", timestamp=(self.start_ns + t).astype("datetime64[ns]")))
         for entity, cols in self._entities:
             self._rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=block[:, cols]),
                                    strict=True)
@@ -139,39 +146,56 @@ class RrdLogWriter:
 
 def write_rrd(path: str | os.PathLike, signals, log: np.ndarray, rate_hz: float, *, k0: int = 0,
               k: np.ndarray | None = None, blueprint: bool = True, app_id: str = "frictionrt",
-              metadata: dict[str, str] | None = None, block_ticks: int = 21000) -> None:
+              metadata: dict[str, str] | None = None, start_ns: int | None = None, block_ticks: int = 21000) -> None:
     """Write a whole log (float64 (ticks, n_sig), row i = tick k0 + i, or tick k[i] if the
     increasing int64 ticks k are given: gaps allowed) to ``path`` as .rrd, in blocks of at most
     ``block_ticks`` consecutive ticks (see ``RrdLogWriter``)."""
     k = k0 + np.arange(len(log), dtype=np.int64) if k is None else np.asarray(k, dtype=np.int64)
-    with RrdLogWriter(path, signals, rate_hz, metadata=metadata, blueprint=blueprint, app_id=app_id) as w:
+    with RrdLogWriter(path, signals, rate_hz, metadata=metadata, start_ns=start_ns, blueprint=blueprint,
+                      app_id=app_id) as w:
         for a, b in tick_runs(k):
             for i in range(a, b, block_ticks):
                 w.write_block(int(k[i]), log[i:min(b, i + block_ticks)])
+
+
+def layout_path(rrd: str | os.PathLike) -> Path:
+    """Where the Foxglove layout of a recording goes: NAME.foxglove.json beside NAME.rrd."""
+    rrd = Path(rrd)
+    return rrd.with_name((rrd.name[:-4] if rrd.name.endswith(".rrd") else rrd.name) + ".foxglove.json")
 
 
 def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bool = False) -> dict:
     """Convert an MCAP log or measurement (``rt.log.mcap_log.read_mcap``) to an .rrd recording with
     the default blueprint, as ``simulate --out`` writes it: the columns of the topics present in
     the file only (a measurement with /sensors alone gets /sensors entities and tab), ticks and
-    gaps as in the file, the "frictionrt" metadata record as the recording property.
+    gaps as in the file, the file's UTC start (timeline "utc"), the "frictionrt" metadata record as
+    the recording property; and beside it, as ``simulate --out`` does, the Foxglove layout of the
+    same panels (``layout_path(dst)``: NAME.foxglove.json for NAME.rrd).
 
     ``dst`` is written under a temporary name in its folder and then renamed: an existing
-    ``dst`` is replaced only if ``overwrite``, never left half-written. ValueError naming the file
-    on any problem. Returns {input, output, ticks, first_tick, last_tick, topics, entities}."""
+    ``dst`` (or layout) is replaced only if ``overwrite``, never left half-written. ValueError naming
+    the file on any problem. Returns {input, output, foxglove_layout, ticks, first_tick, last_tick,
+    topics, entities}."""
     from rt.log.mcap_log import check_conversion, read_mcap
+    from rt.log.views import write_foxglove_layout
     src, dst = Path(src), Path(dst)
-    check_conversion(src, dst, None if overwrite else "give another name with -o or pass --force to replace it")
+    hint = None if overwrite else "give another name with -o or pass --force to replace it"
+    check_conversion(src, dst, hint)
+    layout = layout_path(dst)
+    if hint is not None and layout.exists():
+        raise ValueError(f"{layout}: the output exists; {hint}")
     rec = read_mcap(src)
     cols = [c for c, (_, _, o) in enumerate(rec.signals) if f"/{o}" in rec.topics]
     signals = [rec.signals[c] for c in cols]
     tmp = dst.with_name(dst.name + ".inspect.tmp")   # its .part is never a file of the user's
     try:
-        write_rrd(tmp, signals, rec.log[:, cols], rec.rate_hz, k=rec.k, metadata=rec.metadata or None)
+        write_rrd(tmp, signals, rec.log[:, cols], rec.rate_hz, k=rec.k, metadata=rec.metadata or None,
+                  start_ns=rec.start_ns)
+        write_foxglove_layout(layout, signals)
         os.replace(tmp, dst)
     finally:
         tmp.unlink(missing_ok=True)
-    return {"input": str(src), "output": str(dst), "ticks": len(rec.k),
+    return {"input": str(src), "output": str(dst), "foxglove_layout": str(layout), "ticks": len(rec.k),
             "first_tick": int(rec.k[0]) if len(rec.k) else None, "last_tick": int(rec.k[-1]) if len(rec.k) else None,
             "topics": list(rec.topics), "entities": [e for e, _ in topic_columns(signals)]}
 

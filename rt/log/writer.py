@@ -70,7 +70,6 @@ guide.
 """
 from __future__ import annotations
 
-import datetime
 import json
 import os
 import struct
@@ -90,7 +89,7 @@ from mcap.records import (Attachment, AttachmentIndex, Channel, ChunkIndex, Data
                           Statistics, SummaryOffset)
 
 from rt.log.mcap_log import (CHUNK_BYTES, MAGIC, PROFILE, check_block, checked_layout, encode_block, part_path,
-                         signals_record, stamps_ns)
+                         signals_record, stamps_ns, utc_now)
 
 BLOCK_TICKS = 2100        # rows per block handed to the sinks (0.1 s simulated at 21 kHz)
 RING_S = 1.0              # default ring of a run with a writer [s of simulated time]
@@ -537,5 +536,5 @@ def run_metadata(cfg, law: str, estimator: str, seed: int, freq_hz: float, amp_n
             "estimator": estimator, "freq_hz": repr(float(freq_hz)), "amp_n": repr(float(amp_n)),
             "duration_s": repr(float(duration_s)), "paced": str(bool(paced)).lower(),
             "start_tick": str(int(start_tick)),
-            "start_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="milliseconds"),
+            "start_utc": utc_now(),
             "command": json.dumps(list(sys.argv if argv is None else argv))}

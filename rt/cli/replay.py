@@ -1,0 +1,102 @@
+"""``frictionrt replay``: a run log through the controller (rt.loop.replay), or with --plant its V_cmd and
+F_exc through actuator and plant (rt.loop.replay_plant); the recorded signals compared."""
+from __future__ import annotations
+
+import argparse
+import json
+
+import shtab
+
+from rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
+
+
+def add_parser(sub, parents) -> argparse.ArgumentParser:
+    """Register ``replay`` (parents: frictionrt's --config/--set parser)."""
+    r = sub.add_parser("replay", parents=parents, help="feed a run log's sensor stream through the controller",
+                       description="HIL-style replay of an MCAP run log: the recorded sensor readings (and, for "
+                                   "the oracle estimator, the recorded plant u_rel, v_rel), tick by tick, through "
+                                   "estimator, law, prefilter and force tracking with the configuration stored in "
+                                   "the file; every commanded signal is compared with the recorded one. Exit 1 "
+                                   "if they differ. A file with only /sensors (a measurement) is replayed without "
+                                   "comparison (the configuration of --config/--set applies if it stores none). "
+                                   "--set overrides apply to the stored configuration. --plant: instead, the "
+                                   "recorded V_cmd [V] and F_exc [N] drive actuator and plant open-loop and "
+                                   "every /actuator and /plant signal is compared (docs/data-format.md).")
+    r.add_argument("log", metavar="RUN.mcap", help="the log (frictionrt simulate --out)").complete = shtab.FILE
+    r.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    add_realtime(r)
+    r.add_argument("--plant", action="store_true", help="replay the recorded V_cmd [V] and F_exc [N] into actuator "
+                   "and plant and compare their outputs (open-loop check; e.g. with --set plant.interface.mu=0.3)")
+    r.add_argument("--json", action="store_true", help="one JSON object instead of text")
+    return r
+
+
+def cmd_replay(cfg, args) -> int:
+    from rt.log.design_record import describe
+    from rt.loop.replay import replay
+    if args.plant:
+        return cmd_replay_plant(cfg, args)
+    if msg := unpaced_realtime(args):
+        return fail(msg)
+    try:
+        res = replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
+    except ValueError as exc:
+        return fail(str(exc))
+    realtime_notes(res.get("realtime"))
+    code = 1 if res["bit_exact"] is False else (130 if res["interrupted"] else 0)
+    if args.json:
+        print(json.dumps(res))
+        return code
+    print(f"replay {res['file']}: law {res['law']}, estimator {res['estimator']}, {res['ticks']} ticks"
+          f"{' (paced, ' + str(res['overruns']) + ' overruns)' if res['paced'] else ''}, "
+          f"{res['realtime_factor']:.1f}x real time{', interrupted' if res['interrupted'] else ''}")
+    if res["missing_ticks"]:
+        print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
+    print(describe(res["design"]))
+    if res["bit_exact"] is None:
+        print("  no recorded controller outputs: nothing to compare; replayed outputs (min / mean / max):")
+        for name, o in res["outputs"].items():
+            print(f"  {name:>15} {o['min']:>12.5g} {o['mean']:>12.5g} {o['max']:>12.5g}")
+    else:
+        print(f"  {'bit-exact' if res['bit_exact'] else 'DIFFERS'}: max |diff| {res['max_abs_diff']:.3g} over "
+              f"{', '.join(res['signals_compared'])}")
+        if not res["bit_exact"]:
+            worst = ", ".join(f"{k} {v:.3g}" for k, v in res["max_abs_diff_by_signal"].items() if v)
+            print(f"  first mismatch at tick {res['first_mismatch_tick']}; max |diff| per signal: {worst}")
+    return code
+
+
+
+def cmd_replay_plant(cfg, args) -> int:
+    """Replay the log's V_cmd and F_exc into actuator and plant and compare their outputs; exit 0
+    when bit-exact (or nothing to compare), 1 when they differ, 2 for a bad file."""
+    from rt.log.design_record import describe
+    from rt.loop.replay_plant import replay_plant
+    if args.paced:
+        return fail("--plant with --paced: the plant replay runs offline only; drop --paced")
+    try:
+        res = replay_plant(args.log, fallback_cfg=cfg, sets=args.sets)
+    except ValueError as exc:
+        return fail(str(exc))
+    code = 1 if res["bit_exact"] is False else 0
+    if args.json:
+        print(json.dumps(res))
+        return code
+    sets = f" with {' '.join(res['sets'])}" if res["sets"] else ""
+    print(f"replay --plant {res['file']}{sets}: {res['ticks']} ticks of V_cmd, F_exc into actuator and plant "
+          f"({res['wall_s']:.2f} s), failed contact solves {res['failed_solves']}")
+    if res["missing_ticks"]:
+        print(f"  the log misses {res['missing_ticks']} ticks: replayed up to the first gap only")
+    print(describe(res["design"]))
+    if res["bit_exact"] is None:
+        print("  no recorded /actuator or /plant signals: nothing to compare; replayed (min / mean / max):")
+        for name, o in res["outputs"].items():
+            print(f"  {name:>10} {o['min']:>12.5g} {o['mean']:>12.5g} {o['max']:>12.5g}")
+        return code
+    print(f"  {'bit-exact' if res['bit_exact'] else 'DIFFERS'}: max |diff| {res['max_abs_diff']:.3g} over "
+          f"{len(res['signals_compared'])} /actuator and /plant signals")
+    if not res["bit_exact"]:
+        worst = sorted(((v, k) for k, v in res["max_abs_diff_by_signal"].items() if v), reverse=True)[:8]
+        print(f"  first mismatch at tick {res['first_mismatch_tick']}; largest |diff| (SI units): "
+              + ", ".join(f"{k} {v:.3g}" for v, k in worst))
+    return code

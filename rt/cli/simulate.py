@@ -1,0 +1,134 @@
+"""``frictionrt simulate``: the closed loop at 21 kHz (rt.loop) with a sine excitation, optionally logged."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from rt.cli.common import (add_force, add_out, add_realtime, deprecated, fail, realtime_notes, refuse_existing,
+                           unpaced_realtime)
+
+
+def add_parser(sub, parents) -> argparse.ArgumentParser:
+    """Register ``simulate`` (parents: frictionrt's --config/--set parser)."""
+    s = sub.add_parser("simulate", parents=parents, help="closed loop at 21 kHz: sine excitation, a law, the actuator",
+                       description="Run the closed loop (sensors -> estimator -> law -> force tracking -> "
+                                   "actuator -> plant) with a sine excitation force of --amp [N] at --freq [Hz] "
+                                   "for --duration [s]; print the summary (acceleration at x = 0.45 m [m/s^2], "
+                                   "mean F_N1 [N], actuator energy [J], overruns); with --out, log every signal "
+                                   "to PATH.mcap and PATH.rrd while the loop runs.")
+    s.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
+                   help="control law (default: tracking.law)")
+    s.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
+                   help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md)")
+    s.add_argument("--freq", type=float, required=True, metavar="HZ", help="excitation frequency [Hz]")
+    s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
+    s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s]")
+    s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
+    add_realtime(s)
+    s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
+    add_out(s, "NAME.mcap", "the file to write the log to, NAME.mcap (.mcap added if missing), with its rerun "
+                            "recording NAME.rrd and Foxglove layout NAME.foxglove.json beside it; the folder must exist")
+    add_force(s)
+    s.add_argument("--no-rrd", action="store_true", help="with --out: write the MCAP file only")
+    s.add_argument("--ring", type=float, default=1.0, metavar="S",
+                   help="with --out: the log is a ring of S seconds [s] (whole 0.1 s blocks) that the writer "
+                        "drains; offline the loop waits for it, paced it overwrites and the writer drops and "
+                        "counts those blocks")
+    s.add_argument("--fault", action="append", default=[], metavar="KIND[/SENSOR][=VALUE]@TIME[:DURATION]",
+                   help="inject a fault at TIME [s] for DURATION [s] (default: to the end); repeatable. KIND: "
+                        "sensor_dropout, sensor_stuck, sensor_gain, sensor_bias (SENSOR a_tip (default), a_frf, "
+                        "F_strain, F_cell), actuator_loss, force_saturation, observer_mismatch, cpu_stall (--paced); "
+                        "VALUE and what the supervisor makes of it: docs/reliability.md")
+    s.add_argument("--json", action="store_true", help="the summary as one JSON object")
+    return s
+
+
+def cmd_simulate(cfg, args) -> int:
+    from tqdm import tqdm
+
+    from rt.log.data_format import run_test_record
+    from rt.loop.faults import schedule, to_json
+    from rt.log.design_record import DESIGN_ATTACHMENT, MEDIA_TYPE, design_arrays, to_npz
+    from rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
+    from rt.log.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
+    if args.seed is not None and args.seed < 0:
+        return fail(f"--seed {args.seed}: must be a non-negative integer")
+    if msg := unpaced_realtime(args):
+        return fail(msg)
+    if not args.ring > 0:
+        return fail(f"--ring {args.ring:g} s: must be > 0 s")
+    base = None
+    if args.out:
+        base = Path(args.out)
+        if base.suffix == ".rrd":   # the old spelling: the stem of all three files
+            deprecated(f"-o {args.out}", f"-o {base.with_suffix('.mcap')}")
+        if base.suffix in (".mcap", ".rrd"):
+            base = base.with_suffix("")
+        if not base.parent.exists():
+            return fail(f"--out {args.out}: folder {base.parent} does not exist")
+        outputs = [base.with_name(base.name + s) for s in (".mcap", ".foxglove.json", *(() if args.no_rrd else (".rrd",)))]
+        if msg := refuse_existing(outputs, args.force):
+            return fail(msg)
+    writer = None
+    try:
+        faults = schedule(args.fault, cfg)
+        if not args.paced and any("cpu_stall" in f for f in args.fault):
+            return fail("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced")
+        loop = build_loop(cfg, args.law, args.estimator)
+        n = check_run_input(loop, args.freq, args.amp, args.duration, ring=base is not None)  # --out: a ring
+        late = [t for t, f in zip(args.fault, faults) if f[2] >= n]
+        if late:
+            return fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")
+        if base is not None:
+            seed = cfg.rt.seed if args.seed is None else args.seed
+            meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
+            meta["faults"] = json.dumps(to_json(faults))
+            writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
+            writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
+            writer.mcap.add_attachment(DESIGN_ATTACHMENT, MEDIA_TYPE,
+                                       to_npz(design_arrays(loop, initial_loop_state(loop, seed))))
+        with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
+            r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
+                    writer=writer, faults=faults)
+    except ValueError as exc:
+        return fail(str(exc))
+    finally:
+        if writer is not None:
+            writer.finish()  # idempotent: closes the files also if the run never started
+    if len(r.log) < 2:
+        return fail("interrupted before the loop ran: nothing to summarise")
+    s = summary(r)
+    s["interrupted"] = r.interrupted or (writer is not None and writer.interrupted)
+    realtime_notes(s.get("realtime"))
+    if writer is not None:
+        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "foxglove_layout": writer.paths["foxglove"],
+              "dropped_blocks": writer.dropped_blocks,
+              "unwritten_ticks": writer.unwritten_ticks}
+    if args.json:
+        print(json.dumps(s))
+        return 130 if s["interrupted"] else 0
+    if s["interrupted"]:
+        print(f"interrupted (Ctrl-C) after {s['ticks']} ticks: the summary covers those, the log all but "
+              f"{s.get('unwritten_ticks', 0)} (the writer stops {INTERRUPT_DRAIN_S} s after a Ctrl-C)")
+    print(f"law {s['law']}, estimator {s['estimator']}, {s['amp_n']:g} N at {s['freq_hz']:g} Hz, {s['ticks']} ticks"
+          f"{' (paced)' if s['paced'] else ''}")
+    print(f"acceleration at x = 0.45 m (last 20 %): first harmonic {s['acc045_amplitude']:.4g} m/s^2; raw RMS "
+          f"{s['acc045_rms']:.4g}, peak {s['acc045_peak']:.4g} (raw: mostly unresolved-mode ringing above 5 kHz, "
+          f"docs/plant.md 2.6)")
+    print(f"mean F_N1 {s['fn1_mean_n']:.2f} N, actuator energy {s['actuator_energy_j']:.4g} J, "
+          f"tick median {s['tick_median_us']:.2f} us, overruns {s['overruns']}")
+    if "v_rel_nrmse" in s:
+        print(f"estimation (last 20 %, against the plant's band-limited truth): NRMSE v_rel {s['v_rel_nrmse']:.3f}, "
+              f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %")
+    for f in s["faults"]:
+        print(f"fault {f['kind']}{'/' + f['sensor'] if f['sensor'] else ''} at tick {f['tick']}: "
+              + (f"{f['name']} (code {f['code']}) detected at tick {f['detected_tick']}, passive at tick "
+                 f"{f['passive_tick']}" if f["detected_tick"] is not None else "not detected"))
+    if s["trips"] and not s["faults"]:
+        print("supervisor: " + ", ".join(f"{t['name']} (code {t['code']}) at tick {t['tick']}" for t in s["trips"]))
+    if writer is not None:
+        print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}; "
+              f"Foxglove layout {s['foxglove_layout']}")
+    return 130 if s["interrupted"] else 0
+
