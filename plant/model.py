@@ -125,7 +125,7 @@ def _modal_basis(K: np.ndarray, M: np.ndarray, T: np.ndarray) -> tuple[np.ndarra
     return np.sqrt(np.maximum(lam, 0.0)), T @ V
 
 
-PERIOD_MATCH_MAX = 2.0   # omega h above which a stepped mode is not period-matched (tan grows without bound)
+PERIOD_MATCH_MAX = 1.0   # omega h above which a stepped mode is not period-matched (m would fall below 0.85)
 
 
 def period_matched(omega: np.ndarray, c: np.ndarray, zeta: float, dyn: np.ndarray, h: float,

@@ -166,10 +166,10 @@ def period_matched(P):
     """(m, c) of the stepped modes [-, 1/s]: where the plant period-matches its modes (some
     P.m_step != 1), the modal mass (omega / omega_d)^2 with omega_d = (2/h) tan(omega h / 2) and the
     damping 2 zeta omega^2 / omega_d x omega h / sin(omega h), zeta = c / (2 omega), for the
-    dynamic modes with 0 < omega h < 2 at the substep h = P.h; else 1 and c."""
+    dynamic modes with 0 < omega h < 1 at the substep h = P.h; else 1 and c."""
     omega = np.sqrt(P.omega2)
     x = omega * P.h
-    match = (P.dyn > 0) & (omega > 0) & (x < 2.0) & np.any(P.m_step != 1.0)
+    match = (P.dyn > 0) & (omega > 0) & (x < 1.0) & np.any(P.m_step != 1.0)
     x = np.where(match, x, 1.0)
     omega_d = 2.0 / P.h * np.tan(x / 2)
     zeta = P.c / (2.0 * np.where(match, x / P.h, 1.0))

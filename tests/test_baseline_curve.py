@@ -92,7 +92,7 @@ def test_the_harmonic_balance_peak_of_a_stuck_joint_is_the_linear_peak(cfg):
 
 def test_a_bad_set_is_one_line_and_exit_2(capsys):
     with pytest.raises(SystemExit) as end:
-        run_main(lambda: main(["--set", "plant.interface.pitch_m=0.005"]))
+        run_main(lambda: main(["--set", "plant.interface.pitch_m=0.007"]))
     assert end.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "plant.interface.pitch_m=0.005" in err[0] and "element_length_m" in err[0], err
+    assert len(err) == 1 and "plant.interface.pitch_m=0.007" in err[0] and "whole pitches" in err[0], err

@@ -60,8 +60,9 @@ def test_single_start_aft_is_the_multi_start_solution():
     assert one.converged.all() and every.converged.all()
     assert np.max(np.abs(one.H["a"] - every.H["a"]) / np.abs(every.H["a"])) < 1e-9
     # the sweep's first line lands on the closed branch (its start is the df solution), the next ones, continued,
-    # on the gaping one: the ends open for a third of every cycle
-    assert np.max(one.open_fraction[0]) == 0.0 and np.min(one.open_fraction[1:, [0, -1]]) > 0.3
+    # on the gaping one: the ends open for a quarter to 40 % of every cycle (measured 0.25-0.41 with the
+    # end points at half their tributary area; a third with the earlier full-stiffness end pairs)
+    assert np.max(one.open_fraction[0]) == 0.0 and np.min(one.open_fraction[1:, [0, -1]]) > 0.2
 
 
 def test_an_unknown_method_is_refused(campaign):

@@ -32,8 +32,8 @@ def _stuck_hz(cfg):
 def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
     """The other model form: twice the contact points (the same contact per unit area), and a
     pattern of frequency shifts that no scale of E removes (the beams part's 0.5 % in height and
-    density, the joint's discretisation; measured 0.73 % rms over modes 1-9 after the best E, 1.49 %
-    when the pitch part also halved the stiffness per area)."""
+    density, the joint's discretisation; measured 0.29 % rms over modes 1-9 after the best E on the
+    10 mm default, 1.49 % when the pitch part also halved the stiffness per area on the 20 mm one)."""
     true = model_form(nominal)
     itf, itf0 = true.plant.interface, nominal.plant.interface
     assert (itf.pitch_m, itf.k_n_area, itf.k_t_area, itf.tau_s) == (itf0.pitch_m / 2, itf0.k_n_area, itf0.k_t_area,
@@ -42,7 +42,7 @@ def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
     assert [b.height_m / b0.height_m for b, b0 in zip(true.plant.beams, nominal.plant.beams)] == pytest.approx([1.005, 0.995])
     shift = np.log(_stuck_hz(true) / _stuck_hz(nominal))
     rest = shift - shift.mean()             # the best single frequency scale (E) removes the mean log shift
-    assert 0.005 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
+    assert 0.002 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
 
 
 def _changed(a: Config, b: Config) -> set[str]:
@@ -136,14 +136,15 @@ def test_level_options_are_checked(tmp_path, capsys):
 
 def test_the_report_says_when_the_model_form_dominates(tmp_path, capsys):
     """A clean campaign of the other model form: nothing named, and the budget says that the remainder
-    dominates (measured, seed 3: calibration 65 %, remainder 35 % of the excess RSS, final weighted rms
-    36 against the noise's 1) and lists the modes the final model misses by more than 0.3 %."""
+    dominates (measured, seed 3, on the 10 mm default: calibration 98 %, remainder 2 % of the excess RSS,
+    final weighted rms 8.6 against the noise's 1; on the 20 mm one 65 %, 35 %, 36) and lists the modes
+    the final model misses by more than 0.3 %."""
     folder = make_frf_campaign(tmp_path / "c", "none", seed=3, other_form=MODEL_FORM_PARTS)[0].parent
     assert main(["diagnose", str(folder), "--json", "--out", str(tmp_path / "r")]) == 0
     res = json.loads(capsys.readouterr().out)
     b = res["gap_budget"]
     assert res["named_effect"] is None
-    assert b["remainder_dominates"] and b["rms_final"] > 10.0, b
+    assert b["remainder_dominates"] and b["rms_final"] > 5.0, b
     assert b["calibration_share"] + b["effect_share"] + b["remainder_share"] == pytest.approx(1.0, abs=1e-3)
     assert b["modes_missed"] and all(abs(m["shift_rel"]) > 0.003 for m in b["modes_missed"])
     assert {s["sensor"] for s in b["sensors"]} == {"a_frf_meas", "a_tip_meas"}

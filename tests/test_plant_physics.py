@@ -162,17 +162,20 @@ def test_energy_balance_on_transient(cfg, reduced, peak, fn1):
 # --- check 5 -------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("qs_sets, lo, hi, err_dt", [
-    (["plant.quasi_static_hz=1e9"], 1.8, 2.2, 5e-4),
-    (["plant.quasi_static_hz=10500", "plant.quasi_static_theta=0"], 0.9, 1.3, 2e-3),
-    ([], 1.6, 2.1, 4.5e-4)])
+    (["plant.quasi_static_hz=1e9", "plant.period_match=false"], 1.8, 2.2, 5e-4),
+    (["plant.quasi_static_hz=1e9"], 2.1, 4.0, 1e-4),
+    (["plant.quasi_static_hz=10500", "plant.quasi_static_theta=0", "plant.period_match=false"], 0.9, 1.3, 2e-3),
+    ([], 1.0, 1.5, 1.5e-4)])
 def test_step_size_convergence_on_stuck_case(qs_sets, lo, hi, err_dt):
     """dt, dt/2, dt/4 against dt/32 on a smooth case where no pair slips or opens. With every
-    mode stepped (quasi_static_hz beyond the basis) errors fall by 4 per halving: average
-    acceleration is second order (measured 3.7e-4 of the rms at dt). With the quasi-static modes
-    stepped by implicit Euler (theta 0, above 10.5 kHz: the plant before issue 15's fix) they fall
-    by 2: their static response to the step's mean load lags by h/2 (docs/plant.md 2.6; measured
-    1.0e-3 at dt, orders 1.12, 1.13). The default (theta 0.9, above 3 kHz) leaves a lag of
-    0.05 h: measured orders 1.83, 1.75 and 3.9e-4 at dt, within 4 % of every mode stepped."""
+    mode stepped by the plain trapezoid errors fall by 4 per halving: average acceleration is
+    second order (measured 3.9e-4 of the rms at dt, orders 1.89, 1.99). Period-matched (docs/plant.md
+    2.2) the modes' period error is gone: 5.2e-5 at dt, orders 2.3, 3.6. With the quasi-static
+    modes stepped by implicit Euler (theta 0, above 10.5 kHz: the plant before issue 15's fix) they
+    fall by 2: their static response to the step's mean load lags by h/2 (docs/plant.md 2.6;
+    measured 1.1e-3 at dt, orders 1.12, 1.13). The default (period-matched, theta 0.9 above 3 kHz)
+    leaves that lag at 0.05 h, now the leading error: measured 1.09e-4 at dt (plain trapezoid:
+    4.1e-4), orders 1.24, 1.17."""
     errs = []
     ref = None
     for m_sub in (32, 1, 2, 4):
@@ -234,16 +237,19 @@ def test_passive_damper_identified_modes(reduced, capsys):
 
 @pytest.mark.filterwarnings("ignore::UserWarning")  # sdypy-EMA clamps its band to the FFT bins
 def test_identification_matches_linear_theory(cfg, reduced):
-    """On a linear response (10 N hammer: nothing slips) the identified frequencies and
-    damping ratios equal the eigenvalues of the linearised damped system, mapped exactly
-    through the integrator (every mode stepped: the trapezoid's exact pole map); sdypy-EMA's
-    LSCF, an independent identification, agrees too."""
-    m = build_plant(load(sets=["plant.quasi_static_hz=1e9"]))
+    """On a linear response (1 N hammer, mu = 2: nothing slips; at mu = 0.4 the default joint's
+    lightly pressed points at the edges of the screws' pressure zones slip under a 10 N hammer and
+    lower mode 5 by 0.5 %) the identified frequencies and
+    damping ratios equal the eigenvalues of the linearised damped system the step integrates
+    (every mode stepped, with the step's modal masses and damping, docs/plant.md 2.2), mapped
+    exactly through the integrator (the trapezoid's exact pole map); sdypy-EMA's LSCF, an
+    independent identification, agrees too."""
+    m = build_plant(load(sets=["plant.quasi_static_hz=1e9", "plant.interface.mu=2.0"]))
     x0 = m.initial_state(100.0)
     closed = preloaded_pairs(m, 100.0)
     p = m.params
     K = stuck_stiffness(m, closed)
-    A = np.block([[np.zeros((m.n, m.n)), np.eye(m.n)], [-K, -np.diag(p.c)]])
+    A = np.block([[np.zeros((m.n, m.n)), np.eye(m.n)], [-K / p.m_step[:, None], -np.diag(p.c_step / p.m_step)]])
     lam = sla.eigvals(A)
     lam = lam[lam.imag > 1.0]
     lam = lam[np.argsort(np.abs(lam))]
@@ -255,7 +261,7 @@ def test_identification_matches_linear_theory(cfg, reduced):
     z_th = -s_d.real / np.abs(s_d)
     sel = [int(np.argmin(np.abs(f_th - f0))) for f0 in stuck_frequencies_hz(m, closed)[[k - 1 for k in MODES]]]
     n = int(round(2.0 / cfg.dt_s))
-    F = hammer_force(n, cfg.dt_s, 10.0, 0.5e-3)
+    F = hammer_force(n, cfg.dt_s, 1.0, 0.5e-3)
     Y, _, _ = run(m, F, 100.0, x0=x0)
     tau = 0.5
     freq, H = accelerance_frf(F, _series(m, Y, "a_frf"), cfg.dt_s, tau)
@@ -287,8 +293,12 @@ def test_contact_solve_falls_back_to_fine_substeps():
     none on two): which one happens was decided by the design's last bits."""
     # the quasi-static modes as before issue 15's lag-free step (tests/test_kernels_reference.py
     # UNDAMPED_QS: with the defaults the capped solves stall in runs and the fine substeps fail too)
+    # and the joint as before issue 31 (20 mm pitch, the earlier stiffness per area, the plain trapezoid):
+    # on the default joint the capped solves stall in runs that the fine substeps do not end either
     cfg = load(sets=["plant.interface.tau_s=0", "plant.newton_max_iter=7", "plant.fallback_split=16",
-                     "plant.quasi_static_theta=0", "plant.quasi_static_hz=10500"])
+                     "plant.quasi_static_theta=0", "plant.quasi_static_hz=10500", "plant.interface.pitch_m=0.02",
+                     "plant.element_length_m=0.01", "plant.interface.k_n_area=2.125e12",
+                     "plant.interface.k_t_area=1.75e12", "plant.period_match=false"])
     m = build_plant(cfg)
     n = int(round(0.3 / cfg.dt_s))
     x0 = m.initial_state(40.0)
@@ -348,12 +358,11 @@ def test_one_substep_is_converged_with_interface_damping():
 
 
 def test_joint_converges_in_its_contact_pitch():
-    """docs/plant.md 6 "Contact pitch": refined at the same stiffness per unit length of joint
-    (benchmarks.contact_pitch), the preloaded stuck modes 2-9 at F_N1 = 100 N of the full model
-    converge once the pairs resolve the pressure's 11 mm Winkler length: 2.5 mm lies within 0.2 % of
-    1.25 mm (measured; 0.3 % allowed), and the refinement's step shrinks (2.5 -> 1.25 mm at most
-    half of 20 -> 2.5 mm on every mode). The default 20 mm lies 3.3 % above on mode 4 (measured):
-    the discretisation error that the calibration of k_n at 20 mm absorbs (1 point of margin)."""
+    """docs/plant.md 6.2: the contact per unit area, refined in its pitch (benchmarks.contact_pitch),
+    gives preloaded stuck modes 2-9 at F_N1 = 100 N of the full model that converge: 2.5 mm lies
+    within 0.07 % of 1.25 mm (measured; 0.15 % allowed), and the refinement's step shrinks (2.5 ->
+    1.25 mm at most half of 10 -> 2.5 mm on every mode). The default 10 mm lies 0.87 % above on
+    mode 5 (measured; 0.5..1.2 % required): its discretisation error, reported beside its figures."""
     from benchmarks.contact_pitch import refined
     base = load()
 
@@ -363,21 +372,21 @@ def test_joint_converges_in_its_contact_pitch():
 
     # modes 2-9: mode 1 (9.7 Hz) is resolved only to eps lambda_max / (2 lambda_1) = 0.6 % at 1.25 mm
     # (lambda_max 2e17 1/s^2 there; docs/plant.md 6), and barely involves the joint
-    f20, f2, f1 = (modes(p)[1:] for p in (0.02, 0.0025, 0.00125))
-    assert np.max(np.abs(f2 / f1 - 1)) < 3e-3
-    assert np.all(np.abs(f2 - f1) < 0.5 * np.abs(f20 - f2))
-    assert 0.023 < f20[2] / f1[2] - 1 < 0.043
+    f10, f2, f1 = (modes(p)[1:] for p in (base.plant.interface.pitch_m, 0.0025, 0.00125))
+    assert base.plant.interface.pitch_m == 0.01
+    assert np.max(np.abs(f2 / f1 - 1)) < 1.5e-3
+    assert np.all(np.abs(f2 - f1) < 0.5 * np.abs(f10 - f2))
+    assert 0.005 < np.max(f10 / f1 - 1) < 0.012
 
 
-def test_slipping_joint_converges_in_the_step_at_first_order_only():
-    """docs/discrepancy.md "Which part of the model form hides an effect" (benchmarks.substep_convergence):
-    the 50 N hammer test's a_frf accelerance over 50-1200 Hz against 8 substeps. With the joint all but
-    stuck (mu = 2, 300 N) only the trapezoidal rule's period error (pi f h)^2 / 3 differs, which falls
-    3-5x per halving of the step (second order; measured 2.42 -> 0.81 -> 0.15 dB at 1, 2, 4 substeps;
-    < 0.4 per halving allowed). With the configured friction at 100 N, where the joint slips, the error falls at about
-    first order (measured 4.39 -> 2.47 -> 1.31 dB, x 0.56 and 0.53 per halving; < 0.7 allowed), and at
-    the plant's own single substep it is 7x the signature of micro_slip at its default strength (0.60
-    dB; 4x required): the dispersion c of the diagnosis takes the period error, not this."""
+def test_hammer_test_step_error_after_period_matching():
+    """docs/plant.md 2.2 and 6.2 (benchmarks.substep_convergence): the 50 N hammer test's a_frf
+    accelerance over 50-1200 Hz against 8 substeps, with the modes period-matched. All but stuck (mu
+    = 2, 300 N) and slipping (100 N) the error falls with every halving (measured 0.88 -> 0.43 ->
+    0.06 dB and 0.53 -> 0.37 -> 0.05 dB at 1, 2, 4 substeps; before period matching, on the 20 mm
+    plant, the slipping test gave 4.39 -> 2.47 -> 1.31 dB), one substep's error stays below 1 dB, and
+    it is still 4.6 x the signature of micro_slip at its default strength (0.11 dB measured; 3 x
+    required): the step's error, not the effect, is what a diagnosis at one substep sees first."""
     from benchmarks.substep_convergence import accelerance, rms_db
     from rt.discrepancy.effects import get
     base = load()
@@ -387,9 +396,9 @@ def test_slipping_joint_converges_in_the_step_at_first_order_only():
         return np.array([rms_db(H[s], H[8]) for s in (1, 2, 4)]), H[1]
 
     stuck, _ = errors(with_sets(base, ["plant.interface.mu=2.0"]), 300.0)
-    assert np.all(stuck[1:] / stuck[:-1] < 0.4), stuck
     slip, H1 = errors(base, 100.0)
-    assert np.all((0.4 < slip[1:] / slip[:-1]) & (slip[1:] / slip[:-1] < 0.7)), slip
+    for e in (stuck, slip):
+        assert np.all(np.diff(e) < 0) and e[0] < 1.0, e
     ms = get("micro_slip")
     signature = rms_db(accelerance(ms.apply(base, ms.parameter.default), 100.0), H1)
-    assert slip[0] > 4.0 * signature, (slip, signature)
+    assert slip[0] > 3.0 * signature, (slip, signature)

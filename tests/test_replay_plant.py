@@ -10,6 +10,7 @@ import pytest
 
 from plant.actuator import ACTUATOR_OUTPUTS
 from rt.cli import main
+from rt.common.config import adaptive_screw, load
 from rt.log.mcap_log import read_mcap
 from rt.loop.replay_plant import replay_plant_outputs
 from rt.log.writer import McapBlockWriter
@@ -44,7 +45,8 @@ def test_plant_replay_of_a_fresh_run_is_bit_exact(logs, capsys, law, reduced):
     assert code == 0 and r["bit_exact"] is True and r["max_abs_diff"] == 0.0 and r["first_mismatch_tick"] is None
     assert r["ticks"] == 2100 and r["missing_ticks"] == 0 and r["failed_solves"] == 0 and r["law"] == law
     expected = [n for n, _ in ACTUATOR_OUTPUTS] + [n for n, _ in reduced.output_labels()]
-    assert r["signals_compared"] == expected and len(expected) == 70   # 9 actuator, 61 plant (5 of the bolts)
+    # 9 actuator, 93 plant: 20 of the points, energies and counters, 5 of the bolts, 4 per contact point (17)
+    assert r["signals_compared"] == expected and len(expected) == 9 + 20 + 5 + 4 * reduced.n_pairs == 102
     # not vacuous: the structure moved and the stack was driven (passive: 0 V throughout; hysteresis:
     # F_N1 swings 0.65 N in 0.1 s while RT1 (T1 = 20 ms) builds up; Lyapunov: tens of N)
     assert r["outputs"]["abar_tip"]["max"] > 1.0
@@ -59,8 +61,11 @@ def test_a_changed_friction_coefficient_is_found_in_the_plant_only(logs, capsys)
     # the stack is driven one-way by the recorded V_cmd: the actuator outputs stay bit-exact
     assert all(by[n] == 0.0 for n, _ in ACTUATOR_OUTPUTS)
     # the interface slips differently: its tangential forces and the accelerations change (a 1 s run
-    # measured 33 m/s^2 in abar_tip, 1.2 mm/s in v_rel, 9.8 N in f_t_8; loose lower bounds here)
-    assert by["f_t_8"] > 1.0 and by["abar_tip"] > 1.0 and by["v_rel"] > 1e-4
+    # measured 33 m/s^2 in abar_tip, 1.2 mm/s in v_rel, 9.8 N at the point under the adaptive screw on
+    # the 20 mm plant; loose lower bounds here)
+    itf, screw = load().plant.interface, adaptive_screw(load())
+    j = int(round((screw.x_m - itf.x_start_m) / itf.pitch_m))
+    assert by[f"f_t_{j}"] > 1.0 and by["abar_tip"] > 1.0 and by["v_rel"] > 1e-4
     assert r["first_mismatch_tick"] > 0
 
 

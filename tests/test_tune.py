@@ -100,7 +100,7 @@ def test_cli_writes_table_plot_and_a_best_toml_that_loads(tmp_path, capsys):
     (["--law", "hysteresis", "--grid", "tracking.K_f"], ["--grid", "KEY=V1,V2"]),
     (["--law", "hysteresis", "--amp", "-5"], ["amplitudes", "positive"]),
     (["--law", "hysteresis", "--modes", "3,x"], ["--modes"]),
-    (["--law", "hysteresis", "--modes", "99"], ["mode 99"]),
+    (["--law", "hysteresis", "--modes", "999"], ["mode 999"]),
     (["--law", "lyapunov", "--jobs", "0"], ["--jobs 0"]),
     (["--law", "lyapunov", "--points", "2"], ["points 2"]),
 ])
