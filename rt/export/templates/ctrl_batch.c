@@ -1,0 +1,65 @@
+/*
+ * ctrl_batch.c: the exported controller over a whole recorded sensor stream in one call.
+ *
+ * `frictionrt replay LOG.mcap --c DIR` builds this with frictionrt_ctrl.c into a shared library
+ * and calls ctrl_run through ctypes (one foreign call per log, not per tick). A target does not
+ * need this file.
+ */
+#include <stddef.h>
+
+#include "frictionrt_ctrl.h"
+
+/* Run ticks k[0] .. k[n-1] from the state at rest (ctrl_init):
+ *   sens     n x 4 readings per tick: a_tip_meas, a_frf_meas, F_strain, F_cell
+ *   uv       n x 2 the plant's u_rel, v_rel (the oracle's test build; ignored, may be NULL, otherwise)
+ *   overran  n flags: the tick before overran (0 or 1)
+ *   faults   n_faults rows of the fault schedule (may be NULL when n_faults is 0)
+ *   out      n x CTRL_N_OUTPUTS: the outputs in ctrl_outputs order
+ * Returns the number of ticks run (n). */
+int64_t ctrl_run(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
+                 const ctrl_fault *faults, int n_faults, double *out)
+{
+    ctrl_state s;
+    ctrl_inputs in;
+    ctrl_outputs y;
+    int64_t i;
+    ctrl_init(&s);
+    in.faults = faults;
+    in.n_faults = n_faults;
+    for (i = 0; i < n; ++i) {
+        double *o = out + i * CTRL_N_OUTPUTS;
+        in.k = k[i];
+        in.a_tip_meas = sens[4 * i];
+        in.a_frf_meas = sens[4 * i + 1];
+        in.F_strain = sens[4 * i + 2];
+        in.F_cell = sens[4 * i + 3];
+        in.overran = overran[i] != 0.0;
+#if !CTRL_OBSERVER
+        in.u_rel = uv[2 * i];
+        in.v_rel = uv[2 * i + 1];
+#else
+        (void)uv;
+#endif
+        ctrl_step(&s, &in, &y);
+        o[0] = y.v_tip_meas;
+        o[1] = y.u_rel_hat;
+        o[2] = y.v_rel_hat;
+        o[3] = y.innovation;
+        o[4] = y.f_r_hat;
+        o[5] = y.F_set;
+        o[6] = y.u0;
+        o[7] = y.F_set_filtered;
+        o[8] = y.V_cmd;
+        o[9] = y.saturated;
+        o[10] = y.fault_code;
+        o[11] = y.fault_latched;
+        o[12] = y.passive;
+    }
+    return n;
+}
+
+/* sizeof(ctrl_state), for the caller's check of the build it loaded. */
+int64_t ctrl_state_size(void)
+{
+    return (int64_t)sizeof(ctrl_state);
+}
