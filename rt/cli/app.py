@@ -20,10 +20,8 @@ from rt.cli.reproduce import add_parser as add_reproduce_parser
 from rt.cli.reproduce import cmd_reproduce
 from rt.cli.tune import add_parser as add_tune_parser
 from rt.cli.tune import cmd_tune
-from rt.cli import diagnose as cli_diagnose
-from rt.cli import rig as cli_rig
-from rt.cli.log import add_parsers as add_log_parsers
-from rt.cli.log import cmd_inspect, cmd_recover
+from rt.cli import diagnose as cli_diagnose, export_c as cli_export_c, rig as cli_rig
+from rt.cli.log import add_parsers as add_log_parsers, cmd_inspect, cmd_recover
 from rt.cli.common import (Parser, actuator_verb, add_common, add_force, add_out, add_realtime, fail, json_errors,
                            realtime_notes, realtime_sets, refuse_existing, unpaced_realtime)
 from rt.common.config import ConfigError, adaptive_screw, dumps, load, require_adaptive_screw, to_dict
@@ -169,6 +167,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_realtime(r)
     r.add_argument("--plant", action="store_true", help="replay the recorded V_cmd [V] and F_exc [N] into actuator "
                    "and plant and compare their outputs (open-loop check; e.g. with --set plant.interface.mu=0.3)")
+    cli_export_c.add_replay_options(r)
     r.add_argument("--json", action="store_true", help="one JSON object instead of text")
 
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
@@ -187,9 +186,8 @@ def build_parser() -> argparse.ArgumentParser:
     cli_rig.add_parser(sub, parents=[common])
     cli_diagnose.add_parser(sub, parents=[common])
     add_log_parsers(sub, parents=[common])
+    cli_export_c.add_parser(sub, parents=[common])
     return ap
-
-
 
 
 def _cmd_config(cfg, args) -> int:
@@ -351,6 +349,8 @@ def _cmd_simulate(cfg, args) -> int:
 def _cmd_replay(cfg, args) -> int:
     from rt.log.design_record import describe
     from rt.loop.replay import replay
+    if args.c is not None:
+        return cli_export_c.cmd_replay_c(cfg, args)
     if args.plant:
         return cmd_replay_plant(cfg, args)
     if msg := unpaced_realtime(args):
@@ -466,7 +466,7 @@ COMMANDS = {"config": _cmd_config, "modes": _cmd_modes, "impulse": _cmd_impulse,
             "compare": _cmd_compare, "budget": _cmd_budget, "bench": _cmd_bench,
             "observer": _cmd_observer, "frf": cmd_frf, "tune": cmd_tune,
             "recover": cmd_recover, "inspect": cmd_inspect, "reproduce": cmd_reproduce,
-            "rig": cli_rig.cmd_rig, "diagnose": cli_diagnose.cmd_diagnose}
+            "rig": cli_rig.cmd_rig, "diagnose": cli_diagnose.cmd_diagnose, "export-c": cli_export_c.cmd_export_c}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -120,7 +120,7 @@ def realtime_notes(rt: dict | None) -> None:
         print(f"frictionrt: note: {note}", file=sys.stderr)
 
 
-ACTUATOR_VERBS = ("simulate", "compare", "budget", "observer", "replay", "frf", "tune", "reproduce")
+ACTUATOR_VERBS = ("simulate", "compare", "budget", "observer", "replay", "frf", "tune", "reproduce", "export-c")
 """Verbs that drive the adaptive screw's actuator (or design for it) whatever their options."""
 
 
