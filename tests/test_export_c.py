@@ -99,6 +99,8 @@ def test_fault_injection_logs_replay_bit_exact_with_the_passive_fallback(tmp_pat
     assert main([*sets, "export-c", "--from-log", str(log), "-o", str(tmp_path / "c"), "--json"]) == 0
     r, out = replay_c(log, tmp_path / "c")
     assert r["bit_exact"] is True and r["ticks"] == 1260
+    code, rn, err = run(capsys, *sets, "replay", log)   # the numba replay takes the logged dropouts too
+    assert code == 0 and rn["bit_exact"] is True and rn["ticks"] == 1260, err
     rec = read_mcap(log)
     assert np.isnan(rec.log[:, [rec.column(c) for c in READINGS]]).any()   # dropouts fed as logged
     assert codes <= set(out[:, OUTPUTS.index("fault_code")].astype(int)) and out[:, OUTPUTS.index("passive")].any()
