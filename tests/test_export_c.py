@@ -62,6 +62,7 @@ def test_every_law_and_estimator_replays_bit_exact_through_the_c(runs, capsys, l
     assert r["signals_compared"] == list(OUTPUTS) and len(OUTPUTS) == 13
     assert (r["law"], r["estimator"]) == (law, estimator)
     assert r["design_hash"] == json.loads((exp / "frictionrt_export.json").read_text())["design_hash"]
+    assert r["log_design_hash"] == r["design_hash"] == read_mcap(log).metadata["controller_design"]
     assert "-std=c99 -O2 -ffp-contract=off" in r["build"]
     rec = read_mcap(log)   # not vacuous: the controller commanded something
     v = rec.log[:, rec.column("V_cmd")]
@@ -172,3 +173,18 @@ def test_the_design_hash_is_the_logs_and_changes_with_a_controller_parameter(run
     code, m, _ = run(capsys, "--set", "tracking.F_max_N=550", "export-c", "--law", "lyapunov", "--estimator",
                      "observer", "-o", tmp_path / "changed")
     assert code == 0 and m["design_hash"] != ref
+
+
+def test_bench_controller_times_numba_and_the_c_on_the_same_readings(runs, capsys, tmp_path):
+    exp = runs["lyapunov", "observer"][1]
+    capsys.readouterr()
+    code, r, err = run(capsys, "bench", "controller", "--steps", "1000", "--c", exp)
+    assert code == 0, err
+    assert (r["law"], r["estimator"], r["ticks"]) == ("lyapunov", "observer", 1000)
+    for part in ("numba", "c"):
+        assert 0 < r[part]["median_us"] <= r[part]["p99_us"] <= r[part]["p999_us"] <= r[part]["max_us"]
+    c = r["c"]
+    assert c["outputs_identical"] is True and c["state_bytes"] == 912
+    assert c["size"]["text"] > 0 and c["size"]["data"] == 0 and c["size"]["bss"] == 0
+    code, r, err = run(capsys, "bench", "controller", "--steps", "1000", "--law", "passive", "--c", exp)
+    assert code == 2 and "an export of another design" in err

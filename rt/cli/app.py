@@ -11,15 +11,11 @@ import json
 import sys
 from pathlib import Path
 
-from rt.cli.frf import add_parser as add_frf_parser
-from rt.cli.frf import cmd_frf
+from rt.cli.frf import add_parser as add_frf_parser, cmd_frf
 from rt.cli.replay_plant import cmd_replay_plant
-from rt.cli.validate import add_parser as add_validate_parser
-from rt.cli.validate import cmd_validate
-from rt.cli.reproduce import add_parser as add_reproduce_parser
-from rt.cli.reproduce import cmd_reproduce
-from rt.cli.tune import add_parser as add_tune_parser
-from rt.cli.tune import cmd_tune
+from rt.cli.validate import add_parser as add_validate_parser, cmd_validate
+from rt.cli.reproduce import add_parser as add_reproduce_parser, cmd_reproduce
+from rt.cli.tune import add_parser as add_tune_parser, cmd_tune
 from rt.cli import diagnose as cli_diagnose, export_c as cli_export_c, rig as cli_rig
 from rt.cli.log import add_parsers as add_log_parsers, cmd_inspect, cmd_recover
 from rt.cli.common import (Parser, actuator_verb, add_common, add_force, add_out, add_realtime, fail, json_errors,
@@ -172,12 +168,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", parents=[common], help="step-time benchmarks [us]",
                        description="Per-step wall time [us] of the compiled kernels: median, p99, p99.9, max.")
-    b.add_argument("target", choices=["plant", "loop"],
-                   help="plant: the Newmark/Newton step for 5, 9, 17, 33 pairs; loop: the whole tick and the "
-                        "controller part against python-control's nlsys simulation of it")
+    b.add_argument("target", choices=["plant", "loop", "controller"],
+                   help="plant: the Newmark/Newton step for 5, 9, 17, 33 pairs; loop: the whole tick and its controller "
+                        "part against python-control's nlsys; controller: the whole controller, numba and C (--c DIR)")
     b.add_argument("--steps", type=int, default=21000, metavar="N", help="steps per case (default 21000 = 1 s)")
     b.add_argument("--pairs", type=int, nargs="+", default=[5, 9, 17, 33], metavar="P",
                    help="contact pair counts (default 5 9 17 33)")
+    cli_export_c.add_bench_options(b)
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     add_frf_parser(sub, parents=[common])
     add_validate_parser(sub, parents=[common])
@@ -241,6 +238,8 @@ def _cmd_impulse(cfg, args) -> int:
 
 def _cmd_bench(cfg, args) -> int:
     from rt.loop.bench import bench_loop, bench_plant, format_loop, format_table
+    if args.target == "controller":
+        return cli_export_c.cmd_bench_controller(cfg, args)
     if args.target == "loop":
         if args.steps < 1000:
             return fail(f"--steps {args.steps}: need at least 1000 steps")
@@ -297,6 +296,7 @@ def _cmd_simulate(cfg, args) -> int:
             seed = cfg.rt.seed if args.seed is None else args.seed
             meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
             meta["faults"] = json.dumps(to_json(faults))
+            meta["controller_design"] = cli_export_c.design_hash_of(loop, seed)   # what export-c writes for it
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
             writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
             writer.mcap.add_attachment(DESIGN_ATTACHMENT, MEDIA_TYPE,

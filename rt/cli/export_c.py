@@ -53,7 +53,43 @@ def add_replay_options(r: argparse.ArgumentParser) -> None:
     r.add_argument("--c", metavar="DIR", default=None, help="replay through the C export in DIR (frictionrt "
                    "export-c) instead of the numba controller, compared bit for bit with the log")
     r.add_argument("--cc", metavar="CC", default=None, help="with --c: the C compiler (default $CC or cc)")
-    r.add_argument("--c-opt", metavar="FLAG", default="-O2", help="with --c: the optimisation flag (default -O2)")
+    r.add_argument("--c-opt", metavar="FLAG", default="-O2", help="with --c: the optimisation flag, written --c-opt=-O0 (default -O2)")
+
+
+def add_bench_options(b: argparse.ArgumentParser) -> None:
+    """``bench controller``'s --c DIR, --cc, --law, --estimator."""
+    b.add_argument("--c", metavar="DIR", default=None, help="controller: time the C export in DIR beside numba "
+                   "(an export of the same configuration, law and estimator)")
+    b.add_argument("--cc", metavar="CC", default=None, help="controller with --c: the C compiler (default $CC or cc)")
+    b.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov",
+                   help="controller: the law (default lyapunov)")
+    b.add_argument("--estimator", choices=["oracle", "observer"], default="observer",
+                   help="controller: the estimator (default observer)")
+
+
+def cmd_bench_controller(cfg, args) -> int:
+    """``bench controller``: per-tick figures [us] of numba and the C export (rt/export/bench.py)."""
+    from rt.export.bench import bench_controller, format_bench
+    from rt.export.generate import read_manifest
+    from rt.loop import build_loop, initial_loop_state
+    if args.steps < 1000:
+        return fail(f"--steps {args.steps}: need at least 1000 steps")
+    try:
+        manifest = read_manifest(Path(args.c)) if args.c else None
+        loop = build_loop(cfg, args.law, args.estimator)
+        res = bench_controller(loop, initial_loop_state(loop, cfg.rt.seed), args.steps, args.c, args.cc, manifest)
+    except ValueError as exc:
+        return fail(str(exc))
+    print(json.dumps(res) if args.json else format_bench(res))
+    return 0
+
+
+def design_hash_of(loop, seed: int) -> str:
+    """The design hash of the controller of a run of ``loop`` (``simulate --out`` stores it in the
+    log's "frictionrt" record as "controller_design")."""
+    from rt.export.record import controller_record, design_hash
+    from rt.loop import initial_loop_state
+    return design_hash(controller_record(loop, initial_loop_state(loop, seed)))
 
 
 def cmd_export_c(cfg, args) -> int:

@@ -62,6 +62,28 @@ class Controller:
         return out
 
 
+    def run_timed(self, k: np.ndarray, sens: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(outputs, ns): as ``run`` without overruns or faults, each tick's ctrl_step timed [ns]
+        (ctrl_batch.c ``ctrl_run_timed``)."""
+        n = len(k)
+        out = np.full((n, N_OUTPUTS), np.nan)
+        ns = np.zeros(n, dtype=np.int64)
+        try:
+            f = self.lib.ctrl_run_timed
+        except AttributeError:
+            raise ValueError(f"{self.path}: no ctrl_run_timed (an export of an older frictionrt): export it again") from None
+        f.restype = ctypes.c_int64
+        f.argtypes = [ctypes.c_int64, _ip, _dp, _dp, _dp, ctypes.c_void_p, ctypes.c_int, _dp, _ip]
+        f(n, np.ascontiguousarray(k, dtype=np.int64), np.ascontiguousarray(sens, dtype=np.float64),
+          np.ascontiguousarray(uv, dtype=np.float64), np.zeros(n), None, 0, out, ns)
+        return out, ns
+
+    def state_bytes(self) -> int:
+        """sizeof(ctrl_state) of this build."""
+        self.lib.ctrl_state_size.restype = ctypes.c_int64
+        return int(self.lib.ctrl_state_size())
+
+
 def build(folder, cc: str | None = None, opt: str = "-O2", extra=(), workdir=None) -> Controller:
     """Compile the export in ``folder`` (``read_manifest`` checked it) and load it. ``cc`` the
     compiler (``compiler``), ``opt`` the optimisation flag, ``extra`` further flags (e.g.

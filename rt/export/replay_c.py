@@ -9,7 +9,8 @@ first differing tick and signal are named.
 
 The export must be of the log's design: the hash of the log's controller record (from the design
 the log carries, ``rt.log.design_record.use_logged``) must equal the export's, otherwise the
-replay refuses, naming both. Unlike the numba replay, readings that are NaN (logged sensor
+replay refuses, naming both; it must also equal the hash the log states in its "frictionrt"
+record ("controller_design", written by ``simulate --out``), when it states one. Unlike the numba replay, readings that are NaN (logged sensor
 dropouts) are fed as they are: the C, like the loop, sanitises them.
 """
 from __future__ import annotations
@@ -70,6 +71,10 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
         raise ValueError(f"--c {folder}: an export of another design ({manifest['design_hash'][:19]}..., "
                          f"{manifest['law']}/{manifest['estimator']}) than the log's ({digest[:19]}..., "
                          f"{loop.law}/{loop.estimator}); export it with frictionrt export-c --from-log {path}")
+    stated = meta.get("controller_design")   # simulate --out stores it (logs before issue 33 do not)
+    if stated is not None and stated != digest and not sets:
+        raise ValueError(f"{path}: the log states controller design {stated[:19]}..., its design arrays give "
+                         f"{digest[:19]}...: the log was edited or this version reads it otherwise")
     ctrl = build(folder, cc, opt, extra)
     if ctrl.design_hash != digest:
         raise ValueError(f"--c {folder}: its ctrl_config.h names design {ctrl.design_hash[:19]}..., its manifest "
@@ -92,7 +97,7 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     t0 = time.perf_counter()
     out = ctrl.run(rec.k, sens, uv, overran, faults)
     wall = time.perf_counter() - t0
-    res = {"file": str(path), "export": str(folder), "design_hash": digest, "law": loop.law,
+    res = {"file": str(path), "export": str(folder), "design_hash": digest, "log_design_hash": stated, "law": loop.law,
            "estimator": loop.estimator, "ticks": n, "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n),
            "build": " ".join(ctrl.command), "wall_s": wall, "design": report}
     owner = {nm: o for nm, _, o in rec.signals}

@@ -5,7 +5,9 @@
  * and calls ctrl_run through ctypes (one foreign call per log, not per tick). A target does not
  * need this file.
  */
+#define _POSIX_C_SOURCE 199309L   /* clock_gettime for ctrl_run_timed */
 #include <stddef.h>
+#include <time.h>
 
 #include "frictionrt_ctrl.h"
 
@@ -16,8 +18,19 @@
  *   faults   n_faults rows of the fault schedule (may be NULL when n_faults is 0)
  *   out      n x CTRL_N_OUTPUTS: the outputs in ctrl_outputs order
  * Returns the number of ticks run (n). */
+int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
+                       const ctrl_fault *faults, int n_faults, double *out, int64_t *ns);
+
 int64_t ctrl_run(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
                  const ctrl_fault *faults, int n_faults, double *out)
+{
+    return ctrl_run_timed(n, k, sens, uv, overran, faults, n_faults, out, NULL);
+}
+
+/* As ctrl_run; with ns not NULL, ns[i] receives the time of tick i's ctrl_step [ns]
+ * (CLOCK_MONOTONIC around the call: `frictionrt bench controller --c DIR`). */
+int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
+                       const ctrl_fault *faults, int n_faults, double *out, int64_t *ns)
 {
     ctrl_state s;
     ctrl_inputs in;
@@ -40,7 +53,15 @@ int64_t ctrl_run(int64_t n, const int64_t *k, const double *sens, const double *
 #else
         (void)uv;
 #endif
-        ctrl_step(&s, &in, &y);
+        if (ns != NULL) {
+            struct timespec t0, t1;
+            clock_gettime(CLOCK_MONOTONIC, &t0);
+            ctrl_step(&s, &in, &y);
+            clock_gettime(CLOCK_MONOTONIC, &t1);
+            ns[i] = (int64_t)(t1.tv_sec - t0.tv_sec) * 1000000000 + (int64_t)(t1.tv_nsec - t0.tv_nsec);
+        } else {
+            ctrl_step(&s, &in, &y);
+        }
         o[0] = y.v_tip_meas;
         o[1] = y.u_rel_hat;
         o[2] = y.v_rel_hat;
