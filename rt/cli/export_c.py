@@ -139,6 +139,8 @@ def cmd_replay_c(cfg, args) -> int:
     print(f"replay {res['file']} --c {res['export']}: law {res['law']}, estimator {res['estimator']}, "
           f"{res['ticks']} ticks through the C controller ({res['wall_s'] * 1e3:.1f} ms), design {res['design_hash']}")
     print(f"  build: {res['build']}")
+    if res["missing_ticks"]:
+        print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
     if res["bit_exact"] is None:
         print("  the log records no controller outputs: nothing to compare")
     elif res["bit_exact"]:
