@@ -95,12 +95,14 @@ def build(folder, cc: str | None = None, opt: str = "-O2", extra=(), workdir=Non
     lib = work / "libfrictionrt_ctrl.so"
     cmd = [*cmd_cc, *BASE_FLAGS[:1], opt, *BASE_FLAGS[1:], *extra, "-fPIC", "-shared", "-I", str(folder),
            "-o", str(lib), str(folder / "frictionrt_ctrl.c"), str(folder / "ctrl_batch.c")]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        first = next((ln for ln in r.stderr.splitlines() if "error" in ln), r.stderr.strip()[:200])
-        raise ValueError(f"--c {folder}: the C build failed ({' '.join(cmd_cc)} {opt}): {first}")
-    dll = ctypes.CDLL(str(lib))
-    if workdir is None:   # the library stays mapped: the temporary folder can go
-        shutil.rmtree(work, ignore_errors=True)
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            first = next((ln for ln in r.stderr.splitlines() if "error" in ln), r.stderr.strip()[:200])
+            raise ValueError(f"--c {folder}: the C build failed ({' '.join(cmd_cc)} {opt}): {first}")
+        dll = ctypes.CDLL(str(lib))
+    finally:
+        if workdir is None:   # a loaded library stays mapped: the temporary folder can go
+            shutil.rmtree(work, ignore_errors=True)
     dll.ctrl_design_hash.restype = ctypes.c_char_p
     return Controller(dll, lib, cmd, dll.ctrl_design_hash().decode())
