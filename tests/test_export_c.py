@@ -188,3 +188,22 @@ def test_bench_controller_times_numba_and_the_c_on_the_same_readings(runs, capsy
     assert c["size"]["text"] > 0 and c["size"]["data"] == 0 and c["size"]["bss"] == 0
     code, r, err = run(capsys, "bench", "controller", "--steps", "1000", "--law", "passive", "--c", exp)
     assert code == 2 and "an export of another design" in err
+
+
+def test_overruns_of_a_paced_log_give_the_c_the_numba_replays_outputs(runs, tmp_path):
+    """The supervisor's overrun check (a burst of 60 overrunning ticks: overrun_burst), which only
+    paced runs reach: a log marked paced with long tick_ns, replayed through numba and the C."""
+    from rt.log.writer import McapBlockWriter
+    from rt.loop.replay import replay_outputs
+    log, exp = runs["lyapunov", "observer"]
+    rec = read_mcap(log)
+    data = rec.log.copy()
+    data[300:360, rec.column("tick_ns")] = 1e6   # 1 ms: each of these ticks overran
+    path = tmp_path / "paced.mcap"
+    with McapBlockWriter(path, rec.signals, rec.rate_hz, dict(rec.metadata, paced="true")) as w:
+        w.write_block(0, data)
+    _, _, ref = replay_outputs(path)
+    r, out = replay_c(path, exp)
+    assert (out[:, 1:].view(np.uint64) == ref.view(np.uint64)).all()
+    assert 9 in set(out[:, OUTPUTS.index("fault_code")].astype(int))   # overrun_burst
+    assert r["bit_exact"] is False and r["first_mismatch_tick"] is not None   # the record had no overruns
