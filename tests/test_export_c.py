@@ -207,3 +207,21 @@ def test_overruns_of_a_paced_log_give_the_c_the_numba_replays_outputs(runs, tmp_
     assert (out[:, 1:].view(np.uint64) == ref.view(np.uint64)).all()
     assert 9 in set(out[:, OUTPUTS.index("fault_code")].astype(int))   # overrun_burst
     assert r["bit_exact"] is False and r["first_mismatch_tick"] is not None   # the record had no overruns
+
+
+@pytest.mark.parametrize("law, estimator", [("hysteresis", "oracle"), ("lyapunov", "observer")])
+def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, estimator):
+    """Software in the loop (rt/export/sil.py): the C export called from the compiled loop through a
+    ctypes function argument gives the simulate log's every signal bit for bit (timing columns aside)."""
+    from rt.common.config import load
+    from rt.export.sil import run_sil
+    from rt.loop import build_loop
+    log, exp = runs[law, estimator]
+    rec = read_mcap(log)
+    loop = build_loop(load(), law, estimator)
+    got = run_sil(loop, exp, 223.6, 5.0, 0.05)
+    names = [n for n, _, _ in loop.signals if n not in ("tick_ns", "late_ns")]
+    assert got.shape == (TICKS, len(loop.signals)) and len(names) == 88
+    a = got[:, [loop.column(n) for n in names]]
+    b = rec.log[:, [rec.column(n) for n in names]]
+    assert (a.view(np.uint64) == b.view(np.uint64)).all()

@@ -3,7 +3,8 @@ and hash, the C99 export from templates, its build and the back-to-back replay a
 
 Modules: ``record`` (the numbers the C reads, ``design_hash``), ``generate`` (``export_c``: the
 folder), ``cbuild`` (the compiler, a shared library through ctypes), ``replay_c`` (a log's
-sensor stream through the compiled C, compared bit for bit). The names below are imported on
+sensor stream through the compiled C, compared bit for bit), ``bench`` (``bench controller``),
+``sil`` (the C as the numba loop's controller). The names below are imported on
 first use (rt/common/face.py).
 """
 from rt.common.face import lazy_face

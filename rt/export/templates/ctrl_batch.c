@@ -79,6 +79,47 @@ int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const do
     return n;
 }
 
+/* The state at rest into the caller's buffer of ctrl_state_size() bytes (software in the loop). */
+void ctrl_init_flat(void *state)
+{
+    ctrl_init((ctrl_state *)state);
+}
+
+/* One tick through flat arrays, for a caller that cannot build the structs (the numba loop of
+ * `frictionrt simulate --controller c:DIR`): in = (k, a_tip_meas, a_frf_meas, F_strain, F_cell,
+ * overran, u_rel, v_rel), faults = n_faults rows of 5, out = the CTRL_N_OUTPUTS outputs. */
+void ctrl_step_flat(void *state, const double *in, const double *faults, int64_t n_faults, double *out)
+{
+    ctrl_inputs x;
+    ctrl_outputs y;
+    x.k = (int64_t)in[0];
+    x.a_tip_meas = in[1];
+    x.a_frf_meas = in[2];
+    x.F_strain = in[3];
+    x.F_cell = in[4];
+    x.overran = in[5] != 0.0;
+    x.faults = (const ctrl_fault *)faults;
+    x.n_faults = (int)n_faults;
+#if !CTRL_OBSERVER
+    x.u_rel = in[6];
+    x.v_rel = in[7];
+#endif
+    ctrl_step((ctrl_state *)state, &x, &y);
+    out[0] = y.v_tip_meas;
+    out[1] = y.u_rel_hat;
+    out[2] = y.v_rel_hat;
+    out[3] = y.innovation;
+    out[4] = y.f_r_hat;
+    out[5] = y.F_set;
+    out[6] = y.u0;
+    out[7] = y.F_set_filtered;
+    out[8] = y.V_cmd;
+    out[9] = y.saturated;
+    out[10] = y.fault_code;
+    out[11] = y.fault_latched;
+    out[12] = y.passive;
+}
+
 /* sizeof(ctrl_state), for the caller's check of the build it loaded. */
 int64_t ctrl_state_size(void)
 {
