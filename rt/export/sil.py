@@ -1,13 +1,14 @@
-"""Software in the loop: the compiled C export as the controller of the numba loop.
+"""Software in the loop: the compiled C export as the controller of the numba loop
+(``frictionrt simulate --controller c:DIR``).
 
-``run_sil(loop, folder, freq_hz, amp_n, duration_s)`` runs the closed loop as ``rt.loop.driver.run``
-does offline (rt/loop/tick.py ``_run_ticks``: sensors, actuator, shaker, plant in numba), with
-stages 2-4 (estimator, law, supervisor, prefilter, force tracking) and the tip integrator's
-output taken from the C export's ``ctrl_step_flat`` (ctrl_batch.c) instead of
-``_controller_tick``. The C function reaches the cached kernel as a ctypes function argument
-(numba calls it from nopython code through the address it gets at run time). The log's columns
-are the loop's (``loop.signals``); tick_ns and late_ns are 0 (not timed). A first step towards
-``simulate --controller c:DIR`` (issue 33): offline, whole-run logs, no writer, no pacing.
+``CController(loop, folder, seed)`` is a controller for ``rt.loop.driver.run(..., controller=)``:
+the loop's ticks as rt/loop/tick.py ``_run_ticks`` runs them offline (sensors, actuator, shaker,
+plant in numba; ring rows, the writer's pace, stop requests), with stages 2-4 (estimator, law,
+supervisor, prefilter, force tracking) and the tip integrator's output taken from the C export's
+``ctrl_step_flat`` (ctrl_batch.c) instead of ``_controller_tick``. The C function reaches the
+cached kernel as a ctypes function argument (numba calls it from nopython code through the
+address it gets at run time). The log has the loop's columns; tick_ns is the tick's time with the
+C, late_ns 0 (offline). ``run_sil`` runs a whole offline log.
 """
 from __future__ import annotations
 
@@ -17,24 +18,27 @@ import math
 import numba
 import numpy as np
 
-from plant.actuator import output_index as actuator_output_index
 from plant.sensors import _sensors_read, _tip_velocity
-from plant.sensors import output_index as sensor_output_index
 from plant.shaker import _shaker_step
+from rt.common.clock import CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
 from rt.export.cbuild import N_OUTPUTS, build
 from rt.export.generate import read_manifest
 from rt.export.record import controller_record, design_hash
 from rt.loop.build import initial_loop_state
-from rt.loop.supervisor import _inject_actuator, _inject_sensors, no_faults
+from rt.loop.supervisor import _inject_actuator, _inject_sensors
+from rt.loop.driver import run
 from rt.loop.tick import _actuate, _copy, _put
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
-def _sil_ticks(k0, k1, exc, faults, sens, cstep, cstate, cin, cout, act, plnt, shk, cols, log, ts):
-    """Ticks k0 <= k < k1 of the loop with the C controller cstep (``ctrl_step_flat``) on the
-    state buffer cstate; log row k - k0 receives the tick's signals. Returns failed plant solves.
+def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols, log):
+    """Ticks k0 <= k < k1 of the loop (``rt.loop.tick._run_ticks``, offline) with the C
+    controller cstep (``ctrl_step_flat``); ctl = (its state buffer, input (8,), output (13,)).
+    Log row (k - k0) mod len(log) receives the tick's signals. Returns failed plant solves.
     RT-safe."""
     dt, exc_amp, exc_omega = exc
+    timing, paced, period_ns, margin_ns, clk, ts = pace
+    cstate, cin, cout = ctl
     xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
     xa, xa_n, ya, ua, act_p = act
     xp, xp_n, yp, up, plant_p, plant_wk = plnt
@@ -42,7 +46,15 @@ def _sil_ticks(k0, k1, exc, faults, sens, cstep, cstate, cin, cout, act, plnt, s
     col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_dF, col_w_exc, col_v_exc = cols
     failed = 0
     for k in range(k0, k1):
-        row = k - k0
+        if clk[CLK_STOP]:
+            break
+        row = (k - k0) % log.shape[0]
+        while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
+            pass   # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
+        if clk[CLK_STOP]:
+            break
+        t_start = _now_ns(ts)
+        # 1 sensors, injected sensor faults, the numba integrator (its state advances as the loop's)
         us[0] = yp[col_a_tip]
         us[1] = yp[col_a_frf]
         us[2] = ya[col_strain]
@@ -52,6 +64,7 @@ def _sil_ticks(k0, k1, exc, faults, sens, cstep, cstate, cin, cout, act, plnt, s
         _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
         _inject_sensors(k, faults, ys, ys_prev, sens_p)
         _tip_velocity(xs, sens_p, xs_n, ys)
+        # 2-4 the C controller on the ADC readings (it integrates a_tip_meas itself)
         cin[0] = k
         cin[1] = ys[0]
         cin[2] = ys[1]
@@ -61,6 +74,7 @@ def _sil_ticks(k0, k1, exc, faults, sens, cstep, cstate, cin, cout, act, plnt, s
         cin[6] = yp[col_urel]
         cin[7] = yp[col_vrel]
         cstep(cstate.ctypes.data, cin.ctypes.data, faults.ctypes.data, faults.shape[0], cout.ctypes.data)
+        # 5 actuator on the C's V_cmd, 5s shaker, 6 plant
         F_exc = exc_amp * math.sin(exc_omega * (k * dt))
         if shake:
             ush[0] = F_exc
@@ -72,8 +86,9 @@ def _sil_ticks(k0, k1, exc, faults, sens, cstep, cstate, cin, cout, act, plnt, s
                              xp, xp_n, yp, up, plant_p, plant_wk, False, ts)
         if iters < 0:
             failed += 1
+        # 7 log: the readings with the C's v_tip_meas, the C's outputs, actuator, plant
         log[row, 0] = F_exc
-        ys[2] = cout[0]   # the C's integrator (the same bits as numba's)
+        ys[2] = cout[0]
         c = _put(log, row, 1, ys)
         for j in range(1, cout.shape[0]):
             log[row, c + j - 1] = cout[j]
@@ -85,46 +100,44 @@ def _sil_ticks(k0, k1, exc, faults, sens, cstep, cstate, cin, cout, act, plnt, s
         _copy(xp_n, xp)
         if shake:
             _copy(xsh_n, xsh)
-        log[row, c] = 0.0
+        log[row, c] = _now_ns(ts) - t_start
         log[row, c + 1] = 0.0
+        clk[CLK_TICKS] += 1
     return failed
+
+
+class CController:
+    """The C export in ``folder`` as the controller of runs of ``loop`` started at rest with
+    ``seed`` (``rt.loop.driver.run(..., controller=)``). ValueError for a folder that is no
+    export, an export of another design (both hashes named), a missing compiler."""
+
+    def __init__(self, loop, folder, seed: int, cc=None):
+        m = read_manifest(folder)
+        digest = design_hash(controller_record(loop, initial_loop_state(loop, seed)))
+        if m["design_hash"] != digest:
+            raise ValueError(f"--controller c:{folder}: an export of another design ({m['design_hash'][:19]}..., "
+                             f"{m['law']}/{m['estimator']}) than this run's ({digest[:19]}..., "
+                             f"{loop.law}/{loop.estimator})")
+        self.build = build(folder, cc)
+        lib = self.build.lib
+        self.cstep = lib.ctrl_step_flat
+        self.cstep.restype = None
+        self.cstep.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
+        lib.ctrl_init_flat.restype = None
+        lib.ctrl_init_flat.argtypes = [ctypes.c_void_p]
+        self.state = np.zeros(-(-self.build.state_bytes() // 8))   # ctrl_state, 8-byte aligned
+        lib.ctrl_init_flat(self.state.ctypes.data)
+        self.ctl = (self.state, np.zeros(8), np.zeros(N_OUTPUTS))
+        self.design_hash = digest
+
+    def __call__(self, k0, k1, exc, pace, faults, sens, act, plnt, shk, cols, log) -> int:
+        return _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log)
 
 
 def run_sil(loop, folder, freq_hz: float, amp_n: float, duration_s: float, *, seed=None, faults=None,
             cc=None) -> np.ndarray:
     """The log (ticks, len(loop.signals)) of an offline run of ``loop`` with the C export in
-    ``folder`` as its controller (module docstring). ValueError for an export of another design."""
-    cfg = loop.cfg
-    seed = cfg.rt.seed if seed is None else seed
-    st = initial_loop_state(loop, seed)
-    m = read_manifest(folder)
-    digest = design_hash(controller_record(loop, st))
-    if m["design_hash"] != digest:
-        raise ValueError(f"--controller c:{folder}: an export of another design ({m['design_hash'][:19]}...) than "
-                         f"this loop's ({digest[:19]}...)")
-    ctrl = build(folder, cc)
-    cstep = ctrl.lib.ctrl_step_flat
-    cstep.restype = None
-    cstep.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
-    init = ctrl.lib.ctrl_init_flat
-    init.restype = None
-    init.argtypes = [ctypes.c_void_p]
-    cstate = np.zeros(-(-ctrl.state_bytes() // 8))
-    init(cstate.ctypes.data)
-    n = int(round(duration_s / cfg.dt_s))
-    oi, ai = loop.plant.output_index(), actuator_output_index()
-    exc_point = cfg.plant.excitation_point
-    cols = (oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"], ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"],
-            oi[f"w_{exc_point}"], oi[f"v_{exc_point}"])
-    faults = no_faults() if faults is None else np.ascontiguousarray(faults, dtype=np.float64)
-    sens = (st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys), np.zeros(5),
-            loop.sensors, st.rng)
-    act = (st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator)
-    plnt = (st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), loop.plant.params, st.plant_work)
-    shk = (cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1), loop.shaker)
-    log = np.empty((n, len(loop.signals)))
-    failed = _sil_ticks(0, n, (cfg.dt_s, amp_n, 2 * math.pi * freq_hz), faults, sens, cstep, cstate, np.zeros(8),
-                        np.zeros(N_OUTPUTS), act, plnt, shk, cols, log, np.zeros(2, np.int64))
-    if failed:
-        raise RuntimeError(f"{failed} plant steps failed")
-    return log
+    ``folder`` as its controller (``CController``)."""
+    seed = loop.cfg.rt.seed if seed is None else seed
+    return run(loop, freq_hz, amp_n, duration_s, seed=seed, faults=faults,
+               controller=CController(loop, folder, seed, cc)).log
