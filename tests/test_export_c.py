@@ -225,3 +225,26 @@ def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, es
     a = got[:, [loop.column(n) for n in names]]
     b = rec.log[:, [rec.column(n) for n in names]]
     assert (a.view(np.uint64) == b.view(np.uint64)).all()
+
+
+def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, tmp_path):
+    """simulate --controller c:DIR --out: the MCAP log equals the numba run's (timing aside) and
+    replays bit-exact; bad --controller values exit 2 in one line."""
+    log, exp = runs["lyapunov", "observer"]
+    sil = tmp_path / "sil.mcap"
+    assert main(["simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6", "--amp", "5",
+                 "--duration", "0.05", "--out", str(tmp_path / "sil"), "--no-rrd", "--json",
+                 "--controller", f"c:{exp}"]) == 0
+    a, b = read_mcap(sil), read_mcap(log)
+    names = [n for n, _, _ in b.signals if n not in ("tick_ns", "late_ns")]
+    assert len(names) == 88
+    assert (a.log[:, [a.column(n) for n in names]].view(np.uint64)
+            == b.log[:, [b.column(n) for n in names]].view(np.uint64)).all()
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", sil)
+    assert code == 0 and r["bit_exact"] is True, err
+    for spec, problem in ((f"c:{tmp_path}", "not a frictionrt C export"), ("fortran:x", "give c:DIR"),
+                          (f"c:{runs['passive', 'observer'][1]}", "an export of another design")):
+        code, _, err = run(capsys, "simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6",
+                           "--amp", "5", "--duration", "0.01", "--controller", spec)
+        assert code == 2 and problem in err and len(err.strip().splitlines()) == 1, err

@@ -183,7 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
     cli_rig.add_parser(sub, parents=[common])
     cli_diagnose.add_parser(sub, parents=[common])
     add_log_parsers(sub, parents=[common])
-    cli_export_c.add_parser(sub, parents=[common])
+    cli_export_c.add_parser(sub, parents=[common])   # export-c, and simulate's --controller
     return ap
 
 
@@ -303,7 +303,7 @@ def _cmd_simulate(cfg, args) -> int:
                                        to_npz(design_arrays(loop, initial_loop_state(loop, seed))))
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
-                    writer=writer, faults=faults)
+                    writer=writer, faults=faults, controller=cli_export_c.controller_of(args, loop))
     except ValueError as exc:
         return fail(str(exc))
     finally:

@@ -2,8 +2,9 @@
 docs/export-c.md): the controller as C99 for a real-time target, and the back-to-back replay
 that proves it equal to the numba controller bit for bit.
 
-``add_parser(subparsers)`` registers export-c, ``add_replay_options(parser)`` the replay's
---c, --cc, --c-opt; ``cmd_export_c`` and ``cmd_replay_c`` run them. Bad input (a folder that is
+``add_parser(subparsers)`` registers export-c and simulate's --controller c:DIR (software in the
+loop, ``controller_of``), ``add_replay_options(parser)`` the replay's --c, --cc, --c-opt,
+``add_bench_options`` bench controller's; ``cmd_export_c`` and ``cmd_replay_c`` run them. Bad input (a folder that is
 not an export, an export of another design, a missing compiler, a bad log): one line, exit 2.
 """
 from __future__ import annotations
@@ -45,7 +46,22 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                         "arrays; --law, --estimator do not apply)")
     add_force(p)
     p.add_argument("--json", action="store_true", help="the manifest as one JSON object")
+    subparsers.choices["simulate"].add_argument(
+        "--controller", metavar="c:DIR", default=None, help="run the C export in DIR (frictionrt export-c of the same "
+        "configuration, law and estimator) as the loop's controller: software in the loop, offline (docs/export-c.md)")
     return p
+
+
+def controller_of(args, loop):
+    """simulate's controller: None (numba) or the C export of --controller c:DIR (rt/export/sil.py);
+    ValueError for another form, a folder that is no export or of another design, no compiler."""
+    spec = getattr(args, "controller", None)
+    if spec is None or spec == "numba":
+        return None
+    if not spec.startswith("c:") or len(spec) < 3:
+        raise ValueError(f"--controller {spec!r}: give c:DIR (a folder of frictionrt export-c) or numba")
+    from rt.export.sil import CController
+    return CController(loop, Path(spec[2:]), loop.cfg.rt.seed if args.seed is None else args.seed)
 
 
 def add_replay_options(r: argparse.ArgumentParser) -> None:
