@@ -248,3 +248,15 @@ def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, t
         code, _, err = run(capsys, "simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6",
                            "--amp", "5", "--duration", "0.01", "--controller", spec)
         assert code == 2 and problem in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_path):
+    """--paced --controller c:DIR: the deadlines and the overrun flags reach the C's supervisor as
+    the numba replay rebuilds them from tick_ns + late_ns."""
+    exp = runs["lyapunov", "observer"][1]
+    assert main(["simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6", "--amp", "5",
+                 "--duration", "0.05", "--paced", "--out", str(tmp_path / "paced"), "--no-rrd", "--json",
+                 "--controller", f"c:{exp}"]) == 0
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", tmp_path / "paced.mcap")
+    assert code == 0 and r["bit_exact"] is True and r["ticks"] == TICKS, err

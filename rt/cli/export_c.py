@@ -48,7 +48,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="the manifest as one JSON object")
     subparsers.choices["simulate"].add_argument(
         "--controller", metavar="c:DIR", default=None, help="run the C export in DIR (frictionrt export-c of the same "
-        "configuration, law and estimator) as the loop's controller: software in the loop, offline (docs/export-c.md)")
+        "configuration, law and estimator) as the loop's controller: software in the loop (docs/export-c.md)")
     return p
 
 

@@ -3,12 +3,13 @@
 
 ``CController(loop, folder, seed)`` is a controller for ``rt.loop.driver.run(..., controller=)``:
 the loop's ticks as rt/loop/tick.py ``_run_ticks`` runs them offline (sensors, actuator, shaker,
-plant in numba; ring rows, the writer's pace, stop requests), with stages 2-4 (estimator, law,
+plant in numba; ring rows, the writer's pace, stop requests, the deadlines of a paced run and its
+overruns, which the C's supervisor reads as the numba one does), with stages 2-4 (estimator, law,
 supervisor, prefilter, force tracking) and the tip integrator's output taken from the C export's
 ``ctrl_step_flat`` (ctrl_batch.c) instead of ``_controller_tick``. The C function reaches the
 cached kernel as a ctypes function argument (numba calls it from nopython code through the
 address it gets at run time). The log has the loop's columns; tick_ns is the tick's time with the
-C, late_ns 0 (offline). ``run_sil`` runs a whole offline log.
+C, late_ns its lateness (paced). ``run_sil`` runs a whole offline log.
 """
 from __future__ import annotations
 
@@ -20,19 +21,20 @@ import numpy as np
 
 from plant.sensors import _sensors_read, _tip_velocity
 from plant.shaker import _shaker_step
-from rt.common.clock import CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
+from rt.common.clock import CLK_DEADLINE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
 from rt.export.cbuild import N_OUTPUTS, build
 from rt.export.generate import read_manifest
 from rt.export.record import controller_record, design_hash
 from rt.loop.build import initial_loop_state
-from rt.loop.supervisor import _inject_actuator, _inject_sensors
+from rt.loop.pacing import _next_deadline, _wait_for_deadline
+from rt.loop.supervisor import _inject_actuator, _inject_sensors, _stall_ns
 from rt.loop.driver import run
 from rt.loop.tick import _actuate, _copy, _put
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
 def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols, log):
-    """Ticks k0 <= k < k1 of the loop (``rt.loop.tick._run_ticks``, offline) with the C
+    """Ticks k0 <= k < k1 of the loop (``rt.loop.tick._run_ticks``, untimed) with the C
     controller cstep (``ctrl_step_flat``); ctl = (its state buffer, input (8,), output (13,)).
     Log row (k - k0) mod len(log) receives the tick's signals. Returns failed plant solves.
     RT-safe."""
@@ -49,11 +51,15 @@ def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols
         if clk[CLK_STOP]:
             break
         row = (k - k0) % log.shape[0]
-        while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
-            pass   # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
-        if clk[CLK_STOP]:
-            break
+        if not paced:
+            while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
+                pass   # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
+            if clk[CLK_STOP]:
+                break
+        if paced:
+            _wait_for_deadline(clk, ts, margin_ns)
         t_start = _now_ns(ts)
+        late = t_start - clk[CLK_DEADLINE] if paced else 0
         # 1 sensors, injected sensor faults, the numba integrator (its state advances as the loop's)
         us[0] = yp[col_a_tip]
         us[1] = yp[col_a_frf]
@@ -64,13 +70,17 @@ def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols
         _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
         _inject_sensors(k, faults, ys, ys_prev, sens_p)
         _tip_velocity(xs, sens_p, xs_n, ys)
+        stall = _stall_ns(k, faults)
+        if stall > 0:
+            t_stall = _now_ns(ts) + stall
+            while _now_ns(ts) < t_stall:
+                pass
         # 2-4 the C controller on the ADC readings (it integrates a_tip_meas itself)
         cin[0] = k
         cin[1] = ys[0]
         cin[2] = ys[1]
         cin[3] = ys[3]
         cin[4] = ys[4]
-        cin[5] = 0.0
         cin[6] = yp[col_urel]
         cin[7] = yp[col_vrel]
         cstep(cstate.ctypes.data, cin.ctypes.data, faults.ctypes.data, faults.shape[0], cout.ctypes.data)
@@ -100,9 +110,13 @@ def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols
         _copy(xp_n, xp)
         if shake:
             _copy(xsh_n, xsh)
-        log[row, c] = _now_ns(ts) - t_start
-        log[row, c + 1] = 0.0
+        t_end = _now_ns(ts)
+        log[row, c] = t_end - t_start
+        log[row, c + 1] = late
         clk[CLK_TICKS] += 1
+        cin[5] = 0.0   # the overrun flag the C's supervisor reads next tick
+        if paced and _next_deadline(clk, period_ns, t_end):
+            cin[5] = 1.0
     return failed
 
 

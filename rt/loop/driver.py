@@ -99,7 +99,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
 
     ``controller``: another controller for stages 2-4, a callable taking ``_run_ticks``' arguments
     without force_col, observe, est, law, sup, trk and comp_ns (rt/export/sil.py: the C export);
-    offline only; the run's final state then holds the controller states it started with.
+    not with ``timing``; the run's final state then holds the controller states it started with.
 
     ``in_thread``: the compiled loop runs in a thread of its own while the calling thread shows
     progress and turns Ctrl-C into a stop request (the ticks run so far are kept). False: in the
@@ -117,8 +117,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         ring_ticks = writer.ring_ticks
     if ring_ticks is not None and ring_ticks < 1:
         raise ValueError(f"ring_ticks {ring_ticks}: must be >= 1")
-    if controller is not None and (paced or timing):
-        raise ValueError("a controller of its own runs offline and untimed: no pacing, no timing")
+    if controller is not None and timing:
+        raise ValueError("a controller of its own runs without per-component timing")
     if not in_thread and (paced or writer is not None or progress is not None):
         raise ValueError("in_thread=False runs without progress, writer or pacing: give none of them")
     n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s, ring=ring_ticks is not None)
