@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("rt.common", "rt.log", "rt.loop", "rt.experiments", "rt.discrepancy", "rt.cli", "plant", "observer",
+PACKAGES = ("rt.common", "rt.log", "rt.loop", "rt.experiments", "rt.export", "rt.discrepancy", "rt.cli", "plant", "observer",
             "tracking")
 MAX_LINES = 500  # the guide; a longer module gives its reason in a "Length:" paragraph of its docstring
 

@@ -149,7 +149,7 @@ def _readme_out_table() -> dict[str, str]:
         if not line.startswith("|"):
             break
         cells = [c.strip() for c in line.strip("|").split("|")]
-        rows.update({verb: cells[1] for verb in re.findall(r"`(\w+)`", cells[0])})
+        rows.update({verb: cells[1] for verb in re.findall(r"`([\w-]+)`", cells[0])})
     return rows
 
 
@@ -158,7 +158,7 @@ def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_
     # it creates; --help says which, as README's table does, and --force replaces it on every verb
     writers, table = _writers(), _readme_out_table()
     assert set(writers) == set(table) == {"simulate", "impulse", "compare", "frf", "reproduce", "tune", "rig",
-                                          "diagnose", "recover", "inspect"}
+                                          "diagnose", "recover", "inspect", "export-c"}
     for name, p in writers.items():
         out = next(a for a in p._actions if "--out" in a.option_strings)
         assert "-o" in out.option_strings, name
@@ -179,6 +179,7 @@ def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_
     ("diagnose", ["{tmp}"], "dir"),
     ("recover", ["{tmp}/broken.mcap.part"], "x.mcap"),
     ("inspect", ["{tmp}/broken.mcap.part"], "x.rrd"),
+    ("export-c", ["--law", "passive"], "dir"),
 ])
 def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args, existing, tmp_path, capsys):
     out = tmp_path / existing

@@ -538,7 +538,9 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
             topic, t, s, payload = msgs[i]
             col = data.draw(st.integers(0, (len(payload) - 20) // 8 - 1), label="col")   # after stamp and tick
             msgs[i] = (topic, t, s, payload[:20 + 8 * col] + np.float64("nan").tobytes() + payload[28 + 8 * col:])
-        allowed = {"replay": (2,), "inspect": (0,), "recover": (0,), "validate": (1,)}.get(cmd, (0, 1))
+        # replay feeds a NaN reading as a logged dropout (the supervisor then differs from the record: 1)
+        # and refuses a missing v_tip_meas (2)
+        allowed = {"replay": (1, 2), "inspect": (0,), "recover": (0,), "validate": (1,)}.get(cmd, (0, 1))
     elif kind == "non_monotonic":
         i, j = sorted(data.draw(st.lists(st.integers(0, ticks - 1), min_size=2, max_size=2, unique=True), label="ij"))
         per = len(tps)

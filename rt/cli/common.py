@@ -134,7 +134,7 @@ def realtime_notes(rt: dict | None) -> None:
         print(f"frictionrt: note: {note}", file=sys.stderr)
 
 
-ACTUATOR_VERBS = ("simulate", "compare", "budget", "observer", "replay", "frf", "tune", "reproduce")
+ACTUATOR_VERBS = ("simulate", "compare", "budget", "observer", "replay", "frf", "tune", "reproduce", "export-c")
 """Verbs that drive the adaptive screw's actuator (or design for it) whatever their options."""
 
 
@@ -146,8 +146,8 @@ def actuator_verb(args) -> str | None:
     verb = args.command
     if verb in ACTUATOR_VERBS:
         return verb
-    if verb == "bench" and args.target == "loop":
-        return "bench loop"
+    if verb == "bench" and args.target in ("loop", "controller"):
+        return f"bench {args.target}"
     if verb == "rig" and not (args.list or args.frf_files):
         return "rig (the time-series campaign; --frf-files writes FRF files without it)"
     if verb == "diagnose" and Path(args.folder).is_dir():   # a missing folder: diagnose's own message

@@ -1,5 +1,6 @@
-"""``frictionrt replay``: a run log through the controller (rt.loop.replay), or with --plant its V_cmd and
-F_exc through actuator and plant (rt.loop.replay_plant); the recorded signals compared."""
+"""``frictionrt replay``: a run log through the controller (rt.loop.replay), with --c DIR through the C export
+of it (rt.export.replay_c, docs/export-c.md), or with --plant its V_cmd and F_exc through actuator and plant
+(rt.loop.replay_plant); the recorded signals compared."""
 from __future__ import annotations
 
 import argparse
@@ -27,6 +28,12 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     add_realtime(r)
     r.add_argument("--plant", action="store_true", help="replay the recorded V_cmd [V] and F_exc [N] into actuator "
                    "and plant and compare their outputs (open-loop check; e.g. with --set plant.interface.mu=0.3)")
+    r.add_argument("--c", metavar="DIR", default=None, help="replay through the C export in DIR (frictionrt "
+                   "export-c) instead of the numba controller, compared bit for bit with the log "
+                   "(docs/export-c.md)").complete = shtab.DIRECTORY
+    r.add_argument("--cc", metavar="CC", default=None, help="with --c: the C compiler (default: $CC or cc)")
+    r.add_argument("--c-opt", metavar="FLAG", default="-O2", help="with --c: the optimisation flag, written "
+                   "--c-opt=-O0")
     r.add_argument("--json", action="store_true", help="one JSON object instead of text")
     return r
 
@@ -34,6 +41,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 def cmd_replay(cfg, args) -> int:
     from rt.log.design_record import describe
     from rt.loop.replay import replay
+    if args.c is not None:
+        return cmd_replay_c(cfg, args)
     if args.plant:
         return cmd_replay_plant(cfg, args)
     if msg := unpaced_realtime(args):
@@ -64,7 +73,6 @@ def cmd_replay(cfg, args) -> int:
             worst = ", ".join(f"{k} {v:.3g}" for k, v in res["max_abs_diff_by_signal"].items() if v)
             print(f"  first mismatch at tick {res['first_mismatch_tick']}; max |diff| per signal: {worst}")
     return code
-
 
 
 def cmd_replay_plant(cfg, args) -> int:
@@ -99,4 +107,35 @@ def cmd_replay_plant(cfg, args) -> int:
         worst = sorted(((v, k) for k, v in res["max_abs_diff_by_signal"].items() if v), reverse=True)[:8]
         print(f"  first mismatch at tick {res['first_mismatch_tick']}; largest |diff| (SI units): "
               + ", ".join(f"{k} {v:.3g}" for v, k in worst))
+    return code
+
+
+def cmd_replay_c(cfg, args) -> int:
+    """``replay --c DIR``: the log through the C export in DIR (rt.export.replay_c); exit 0 when
+    bit-exact (or nothing to compare), 1 when an output differs, 2 for bad input."""
+    from rt.export.replay_c import replay_c
+    if args.plant or args.paced:
+        return fail("--c replays the controller offline: drop --plant / --paced")
+    try:
+        res, _ = replay_c(args.log, args.c, cc=args.cc, opt=args.c_opt, fallback_cfg=cfg, sets=args.sets)
+    except ValueError as exc:
+        return fail(str(exc))
+    code = 1 if res["bit_exact"] is False else 0
+    if args.json:
+        print(json.dumps(res))
+        return code
+    print(f"replay {res['file']} --c {res['export']}: law {res['law']}, estimator {res['estimator']}, "
+          f"{res['ticks']} ticks through the C controller ({res['wall_s'] * 1e3:.1f} ms), design {res['design_hash']}")
+    print(f"  build: {res['build']}")
+    if res["missing_ticks"]:
+        print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
+    if res["bit_exact"] is None:
+        print("  the log records no controller outputs: nothing to compare")
+    elif res["bit_exact"]:
+        print(f"  bit-exact: {len(res['signals_compared'])} signals x {res['ticks']} ticks "
+              f"({', '.join(res['signals_compared'])})")
+    else:
+        worst = ", ".join(f"{k} {v:.3g}" for k, v in res["max_abs_diff_by_signal"].items() if v)
+        print(f"  DIFFERS: first at tick {res['first_mismatch_tick']} in {', '.join(res['first_mismatch_signals'])}; "
+              f"max |diff| per signal: {worst}")
     return code

@@ -1,4 +1,5 @@
-"""``frictionrt simulate``: the closed loop at 21 kHz (rt.loop) with a sine excitation, optionally logged."""
+"""``frictionrt simulate``: the closed loop at 21 kHz (rt.loop) with a sine excitation, optionally logged;
+with --controller c:DIR the C export in DIR is the loop's controller (software in the loop, rt.export.sil)."""
 from __future__ import annotations
 
 import argparse
@@ -40,6 +41,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                         "sensor_dropout, sensor_stuck, sensor_gain, sensor_bias (SENSOR a_tip (default), a_frf, "
                         "F_strain, F_cell), actuator_loss, force_saturation, observer_mismatch, cpu_stall (--paced); "
                         "VALUE and what the supervisor makes of it: docs/reliability.md")
+    s.add_argument("--controller", metavar="c:DIR", default=None, help="run the C export in DIR (frictionrt export-c "
+                   "of the same configuration, law and estimator) as the loop's controller: software in the loop "
+                   "(docs/export-c.md; default: the numba controller)")
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
     return s
 
@@ -84,13 +88,14 @@ def cmd_simulate(cfg, args) -> int:
             seed = cfg.rt.seed if args.seed is None else args.seed
             meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
             meta["faults"] = json.dumps(to_json(faults))
+            meta["controller_design"] = design_hash_of(loop, seed)   # what export-c writes for it
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
             writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
             writer.mcap.add_attachment(DESIGN_ATTACHMENT, MEDIA_TYPE,
                                        to_npz(design_arrays(loop, initial_loop_state(loop, seed))))
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
-                    writer=writer, faults=faults)
+                    writer=writer, faults=faults, controller=controller_of(args, loop))
     except ValueError as exc:
         return fail(str(exc))
     finally:
@@ -132,3 +137,22 @@ def cmd_simulate(cfg, args) -> int:
               f"Foxglove layout {s['foxglove_layout']}")
     return 130 if s["interrupted"] else 0
 
+
+def controller_of(args, loop):
+    """simulate's controller: None (numba) or the C export of --controller c:DIR (rt/export/sil.py);
+    ValueError for another form, a folder that is no export or of another design, no compiler."""
+    spec = getattr(args, "controller", None)
+    if spec is None or spec == "numba":
+        return None
+    if not spec.startswith("c:") or len(spec) < 3:
+        raise ValueError(f"--controller {spec!r}: give c:DIR (a folder of frictionrt export-c) or numba")
+    from rt.export.sil import CController
+    return CController(loop, Path(spec[2:]), loop.cfg.rt.seed if args.seed is None else args.seed)
+
+
+def design_hash_of(loop, seed: int) -> str:
+    """The design hash of the controller of a run of ``loop`` (``simulate --out`` stores it in the
+    log's "frictionrt" record as "controller_design")."""
+    from rt.export.record import controller_record, design_hash
+    from rt.loop import initial_loop_state
+    return design_hash(controller_record(loop, initial_loop_state(loop, seed)))

@@ -75,7 +75,7 @@ def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float,
 def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: bool = False,
         timing: bool = False, seed: int | None = None, chunk: int = 21000, progress=None,
         start: LoopState | None = None, writer=None, faults: np.ndarray | None = None,
-        ring_ticks: int | None = None, in_thread: bool = True) -> Run:
+        ring_ticks: int | None = None, in_thread: bool = True, controller=None) -> Run:
     """Run the closed loop for duration_s [s] with a sine excitation amp_n sin(2 pi freq_hz t).
 
     The run starts at rest (``initial_loop_state``) or from ``start`` (e.g. the ``final`` state
@@ -97,6 +97,10 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     drops what was overwritten). ``Run.log`` then holds the last min(ticks, R) ticks in tick
     order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
 
+    ``controller``: another controller for stages 2-4, a callable taking ``_run_ticks``' arguments
+    without force_col, observe, est, law, sup, trk and comp_ns (rt/export/sil.py: the C export);
+    not with ``timing``; the run's final state then holds the controller states it started with.
+
     ``in_thread``: the compiled loop runs in a thread of its own while the calling thread shows
     progress and turns Ctrl-C into a stop request (the ticks run so far are kept). False: in the
     calling thread, without progress, writer or pacing, and Ctrl-C raises KeyboardInterrupt once
@@ -113,6 +117,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         ring_ticks = writer.ring_ticks
     if ring_ticks is not None and ring_ticks < 1:
         raise ValueError(f"ring_ticks {ring_ticks}: must be >= 1")
+    if controller is not None and timing:
+        raise ValueError("a controller of its own runs without per-component timing")
     if not in_thread and (paced or writer is not None or progress is not None):
         raise ValueError("in_thread=False runs without progress, writer or pacing: give none of them")
     n_ticks = check_run_input(loop, freq_hz, amp_n, duration_s, ring=ring_ticks is not None)
@@ -171,9 +177,12 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             if paced and k == 0:  # the first deadline once this thread is ready to run (its start-up is no lateness)
                 clk[CLK_DEADLINE] = _now_ns(ts) + START_SLACK_NS
                 t_first[0] = clk[CLK_DEADLINE] - period_ns
-            failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
-                                    sens, est, law, sup, trk, act, plnt, shk, cols,
-                                    log[rows], comp_ns[rows] if timing else comp_ns)
+            if controller is not None:
+                failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, act, plnt, shk, cols, log[rows])
+            else:
+                failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
+                                        sens, est, law, sup, trk, act, plnt, shk, cols,
+                                        log[rows], comp_ns[rows] if timing else comp_ns)
             k = k1
 
     # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows

@@ -1,0 +1,78 @@
+"""``frictionrt export-c -o DIR`` (rt/export, docs/export-c.md): the controller as C99 for a real-time
+target. The C export's other uses belong to their verbs: ``replay RUN.mcap --c DIR`` (the back-to-back
+replay that proves it equal to the numba controller bit for bit, rt.cli.replay), ``simulate --controller
+c:DIR`` (software in the loop, rt.cli.simulate), ``bench controller --c DIR`` (rt.cli.bench). Bad input (a
+log that carries no design, a folder that exists): one line, exit 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import shtab
+
+from rt.cli.common import add_force, add_out, fail, write_folder
+
+DESCRIPTION = """Write the controller of the resolved configuration (or, with --from-log, of the design a run
+log carries) as self-contained C99 into the folder DIR: frictionrt_ctrl.h / .c (ctrl_init, ctrl_step on plain
+structs: the tip integrator, the estimator, the law, the supervisor, the prefilter, the force tracking; no heap,
+no mutable globals, no libm), the generated parameters (ctrl_design.h, hexadecimal floats), a Makefile (cc
+-std=c99 -O2 -ffp-contract=off) and a command-line harness. The design hash (SHA-256 of the controller's numbers)
+is in ctrl_config.h and frictionrt_export.json; `frictionrt replay RUN.mcap --c DIR` checks it and compares every
+output bit for bit. --estimator oracle gives a test build (inputs u_rel [m], v_rel [m/s] of the plant)."""
+
+EXAMPLES = """examples:
+  frictionrt export-c --law lyapunov -o ctrl_lyap && make -C ctrl_lyap
+  frictionrt simulate --law lyapunov --estimator observer --freq 223.6 --amp 5 --out logs/lyap
+  frictionrt replay logs/lyap.mcap --c ctrl_lyap
+  frictionrt export-c --from-log logs/lyap.mcap -o ctrl_lyap --force"""
+
+
+def add_parser(sub, parents) -> argparse.ArgumentParser:
+    """Register ``export-c`` (parents: frictionrt's --config/--set parser)."""
+    p = sub.add_parser("export-c", parents=parents, help="the controller as C99 for a real-time target "
+                       "(docs/export-c.md)", description=DESCRIPTION, epilog=EXAMPLES)
+    add_out(p, "DIR", "a folder it creates for frictionrt_ctrl.h/.c, ctrl_design.h, ctrl_config.h, config.toml, "
+                      "Makefile, the harness and frictionrt_export.json (required; its parent folder must exist); "
+                      "an existing one (not empty) is refused, or with --force replaced as a whole", required=True)
+    p.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
+                   help="control law (default: tracking.law)")
+    p.add_argument("--estimator", choices=["oracle", "observer"], default="observer",
+                   help="observer (what a rig runs) or oracle (a test build that reads the plant's u_rel, v_rel)")
+    p.add_argument("--from-log", metavar="RUN.mcap", default=None,
+                   help="export the design a run log carries (its configuration, law, estimator and design "
+                        "arrays; --law, --estimator do not apply)").complete = shtab.FILE
+    add_force(p, "an existing folder as a whole")
+    p.add_argument("--json", action="store_true", help="the manifest as one JSON object")
+    return p
+
+
+def cmd_export_c(cfg, args) -> int:
+    from rt.export.generate import MANIFEST, export_c
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
+        return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
+    if not out.parent.exists():
+        return fail(f"--out {out}: folder {out.parent} does not exist")
+    try:
+        if args.from_log:
+            from rt.export.replay_c import log_design
+            _, _, _, loop, st, report = log_design(Path(args.from_log), cfg, args.sets)
+            source = f"the log {args.from_log} ({report['why']})"
+        else:
+            from rt.loop import build_loop, initial_loop_state
+            loop = build_loop(cfg, args.law, args.estimator)
+            st = initial_loop_state(loop, cfg.rt.seed)
+            source = "the resolved configuration"
+        m = write_folder(out, args.force, lambda: export_c(loop, st, out, source))   # --force: the old one as a whole
+    except ValueError as exc:
+        return fail(str(exc))
+    if args.json:
+        print(json.dumps(m | {"folder": str(out)}))
+        return 0
+    print(f"export-c {out}: law {m['law']}, estimator {m['estimator']}{' (test build)' if m['estimator'] == 'oracle' else ''}, "
+          f"design {m['design_hash']}")
+    print(f"  from {m['source']}; {MANIFEST}, C sources, Makefile (make -C {out}), harness ctrl_harness")
+    return 0
+

@@ -1,0 +1,135 @@
+"""``frictionrt bench controller [--c DIR]``: the whole controller's time per tick, numba and C.
+
+The controller of one tick as the exported C has it (rt/export/templates): the tip integrator
+(``plant.sensors._tip_velocity``) and ``rt.loop.tick._controller_tick`` / ``_controller_done``:
+estimator (the observer with its Newton step, or the oracle), law, supervisor, prefilter, force
+tracking. ``bench loop``'s controller part leaves the observer and the supervisor out; this one
+does not. Both run over the same readings, those of a closed-loop run of the configuration at
+the budget's excitation (rt/loop/budget.py), and each tick is timed around the controller alone
+(the clock's CLOCK_MONOTONIC, read inside the compiled loop for numba and inside ctrl_batch.c's
+``ctrl_run_timed`` for the C). The C's outputs are compared with numba's bit for bit on the
+way. With the C: the code and data size of the compiled object (``size``) and sizeof(ctrl_state).
+"""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from observer.step import OBSERVER_OUTPUTS
+from plant.sensors import SENSOR_OUTPUTS, _tip_velocity
+from rt.common.clock import _now_ns
+from rt.export.cbuild import BASE_FLAGS, build, compiler
+from rt.export.record import controller_record, design_hash
+from rt.loop.bench import _stats_us
+from rt.loop.supervisor import SUPERVISOR_OUTPUTS
+from rt.loop.tick import _controller_done, _controller_tick
+
+SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
+READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False)
+def _timed_ticks(ks, sens, uv, out, ns, force_col, observe, faults, ts, yc, tip, est, law, sup, trk):
+    """The controller of each tick ks[i] on the readings sens[i] (``SENSOR_OUTPUTS``; v_tip_meas
+    written by the integrator), the oracle's uv[i]; outputs (v_tip_meas, ``COMMANDED``) into
+    out[i], the tick's time [ns] into ns[i]. tip = (xs, xs_n, sensor params). RT-safe."""
+    xs, xs_n, sens_p = tip
+    for i in range(ks.shape[0]):
+        t0 = _now_ns(ts)
+        ys = sens[i]
+        _tip_velocity(xs, sens_p, xs_n, ys)
+        xs[6] = xs_n[6]
+        xs[7] = xs_n[7]
+        _controller_tick(ks[i], ys, yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
+        out[i, 0] = ys[2]
+        _controller_done(out, i, 1, observe, est, law, sup, trk)
+        ns[i] = _now_ns(ts) - t0
+
+
+def _inputs(loop, n: int):
+    """(k, readings (n, 5), uv (n, 2)) of a closed-loop run of n ticks at the budget's excitation."""
+    from rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
+    from rt.loop.driver import run
+    r = run(loop, EXC_FREQ_HZ, EXC_AMP_N, n * loop.cfg.dt_s)
+    sens = np.ascontiguousarray(r.log[:, [loop.column(c) for c in SENSORS]])
+    uv = np.zeros((len(sens), 2))
+    uv[1:] = r.log[:-1, [loop.column("u_rel"), loop.column("v_rel")]]
+    return np.arange(len(sens), dtype=np.int64), sens, uv
+
+
+def _numba(loop, st, k, sens, uv):
+    st = st.copy()
+    si = {nm: i for i, nm in enumerate(SENSORS)}
+    force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
+    est = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
+           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
+    law_ = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
+    sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
+    trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
+           st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+    out = np.full((len(k), 13), np.nan)
+    ns = np.zeros(len(k), dtype=np.int64)
+    _timed_ticks(k, sens.copy(), uv, out, ns, force_col, loop.estimator == "observer", np.zeros((0, 5)),
+                 np.zeros(2, np.int64), np.empty(len(SENSORS)), (st.xs, st.xs.copy(), loop.sensors), est, law_, sup, trk)
+    return out, ns
+
+
+def _size(folder: Path, cc) -> dict | None:
+    """text, data, bss [bytes] of frictionrt_ctrl.c compiled at -O2 (None without ``size``)."""
+    if shutil.which("size") is None:
+        return None
+    with tempfile.TemporaryDirectory(prefix="frictionrt-size-") as d:
+        obj = Path(d) / "frictionrt_ctrl.o"
+        subprocess.run([*compiler(cc).split(), BASE_FLAGS[0], "-O2", *BASE_FLAGS[1:], "-c", "-o", str(obj),
+                        str(folder / "frictionrt_ctrl.c")], check=True, capture_output=True)
+        text, data, bss = map(int, subprocess.run(["size", str(obj)], capture_output=True, text=True,
+                                                  check=True).stdout.splitlines()[1].split()[:3])
+    return {"text": text, "data": data, "bss": bss}
+
+
+def bench_controller(loop, st, n_steps: int = 21000, folder=None, cc=None, manifest=None) -> dict:
+    """Per-tick times of the controller of ``loop`` from ``st``: numba, and the C export in
+    ``folder`` if given (it must be of this design: ValueError naming both hashes). JSON: law,
+    estimator, ticks, numba -> median_us, p99_us, p999_us, max_us, mean_us; c -> the same,
+    build, size {text, data, bss}, state_bytes, outputs_identical."""
+    k, sens, uv = _inputs(loop, n_steps)
+    _numba(loop, st, k[:10], sens[:10], uv[:10])   # compile or load: not timed
+    out, ns = _numba(loop, st, k, sens, uv)
+    res = {"law": loop.law, "estimator": loop.estimator, "ticks": int(len(k)), "numba": _stats_us(ns)}
+    if folder is None:
+        return res
+    digest = design_hash(controller_record(loop, st))
+    if manifest["design_hash"] != digest:
+        raise ValueError(f"--c {folder}: an export of another design ({manifest['design_hash'][:19]}..., "
+                         f"{manifest['law']}/{manifest['estimator']}) than the benchmarked one ({digest[:19]}..., "
+                         f"{loop.law}/{loop.estimator}); give the same --config/--set, --law and --estimator")
+    ctrl = build(folder, cc)
+    r4 = np.ascontiguousarray(sens[:, [SENSORS.index(c) for c in READINGS]])
+    ctrl.run_timed(k[:10], r4[:10], uv[:10])
+    c_out, c_ns = ctrl.run_timed(k, r4, uv)
+    res["c"] = _stats_us(c_ns) | {"build": " ".join(ctrl.command[:6]), "size": _size(Path(folder), cc),
+                                   "state_bytes": ctrl.state_bytes(),
+                                   "outputs_identical": bool((c_out.view(np.uint64) == out.view(np.uint64)).all())}
+    return res
+
+
+def format_bench(res: dict) -> str:
+    """The figures as a table [us]."""
+    lines = [f"controller per tick ({res['law']}, {res['estimator']}, {res['ticks']} ticks) [us]",
+             f"  {'':<6}{'median':>9}{'p99':>9}{'p99.9':>9}{'max':>9}"]
+    for name in ("numba", "c"):
+        if name in res:
+            s = res[name]
+            lines.append(f"  {name:<6}{s['median_us']:>9.3f}{s['p99_us']:>9.3f}{s['p999_us']:>9.3f}{s['max_us']:>9.3f}")
+    if "c" in res:
+        c, size = res["c"], res["c"]["size"]
+        lines.append(f"  C: {c['build']}; ctrl_state {c['state_bytes']} B; outputs "
+                     f"{'identical to numba' if c['outputs_identical'] else 'DIFFER from numba'}")
+        if size:
+            lines.append(f"  object (size): {size['text']} B code and constants, {size['data']} B data, {size['bss']} B bss")
+    return "\n".join(lines)

@@ -1,0 +1,172 @@
+"""``frictionrt export-c``: write the C controller of a design into a folder.
+
+The C sources are templates in rt/export/templates (readable, commented C99: frictionrt_ctrl.h,
+frictionrt_ctrl.c, the batch entry ctrl_batch.c, the harness ctrl_harness.c, the Makefile),
+copied as they are. Only the numbers are generated, from the controller's design record
+(``rt.export.record``):
+
+    ctrl_config.h       the estimator, the observer's size, the Newton bound, the design hash
+    ctrl_design.h       every parameter as a C99 designated initializer of the template's
+                        structs, in hexadecimal floating literals (the exact bits), and the
+                        state at rest CTRL_INITIAL
+    frictionrt_export.json   what the folder holds: the hash, law, estimator, where the design
+                        came from; ``frictionrt replay --c`` reads it
+    config.toml         the resolved configuration (for the record; the C does not read it)
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from importlib.metadata import version
+from pathlib import Path
+
+import numpy as np
+
+from observer.step import NEWTON_MAX
+from rt.common.config import dumps
+from rt.export.record import controller_record, design_hash
+
+TEMPLATES = Path(__file__).with_name("templates")
+TEMPLATE_FILES = ("frictionrt_ctrl.h", "frictionrt_ctrl.c", "ctrl_batch.c", "ctrl_harness.c", "Makefile")
+MANIFEST = "frictionrt_export.json"
+FORMAT = "frictionrt-export-c/1"
+# the fields of the template's parameter structs (frictionrt_ctrl.c), per part of the record
+C_FIELDS = {
+    "oracle": ("b0", "b1", "b2", "a1", "a2"),
+    "prefilter": ("b0", "b1", "b2", "a1", "a2"),
+    "observer": ("A_d", "B_dT", "M", "L", "C_meas", "C_u", "C_v", "CvA", "beta", "D_u", "mu", "alpha"),
+    "law": ("law", "F_min", "F_max", "F_passive", "K_f", "eps", "rt1.a", "rt1.b", "hold_voltage"),
+    "tracking": ("Kp", "Ki_dt", "d_pole", "d_gain", "F0", "inv_c_v", "V_min", "V_max"),
+    "supervisor": ("enable", "auto", "observe", "acc_lo", "acc_hi", "force_hi", "stuck_ticks", "dis_N", "dis_ticks",
+                   "innovation", "state", "err_N", "err_ticks", "sat_N", "sat_ticks", "ovr_count", "ovr_ticks",
+                   "clean_ticks", "F_min", "V_passive"),
+    "tip": ("F1",),
+}
+C_NAMES = {"auto": "auto_recover"}   # a C keyword
+C_TYPES = {"oracle": "biquad_params", "prefilter": "biquad_params", "observer": "observer_params",
+           "law": "law_params", "tracking": "tracking_params", "supervisor": "supervisor_params", "tip": "tip_params"}
+
+
+def literal(x) -> str:
+    """A C99 literal of exactly the value x: hexadecimal floating for floats (HUGE_VAL for
+    infinities), decimal for integers, 0/1 for booleans. ValueError for NaN."""
+    if isinstance(x, (bool, np.bool_)):
+        return "1" if x else "0"
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    x = float(x)
+    if math.isnan(x):
+        raise ValueError("a design parameter is NaN: nothing to export")
+    if math.isinf(x):
+        return "HUGE_VAL" if x > 0 else "-HUGE_VAL"
+    return x.hex()
+
+
+def initializer(a: np.ndarray, indent: str = "") -> str:
+    """The brace initializer of an array (nested for 2-D), one row per line."""
+    a = np.asarray(a)
+    if a.ndim == 0:
+        return literal(a.item())
+    if a.ndim == 1:
+        return "{" + ", ".join(literal(v) for v in a.tolist()) + "}"
+    inner = indent + "    "
+    return "{\n" + ",\n".join(inner + initializer(row, inner) for row in a) + "\n" + indent + "}"
+
+
+def _comment(a: np.ndarray) -> str:
+    a = np.asarray(a)
+    return f" /* {a.item()!r} */" if a.ndim == 0 and a.dtype.kind == "f" else ""
+
+
+def _struct(name: str, part: str, rec: dict[str, np.ndarray]) -> str:
+    keys = sorted(k[len(part) + 1:] for k in rec if k.startswith(part + "."))
+    if sorted(C_FIELDS[part]) != keys:
+        raise ValueError(f"the C templates do not match the controller's {part} parameters (design {keys}, "
+                         f"templates {sorted(C_FIELDS[part])}): the kernels changed; update rt/export/templates")
+    lines, nested = [], {}
+    for f in C_FIELDS[part]:
+        head, _, sub = f.partition(".")
+        if sub:
+            nested.setdefault(head, []).append(sub)
+            continue
+        a = rec[f"{part}.{f}"]
+        lines.append(f"    .{C_NAMES.get(f, f)} = {initializer(a, '    ')},{_comment(a)}")
+    for head, subs in nested.items():
+        inner = ", ".join(f".{s} = {literal(rec[f'{part}.{head}.{s}'].item())}" for s in subs)
+        lines.append(f"    .{head} = {{{inner}}},")
+    return f"static const {C_TYPES[part]} {name} = {{\n" + "\n".join(lines) + "\n};\n"
+
+
+def design_header(rec: dict[str, np.ndarray], digest: str) -> str:
+    """ctrl_design.h: the parameter structs and the state at rest (module docstring)."""
+    observe = bool(rec["export.observe"])
+    out = [f"/* ctrl_design.h: generated by frictionrt export-c; the numbers of design {digest}.\n"
+           " * Included by frictionrt_ctrl.c only; hexadecimal floating literals are the exact bits\n"
+           " * (decimal values in the comments). Do not edit: export again. */\n"]
+    out.append(_struct("P_TIP", "tip", rec))
+    out.append(_struct("P_OBSERVER" if observe else "P_ORACLE", "observer" if observe else "oracle", rec))
+    for name, part in (("P_LAW", "law"), ("P_PREFILTER", "prefilter"), ("P_TRACKING", "tracking"),
+                       ("P_SUPERVISOR", "supervisor")):
+        out.append(_struct(name, part, rec))
+    out.append(f"/* the reading the force tracking uses: {int(rec['export.force_col'])} = "
+               f"{'F_cell' if int(rec['export.force_col']) == 4 else 'F_strain'} */\n"
+               f"enum {{ P_FORCE_COL = {int(rec['export.force_col'])} }};\n")
+    slots = ["xs", "xe" if observe else "xo", "xl", "xq", "xf", "sv"]
+    body = ",\n".join(f"    .{s} = {initializer(rec[f'state.{s}'], '    ')}" for s in slots)
+    out.append("/* the state at rest (the run's initial state) */\n"
+               f"static const ctrl_state CTRL_INITIAL = {{\n{body}\n}};\n")
+    return "\n".join(out)
+
+
+def config_header(rec: dict[str, np.ndarray], digest: str, law: str, rate_hz: float) -> str:
+    """ctrl_config.h: sizes, the estimator and the hash (module docstring)."""
+    observe = bool(rec["export.observe"])
+    n = rec["state.xe"].shape[0] if observe else 0
+    return (f"/* ctrl_config.h: generated by frictionrt export-c. Do not edit: export again. */\n"
+            f"#ifndef CTRL_CONFIG_H\n#define CTRL_CONFIG_H\n\n"
+            f"#define CTRL_OBSERVER {int(observe)}      /* 1 the observer, 0 the oracle (a test build: inputs u_rel, v_rel) */\n"
+            f"#define CTRL_N_OBS {n}        /* the observer's states */\n"
+            f"#define CTRL_NEWTON_MAX {NEWTON_MAX}  /* the observer's Newton bound: the tick's worst case */\n"
+            f"#define CTRL_RATE_HZ {literal(rate_hz)}  /* {rate_hz:g} Hz */\n"
+            f"#define CTRL_LAW \"{law}\"\n"
+            f"#define CTRL_DESIGN_HASH \"{digest}\"\n\n#endif\n")
+
+
+def export_c(loop, state, out: Path, source: str) -> dict:
+    """Write the export of ``loop`` started from ``state`` into the folder ``out`` (created if
+    missing); ``source`` says where the design came from. Returns the manifest."""
+    rec = controller_record(loop, state)
+    digest = design_hash(rec)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name in TEMPLATE_FILES:
+        shutil.copyfile(TEMPLATES / name, out / name)
+    (out / "ctrl_config.h").write_text(config_header(rec, digest, loop.law, loop.cfg.rt.rate_hz))
+    (out / "ctrl_design.h").write_text(design_header(rec, digest))
+    (out / "config.toml").write_text(dumps(loop.cfg))
+    manifest = {"format": FORMAT, "design_hash": digest, "law": loop.law, "estimator": loop.estimator,
+                "force_sensor": loop.force_sensor, "rate_hz": loop.cfg.rt.rate_hz, "source": source,
+                "frictionrt": version("frictionrt"),
+                "files": [*TEMPLATE_FILES, "ctrl_config.h", "ctrl_design.h", "config.toml"]}
+    (out / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
+    return manifest
+
+
+def read_manifest(folder: Path) -> dict:
+    """The manifest of an export folder; ValueError naming the folder if it is not one."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"--c {folder}: {'not a folder' if folder.exists() else 'no such folder'} "
+                         "(give the folder frictionrt export-c -o wrote)")
+    try:
+        m = json.loads((folder / MANIFEST).read_text())
+    except (OSError, ValueError):
+        m = None
+    if not isinstance(m, dict) or m.get("format") != FORMAT or not isinstance(m.get("design_hash"), str):
+        raise ValueError(f"--c {folder}: not a frictionrt C export (no valid {MANIFEST}; write one with "
+                         "frictionrt export-c -o DIR)")
+    missing = [f for f in m.get("files", TEMPLATE_FILES) if not (folder / f).is_file()]
+    if missing:
+        raise ValueError(f"--c {folder}: the export lacks {', '.join(missing)}; export it again")
+    return m

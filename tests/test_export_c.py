@@ -1,0 +1,270 @@
+"""The controller as C (rt/export, frictionrt export-c, replay --c; docs/export-c.md): every law with
+both estimators replays bit for bit through the exported C, at -O0 and -O2, with gcc's strict
+warnings as errors (and clang's when installed), fault-injection logs with the supervisor's
+passive fallback included; the Makefile's harness under AddressSanitizer and UBSan reproduces a
+log; the object calls no library function and has no mutable globals; unsafe floating-point
+builds are refused; bad input exits 2 in one line. Logs of 0.05 s (1050 ticks) keep it short."""
+import json
+import os
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from rt.cli import main
+from rt.export.cbuild import OUTPUTS
+from rt.export.replay_c import READINGS, replay_c
+from rt.log.mcap_log import read_mcap
+
+LAWS = ("passive", "hysteresis", "lyapunov")
+ESTIMATORS = ("oracle", "observer")
+TICKS = 1050
+
+
+def simulate(path, law, estimator, sets=(), faults=(), duration="0.05"):
+    code = main([*sets, "simulate", "--law", law, "--estimator", estimator, "--freq", "223.6", "--amp", "5",
+                 "--duration", duration, "--out", str(path), "--no-rrd", "--json",
+                 *(x for f in faults for x in ("--fault", f))])
+    assert code == 0
+    return path.with_name(path.name + ".mcap")
+
+
+def run(capsys, *args):
+    code = main([*map(str, args), "--json"])
+    out = capsys.readouterr()
+    return code, (json.loads(out.out.splitlines()[-1]) if out.out.strip() else None), out.err
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """A 0.05 s log and an export from the configuration for each law and estimator."""
+    d = tmp_path_factory.mktemp("export_c")
+    out = {}
+    for law in LAWS:
+        for est in ESTIMATORS:
+            log = simulate(d / f"{law}_{est}", law, est)
+            exp = d / f"c_{law}_{est}"
+            assert main(["export-c", "--law", law, "--estimator", est, "-o", str(exp), "--json"]) == 0
+            out[law, est] = (log, exp)
+    return out
+
+
+@pytest.mark.parametrize("law", LAWS)
+@pytest.mark.parametrize("estimator", ESTIMATORS)
+def test_every_law_and_estimator_replays_bit_exact_through_the_c(runs, capsys, law, estimator):
+    log, exp = runs[law, estimator]
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", log, "--c", exp)
+    assert code == 0, err
+    assert r["bit_exact"] is True and r["ticks"] == TICKS and r["first_mismatch_tick"] is None
+    assert r["signals_compared"] == list(OUTPUTS) and len(OUTPUTS) == 13
+    assert (r["law"], r["estimator"]) == (law, estimator)
+    assert r["design_hash"] == json.loads((exp / "frictionrt_export.json").read_text())["design_hash"]
+    assert r["log_design_hash"] == r["design_hash"] == read_mcap(log).metadata["controller_design"]
+    assert "-std=c99 -O2 -ffp-contract=off" in r["build"]
+    rec = read_mcap(log)   # not vacuous: the controller commanded something
+    v = rec.log[:, rec.column("V_cmd")]
+    assert v.max() > v.min() or law == "passive"
+
+
+@pytest.mark.parametrize("opt, law, estimator", [("-O0", "hysteresis", "oracle"), ("-O0", "lyapunov", "observer"),
+                                                 ("-O2", "lyapunov", "observer")])
+def test_gcc_at_O0_and_O2_with_strict_warnings_as_errors_is_bit_exact(runs, opt, law, estimator):
+    log, exp = runs[law, estimator]
+    r, _ = replay_c(log, exp, cc="gcc", opt=opt, extra=("-Werror",))
+    assert r["bit_exact"] is True and r["ticks"] == TICKS
+    assert f"gcc -std=c99 {opt} -ffp-contract=off -Wall -Wextra -pedantic -Werror" in r["build"]
+
+
+@pytest.mark.skipif(shutil.which("clang") is None, reason="clang not installed (apt-get install clang)")
+@pytest.mark.parametrize("law, estimator, opts", [("passive", "oracle", ("-O2",)), ("lyapunov", "observer", ("-O0", "-O2"))])
+def test_clang_with_strict_warnings_as_errors_is_bit_exact(runs, law, estimator, opts):
+    log, exp = runs[law, estimator]
+    for opt in opts:
+        r, _ = replay_c(log, exp, cc="clang", opt=opt, extra=("-Werror",))
+        assert r["bit_exact"] is True and r["ticks"] == TICKS
+
+
+@pytest.mark.parametrize("law, estimator, sets, faults, codes", [
+    ("lyapunov", "observer", ["--set", "supervisor.recovery=auto"],
+     ["observer_mismatch=50@0.01:0.005", "sensor_dropout/F_cell@0.03:0.002", "sensor_stuck/a_frf@0.035:0.01"],
+     {1, 3, 5}),
+    ("hysteresis", "oracle", [], ["sensor_dropout@0.01:0.003", "sensor_bias/F_strain@0.03:0.005",
+                                  "actuator_loss@0.04:0.003"], {1, 4, 8})])
+def test_fault_injection_logs_replay_bit_exact_with_the_passive_fallback(tmp_path, capsys, law, estimator, sets,
+                                                                        faults, codes):
+    log = simulate(tmp_path / "faults", law, estimator, sets, faults, duration="0.06")
+    capsys.readouterr()
+    assert main([*sets, "export-c", "--from-log", str(log), "-o", str(tmp_path / "c"), "--json"]) == 0
+    r, out = replay_c(log, tmp_path / "c")
+    assert r["bit_exact"] is True and r["ticks"] == 1260
+    code, rn, err = run(capsys, *sets, "replay", log)   # the numba replay takes the logged dropouts too
+    assert code == 0 and rn["bit_exact"] is True and rn["ticks"] == 1260, err
+    rec = read_mcap(log)
+    assert np.isnan(rec.log[:, [rec.column(c) for c in READINGS]]).any()   # dropouts fed as logged
+    assert codes <= set(out[:, OUTPUTS.index("fault_code")].astype(int)) and out[:, OUTPUTS.index("passive")].any()
+
+
+def test_the_makefile_harness_under_address_and_ub_sanitizers_reproduces_a_log(runs, tmp_path):
+    log, exp = runs["lyapunov", "observer"]
+    work = tmp_path / "c"
+    shutil.copytree(exp, work)
+    flags = "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -Werror"
+    subprocess.run(["make", "-C", str(work), "OPT=-O1", f"EXTRA={flags}"], check=True, capture_output=True)
+    rec = read_mcap(log)
+    rows = rec.log[:, [rec.column(c) for c in READINGS]]
+    text = "".join(f"{k} {' '.join(v.hex() for v in row)} 0\n" for k, row in zip(rec.k, rows))
+    p = subprocess.run([str(work / "ctrl_harness")], input=text, capture_output=True, text=True,
+                       env={**os.environ, "ASAN_OPTIONS": "detect_leaks=0"})
+    assert p.returncode == 0 and p.stderr == "", p.stderr[-2000:]
+    lines = [ln.split() for ln in p.stdout.splitlines() if not ln.startswith("#")]
+    got = np.array([[float.fromhex(x) for x in ln[1:]] for ln in lines])
+    ref = rec.log[:, [rec.column(c) for c in OUTPUTS]]
+    assert got.shape == (TICKS, 13) and (got.view(np.uint64) == ref.view(np.uint64)).all()
+
+
+def test_the_object_calls_no_library_function_and_has_no_mutable_globals(runs, tmp_path):
+    for est in ESTIMATORS:
+        exp = runs["lyapunov", est][1]
+        obj = tmp_path / f"{est}.o"
+        subprocess.run(["cc", "-std=c99", "-O2", "-ffp-contract=off", "-c", "-o", str(obj),
+                        str(exp / "frictionrt_ctrl.c")], check=True)
+        assert subprocess.run(["nm", "-u", str(obj)], capture_output=True, text=True).stdout.strip() == ""
+        text, data, bss = map(int, subprocess.run(["size", str(obj)], capture_output=True, text=True)
+                              .stdout.splitlines()[1].split()[:3])
+        assert text > 0 and data == 0 and bss == 0
+        src = re.sub(r"/\*.*?\*/", "", (exp / "frictionrt_ctrl.c").read_text(), flags=re.S)   # code, no comments
+        assert not re.search(r"\b(malloc|calloc|realloc|free|fmin|fmax|atan|atan2)\s*\(", src)
+
+
+@pytest.mark.parametrize("flag, message", [("-mfpmath=387", "FLT_EVAL_METHOD"), ("-ffast-math", "fast-math")])
+def test_unsafe_floating_point_builds_are_refused(runs, tmp_path, flag, message):
+    exp = runs["lyapunov", "observer"][1]
+    p = subprocess.run(["gcc", "-std=c99", flag, "-c", "-o", str(tmp_path / "x.o"), str(exp / "frictionrt_ctrl.c")],
+                       capture_output=True, text=True)
+    assert p.returncode != 0 and message in p.stderr
+
+
+def test_bad_input_exits_2_in_one_line(runs, capsys, tmp_path):
+    log, _ = runs["lyapunov", "observer"]
+    other = runs["passive", "observer"][1]
+    (tmp_path / "empty").mkdir()
+    cases = [(tmp_path / "empty", "not a frictionrt C export"),
+             (tmp_path / "missing", "no such folder"),
+             (other, "an export of another design (sha256:")]
+    for folder, problem in cases:
+        code, r, err = run(capsys, "replay", log, "--c", folder)
+        assert code == 2 and problem in err and len(err.strip().splitlines()) == 1, err
+    code, r, err = run(capsys, "replay", log, "--c", runs["lyapunov", "observer"][1], "--cc", "no-such-cc")
+    assert code == 2 and "no C compiler 'no-such-cc' found" in err and len(err.strip().splitlines()) == 1
+    code, r, err = run(capsys, "export-c", "-o", runs["lyapunov", "observer"][1], "--law", "lyapunov")
+    assert code == 2 and "pass --force" in err
+
+
+def test_the_design_hash_is_the_logs_and_changes_with_a_controller_parameter(runs, capsys, tmp_path):
+    log, exp = runs["lyapunov", "observer"]
+    ref = json.loads((exp / "frictionrt_export.json").read_text())["design_hash"]
+    capsys.readouterr()
+    code, m, _ = run(capsys, "export-c", "--from-log", log, "-o", tmp_path / "from_log")
+    assert code == 0 and m["design_hash"] == ref and m["law"] == "lyapunov"
+    assert ref in (tmp_path / "from_log" / "ctrl_config.h").read_text()
+    code, m, _ = run(capsys, "--set", "tracking.F_max_N=550", "export-c", "--law", "lyapunov", "--estimator",
+                     "observer", "-o", tmp_path / "changed")
+    assert code == 0 and m["design_hash"] != ref
+
+
+def test_bench_controller_times_numba_and_the_c_on_the_same_readings(runs, capsys, tmp_path):
+    exp = runs["lyapunov", "observer"][1]
+    capsys.readouterr()
+    code, r, err = run(capsys, "bench", "controller", "--steps", "1000", "--c", exp)
+    assert code == 0, err
+    assert (r["law"], r["estimator"], r["ticks"]) == ("lyapunov", "observer", 1000)
+    for part in ("numba", "c"):
+        assert 0 < r[part]["median_us"] <= r[part]["p99_us"] <= r[part]["p999_us"] <= r[part]["max_us"]
+    c = r["c"]
+    assert c["outputs_identical"] is True and c["state_bytes"] == 912
+    assert c["size"]["text"] > 0 and c["size"]["data"] == 0 and c["size"]["bss"] == 0
+    code, r, err = run(capsys, "bench", "controller", "--steps", "1000", "--law", "passive", "--c", exp)
+    assert code == 2 and "an export of another design" in err
+
+
+def test_overruns_of_a_paced_log_give_the_c_the_numba_replays_outputs(runs, tmp_path):
+    """The supervisor's overrun check (a burst of 60 overrunning ticks: overrun_burst), which only
+    paced runs reach: a log marked paced with long tick_ns, replayed through numba and the C."""
+    from rt.log.writer import McapBlockWriter
+    from rt.loop.replay import replay_outputs
+    log, exp = runs["lyapunov", "observer"]
+    rec = read_mcap(log)
+    data = rec.log.copy()
+    data[300:360, rec.column("tick_ns")] = 1e6   # 1 ms: each of these ticks overran
+    path = tmp_path / "paced.mcap"
+    with McapBlockWriter(path, rec.signals, rec.rate_hz, dict(rec.metadata, paced="true")) as w:
+        w.write_block(0, data)
+    _, _, ref = replay_outputs(path)
+    r, out = replay_c(path, exp)
+    assert (out[:, 1:].view(np.uint64) == ref.view(np.uint64)).all()
+    assert 9 in set(out[:, OUTPUTS.index("fault_code")].astype(int))   # overrun_burst
+    assert r["bit_exact"] is False and r["first_mismatch_tick"] is not None   # the record had no overruns
+
+
+@pytest.mark.parametrize("law, estimator", [("hysteresis", "oracle"), ("lyapunov", "observer")])
+def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, estimator):
+    """Software in the loop (rt/export/sil.py): the C export called from the compiled loop through a
+    ctypes function argument gives the simulate log's every signal bit for bit (timing columns aside)."""
+    from rt.common.config import load
+    from rt.export.sil import run_sil
+    from rt.loop import build_loop
+    log, exp = runs[law, estimator]
+    rec = read_mcap(log)
+    loop = build_loop(load(), law, estimator)
+    got = run_sil(loop, exp, 223.6, 5.0, 0.05)
+    names = [n for n, _, _ in loop.signals if n not in ("tick_ns", "late_ns")]
+    assert got.shape == (TICKS, len(loop.signals)) and len(names) == 88
+    a = got[:, [loop.column(n) for n in names]]
+    b = rec.log[:, [rec.column(n) for n in names]]
+    assert (a.view(np.uint64) == b.view(np.uint64)).all()
+
+
+def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, tmp_path):
+    """simulate --controller c:DIR --out: the MCAP log equals the numba run's (timing aside) and
+    replays bit-exact; bad --controller values exit 2 in one line."""
+    log, exp = runs["lyapunov", "observer"]
+    sil = tmp_path / "sil.mcap"
+    assert main(["simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6", "--amp", "5",
+                 "--duration", "0.05", "--out", str(tmp_path / "sil"), "--no-rrd", "--json",
+                 "--controller", f"c:{exp}"]) == 0
+    a, b = read_mcap(sil), read_mcap(log)
+    names = [n for n, _, _ in b.signals if n not in ("tick_ns", "late_ns")]
+    assert len(names) == 88
+    assert (a.log[:, [a.column(n) for n in names]].view(np.uint64)
+            == b.log[:, [b.column(n) for n in names]].view(np.uint64)).all()
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", sil)
+    assert code == 0 and r["bit_exact"] is True, err
+    for spec, problem in ((f"c:{tmp_path}", "not a frictionrt C export"), ("fortran:x", "give c:DIR"),
+                          (f"c:{runs['passive', 'observer'][1]}", "an export of another design")):
+        code, _, err = run(capsys, "simulate", "--law", "lyapunov", "--estimator", "observer", "--freq", "223.6",
+                           "--amp", "5", "--duration", "0.01", "--controller", spec)
+        assert code == 2 and problem in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_path):
+    """A paced run with the C controller (run(..., paced=True, controller=)): the deadlines and the
+    overrun flags reach the C's supervisor as the numba replay rebuilds them from tick_ns + late_ns.
+    The log is written after the run (a paced writer of a run no longer than its ring can drop the
+    only block: rt/log/writer.py _step, reported to the lead)."""
+    from rt.common.config import load
+    from rt.export.sil import CController
+    from rt.log.writer import McapBlockWriter, run_metadata
+    from rt.loop import build_loop, run as run_loop
+    cfg = load()
+    loop = build_loop(cfg, "lyapunov", "observer")
+    r = run_loop(loop, 223.6, 5.0, 0.05, paced=True, controller=CController(loop, runs["lyapunov", "observer"][1],
+                                                                             cfg.rt.seed))
+    meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.05, True) | {"faults": "[]"}
+    with McapBlockWriter(tmp_path / "paced.mcap", loop.signals, 1.0 / cfg.dt_s, meta) as w:
+        w.write_block(0, r.log)
+    code, rr, err = run(capsys, "replay", tmp_path / "paced.mcap")
+    assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == TICKS, err
