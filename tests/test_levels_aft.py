@@ -30,6 +30,7 @@ def campaign(tmp_path_factory):
     return out
 
 
+@pytest.mark.xfail(strict=True, reason="issue 31: the aluminium lap joint's end points carry half their area now; the 10 N level's df/aft gaps were measured on full-stiffness end pairs: re-measure (issue 32)")
 def test_aft_holds_the_gaping_joint_that_df_does_not(campaign):
     """At the true structure (the campaign's own scatter draw and spread 0.5), the 10 N level: "aft" is
     within 0.3 dB rms of the time-stepped plant on mode 2's lines (measured 0.08 dB), "df" more than
