@@ -11,9 +11,10 @@ FFT. Printed: the RMS of 20 log10 |H_s / H_finest| [dB] over 50-1200 Hz (the dia
 for each s, for the configured friction and with mu = 2 (stuck at 300 N: there only the trapezoidal
 rule's period error, (pi f h)^2 / 3, differs, which the diagnosis's dispersion c takes), and the
 same measure for micro_slip and stribeck at their default strengths against the plant without them
-at the coarsest step: what the diagnosis has to see through the step's error. Where the joint slips
-the response converges at first order in h, the stuck structure's at second order (presumably the
-slip and lock events, which a fixed step places only to within a step).
+at the coarsest step: what the diagnosis has to see through the step's error. With the modes
+period-matched (docs/plant.md 2.2) and the 10 mm default, the 100 N test's error against 8 substeps
+is 0.53 / 0.37 / 0.05 dB at 1 / 2 / 4 substeps, the stuck 300 N test's 0.88 / 0.43 / 0.06 dB (on the
+20 mm plain-trapezoid plant the slipping test converged at first order, 4.39 / 2.47 / 1.31 dB).
 """
 from __future__ import annotations
 
