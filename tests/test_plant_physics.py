@@ -314,8 +314,7 @@ def test_quasi_static_modes_add_little_damping_to_the_linear_modes():
     the model with every mode stepped. Implicit Euler (theta 0) above 10.5 kHz, the plant before
     issue 15's fix: +0.013, +0.120, +0.192, +0.145 % (measured). The default (theta 0.9 above
     3 kHz) must stay within 0.03 % (measured +0.002, +0.010, +0.019, +0.017 %), 10x less although
-    three times as many modes are quasi-static; frequencies within 0.05 % (measured 4.3e-4 at
-    mode 5)."""
+    three times as many modes are quasi-static; frequencies within 0.1 % (below)."""
     out = {}
     for key, sets in (("all", ["plant.quasi_static_hz=1e9"]),
                       ("euler", ["plant.quasi_static_hz=10500", "plant.quasi_static_theta=0"]), ("default", [])):
@@ -327,7 +326,9 @@ def test_quasi_static_modes_add_little_damping_to_the_linear_modes():
         f0 = stuck_frequencies_hz(m, preloaded_pairs(m, 100.0))[[k - 1 for k in MODES]]
         out[key] = identify(freq, H, f0, 0.5)
     (f_all, z_all), (_, z_euler), (f_qs, z_qs) = out["all"], out["euler"], out["default"]
-    np.testing.assert_allclose(f_qs, f_all, rtol=5e-4)
+    # frequencies within 0.1 %: measured 6.1e-4 at mode 5 (the model with every mode stepped leaves its
+    # modes from omega h = 1, 3.3 kHz, unmatched: docs/plant.md 2.2; 4.3e-4 with the plain trapezoid)
+    np.testing.assert_allclose(f_qs, f_all, rtol=1e-3)
     assert np.all(z_qs >= z_all - 1e-5) and np.all(z_qs - z_all < 3e-4), (z_all, z_qs)
     assert np.max(z_euler - z_all) > 1e-3, (z_all, z_euler)   # the lag theta removes is real
 
