@@ -185,11 +185,60 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         bolt_rows=np.ascontiguousarray(st.bolt_rows @ Phi), bolt_k=st.bolt_k.copy(), bolt_F=st.bolt_F.copy(),
         bolt_ref=np.zeros(len(st.bolt_k)), bolt_adaptive=int(st.adaptive))
     model = PlantModel(cfg, st, params, Phi, omega, reduced)
-    params = _with_bolt_reference(model, cfg.actuator.F0_N)
-    for a in params:
+    model = PlantModel(cfg, st, _with_bolt_reference(model, cfg.actuator.F0_N), Phi, omega, reduced)
+    if cfg.plant.condense_quasi_static:
+        model = condense_quasi_static(model)
+    for a in model.params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
-    return PlantModel(cfg, st, params, Phi, omega, reduced)
+    return model
+
+
+CONDENSE_RTOL = 1e-12  # directions of the reachable subspace below this relative size are round-off
+
+
+def condense_quasi_static(model: PlantModel) -> PlantModel:
+    """The quasi-static modes (dyn = 0) replaced by their Ritz modes on the subspace the step can
+    reach (docs/plant.md 2.7); exact for everything the step computes.
+
+    A quasi-static mode has no inertia: its step is q1 = (1 + theta) Omega^-1 f - theta q0
+    (plant.newmark), f = B u + G^T Lambda its load from the inputs and constant screws (B) and
+    the contact (G). From the static initial state, q therefore never leaves
+    R = range(Omega^-1 [B, G^T, t]) (t: the u_rel pair's load, so that the static compliance at the
+    adaptive screw is kept as well), of dimension at most 3 + 2p + 1 however many modes lie
+    above plant.quasi_static_hz. With a basis V of R that is Omega-orthonormal, the Ritz pair
+    (V^T Omega V, V^T V) gives M-orthonormal, stiffness-diagonal coordinates Vr with Ritz
+    frequencies within the quasi-static modes' range, and Vr diag(omega_r^-2) Vr^T f =
+    Omega^-1 f for every f whose response lies in R: each step, the static initial state, the
+    gaps, outputs and energies are those of all the modes (to round-off; tested). Only the
+    quasi-static modes' inertia, which the step ignores anyway, is changed in the linear
+    analyses that include it (``stuck_frequencies_hz``: 1.1e-5 relative at most below 1.1 kHz).
+    """
+    p = model.params
+    qs = p.dyn == 0
+    if not qs.any():
+        return model
+    loads = np.column_stack([p.b_exc, p.b_N1, p.f_const, p.G.T, model.Phi.T @ model.structure.u_rel_row])[qs]
+    om = np.sqrt(p.omega2[qs])
+    U, sv, _ = np.linalg.svd(loads / om[:, None], full_matrices=False)   # Omega^(1/2) Omega^-1 loads
+    U = U[:, sv > CONDENSE_RTOL * sv[0]]
+    s, Y = np.linalg.eigh(U.T @ (U / om[:, None] ** 2))   # V^T V with V = Omega^(-1/2) U: s = omega_r^-2
+    s, Y = s[::-1], Y[:, ::-1]                             # ascending Ritz frequencies
+    Vr = (U / om[:, None]) @ Y / np.sqrt(s)               # M-orthonormal, V^T Omega V = diag(1/s)
+    T = np.zeros((len(qs), int((~qs).sum()) + Vr.shape[1]))
+    n_dyn = int((~qs).sum())
+    T[np.flatnonzero(~qs), np.arange(n_dyn)] = 1.0
+    T[np.flatnonzero(qs), n_dyn:] = Vr
+    omega = np.concatenate([model.omega[~qs], 1.0 / np.sqrt(s)])
+    theta = p.qs_theta
+    modal = {k: np.concatenate([getattr(p, k)[~qs], v]) for k, v in
+             (("dyn", np.zeros(len(s))), ("c", np.zeros(len(s))), ("c_step", np.zeros(len(s))),
+              ("m_step", np.ones(len(s))), ("s2", (1.0 + theta) * s), ("s2_fine", (1.0 + theta) * s))}
+    params = p._replace(
+        omega2=omega**2, **modal, G=np.ascontiguousarray(p.G @ T), b_exc=T.T @ p.b_exc, b_N1=T.T @ p.b_N1,
+        f_const=T.T @ p.f_const, out_rows=np.ascontiguousarray(p.out_rows @ T),
+        bolt_rows=np.ascontiguousarray(p.bolt_rows @ T))
+    return PlantModel(model.cfg, model.structure, params, model.Phi @ T, omega, model.reduced)
 
 
 def _with_bolt_reference(model: PlantModel, F_N1: float) -> PlantParams:

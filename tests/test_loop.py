@@ -23,15 +23,17 @@ def loops():
 @pytest.mark.timing
 def test_timing_budget_per_component_and_tick(loops):
     # robust on a shared 2-core machine: the median tick far below the budget (a quarter),
-    # its p99 below the budget; every component's median below a tenth. The tight figures
-    # (median ~2 us) are `frictionrt budget`'s, not asserted here.
+    # its p99 below the budget; the plant's median below issue 31's target for the converged
+    # joint's whole tick (8 us, a sixth: 17 contact points, measured 3.1..3.8 us on a 2-core
+    # machine shared with other work), every other component's below a tenth. The tight figures
+    # are `frictionrt budget`'s (docs/plant.md 8), not asserted here.
     r = run(loops["lyapunov"], F3, AMP, 1.0, timing=True)
     tick_us = r.signal("tick_ns") / 1e3
     assert np.median(tick_us) < BUDGET_US / 4
     assert np.percentile(tick_us, 99) < BUDGET_US
     med = np.median(r.comp_ns, axis=0) / 1e3
     for name, m in zip(COMPONENTS, med):
-        assert m < BUDGET_US / 10, f"{name}: median {m:.2f} us"
+        assert m < BUDGET_US / (6 if name == "plant" else 10), f"{name}: median {m:.2f} us"
 
 
 def test_same_seed_bit_identical_other_seed_changes_noise(loops):
