@@ -45,22 +45,34 @@ def diagnosed(campaigns):
     return get
 
 
-MICRO_SLIP_XFAIL = pytest.mark.xfail(strict=True, reason=(
+MICRO_SLIP_XFAIL = pytest.mark.xfail(strict=True, run=False, reason=(
     "issue 31: on the 10 mm calibrated joint (9.5e12 N/m^3) micro_slip at its default spread changes the 100 N "
     "hammer FRF by 0.11 dB rms (0.60 dB on the 20 mm joint) and is not named: the effect's default strength "
-    "or the diagnosis' thresholds are re-derived by issue 32"))
+    "or the diagnosis' thresholds are re-derived by issue 32 (not run: a diagnosis costs ~3 min)"))
+# One hidden effect per kind of evidence; every effect (and half strengths, other seeds) is
+# `python -m benchmarks.discrepancy 5`'s confusion table (docs/discrepancy.md): each diagnosis here
+# costs ~2-3 min on a 2-core machine, and the suite's budget is ~15 min. Stribeck has its own test.
+SUITE_EFFECTS = {"accelerometer_mass": "a mass at a sensor", "clamp_compliance": "a compliant clamp",
+                 "current_limit": "the actuator's ramps", "shaker_interaction": "the step-sine channel",
+                 "micro_slip": "the joint's loop"}
 
 
-@pytest.mark.parametrize("effect", [pytest.param(e, marks=MICRO_SLIP_XFAIL) if e.name == "micro_slip" else e
-                                    for e in implemented()], ids=lambda e: e.name)
-def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
-    res = diagnosed(effect.name)
+def assert_named_fitted_and_closed(res: dict, effect) -> None:
+    """The diagnosis names ``effect`` by more than 10 BIC points, fits its strength within 30 % and
+    closes its channel's gap at least threefold."""
     assert res["named_effect"] == effect.name, res["ranking"]
     assert res["ranking"][0]["delta_bic"] > 10.0
     fitted = res["fitted_parameters"][effect.name]
     assert abs(fitted / effect.parameter.default - 1.0) < 0.30, fitted
     key = {"structure": "structure_frf_db", "actuator": "actuator_nrmse", "stepsine": "stepsine_ratio_db"}[effect.channel]
     assert res["gap_before"][key] >= 3.0 * res["gap_after"][key], (res["gap_before"][key], res["gap_after"][key])
+
+
+@pytest.mark.parametrize("effect", [pytest.param(get(e), marks=MICRO_SLIP_XFAIL) if e == "micro_slip" else get(e)
+                                    for e in SUITE_EFFECTS], ids=lambda e: e.name)
+def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
+    res = diagnosed(effect.name)
+    assert_named_fitted_and_closed(res, effect)
     if effect.channel == "actuator":
         # not confused: the other actuator candidates explain under a quarter of the ramps' residual
         # (a drift is neither a slew nor a loop, a slew is not a loop) and stay near nominal
@@ -72,8 +84,14 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
                 assert abs(r["fitted"][other.name] - other.nominal) < 0.05 * span, r
 
 
-def test_stribeck_is_not_a_friction_coefficient_change(diagnosed):
-    """Calibration alone (mu free within a factor 2) cannot make Stribeck friction: the pairs break away
+def test_suite_effects_cover_every_kind_of_evidence():
+    assert set(SUITE_EFFECTS) | {"stribeck"} <= {e.name for e in implemented()}
+    assert {get(e).channel for e in SUITE_EFFECTS} == {e.channel for e in implemented()}
+
+
+def test_stribeck_is_named_and_is_not_a_friction_coefficient_change(diagnosed):
+    """Named, fitted and closed as the other effects (test_hidden_effect_is_named_fitted_and_closes_the_gap);
+    and calibration alone (mu free within a factor 2) cannot make Stribeck friction: the pairs break away
     at mu_s but slide at mu_k, so a higher mu that matches the joint modes' shift leaves their
     damping too low. Measured on seed 5, FRF gap nominal / calibrated / with stribeck [dB]: AMD
     EPYC (Zen 5) 3.06 / 1.31 / 0.16, Intel Xeon 3.06 / 0.95 / 0.37 (the design's BLAS kernels
@@ -81,6 +99,7 @@ def test_stribeck_is_not_a_friction_coefficient_change(diagnosed):
     twice the effect's gap and at least half a dB (the scatter of one impulse FRF's gap between the
     two machines is ~0.4 dB); the fit returns the campaign's own mu scatter (0.9315 for 0.9338)."""
     res = diagnosed("stribeck")
+    assert_named_fitted_and_closed(res, get("stribeck"))
     calibrated, after = res["gap_calibrated"]["structure_frf_db"], res["gap_after"]["structure_frf_db"]
     assert calibrated >= 2.0 * after and calibrated >= 0.5, (calibrated, after)
     true_mu = scatter_sets(np.random.default_rng(SEED))["mu"]

@@ -26,7 +26,7 @@ def folder(tmp_path_factory):
     return out
 
 
-@pytest.mark.xfail(strict=True, reason="issue 31: on the 10 mm calibrated joint the harmonic balance calibrated on 1.35 and 2.7 V predicts the 27 V FRF 7.24 dB off against the linear model's 9.86 dB (0.94 against 9.91 on the 20 mm joint): not re-derived here (issue 32)")
+@pytest.mark.xfail(strict=True, run=False, reason="issue 31: on the 10 mm calibrated joint the harmonic balance calibrated on 1.35 and 2.7 V predicts the 27 V FRF 7.24 dB off against the linear model's 9.86 dB (0.94 against 9.91 on the 20 mm joint): not re-derived here (issue 32; not run: it costs minutes)")
 def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys):
     """Calibrated on 1.35 and 2.7 V (0.5 and 1 N), the harmonic balance predicts the 27 V FRF at least 3x
     closer than the linear model calibrated on the same files (measured, the whole 50-1200 Hz plan of

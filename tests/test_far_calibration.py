@@ -16,7 +16,7 @@ SEED = 3
 K_T_OFF = 0.2        # the truth's k_t against the nominal's: below the former bound 0.6
 
 
-@pytest.mark.xfail(strict=True, reason="issue 31: on the 10 mm calibrated plant k_t x 0.2 comes out 0.168 for 0.204 (-18 %) with the modal damping at 4.4 x: the far calibration is not re-validated on the new plant (issue 32)")
+@pytest.mark.xfail(strict=True, run=False, reason="issue 31: on the 10 mm calibrated plant k_t x 0.2 comes out 0.168 for 0.204 (-18 %) with the modal damping at 4.4 x: the far calibration is not re-validated on the new plant (issue 32; not run: it costs minutes)")
 def test_a_far_off_contact_stiffness_is_recovered(tmp_path):
     """A campaign whose structure has k_t x 0.2 (and the seed's scatter) calibrated from the nominal:
     k_t comes out within 5 % of the truth (measured: 0.2034 for 0.2042, -0.4 %; stage 1 alone on the
