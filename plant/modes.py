@@ -7,7 +7,7 @@ import scipy.linalg as sla
 from plant.fe_beam import U, W
 from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
 from plant.structure import adaptive_cone_pairs
-from rt.common.config import Config, adaptive_screw
+from rt.common.config import Config, adaptive_screw, with_sets
 
 N_BARE = 6  # bending modes of the bare cantilever reported
 REDUCTION_TOL = 5e-3  # SPEC 2 "Reduction": reduced vs full stuck eigenfrequencies below 2 kHz
@@ -79,12 +79,14 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
     frequency, eps lambda_max / (2 lambda_i) of the full model: docs/plant.md 6),
     preloaded_stuck_hz (only the pairs the screws close), sliding_joint_hz (those, with the
     adaptive screw's pairs sliding, at F_N1 = F_min: ``sliding_joint_hz``), n_dof_full,
-    n_dof_reduced, closed_pairs, k_T_adaptive_N_per_m, contact (k_n, k_t, mu). Without an
+    n_dof_reduced (the Craig-Bampton basis), n_stepped (the coordinates the plant step carries:
+    docs/plant.md 2.7), closed_pairs, k_T_adaptive_N_per_m, contact (k_n, k_t, mu). Without an
     adaptive screw sliding_joint_hz and k_T_adaptive_N_per_m are None; without an interface
     contact is None too (and every list of frequencies the same beam's).
     """
-    full = build_plant(cfg, reduced=False)
-    red = build_plant(cfg, reduced=True)
+    every_mode = with_sets(cfg, ["plant.condense_quasi_static=false"])   # the FE and Craig-Bampton models themselves
+    full = build_plant(every_mode, reduced=False)
+    red = build_plant(every_mode, reduced=True)
     f_full = stuck_frequencies_hz(full)
     f_red = stuck_frequencies_hz(red)
     n = int(np.sum(f_full < f_max_hz))
@@ -104,6 +106,7 @@ def modes_summary(cfg: Config, f_max_hz: float = 2000.0) -> dict:
         "sliding_joint_hz": None if f_sl is None else [round(float(f), 4) for f in f_sl[f_sl < f_max_hz]],
         "n_dof_full": int(full.n),
         "n_dof_reduced": int(red.n),
+        "n_stepped": int(build_plant(cfg).n),
         "n_pairs": int(red.n_pairs),
         "closed_pairs": [int(j) for j in np.nonzero(closed)[0]],
         "k_T_adaptive_N_per_m": float(f"{adaptive_screw_k_T(red):.6g}") if adaptive else None,
@@ -133,7 +136,8 @@ def format_summary(s: dict) -> str:
                "(the reduction): raise plant.cb_cutoff_hz or step the full model (--set plant.reduced=false)")
         lines.append(f"warning: reduced and full differ by {100 * err[k]:.3f} % on mode {k + 1}, more than SPEC's "
                      f"{100 * REDUCTION_TOL:g} % {why}")
-    lines.append(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}; pairs {s['n_pairs']}, "
+    lines.append(f"DOFs: full {s['n_dof_full']}, reduced {s['n_dof_reduced']}, stepped {s['n_stepped']}; "
+                 f"pairs {s['n_pairs']}, "
                  f"closed by the screws {s['closed_pairs']}; "
                  + ("no adaptive screw" if k_T is None else f"k_T at the adaptive screw {k_T:.3g} N/m"))
     return "\n".join(lines)

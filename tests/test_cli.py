@@ -22,10 +22,13 @@ def test_modes_json_keys_and_values(capsys):
     code, out, _ = _run(["modes", "--json"], capsys)
     assert code == 0
     s = json.loads(out)
-    for key in ("bare_cantilever_hz", "full_stuck_hz", "reduced_stuck_hz", "n_dof_full", "n_dof_reduced"):
+    for key in ("bare_cantilever_hz", "full_stuck_hz", "reduced_stuck_hz", "n_dof_full", "n_dof_reduced", "n_stepped"):
         assert key in s
     assert len(s["bare_cantilever_hz"]) == 6
     assert s["n_dof_reduced"] < s["n_dof_full"] // 3
+    # the step's coordinates (docs/plant.md 2.7): the 14 modes below quasi_static_hz and at most
+    # 3 + 2 p + 1 Ritz modes of the quasi-static ones
+    assert s["n_stepped"] <= 14 + 3 + 2 * s["n_pairs"] + 1 < s["n_dof_reduced"]
     assert len(s["full_stuck_hz"]) == len(s["reduced_stuck_hz"]) >= 8
     # SPEC orientation: all nine pairs stuck, k_n = 1e9: mode 3 between 214 Hz (k_t = 5e7)
     # and 234 Hz (rigid bond)
@@ -40,7 +43,7 @@ def test_modes_table_warns_when_the_reduction_misses_spec():
     from plant.modes import format_summary
     s = {"bare_cantilever_hz": [11.13], "full_stuck_hz": [9.76, 74.07], "reduced_stuck_hz": [9.70, 74.07],
          "eig_resolution_rel": [6.2e-3, 1e-4], "preloaded_stuck_hz": [9.69, 73.79], "sliding_joint_hz": None,
-         "n_dof_full": 2247, "n_dof_reduced": 794, "n_pairs": 129, "closed_pairs": [0],
+         "n_dof_full": 2247, "n_dof_reduced": 794, "n_stepped": 285, "n_pairs": 129, "closed_pairs": [0],
          "k_T_adaptive_N_per_m": None}
 
     def warning():
