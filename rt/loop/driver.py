@@ -10,15 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from observer.oracle import ORACLE_OUTPUTS
-from observer.step import OBSERVER_OUTPUTS
 from plant.actuator import output_index as actuator_output_index
 from plant.sensors import output_index as sensor_output_index
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
 from rt.loop import realtime
-from rt.loop.build import COMPONENTS, Loop, LoopState, initial_loop_state
+from rt.loop.build import COMPONENTS, Loop, LoopState, controller_stages, initial_loop_state
 from rt.loop.pacing import START_SLACK_NS
-from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, SUPERVISOR_OUTPUTS, no_faults
+from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, no_faults
 from rt.loop.tick import _run_ticks
 
 
@@ -164,12 +162,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             # the stages' tuples (``_run_ticks``): states of st advanced in place, fresh scratch per chunk
             sens = (st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys), np.zeros(5),
                     loop.sensors, st.rng)
-            est = (st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
-                   st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
-            law = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
-            sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
-            trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
-                   st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+            est, law, sup, trk = controller_stages(loop, st)
             act = (st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator)
             plnt = (st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work)
             shk = (cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1), loop.shaker)
