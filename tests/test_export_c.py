@@ -251,20 +251,21 @@ def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, t
 
 
 def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_path):
-    """A paced run with the C controller (run(..., paced=True, controller=)): the deadlines and the
-    overrun flags reach the C's supervisor as the numba replay rebuilds them from tick_ns + late_ns.
-    The log is written after the run (a paced writer of a run no longer than its ring can drop the
-    only block: rt/log/writer.py _step, reported to the lead)."""
+    """A paced run with the C controller (run(..., paced=True, controller=)), logged by the run's
+    writer while it runs: the deadlines and the overrun flags reach the C's supervisor as the numba
+    replay rebuilds them from tick_ns + late_ns. The run is as long as the writer's ring (0.1 s, one
+    block), the case in which the paced writer used to drop the only block (rt/log/writer.py
+    ``_overwritten``; forced deterministically in tests/test_logging_loop.py)."""
     from rt.common.config import load
     from rt.export.sil import CController
-    from rt.log.writer import McapBlockWriter, run_metadata
+    from rt.log.writer import open_run_log, run_metadata
     from rt.loop import build_loop, run as run_loop
     cfg = load()
     loop = build_loop(cfg, "lyapunov", "observer")
-    r = run_loop(loop, 223.6, 5.0, 0.05, paced=True, controller=CController(loop, runs["lyapunov", "observer"][1],
-                                                                             cfg.rt.seed))
-    meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.05, True) | {"faults": "[]"}
-    with McapBlockWriter(tmp_path / "paced.mcap", loop.signals, 1.0 / cfg.dt_s, meta) as w:
-        w.write_block(0, r.log)
+    meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.1, True) | {"faults": "[]"}
+    w = open_run_log(tmp_path / "paced", loop.signals, 1.0 / cfg.dt_s, meta, rrd=False, ring_s=0.1)
+    r = run_loop(loop, 223.6, 5.0, 0.1, paced=True, writer=w,
+                 controller=CController(loop, runs["lyapunov", "observer"][1], cfg.rt.seed))
+    assert r.ticks == w.ring_ticks == 2 * TICKS and w.dropped_blocks == 0
     code, rr, err = run(capsys, "replay", tmp_path / "paced.mcap")
-    assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == TICKS, err
+    assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == 2 * TICKS, err

@@ -85,7 +85,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     the same schedule), none by default.
 
     ``writer`` (an ``rt.log.writer.LogWriter``) drains the log to files while the loop runs: its
-    ``start(log, clk, k0, paced)`` is called before the first tick, its ``finish()`` (write the
+    ``start(log, clk, k0, paced, digest, ticks)`` (ticks: the run's length) is called before the first tick, its ``finish()`` (write the
     rest, close the files) after the last one, also on an error or Ctrl-C.
 
     The log: without a writer and ``ring_ticks``, one row per tick of the run. With a writer
@@ -191,7 +191,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         if writer is not None:
             from rt.loop.digest import RunDigest
             digest = RunDigest(loop.signals)
-            writer.start(log, clk, st.k, paced, digest)
+            writer.start(log, clk, st.k, paced, digest, n_ticks)
         interrupted = False
         try:
             if in_thread:
