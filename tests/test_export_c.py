@@ -227,6 +227,38 @@ def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, es
     assert (a.view(np.uint64) == b.view(np.uint64)).all()
 
 
+WALL_CLOCK = ("tick_median_us", "tick_max_us", "wall_s")   # summary figures of the wall clock
+
+
+@pytest.mark.parametrize("law, estimator", [("hysteresis", "oracle"), ("lyapunov", "observer")])
+def test_a_c_controller_run_ends_in_the_numba_runs_state(runs, law, estimator):
+    """After a run with the C controller, the run's final state (every controller state among
+    them: estimator, RT1, prefilter, PID, supervisor, the law's and the tracking's last outputs)
+    and the summary simulate prints equal the numba run's, so a run continued from it is the
+    same whichever controller ran before: C then numba, numba then C and C then C each equal one
+    numba run (0.05 s, split at 0.025 s)."""
+    from rt.common.config import load
+    from rt.export.sil import CController
+    from rt.loop import build_loop, run as run_loop, summary
+    loop = build_loop(load(), law, estimator)
+    c = CController(loop, runs[law, estimator][1], loop.cfg.rt.seed)
+    ref, sil = run_loop(loop, 223.6, 5.0, 0.05), run_loop(loop, 223.6, 5.0, 0.05, controller=c)
+    for name, a in vars(ref.final).items():
+        b = getattr(sil.final, name)
+        pairs = zip(a, b) if name == "plant_work" else [(a, b)]
+        assert all(np.asarray(x).dtype == np.asarray(y).dtype and np.asarray(x).tobytes() == np.asarray(y).tobytes()
+                   for x, y in pairs), name   # bit for bit
+    s_ref, s_sil = summary(ref), summary(sil)
+    assert {k: v for k, v in s_ref.items() if k not in WALL_CLOCK} == \
+        {k: v for k, v in s_sil.items() if k not in WALL_CLOCK}
+    keep = [i for i, (n, _, _) in enumerate(loop.signals) if n not in ("tick_ns", "late_ns")]
+    for first, second in ((c, None), (None, c), (c, c)):
+        a = run_loop(loop, 223.6, 5.0, 0.025, controller=first)
+        b = run_loop(loop, 223.6, 5.0, 0.025, start=a.final, controller=second)
+        both = np.vstack([a.log, b.log])[:, keep]
+        assert (both.view(np.uint64) == ref.log[:, keep].view(np.uint64)).all(), (first, second)
+
+
 def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, tmp_path):
     """simulate --controller c:DIR --out: the MCAP log equals the numba run's (timing aside) and
     replays bit-exact; bad --controller values exit 2 in one line."""

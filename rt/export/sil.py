@@ -18,12 +18,18 @@ import ctypes
 import numba
 import numpy as np
 
-from rt.export.cbuild import N_OUTPUTS, build
+from rt.common.clock import CLK_TICKS
+from rt.export.cbuild import N_OUTPUTS, OUTPUTS, build
 from rt.export.generate import check_design, read_manifest
-from rt.export.record import controller_record, design_hash
-from rt.loop.build import initial_loop_state
+from rt.export.record import TIP_SLOTS, controller_record, design_hash
+from rt.loop.build import controller_stages, initial_loop_state
 from rt.loop.driver import run
 from rt.loop.tick import _put, _tick_begin, _tick_done, _tick_log, _tick_plant
+
+STATE_PARTS = ("xs", "x_est", "xl", "xq", "xf", "sv")
+"""ctrl_state's members in order (frictionrt_ctrl.h; ctrl_batch.c ``ctrl_state_offsets``): the tip
+integrator's slots, the estimator's state (xe or xo), RT1, prefilter, PID, supervisor."""
+_F_SET, _V_CMD = OUTPUTS.index("F_set"), OUTPUTS.index("V_cmd")   # the law's, the tracking's first output
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
@@ -69,9 +75,16 @@ def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols
 
 
 class CController:
-    """The C export in ``folder`` as the controller of runs of ``loop`` started at rest with
-    ``seed`` (``rt.loop.driver.run(..., controller=)``). ValueError for a folder that is no
-    export, an export of another design (both hashes named), a missing compiler."""
+    """The C export in ``folder`` as the controller of runs of ``loop`` (``rt.loop.driver.run(...,
+    controller=)``), checked against the design of ``loop`` started at rest with ``seed``.
+    ValueError for a folder that is no export, an export of another design (both hashes named),
+    a missing compiler.
+
+    The C's state (ctrl_state) is the run's: before its ticks it is loaded from the run's
+    controller states (``rt.loop.build.controller_stages``: estimator, RT1, prefilter, PID,
+    supervisor; the tip integrator's slots of the sensors' state), after them it is stored back,
+    with the law's and the force tracking's last outputs (yl, yf), so that ``Run.final`` is the
+    numba controller's and a run continued from it, with either controller, is the same."""
 
     def __init__(self, loop, folder, seed: int, cc=None):
         m = read_manifest(folder)
@@ -82,15 +95,53 @@ class CController:
         self.cstep = lib.ctrl_step_flat
         self.cstep.restype = None
         self.cstep.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
-        lib.ctrl_init_flat.restype = None
-        lib.ctrl_init_flat.argtypes = [ctypes.c_void_p]
-        self.state = np.zeros(-(-self.build.state_bytes() // 8))   # ctrl_state, 8-byte aligned
-        lib.ctrl_init_flat(self.state.ctypes.data)
+        try:
+            offsets = lib.ctrl_state_offsets
+        except AttributeError:
+            raise ValueError(f"--controller c:{folder}: no ctrl_state_offsets in its ctrl_batch.c (an export of "
+                             "an older frictionrt): export it again") from None
+        offsets.restype = None
+        offsets.argtypes = [ctypes.c_void_p]
+        off = np.zeros(len(STATE_PARTS) + 1, dtype=np.int64)
+        offsets(off.ctypes.data)
+        self.slices = [slice(int(a), int(b)) for a, b in zip(off[:-1], off[1:])]
+        self.observe = loop.estimator == "observer"
+        st = initial_loop_state(loop, seed)
+        sizes = [len(x) for x in self._parts((st.xs,), *controller_stages(loop, st))]
+        if [s.stop - s.start for s in self.slices] != sizes or 8 * off[-1] != self.build.state_bytes():
+            raise ValueError(f"--controller c:{folder}: its ctrl_state ({', '.join(STATE_PARTS)}: "
+                             f"{[s.stop - s.start for s in self.slices]} doubles) is not this loop's ({sizes}); "
+                             "export it again")
+        self.state = np.zeros(int(off[-1]))   # ctrl_state: doubles only
         self.ctl = (self.state, np.zeros(8), np.zeros(N_OUTPUTS))
         self.design_hash = digest
 
-    def __call__(self, k0, k1, exc, pace, faults, sens, act, plnt, shk, cols, log) -> int:
-        return _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log)
+    def _parts(self, sens, est, law, sup, trk) -> list[np.ndarray]:
+        """The loop's arrays (the stages' tuples as ``_run_ticks`` takes them) that ctrl_state
+        holds, in its order (``STATE_PARTS``); views, so that assigning into them writes the
+        loop's state."""
+        return [sens[0][TIP_SLOTS], est[5] if self.observe else est[0], law[0], trk[0], trk[5], sup[0]]
+
+    def __call__(self, k0, k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt, shk, cols, log) -> int:
+        """Ticks k0 <= k < k1 (``rt.loop.tick._run_ticks``' arguments but force_col, observe and
+        comp_ns) with the C controller, its state loaded from the loop's controller states and
+        stored back after (class docstring). Returns the failed plant solves."""
+        clk = pace[4]
+        yl, yf = law[2], trk[7]
+        parts = self._parts(sens, est, law, sup, trk)
+        for sl, x in zip(self.slices, parts):
+            self.state[sl] = x
+        ticks = int(clk[CLK_TICKS])
+        failed = _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log)
+        # the C's states back (the tip integrator's are the sensors' own: the numba integrator ran
+        # beside the C's, the same bits), and the last tick's outputs the loop state keeps
+        for sl, x in zip(self.slices[1:], parts[1:]):
+            x[:] = self.state[sl]
+        if int(clk[CLK_TICKS]) > ticks:
+            cout = self.ctl[2]
+            yl[:] = cout[_F_SET:_F_SET + len(yl)]
+            yf[:] = cout[_V_CMD:_V_CMD + len(yf)]
+        return failed
 
 
 def run_sil(loop, folder, freq_hz: float, amp_n: float, duration_s: float, *, seed=None, faults=None,

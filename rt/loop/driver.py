@@ -96,8 +96,9 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
 
     ``controller``: another controller for stages 2-4, a callable taking ``_run_ticks``' arguments
-    without force_col, observe, est, law, sup, trk and comp_ns (rt/export/sil.py: the C export);
-    not with ``timing``; the run's final state then holds the controller states it started with.
+    without force_col, observe and comp_ns (rt/export/sil.py: the C export), which starts from the
+    controller states in est, law, sup, trk and leaves its own there, so that ``Run.final`` is the
+    same as with the numba controller; not with ``timing``.
 
     ``in_thread``: the compiled loop runs in a thread of its own while the calling thread shows
     progress and turns Ctrl-C into a stop request (the ticks run so far are kept). False: in the
@@ -171,7 +172,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                 clk[CLK_DEADLINE] = _now_ns(ts) + START_SLACK_NS
                 t_first[0] = clk[CLK_DEADLINE] - period_ns
             if controller is not None:
-                failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, act, plnt, shk, cols, log[rows])
+                failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt,
+                                        shk, cols, log[rows])
             else:
                 failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
                                         sens, est, law, sup, trk, act, plnt, shk, cols,
