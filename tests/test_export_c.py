@@ -301,3 +301,58 @@ def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_p
     assert r.ticks == w.ring_ticks == 2 * TICKS and w.dropped_blocks == 0
     code, rr, err = run(capsys, "replay", tmp_path / "paced.mcap")
     assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == 2 * TICKS, err
+
+
+def test_frf_with_a_c_export_gives_the_numba_controllers_sweep(runs, capsys):
+    """frf --controller c:DIR: the law it was exported for runs the C and each point (one here, of
+    6 blocks, 0.12 s) equals the numba sweep's; an export of a law the sweep does not run exits 2
+    in one line. (compare's test has a numba law beside the C one.)"""
+    exp = runs["lyapunov", "oracle"][1]
+    args = ("frf", "--law", "lyapunov", "--amp", "5", "--freqs", "1000", "--max-time", "0.13", "--jobs", "1")
+    code, ref, err = run(capsys, *args)
+    assert code == 0, err
+    code, got, err = run(capsys, *args, "--controller", f"c:{exp}")
+    assert code == 0, err
+    assert ref["controllers"] == {"lyapunov": "numba"} and got["controllers"] == {"lyapunov": f"c:{exp}"}
+    assert got["results"] == ref["results"] and len(ref["results"]) == 1
+    assert ref["results"][0]["n_blocks"] == [6]
+    code, _, err = run(capsys, *args, "--controller", f"c:{runs['lyapunov', 'observer'][1]}")
+    assert code == 2 and "an export of another design" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_compare_with_a_c_export_gives_the_numba_controllers_table(runs, capsys):
+    """compare --controller c:DIR (an oracle export: compare runs the oracle): its law's row comes
+    from the C and equals the numba row; two exports for one law exit 2 in one line."""
+    exp = runs["hysteresis", "oracle"][1]
+    args = ("compare", "--freq", "223.6", "--amp", "5", "--duration", "0.05")
+    code, ref, err = run(capsys, *args)
+    assert code == 0, err
+    code, got, err = run(capsys, *args, "--controller", f"c:{exp}")
+    assert code == 0, err
+    assert [r["controller"] for r in got] == ["numba", f"c:{exp}", "numba"]
+    assert [r | {"controller": "numba"} for r in got] == ref
+    code, _, err = run(capsys, *args, "--controller", f"c:{exp}", "--controller", f"c:{exp}")
+    assert code == 2 and "a second export" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_c_controller_pickles_and_its_copy_loads_the_library_by_path(runs, tmp_path):
+    """What a worker process of frf gets (ctypes objects do not pickle): a copy that loads the
+    library the original built, by its path, or builds the export again where that path does not
+    exist; each runs as the original."""
+    import pickle
+    from rt.common.config import load
+    from rt.export.sil import CController
+    from rt.loop import build_loop, run as run_loop
+    loop = build_loop(load(), "lyapunov", "observer")
+    c = CController(loop, runs["lyapunov", "observer"][1], loop.cfg.rt.seed)
+    copy = pickle.loads(pickle.dumps(c))
+    assert copy.build.path == c.build.path and copy.build.path.is_file()
+    state = c.__getstate__() | {"library": str(tmp_path / "elsewhere.so")}
+    rebuilt = CController.__new__(CController)
+    rebuilt.__setstate__(state)
+    assert rebuilt.build.path != c.build.path and rebuilt.design_hash == c.design_hash
+    keep = [i for i, (n, _, _) in enumerate(loop.signals) if n not in ("tick_ns", "late_ns")]
+    ref = run_loop(loop, 223.6, 5.0, 0.02, controller=c).log[:, keep]
+    for other in (copy, rebuilt):
+        assert (run_loop(loop, 223.6, 5.0, 0.02, controller=other).log[:, keep].view(np.uint64)
+                == ref.view(np.uint64)).all()

@@ -14,12 +14,16 @@ C, late_ns its lateness (paced). ``run_sil`` runs a whole offline log.
 from __future__ import annotations
 
 import ctypes
+import shutil
+import tempfile
+import weakref
+from pathlib import Path
 
 import numba
 import numpy as np
 
 from rt.common.clock import CLK_TICKS
-from rt.export.cbuild import N_OUTPUTS, OUTPUTS, build
+from rt.export.cbuild import N_OUTPUTS, OUTPUTS, build, load
 from rt.export.generate import check_design, read_manifest
 from rt.export.record import TIP_SLOTS, controller_record, design_hash
 from rt.loop.build import controller_stages, initial_loop_state
@@ -84,37 +88,64 @@ class CController:
     controller states (``rt.loop.build.controller_stages``: estimator, RT1, prefilter, PID,
     supervisor; the tip integrator's slots of the sensors' state), after them it is stored back,
     with the law's and the force tracking's last outputs (yl, yf), so that ``Run.final`` is the
-    numba controller's and a run continued from it, with either controller, is the same."""
+    numba controller's and a run continued from it, with either controller, is the same. One
+    object serves one run at a time.
+
+    It pickles (``frf``'s worker processes, dask): ctypes objects do not, so a copy loads the
+    library this object built, by its path (kept until this object is gone), or, where that path
+    does not exist (another machine), builds the export in ``folder`` again; either must give the
+    same design hash."""
 
     def __init__(self, loop, folder, seed: int, cc=None):
+        folder = Path(folder)
         m = read_manifest(folder)
         digest = design_hash(controller_record(loop, initial_loop_state(loop, seed)))
         check_design(m, digest, loop, f"--controller c:{folder}", "this run's")
-        self.build = build(folder, cc)
-        lib = self.build.lib
+        self.folder, self.cc, self.design_hash = folder, cc, digest
+        self.observe = loop.estimator == "observer"
+        work = tempfile.mkdtemp(prefix="frictionrt-sil-")   # the library stays for the copies to load
+        weakref.finalize(self, shutil.rmtree, work, True)
+        self._link(build(folder, cc, workdir=work))
+        st = initial_loop_state(loop, seed)
+        sizes = [len(x) for x in self._parts((st.xs,), *controller_stages(loop, st))]
+        if [s.stop - s.start for s in self.slices] != sizes or 8 * len(self.state) != self.build.state_bytes():
+            raise ValueError(f"--controller c:{folder}: its ctrl_state ({', '.join(STATE_PARTS)}: "
+                             f"{[s.stop - s.start for s in self.slices]} doubles) is not this loop's ({sizes}); "
+                             "export it again")
+
+    def _link(self, ctrl) -> None:
+        """Set up the calls into the loaded build ``ctrl`` (``rt.export.cbuild.Controller``) and
+        the buffers it steps on."""
+        self.build = ctrl
+        lib = ctrl.lib
         self.cstep = lib.ctrl_step_flat
         self.cstep.restype = None
         self.cstep.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
         try:
             offsets = lib.ctrl_state_offsets
         except AttributeError:
-            raise ValueError(f"--controller c:{folder}: no ctrl_state_offsets in its ctrl_batch.c (an export of "
-                             "an older frictionrt): export it again") from None
+            raise ValueError(f"--controller c:{self.folder}: no ctrl_state_offsets in its ctrl_batch.c (an export "
+                             "of an older frictionrt): export it again") from None
         offsets.restype = None
         offsets.argtypes = [ctypes.c_void_p]
         off = np.zeros(len(STATE_PARTS) + 1, dtype=np.int64)
         offsets(off.ctypes.data)
         self.slices = [slice(int(a), int(b)) for a, b in zip(off[:-1], off[1:])]
-        self.observe = loop.estimator == "observer"
-        st = initial_loop_state(loop, seed)
-        sizes = [len(x) for x in self._parts((st.xs,), *controller_stages(loop, st))]
-        if [s.stop - s.start for s in self.slices] != sizes or 8 * off[-1] != self.build.state_bytes():
-            raise ValueError(f"--controller c:{folder}: its ctrl_state ({', '.join(STATE_PARTS)}: "
-                             f"{[s.stop - s.start for s in self.slices]} doubles) is not this loop's ({sizes}); "
-                             "export it again")
         self.state = np.zeros(int(off[-1]))   # ctrl_state: doubles only
         self.ctl = (self.state, np.zeros(8), np.zeros(N_OUTPUTS))
-        self.design_hash = digest
+
+    def __getstate__(self) -> dict:
+        return {"folder": self.folder, "cc": self.cc, "design_hash": self.design_hash, "observe": self.observe,
+                "library": str(self.build.path), "command": self.build.command}
+
+    def __setstate__(self, d: dict) -> None:
+        self.folder, self.cc, self.design_hash, self.observe = d["folder"], d["cc"], d["design_hash"], d["observe"]
+        lib = Path(d["library"])
+        ctrl = load(lib, d["command"]) if lib.is_file() else build(self.folder, self.cc)
+        if ctrl.design_hash != self.design_hash:
+            raise ValueError(f"--controller c:{self.folder}: the library {ctrl.path} is of design "
+                             f"{ctrl.design_hash[:19]}..., not {self.design_hash[:19]}...: export it again")
+        self._link(ctrl)
 
     def _parts(self, sens, est, law, sup, trk) -> list[np.ndarray]:
         """The loop's arrays (the stages' tuples as ``_run_ticks`` takes them) that ctrl_state
