@@ -227,6 +227,38 @@ def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, es
     assert (a.view(np.uint64) == b.view(np.uint64)).all()
 
 
+WALL_CLOCK = ("tick_median_us", "tick_max_us", "wall_s")   # summary figures of the wall clock
+
+
+@pytest.mark.parametrize("law, estimator", [("hysteresis", "oracle"), ("lyapunov", "observer")])
+def test_a_c_controller_run_ends_in_the_numba_runs_state(runs, law, estimator):
+    """After a run with the C controller, the run's final state (every controller state among
+    them: estimator, RT1, prefilter, PID, supervisor, the law's and the tracking's last outputs)
+    and the summary simulate prints equal the numba run's, so a run continued from it is the
+    same whichever controller ran before: C then numba, numba then C and C then C each equal one
+    numba run (0.05 s, split at 0.025 s)."""
+    from rt.common.config import load
+    from rt.export.sil import CController
+    from rt.loop import build_loop, run as run_loop, summary
+    loop = build_loop(load(), law, estimator)
+    c = CController(loop, runs[law, estimator][1], loop.cfg.rt.seed)
+    ref, sil = run_loop(loop, 223.6, 5.0, 0.05), run_loop(loop, 223.6, 5.0, 0.05, controller=c)
+    for name, a in vars(ref.final).items():
+        b = getattr(sil.final, name)
+        pairs = zip(a, b) if name == "plant_work" else [(a, b)]
+        assert all(np.asarray(x).dtype == np.asarray(y).dtype and np.asarray(x).tobytes() == np.asarray(y).tobytes()
+                   for x, y in pairs), name   # bit for bit
+    s_ref, s_sil = summary(ref), summary(sil)
+    assert {k: v for k, v in s_ref.items() if k not in WALL_CLOCK} == \
+        {k: v for k, v in s_sil.items() if k not in WALL_CLOCK}
+    keep = [i for i, (n, _, _) in enumerate(loop.signals) if n not in ("tick_ns", "late_ns")]
+    for first, second in ((c, None), (None, c), (c, c)):
+        a = run_loop(loop, 223.6, 5.0, 0.025, controller=first)
+        b = run_loop(loop, 223.6, 5.0, 0.025, start=a.final, controller=second)
+        both = np.vstack([a.log, b.log])[:, keep]
+        assert (both.view(np.uint64) == ref.log[:, keep].view(np.uint64)).all(), (first, second)
+
+
 def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, tmp_path):
     """simulate --controller c:DIR --out: the MCAP log equals the numba run's (timing aside) and
     replays bit-exact; bad --controller values exit 2 in one line."""
@@ -251,20 +283,76 @@ def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, t
 
 
 def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_path):
-    """A paced run with the C controller (run(..., paced=True, controller=)): the deadlines and the
-    overrun flags reach the C's supervisor as the numba replay rebuilds them from tick_ns + late_ns.
-    The log is written after the run (a paced writer of a run no longer than its ring can drop the
-    only block: rt/log/writer.py _step, reported to the lead)."""
+    """A paced run with the C controller (run(..., paced=True, controller=)), logged by the run's
+    writer while it runs: the deadlines and the overrun flags reach the C's supervisor as the numba
+    replay rebuilds them from tick_ns + late_ns. The run is as long as the writer's ring (0.1 s, one
+    block), the case in which the paced writer used to drop the only block (rt/log/writer.py
+    ``_overwritten``; forced deterministically in tests/test_logging_loop.py)."""
     from rt.common.config import load
     from rt.export.sil import CController
-    from rt.log.writer import McapBlockWriter, run_metadata
+    from rt.log.writer import open_run_log, run_metadata
     from rt.loop import build_loop, run as run_loop
     cfg = load()
     loop = build_loop(cfg, "lyapunov", "observer")
-    r = run_loop(loop, 223.6, 5.0, 0.05, paced=True, controller=CController(loop, runs["lyapunov", "observer"][1],
-                                                                             cfg.rt.seed))
-    meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.05, True) | {"faults": "[]"}
-    with McapBlockWriter(tmp_path / "paced.mcap", loop.signals, 1.0 / cfg.dt_s, meta) as w:
-        w.write_block(0, r.log)
+    meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.1, True) | {"faults": "[]"}
+    w = open_run_log(tmp_path / "paced", loop.signals, 1.0 / cfg.dt_s, meta, rrd=False, ring_s=0.1)
+    r = run_loop(loop, 223.6, 5.0, 0.1, paced=True, writer=w,
+                 controller=CController(loop, runs["lyapunov", "observer"][1], cfg.rt.seed))
+    assert r.ticks == w.ring_ticks == 2 * TICKS and w.dropped_blocks == 0
     code, rr, err = run(capsys, "replay", tmp_path / "paced.mcap")
-    assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == TICKS, err
+    assert code == 0 and rr["bit_exact"] is True and rr["ticks"] == 2 * TICKS, err
+
+
+def test_frf_with_a_c_export_gives_the_numba_controllers_sweep(runs, capsys):
+    """frf --controller c:DIR: the law it was exported for runs the C and each point (one here, of
+    6 blocks, 0.12 s) equals the numba sweep's; an export of a law the sweep does not run exits 2
+    in one line. (compare's test has a numba law beside the C one.)"""
+    exp = runs["lyapunov", "oracle"][1]
+    args = ("frf", "--law", "lyapunov", "--amp", "5", "--freqs", "1000", "--max-time", "0.13", "--jobs", "1")
+    code, ref, err = run(capsys, *args)
+    assert code == 0, err
+    code, got, err = run(capsys, *args, "--controller", f"c:{exp}")
+    assert code == 0, err
+    assert ref["controllers"] == {"lyapunov": "numba"} and got["controllers"] == {"lyapunov": f"c:{exp}"}
+    assert got["results"] == ref["results"] and len(ref["results"]) == 1
+    assert ref["results"][0]["n_blocks"] == [6]
+    code, _, err = run(capsys, *args, "--controller", f"c:{runs['lyapunov', 'observer'][1]}")
+    assert code == 2 and "an export of another design" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_compare_with_a_c_export_gives_the_numba_controllers_table(runs, capsys):
+    """compare --controller c:DIR (an oracle export: compare runs the oracle): its law's row comes
+    from the C and equals the numba row; two exports for one law exit 2 in one line."""
+    exp = runs["hysteresis", "oracle"][1]
+    args = ("compare", "--freq", "223.6", "--amp", "5", "--duration", "0.05")
+    code, ref, err = run(capsys, *args)
+    assert code == 0, err
+    code, got, err = run(capsys, *args, "--controller", f"c:{exp}")
+    assert code == 0, err
+    assert [r["controller"] for r in got] == ["numba", f"c:{exp}", "numba"]
+    assert [r | {"controller": "numba"} for r in got] == ref
+    code, _, err = run(capsys, *args, "--controller", f"c:{exp}", "--controller", f"c:{exp}")
+    assert code == 2 and "a second export" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_c_controller_pickles_and_its_copy_loads_the_library_by_path(runs, tmp_path):
+    """What a worker process of frf gets (ctypes objects do not pickle): a copy that loads the
+    library the original built, by its path, or builds the export again where that path does not
+    exist; each runs as the original."""
+    import pickle
+    from rt.common.config import load
+    from rt.export.sil import CController
+    from rt.loop import build_loop, run as run_loop
+    loop = build_loop(load(), "lyapunov", "observer")
+    c = CController(loop, runs["lyapunov", "observer"][1], loop.cfg.rt.seed)
+    copy = pickle.loads(pickle.dumps(c))
+    assert copy.build.path == c.build.path and copy.build.path.is_file()
+    state = c.__getstate__() | {"library": str(tmp_path / "elsewhere.so")}
+    rebuilt = CController.__new__(CController)
+    rebuilt.__setstate__(state)
+    assert rebuilt.build.path != c.build.path and rebuilt.design_hash == c.design_hash
+    keep = [i for i, (n, _, _) in enumerate(loop.signals) if n not in ("tick_ns", "late_ns")]
+    ref = run_loop(loop, 223.6, 5.0, 0.02, controller=c).log[:, keep]
+    for other in (copy, rebuilt):
+        assert (run_loop(loop, 223.6, 5.0, 0.02, controller=other).log[:, keep].view(np.uint64)
+                == ref.view(np.uint64)).all()

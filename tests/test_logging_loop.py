@@ -193,6 +193,34 @@ def test_paced_slow_writer_drops_whole_blocks_and_counts_them(loop):
             np.testing.assert_array_equal(b, r.log[k0 - (21000 - 4200):][:len(b)])
 
 
+def test_a_paced_run_as_long_as_its_ring_keeps_its_block_when_the_writer_looks_before_finish(loop):
+    """A paced run of exactly its ring (one block): once the loop has ended, the writer thread
+    looks at the count before finish() tells it the run is over (forced here: finish waits for that
+    look). The loop begins no further tick, so the block is intact and written; the writer used to
+    take a count of one ring for a loop still running and drop it (an MCAP without messages in
+    about 1 of 10 short paced runs with the C controller)."""
+    from rt.common.clock import CLK_TICKS
+    sink = SlowSink()
+    w = LogWriter([sink], ring_s=0.1)
+    looked = threading.Event()
+    step, finish = w._step, w.finish
+
+    def step_seen(done, final):
+        more = step(done, final)
+        if not final and done == BLOCK_TICKS and int(w._clk[CLK_TICKS]) == BLOCK_TICKS:
+            looked.set()   # a look at the ended loop's count before finish()
+        return more
+
+    def finish_after_a_look():
+        assert looked.wait(10.0)
+        finish()
+    w._step, w.finish = step_seen, finish_after_a_look
+    r = run(loop, F3, AMP, BLOCK_TICKS * loop.cfg.dt_s, paced=True, writer=w)
+    assert r.ticks == w.ring_ticks == BLOCK_TICKS and w.error is None and sink.closed
+    assert w.dropped_blocks == 0 and [k0 for k0, _ in sink.blocks] == [0]
+    np.testing.assert_array_equal(sink.blocks[0][1], r.log)
+
+
 def test_ring_run_allocates_the_ring_and_writes_every_tick(tmp_path, loop):
     """5 s offline with a 0.2 s ring: the loop's log is 4200 rows (not 105000), the MCAP file
     holds every tick and equals the file of the same run without a ring (but the wall clock),

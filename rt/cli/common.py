@@ -134,6 +134,52 @@ def realtime_notes(rt: dict | None) -> None:
         print(f"frictionrt: note: {note}", file=sys.stderr)
 
 
+def add_controller(p: argparse.ArgumentParser, many: bool = False) -> None:
+    """--controller c:DIR: a C export (frictionrt export-c) as the loop's controller, software in
+    the loop (docs/export-c.md); ``many``: repeatable, one export per law the verb runs."""
+    what = ("the controller of the law it was exported for (repeatable: one export per law; the other laws run "
+            "the numba controller)" if many else "the loop's controller")
+    p.add_argument("--controller", metavar="c:DIR", default=[] if many else None, action="append" if many else "store",
+                   help=f"run the C export in DIR (frictionrt export-c of the same configuration, law and estimator) "
+                        f"as {what}: software in the loop (docs/export-c.md; default: the numba controller)")
+
+
+def c_exports(specs, runs) -> dict[tuple[str, str], Path]:
+    """The folders of --controller c:DIR (``specs``: None, one value or a list; "numba" stands for
+    none) by the (law, estimator) each was exported for, among ``runs``, the (law, estimator) pairs
+    the verb runs. ValueError in one line for another form, a folder that is no export, an export
+    of a law and estimator the verb does not run ("an export of another design"), two for one."""
+    from rt.export.generate import read_manifest
+    specs = [] if specs is None else [specs] if isinstance(specs, str) else list(specs)
+    out: dict[tuple[str, str], Path] = {}
+    for spec in specs:
+        if spec == "numba":
+            continue
+        if not spec.startswith("c:") or len(spec) < 3:
+            raise ValueError(f"--controller {spec!r}: give c:DIR (a folder of frictionrt export-c) or numba")
+        folder = Path(spec[2:])
+        m = read_manifest(folder)
+        key = (m.get("law"), m.get("estimator"))
+        if key not in runs:
+            raise ValueError(f"--controller {spec}: an export of another design ({m['design_hash'][:19]}..., "
+                             f"{key[0]}/{key[1]}) than this run's ({', '.join(f'{a}/{b}' for a, b in runs)})")
+        if key in out:
+            raise ValueError(f"--controller {spec}: a second export for {key[0]}/{key[1]} (c:{out[key]}); give one")
+        out[key] = folder
+    return out
+
+
+def controller_for(exports: dict, loop, seed: int):
+    """The controller of ``loop`` (``rt.loop.driver.run(..., controller=)``): the C export among
+    ``exports`` (``c_exports``) for its law and estimator (``rt.export.sil.CController``: ValueError
+    for an export of another design), else None (the numba controller)."""
+    folder = exports.get((loop.law, loop.estimator))
+    if folder is None:
+        return None
+    from rt.export.sil import CController
+    return CController(loop, folder, seed)
+
+
 ACTUATOR_VERBS = ("simulate", "compare", "budget", "observer", "replay", "frf", "tune", "reproduce", "export-c")
 """Verbs that drive the adaptive screw's actuator (or design for it) whatever their options."""
 

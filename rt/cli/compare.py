@@ -5,7 +5,8 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import add_deprecated, add_force, add_out, fail, refuse_existing
+from rt.cli.common import (add_controller, add_deprecated, add_force, add_out, c_exports, controller_for, fail,
+                           refuse_existing)
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -26,6 +27,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     add_out(q, "FILE.png", "the file to write the time histories to (PNG)", dest="plot")
     add_deprecated(q, "--plot", "-o/--out", dest="plot")
     add_force(q)
+    add_controller(q, many=True)
     q.add_argument("--json", action="store_true", help="the table as JSON")
     return q
 
@@ -33,8 +35,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 def cmd_compare(cfg, args) -> int:
     from tqdm import tqdm
 
+    from rt.common.config import LAWS
     from rt.experiments.compare import compare, plot, table
-    from rt.loop import build_loop, check_run_input
+    from rt.loop import Designs, build_loop, check_run_input
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png" or not out.parent.exists():
@@ -46,7 +49,9 @@ def cmd_compare(cfg, args) -> int:
     if not args.amp > 0:   # the table is relative to the passive response, which 0 N leaves at 0
         return fail(f"--amp {args.amp:g} N: compare needs a finite force > 0 N, e.g. --amp 5")
     try:
-        passive = build_loop(cfg, "passive")
+        exports = c_exports(args.controller, [(law, "oracle") for law in LAWS])   # compare runs the oracle
+        designs = Designs()   # the plant and force-tracking designs, made once for the three laws
+        passive = build_loop(cfg, "passive", designs=designs)
         if args.freq is None:
             from rt.experiments.compare import passive_peak_hz
             check_run_input(passive, 1.0, args.amp, args.duration)  # amplitude and duration before the search
@@ -54,10 +59,12 @@ def cmd_compare(cfg, args) -> int:
                 args.freq = round(passive_peak_hz(passive, args.mode, args.amp, progress=bar.update), 2)
         n = check_run_input(passive, args.freq, args.amp, args.duration)
         with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:
-            runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update)
+            runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update,
+                           controller_of=lambda loop: controller_for(exports, loop, cfg.rt.seed), designs=designs)
     except ValueError as exc:
         return fail(str(exc))
-    rows = table(runs)
+    rows = [r | {"controller": f"c:{exports[r['law'], 'oracle']}" if (r["law"], "oracle") in exports else "numba"}
+            for r in table(runs)]
     if args.plot:
         tmp = out.with_suffix(".tmp.png")
         plot(runs, str(tmp))
@@ -66,6 +73,8 @@ def cmd_compare(cfg, args) -> int:
         print(json.dumps(rows))
         return 0
     print(f"{args.amp:g} N at {args.freq:g} Hz, {args.duration:g} s per law, oracle estimator")
+    if exports:
+        print("controller: " + ", ".join(f"{r['law']} {r['controller']}" for r in rows))
     print(f"{'law':>11} {'acc 0.45 m [m/s^2]':>19} {'vs passive':>11} {'mean F_N1 [N]':>14} {'energy [J]':>11}")
     for r in rows:
         print(f"{r['law']:>11} {r['acc045_amplitude']:>19.4f} {-r['reduction_pct']:>+10.1f}% "

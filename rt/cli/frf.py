@@ -12,7 +12,8 @@ import sys
 from pathlib import Path
 
 from rt.common.config import LAWS, Config, dumps
-from rt.cli.common import add_common, add_force, add_out, fail, parse_list, refuse_existing
+from rt.cli.common import (add_common, add_controller, add_force, add_out, c_exports, controller_for, fail,
+                           parse_list, refuse_existing)
 
 DESCRIPTION = """Step-sine accelerance FRF H = a(x = 0.45 m) / F_exc [(m/s^2)/N] of the closed loop, as the
 paper measures it: at each frequency the loop runs in blocks of whole periods, the excitation force
@@ -68,6 +69,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="local worker processes, one sweep each at a time (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the sweeps on this dask scheduler's workers instead (frictionrt installed there)")
+    add_controller(p, many=True)
     p.add_argument("--json", action="store_true", help="print the results as one JSON object (no progress bar)")
     p.add_argument("--plot", metavar="PATH.png", help="write |H| [dB] and phase [deg] against f [Hz] here (PNG)")
     add_out(p, "PATH.json", "the file to write the results to (JSON; --plot and --rrd: the same FRFs as plot and "
@@ -118,7 +120,8 @@ def _table(r) -> str:
 
 def cmd_frf(cfg: Config, args) -> int:
     """Run ``frictionrt frf``: validate, sweep every (law, amplitude) in parallel, print or write
-    (JSON: dt_s, the resolved configuration as TOML, one ``StepSineResult.to_dict()`` per sweep)."""
+    (JSON: dt_s, the resolved configuration as TOML, the controller of each law (c:DIR or numba),
+    one ``StepSineResult.to_dict()`` per sweep)."""
     from rt.experiments.branches import Branch, run_branches
     from rt.experiments.stepsine import Settle, plot_frfs
     for a in args.amp:
@@ -154,13 +157,24 @@ def cmd_frf(cfg: Config, args) -> int:
         rate = -rate if args.down else rate
     branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle, sweep_rate_hz_s=rate)
                 for law in args.law for a in args.amp]
+    loops = None
     try:
-        results = run_branches(branches, jobs=args.jobs, dask_address=args.dask, progress=not args.json)
+        exports = c_exports(args.controller, [(law, args.estimator) for law in dict.fromkeys(args.law)])
+        if exports:   # each law with a C export runs it (its worker processes load the library by path)
+            from dataclasses import replace
+            from rt.experiments.branches import build_loops
+            loops = build_loops(branches)
+            ctrl = {id(lp): controller_for(exports, lp, cfg.rt.seed) for lp in loops}
+            branches = [replace(b, controller=ctrl[id(lp)]) for b, lp in zip(branches, loops)]
+        results = run_branches(branches, jobs=args.jobs, dask_address=args.dask, progress=not args.json, loops=loops)
     except ConnectionError as exc:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(str(exc))
-    doc = {"dt_s": cfg.dt_s, "config": dumps(cfg), "results": [r.to_dict() for r in results]}
+    controllers = {law: f"c:{exports[law, args.estimator]}" if (law, args.estimator) in exports else "numba"
+                   for law in dict.fromkeys(args.law)}
+    doc = {"dt_s": cfg.dt_s, "config": dumps(cfg), "controllers": controllers,
+           "results": [r.to_dict() for r in results]}
     if "--out" in paths:
         tmp = paths["--out"].with_suffix(".tmp.json")
         tmp.write_text(json.dumps(doc))
@@ -180,6 +194,8 @@ def cmd_frf(cfg: Config, args) -> int:
     if args.json:
         print(json.dumps(doc))
         return 0
+    if exports:
+        print("controller: " + ", ".join(f"{law} {c}" for law, c in controllers.items()))
     print("\n\n".join(_table(r) for r in results))
     for option, path in paths.items():
         print(f"{option[2:]}: {path}")

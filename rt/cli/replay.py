@@ -10,6 +10,8 @@ import shtab
 
 from rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
 
+GAP = " (dropped blocks): the states differ after a gap"   # a log's missing ticks, to a controller replay
+
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
     """Register ``replay`` (parents: frictionrt's --config/--set parser)."""
@@ -39,96 +41,92 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_replay(cfg, args) -> int:
-    from rt.log.design_record import describe
-    from rt.loop.replay import replay
-    if args.c is not None:
-        return cmd_replay_c(cfg, args)
-    if args.plant:
-        return cmd_replay_plant(cfg, args)
-    if msg := unpaced_realtime(args):
-        return fail(msg)
+    """``replay``: the log through the numba controller, with --c DIR through the C export, with
+    --plant its V_cmd and F_exc through actuator and plant; exit 0 when bit-exact (or nothing to
+    compare), 1 when a signal differs, 130 after a Ctrl-C, 2 for bad input."""
+    replay, show = (_replay_c, _show_c) if args.c is not None else \
+        (_replay_plant, _show_plant) if args.plant else (_replay, _show)
     try:
-        res = replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
+        res = replay(cfg, args)
     except ValueError as exc:
         return fail(str(exc))
     realtime_notes(res.get("realtime"))
-    code = 1 if res["bit_exact"] is False else (130 if res["interrupted"] else 0)
+    code = 1 if res["bit_exact"] is False else (130 if res.get("interrupted") else 0)
     if args.json:
         print(json.dumps(res))
-        return code
+    else:
+        show(res)
+    return code
+
+
+def _replay(cfg, args) -> dict:
+    from rt.loop.replay import replay
+    if msg := unpaced_realtime(args):
+        raise ValueError(msg)
+    return replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
+
+
+def _show(res) -> None:
     print(f"replay {res['file']}: law {res['law']}, estimator {res['estimator']}, {res['ticks']} ticks"
           f"{' (paced, ' + str(res['overruns']) + ' overruns)' if res['paced'] else ''}, "
           f"{res['realtime_factor']:.1f}x real time{', interrupted' if res['interrupted'] else ''}")
+    _print_comparison(res, GAP, "no recorded controller outputs: nothing to compare; replayed outputs", 15,
+                      ", ".join(res["signals_compared"]), "max |diff| per signal",
+                      [(k, v) for k, v in res["max_abs_diff_by_signal"].items() if v])
+
+
+def _print_comparison(res, gap: str, unrecorded: str, width: int, over: str, worst_label: str, worst) -> None:
+    """What a replay prints after its first line: the log's gap (``gap``), the design it ran; with
+    nothing recorded to compare, ``unrecorded`` and the replayed signals' min / mean / max (names
+    ``width`` wide); else bit-exact or DIFFERS with the largest difference over ``over`` and, when
+    they differ, the first differing tick and ``worst`` ((signal, |diff|) pairs) as ``worst_label``."""
+    from rt.log.design_record import describe
     if res["missing_ticks"]:
-        print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
+        print(f"  the log misses {res['missing_ticks']} ticks{gap}")
     print(describe(res["design"]))
     if res["bit_exact"] is None:
-        print("  no recorded controller outputs: nothing to compare; replayed outputs (min / mean / max):")
+        print(f"  {unrecorded} (min / mean / max):")
         for name, o in res["outputs"].items():
-            print(f"  {name:>15} {o['min']:>12.5g} {o['mean']:>12.5g} {o['max']:>12.5g}")
-    else:
-        print(f"  {'bit-exact' if res['bit_exact'] else 'DIFFERS'}: max |diff| {res['max_abs_diff']:.3g} over "
-              f"{', '.join(res['signals_compared'])}")
-        if not res["bit_exact"]:
-            worst = ", ".join(f"{k} {v:.3g}" for k, v in res["max_abs_diff_by_signal"].items() if v)
-            print(f"  first mismatch at tick {res['first_mismatch_tick']}; max |diff| per signal: {worst}")
-    return code
+            print(f"  {name:>{width}} {o['min']:>12.5g} {o['mean']:>12.5g} {o['max']:>12.5g}")
+        return
+    print(f"  {'bit-exact' if res['bit_exact'] else 'DIFFERS'}: max |diff| {res['max_abs_diff']:.3g} over {over}")
+    if not res["bit_exact"]:
+        print(f"  first mismatch at tick {res['first_mismatch_tick']}; {worst_label}: "
+              + ", ".join(f"{k} {v:.3g}" for k, v in worst))
 
 
-def cmd_replay_plant(cfg, args) -> int:
-    """Replay the log's V_cmd and F_exc into actuator and plant and compare their outputs; exit 0
-    when bit-exact (or nothing to compare), 1 when they differ, 2 for a bad file."""
-    from rt.log.design_record import describe
+def _replay_plant(cfg, args) -> dict:
+    """``replay --plant``: the log's V_cmd and F_exc into actuator and plant, their outputs compared."""
     from rt.loop.replay_plant import replay_plant
     if args.paced:
-        return fail("--plant with --paced: the plant replay runs offline only; drop --paced")
-    try:
-        res = replay_plant(args.log, fallback_cfg=cfg, sets=args.sets)
-    except ValueError as exc:
-        return fail(str(exc))
-    code = 1 if res["bit_exact"] is False else 0
-    if args.json:
-        print(json.dumps(res))
-        return code
+        raise ValueError("--plant with --paced: the plant replay runs offline only; drop --paced")
+    return replay_plant(args.log, fallback_cfg=cfg, sets=args.sets)
+
+
+def _show_plant(res) -> None:
     sets = f" with {' '.join(res['sets'])}" if res["sets"] else ""
     print(f"replay --plant {res['file']}{sets}: {res['ticks']} ticks of V_cmd, F_exc into actuator and plant "
           f"({res['wall_s']:.2f} s), failed contact solves {res['failed_solves']}")
-    if res["missing_ticks"]:
-        print(f"  the log misses {res['missing_ticks']} ticks: replayed up to the first gap only")
-    print(describe(res["design"]))
-    if res["bit_exact"] is None:
-        print("  no recorded /actuator or /plant signals: nothing to compare; replayed (min / mean / max):")
-        for name, o in res["outputs"].items():
-            print(f"  {name:>10} {o['min']:>12.5g} {o['mean']:>12.5g} {o['max']:>12.5g}")
-        return code
-    print(f"  {'bit-exact' if res['bit_exact'] else 'DIFFERS'}: max |diff| {res['max_abs_diff']:.3g} over "
-          f"{len(res['signals_compared'])} /actuator and /plant signals")
-    if not res["bit_exact"]:
-        worst = sorted(((v, k) for k, v in res["max_abs_diff_by_signal"].items() if v), reverse=True)[:8]
-        print(f"  first mismatch at tick {res['first_mismatch_tick']}; largest |diff| (SI units): "
-              + ", ".join(f"{k} {v:.3g}" for v, k in worst))
-    return code
+    worst = sorted(((v, k) for k, v in res["max_abs_diff_by_signal"].items() if v), reverse=True)[:8]
+    _print_comparison(res, ": replayed up to the first gap only", "no recorded /actuator or /plant signals: nothing "
+                      "to compare; replayed", 10, f"{len(res['signals_compared'])} /actuator and /plant signals",
+                      "largest |diff| (SI units)", [(k, v) for v, k in worst])
 
 
-def cmd_replay_c(cfg, args) -> int:
-    """``replay --c DIR``: the log through the C export in DIR (rt.export.replay_c); exit 0 when
-    bit-exact (or nothing to compare), 1 when an output differs, 2 for bad input."""
+def _replay_c(cfg, args) -> dict:
+    """``replay --c DIR``: the log through the C export in DIR (rt.export.replay_c)."""
     from rt.export.replay_c import replay_c
     if args.plant or args.paced:
-        return fail("--c replays the controller offline: drop --plant / --paced")
-    try:
-        res, _ = replay_c(args.log, args.c, cc=args.cc, opt=args.c_opt, fallback_cfg=cfg, sets=args.sets)
-    except ValueError as exc:
-        return fail(str(exc))
-    code = 1 if res["bit_exact"] is False else 0
-    if args.json:
-        print(json.dumps(res))
-        return code
+        raise ValueError("--c replays the controller offline: drop --plant / --paced")
+    return replay_c(args.log, args.c, cc=args.cc, opt=args.c_opt, fallback_cfg=cfg, sets=args.sets)[0]
+
+
+def _show_c(res) -> None:
     print(f"replay {res['file']} --c {res['export']}: law {res['law']}, estimator {res['estimator']}, "
           f"{res['ticks']} ticks through the C controller ({res['wall_s'] * 1e3:.1f} ms), design {res['design_hash']}")
     print(f"  build: {res['build']}")
     if res["missing_ticks"]:
-        print(f"  the log misses {res['missing_ticks']} ticks (dropped blocks): the states differ after a gap")
+        print(f"  the log misses {res['missing_ticks']} ticks{GAP}")
     if res["bit_exact"] is None:
         print("  the log records no controller outputs: nothing to compare")
     elif res["bit_exact"]:
@@ -138,4 +136,3 @@ def cmd_replay_c(cfg, args) -> int:
         worst = ", ".join(f"{k} {v:.3g}" for k, v in res["max_abs_diff_by_signal"].items() if v)
         print(f"  DIFFERS: first at tick {res['first_mismatch_tick']} in {', '.join(res['first_mismatch_signals'])}; "
               f"max |diff| per signal: {worst}")
-    return code

@@ -6,8 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import (add_force, add_out, add_realtime, deprecated, fail, realtime_notes, refuse_existing,
-                           unpaced_realtime)
+from rt.cli.common import (add_controller, add_force, add_out, add_realtime, c_exports, controller_for, deprecated,
+                           fail, realtime_notes, refuse_existing, unpaced_realtime)
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -41,9 +41,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                         "sensor_dropout, sensor_stuck, sensor_gain, sensor_bias (SENSOR a_tip (default), a_frf, "
                         "F_strain, F_cell), actuator_loss, force_saturation, observer_mismatch, cpu_stall (--paced); "
                         "VALUE and what the supervisor makes of it: docs/reliability.md")
-    s.add_argument("--controller", metavar="c:DIR", default=None, help="run the C export in DIR (frictionrt export-c "
-                   "of the same configuration, law and estimator) as the loop's controller: software in the loop "
-                   "(docs/export-c.md; default: the numba controller)")
+    add_controller(s)
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
     return s
 
@@ -84,6 +82,9 @@ def cmd_simulate(cfg, args) -> int:
         late = [t for t, f in zip(args.fault, faults) if f[2] >= n]
         if late:
             return fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")
+        # the C export before the log is opened: a bad --controller leaves no files
+        controller = controller_for(c_exports(args.controller, [(loop.law, loop.estimator)]), loop,
+                                    cfg.rt.seed if args.seed is None else args.seed)
         if base is not None:
             seed = cfg.rt.seed if args.seed is None else args.seed
             meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
@@ -95,7 +96,7 @@ def cmd_simulate(cfg, args) -> int:
                                        to_npz(design_arrays(loop, initial_loop_state(loop, seed))))
         with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
             r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
-                    writer=writer, faults=faults, controller=controller_of(args, loop))
+                    writer=writer, faults=faults, controller=controller)
     except ValueError as exc:
         return fail(str(exc))
     finally:
@@ -136,18 +137,6 @@ def cmd_simulate(cfg, args) -> int:
         print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}; "
               f"Foxglove layout {s['foxglove_layout']}")
     return 130 if s["interrupted"] else 0
-
-
-def controller_of(args, loop):
-    """simulate's controller: None (numba) or the C export of --controller c:DIR (rt/export/sil.py);
-    ValueError for another form, a folder that is no export or of another design, no compiler."""
-    spec = getattr(args, "controller", None)
-    if spec is None or spec == "numba":
-        return None
-    if not spec.startswith("c:") or len(spec) < 3:
-        raise ValueError(f"--controller {spec!r}: give c:DIR (a folder of frictionrt export-c) or numba")
-    from rt.export.sil import CController
-    return CController(loop, Path(spec[2:]), loop.cfg.rt.seed if args.seed is None else args.seed)
 
 
 def design_hash_of(loop, seed: int) -> str:

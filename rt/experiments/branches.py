@@ -35,6 +35,8 @@ class Branch:
     seed: int | None = None  # None: cfg.rt.seed
     sweep_rate_hz_s: float | None = None   # [Hz/s], signed by the direction of freqs_hz
     sweep_block_s: float = 0.1             # nominal dwell per point of a slow sweep [s]
+    controller: object = None              # the loop's controller (run(..., controller=); None: numba), picklable:
+    #                                        e.g. rt.export.sil.CController, which a worker loads by its library's path
 
     def n_points(self) -> int:
         """Frequency points it will measure (a slow sweep's: about |range| / (|rate| block))."""
@@ -59,8 +61,9 @@ def run_branch(branch: Branch, loop: Loop | None = None,
         if branch.sweep_rate_hz_s is not None:
             return slow_sweep(loop, branch.freqs_hz[0], branch.freqs_hz[-1], branch.amp_n, branch.sweep_rate_hz_s,
                               block_s=branch.sweep_block_s, settle=branch.settle, seed=branch.seed,
-                              progress=progress)
-        return sweep(loop, branch.freqs_hz, branch.amp_n, settle=branch.settle, seed=branch.seed, progress=progress)
+                              progress=progress, controller=branch.controller)
+        return sweep(loop, branch.freqs_hz, branch.amp_n, settle=branch.settle, seed=branch.seed, progress=progress,
+                     controller=branch.controller)
 
 
 def build_loops(branches: Sequence[Branch], designs: Designs | None = None) -> list[Loop]:

@@ -4,12 +4,22 @@ from __future__ import annotations
 import numpy as np
 
 from rt.common.config import LAWS, Config
-from rt.loop import Loop, Run, build_loop, run, summary
+from rt.loop import Designs, Loop, Run, build_loop, run, summary
 
 
-def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, progress=None) -> dict[str, Run]:
-    """One run per law (passive, hysteresis, lyapunov) with the same excitation and seed."""
-    return {law: run(build_loop(cfg, law), freq_hz, amp_n, duration_s, progress=progress) for law in LAWS}
+def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, progress=None,
+            controller_of=None, designs: Designs | None = None) -> dict[str, Run]:
+    """One run per law (passive, hysteresis, lyapunov) with the same excitation and seed.
+    controller_of(loop): the controller of a law's built loop (``run(..., controller=)``, e.g. a
+    C export; None: the numba controller), None for all numba. The laws' loops share the plant
+    and force-tracking designs (``designs``, None: a fresh ``Designs``; the same bits)."""
+    designs = Designs() if designs is None else designs
+    runs = {}
+    for law in LAWS:
+        loop = build_loop(cfg, law, designs=designs)
+        runs[law] = run(loop, freq_hz, amp_n, duration_s, progress=progress,
+                        controller=None if controller_of is None else controller_of(loop))
+    return runs
 
 
 def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None) -> float:

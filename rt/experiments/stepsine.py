@@ -301,12 +301,13 @@ class Point:
 
 
 def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopState | None, seed: int | None,
-               window: str):
+               window: str, controller=None):
     """Run n ticks at freq_hz [Hz] and force command F_cmd [N] from state (in this thread: no
-    thread start per block); returns the run, the tick of its first row and the first harmonics
-    X_a [m/s^2], X_F [N] of a_frf and F_exc."""
+    thread start per block) with ``controller`` (``run``'s; None: the numba controller); returns
+    the run, the tick of its first row and the first harmonics X_a [m/s^2], X_F [N] of a_frf and
+    F_exc."""
     dt = loop.cfg.dt_s
-    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed, in_thread=False)
+    r = run(loop, freq_hz, F_cmd, n * dt, start=state, seed=seed, in_thread=False, controller=controller)
     k0 = r.final.k - len(r.log)
     h_a, h_F = harmonics_of_columns(r.log[:, [loop.column("a_frf"), loop.column("F_exc")]], freq_hz, dt, 1,
                                     k0=k0, window=window)
@@ -314,11 +315,12 @@ def _run_block(loop: Loop, freq_hz: float, F_cmd: float, n: int, state: LoopStat
 
 
 def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState | None = None,
-                 settle: Settle = Settle(), seed: int | None = None) -> tuple[Point, LoopState]:
+                 settle: Settle = Settle(), seed: int | None = None, controller=None) -> tuple[Point, LoopState]:
     """Run the loop at freq_hz [Hz] with the measured force amplitude held at amp_n [N] until
     steady (module docstring); returns the point and the final loop state (the next point's start).
 
-    start: the state to continue from (None: at rest, noise seeded with seed or rt.seed)."""
+    start: the state to continue from (None: at rest, noise seeded with seed or rt.seed).
+    controller: the loop's controller (``rt.loop.driver.run``'s; None: the numba controller)."""
     dt = loop.cfg.dt_s
     n = settle.block_ticks(freq_hz, dt)
     N = settle.n_blocks
@@ -333,7 +335,7 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     tick_ns = 0.0
     while True:
         E_before = 0.0 if state is None else float(state.ya[iE])
-        r, k0, X_a, X_F = _run_block(loop, freq_hz, F_cmd, n, state, seed, settle.window)
+        r, k0, X_a, X_F = _run_block(loop, freq_hz, F_cmd, n, state, seed, settle.window, controller)
         state = r.final
         tick_ns += float(r.signal("tick_ns").sum())
         H.append(X_a / X_F)
@@ -446,19 +448,20 @@ def check_sweep(cfg: Config, law: str, freqs_hz: Sequence[float], amp_n: float, 
 
 def sweep(loop: Loop, freqs_hz: Sequence[float], amp_n: float, *, start: LoopState | None = None,
           settle: Settle = Settle(), seed: int | None = None,
-          progress: Callable[[int], object] | None = None) -> StepSineResult:
+          progress: Callable[[int], object] | None = None, controller=None) -> StepSineResult:
     """Step-sine FRF of a built loop at the force amplitude amp_n [N], the points in the order of
     freqs_hz [Hz], each continuing from the previous one's final state (``run_branch`` checks the
     input and builds the loop).
 
     start: the first point's start state (None: at rest, noise seeded with seed, default
-    rt.seed). progress(1) is called after each point."""
+    rt.seed). progress(1) is called after each point. controller: the loop's controller
+    (``settle_point``)."""
     freqs = [float(f) for f in freqs_hz]
     settle.check(freqs, loop.cfg.dt_s)
     points = []
     state = start
     for f in freqs:
-        p, state = settle_point(loop, f, amp_n, start=state, settle=settle, seed=seed)
+        p, state = settle_point(loop, f, amp_n, start=state, settle=settle, seed=seed, controller=controller)
         points.append(p)
         if progress is not None:
             progress(1)
@@ -491,7 +494,7 @@ def phase_continuous_step(f_hz: float, k_b: int, dt: float, rate_hz_s: float, bl
 def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rate_hz_s: float, *,
                block_s: float = 0.1, step_max_hz: float = 0.25, start: LoopState | None = None,
                settle: Settle = Settle(), seed: int | None = None,
-               progress: Callable[[int], object] | None = None) -> StepSineResult:
+               progress: Callable[[int], object] | None = None, controller=None) -> StepSineResult:
     """A slow continuous sweep (the paper's <= 0.1 Hz/s sweeps) from f_start_hz to f_end_hz [Hz]
     at |rate_hz_s| [Hz/s], force amplitude held at amp_n [N]; one FRF point per dwell.
 
@@ -502,7 +505,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
     dwell is measured as a step-sine block is (first harmonics, Hann weighting, THD) and updates
     the force command as the amplitude controller does. A sweep point is quasi-stationary by
     construction: settled is True, H_scatter and residual NaN. Returns a ``StepSineResult``
-    (direction "up" or "down")."""
+    (direction "up" or "down"). controller: the loop's controller (``settle_point``)."""
     dt = loop.cfg.dt_s
     for name, v in (("rate", rate_hz_s), ("block_s", block_s), ("step_max_hz", step_max_hz)):
         if not (math.isfinite(v) and v != 0.0 and (name == "rate" or v > 0.0)):
@@ -515,7 +518,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
     state, f, F_cmd = start, float(f_start_hz), float(amp_n)
     k0 = 0 if start is None else start.k
     lead = max(round(1.0 / (step_max_hz * dt)) - k0, round(1.0 / (f * dt)))
-    r, *_ = _run_block(loop, f, F_cmd, lead, state, seed, settle.window)
+    r, *_ = _run_block(loop, f, F_cmd, lead, state, seed, settle.window, controller)
     state = r.final
     lead_tick_ns = float(r.signal("tick_ns").sum())  # the lead-in's ticks count with the first point's
     rows = []
@@ -525,7 +528,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
             break
         n = max(n, math.ceil(1.0 / (f * dt)))   # at least one period to fit
         E_before = float(state.ya[iE])
-        r, kb, X_a, X_F = _run_block(loop, f, F_cmd, n, state, seed, settle.window)
+        r, kb, X_a, X_F = _run_block(loop, f, F_cmd, n, state, seed, settle.window, controller)
         state = r.final
         ha = harmonics(r.signal("a_frf"), f, dt, settle.n_harm, k0=kb, window=settle.window)
         rows.append(dict(freq_hz=f, H=X_a / X_F, a_amp=abs(X_a), F_amp=abs(X_F), F_cmd=F_cmd, thd=ha.thd,

@@ -20,13 +20,13 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from observer.step import OBSERVER_OUTPUTS
 from plant.sensors import SENSOR_OUTPUTS, _tip_velocity
 from rt.common.clock import _now_ns
 from rt.export.cbuild import BASE_FLAGS, build, compiler
+from rt.export.generate import check_design
 from rt.export.record import controller_record, design_hash
 from rt.loop.bench import _stats_us
-from rt.loop.supervisor import SUPERVISOR_OUTPUTS
+from rt.loop.build import controller_stages
 from rt.loop.tick import _controller_done, _controller_tick
 
 SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
@@ -66,12 +66,7 @@ def _numba(loop, st, k, sens, uv):
     st = st.copy()
     si = {nm: i for i, nm in enumerate(SENSORS)}
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
-    est = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
-           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
-    law_ = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
-    sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
-    trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
-           st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+    est, law_, sup, trk = controller_stages(loop, st)
     out = np.full((len(k), 13), np.nan)
     ns = np.zeros(len(k), dtype=np.int64)
     _timed_ticks(k, sens.copy(), uv, out, ns, force_col, loop.estimator == "observer", np.zeros((0, 5)),
@@ -104,10 +99,8 @@ def bench_controller(loop, st, n_steps: int = 21000, folder=None, cc=None, manif
     if folder is None:
         return res
     digest = design_hash(controller_record(loop, st))
-    if manifest["design_hash"] != digest:
-        raise ValueError(f"--c {folder}: an export of another design ({manifest['design_hash'][:19]}..., "
-                         f"{manifest['law']}/{manifest['estimator']}) than the benchmarked one ({digest[:19]}..., "
-                         f"{loop.law}/{loop.estimator}); give the same --config/--set, --law and --estimator")
+    check_design(manifest, digest, loop, f"--c {folder}", "the benchmarked one",
+                 "; give the same --config/--set, --law and --estimator")
     ctrl = build(folder, cc)
     r4 = np.ascontiguousarray(sens[:, [SENSORS.index(c) for c in READINGS]])
     ctrl.run_timed(k[:10], r4[:10], uv[:10])

@@ -2,7 +2,7 @@
 
 ``build(folder, cc, opt, extra)`` compiles frictionrt_ctrl.c and ctrl_batch.c with the
 Makefile's flags (``-std=c99 OPT -ffp-contract=off -Wall -Wextra -pedantic``) into a temporary
-folder (an export folder may be read-only) and loads the library; ``Controller.run`` runs a
+folder (an export folder may be read-only) and loads the library (``load``: by its path); ``Controller.run`` runs a
 whole sensor stream in one foreign call (ctrl_batch.c ``ctrl_run``). No dependency beyond the
 standard library's ctypes and a C compiler.
 """
@@ -100,9 +100,15 @@ def build(folder, cc: str | None = None, opt: str = "-O2", extra=(), workdir=Non
         if r.returncode != 0:
             first = next((ln for ln in r.stderr.splitlines() if "error" in ln), r.stderr.strip()[:200])
             raise ValueError(f"--c {folder}: the C build failed ({' '.join(cmd_cc)} {opt}): {first}")
-        dll = ctypes.CDLL(str(lib))
+        return load(lib, cmd)
     finally:
         if workdir is None:   # a loaded library stays mapped: the temporary folder can go
             shutil.rmtree(work, ignore_errors=True)
+
+
+def load(lib, command=()) -> Controller:
+    """A library ``build`` wrote, loaded (by its path: a worker process loads the parent's build so;
+    ``command``: how it was built, for the record)."""
+    dll = ctypes.CDLL(str(lib))
     dll.ctrl_design_hash.restype = ctypes.c_char_p
-    return Controller(dll, lib, cmd, dll.ctrl_design_hash().decode())
+    return Controller(dll, Path(lib), list(command), dll.ctrl_design_hash().decode())

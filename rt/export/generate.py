@@ -170,3 +170,13 @@ def read_manifest(folder: Path) -> dict:
     if missing:
         raise ValueError(f"--c {folder}: the export lacks {', '.join(missing)}; export it again")
     return m
+
+
+def check_design(manifest: dict, digest: str, loop, option: str, whose: str, hint: str = "") -> None:
+    """ValueError in one line, naming both designs (hash, law/estimator), unless the export of
+    ``manifest`` is of the design ``digest`` of ``loop``: "OPTION: an export of another design
+    (...) than WHOSE (...)HINT". Every user of an export checks it so."""
+    if manifest["design_hash"] != digest:
+        raise ValueError(f"{option}: an export of another design ({manifest['design_hash'][:19]}..., "
+                         f"{manifest['law']}/{manifest['estimator']}) than {whose} ({digest[:19]}..., "
+                         f"{loop.law}/{loop.estimator}){hint}")

@@ -15,19 +15,17 @@ dropouts) are fed as they are: the C, like the loop, sanitises them.
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
 from rt.export.cbuild import OUTPUTS, build
-from rt.export.generate import read_manifest
+from rt.export.generate import check_design, read_manifest
 from rt.export.record import controller_record, design_hash
 from rt.log.design_record import use_logged
-from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
-from rt.loop.faults import from_json
-from rt.loop.replay import _overran, open_log, seed_of
+from rt.loop.build import initial_loop_state
+from rt.loop.replay import _overran, compare_bits, logged_faults, open_controller_log, oracle_inputs, seed_of
 
 READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
 
@@ -36,20 +34,8 @@ def log_design(path: Path, fallback_cfg=None, sets=()):
     """(rec, meta, names, loop, state, design report) of the log at path: the loop rebuilt from
     its stored configuration with the design it carries put in (as ``replay`` does).
     ValueError naming the file for an unsuitable one."""
-    rec, cfg = open_log(path, fallback_cfg, sets)
+    rec, cfg, names, loop = open_controller_log(path, fallback_cfg, sets, READINGS)
     meta = rec.metadata
-    names = [n for n, _, _ in rec.signals]
-    if "/sensors" not in rec.topics or any(n not in names for n in READINGS):
-        raise ValueError(f"{path}: no /sensors topic with {', '.join(READINGS)}: nothing to replay")
-    if len(rec.k) == 0:
-        raise ValueError(f"{path}: the log holds no ticks")
-    estimator = meta.get("estimator", "oracle" if "/plant" in rec.topics else "observer")
-    if estimator not in ESTIMATORS:
-        raise ValueError(f"{path}: unknown estimator {estimator!r} in the metadata")
-    try:
-        loop = build_loop(cfg, meta.get("law", cfg.tracking.law), estimator)
-    except ValueError as exc:
-        raise ValueError(f"{path}: the stored configuration cannot be built ({exc})") from None
     st = initial_loop_state(loop, seed_of(path, meta, cfg))
     loop, st, report = use_logged(path, loop, st, sets, meta=meta)
     return rec, meta, names, loop, st, report
@@ -67,10 +53,8 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     manifest = read_manifest(folder)
     rec, meta, names, loop, st, report = log_design(path, fallback_cfg, sets)
     digest = design_hash(controller_record(loop, st))
-    if digest != manifest["design_hash"]:
-        raise ValueError(f"--c {folder}: an export of another design ({manifest['design_hash'][:19]}..., "
-                         f"{manifest['law']}/{manifest['estimator']}) than the log's ({digest[:19]}..., "
-                         f"{loop.law}/{loop.estimator}); export it with frictionrt export-c --from-log {path}")
+    check_design(manifest, digest, loop, f"--c {folder}", "the log's",
+                 f"; export it with frictionrt export-c --from-log {path}")
     stated = meta.get("controller_design")   # simulate --out stores it (logs before issue 33 do not)
     if stated is not None and stated != digest and not sets:
         raise ValueError(f"{path}: the log states controller design {stated[:19]}..., its design arrays give "
@@ -81,18 +65,8 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
                          f"{digest[:19]}...: the folder was edited; export it again")
     n = len(rec.k)
     sens = np.ascontiguousarray(rec.log[:, [names.index(c) for c in READINGS]])
-    uv = np.zeros((n, 2))
-    if loop.estimator == "oracle":
-        if "/plant" not in rec.topics:
-            raise ValueError(f"{path}: the oracle estimator reads the plant's u_rel, v_rel, but the file has "
-                             "no /plant topic")
-        oi = loop.plant.output_index()
-        uv[0] = st.yp[[oi["u_rel"], oi["v_rel"]]]
-        uv[1:] = rec.log[:-1, [names.index("u_rel"), names.index("v_rel")]]
-    try:
-        faults = from_json(json.loads(meta.get("faults", "[]")))
-    except ValueError as exc:
-        raise ValueError(f"{path}: the stored faults are unreadable ({exc})") from None
+    uv = oracle_inputs(path, rec, names, loop, st)
+    faults = logged_faults(path, meta)
     overran = _overran(rec, names, meta, round(loop.cfg.dt_s * 1e9))
     t0 = time.perf_counter()
     out = ctrl.run(rec.k, sens, uv, overran, faults)
@@ -107,14 +81,8 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
                 "first_mismatch_tick": None, "first_mismatch_signals": []}
         return res, out
     ref = rec.log[:, [names.index(c) for c in OUTPUTS]]
-    same = out.view(np.uint64) == ref.view(np.uint64)
-    with np.errstate(invalid="ignore"):
-        diff = np.where(same, 0.0, np.abs(out - ref))
-    diff = np.where(np.isnan(diff), np.inf, diff)
-    bad = ~same.all(axis=1)
-    first = int(np.argmax(bad)) if bad.any() else None
-    res |= {"bit_exact": bool(same.all()), "signals_compared": list(OUTPUTS),
-            "max_abs_diff_by_signal": {c: float(diff[:, j].max(initial=0.0)) for j, c in enumerate(OUTPUTS)},
+    exact, by_sig, first, at_first = compare_bits(out, ref, OUTPUTS)
+    res |= {"bit_exact": exact, "signals_compared": list(OUTPUTS), "max_abs_diff_by_signal": by_sig,
             "first_mismatch_tick": int(rec.k[first]) if first is not None else None,
-            "first_mismatch_signals": [OUTPUTS[j] for j in np.nonzero(~same[first])[0]] if first is not None else []}
+            "first_mismatch_signals": at_first}
     return res, out

@@ -14,86 +14,55 @@ C, late_ns its lateness (paced). ``run_sil`` runs a whole offline log.
 from __future__ import annotations
 
 import ctypes
-import math
+import shutil
+import tempfile
+import weakref
+from pathlib import Path
 
 import numba
 import numpy as np
 
-from plant.sensors import _sensors_read, _tip_velocity
-from plant.shaker import _shaker_step
-from rt.common.clock import CLK_DEADLINE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
-from rt.export.cbuild import N_OUTPUTS, build
-from rt.export.generate import read_manifest
-from rt.export.record import controller_record, design_hash
-from rt.loop.build import initial_loop_state
-from rt.loop.pacing import _next_deadline, _wait_for_deadline
-from rt.loop.supervisor import _inject_actuator, _inject_sensors, _stall_ns
+from rt.common.clock import CLK_TICKS
+from rt.export.cbuild import N_OUTPUTS, OUTPUTS, build, load
+from rt.export.generate import check_design, read_manifest
+from rt.export.record import TIP_SLOTS, controller_record, design_hash
+from rt.loop.build import controller_stages, initial_loop_state
 from rt.loop.driver import run
-from rt.loop.tick import _actuate, _copy, _put
+from rt.loop.tick import _put, _tick_begin, _tick_done, _tick_log, _tick_plant
+
+STATE_PARTS = ("xs", "x_est", "xl", "xq", "xf", "sv")
+"""ctrl_state's members in order (frictionrt_ctrl.h; ctrl_batch.c ``ctrl_state_offsets``): the tip
+integrator's slots, the estimator's state (xe or xo), RT1, prefilter, PID, supervisor."""
+_F_SET, _V_CMD = OUTPUTS.index("F_set"), OUTPUTS.index("V_cmd")   # the law's, the tracking's first output
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
 def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols, log):
-    """Ticks k0 <= k < k1 of the loop (``rt.loop.tick._run_ticks``, untimed) with the C
-    controller cstep (``ctrl_step_flat``); ctl = (its state buffer, input (8,), output (13,)).
-    Log row (k - k0) mod len(log) receives the tick's signals. Returns failed plant solves.
-    RT-safe."""
-    dt, exc_amp, exc_omega = exc
-    timing, paced, period_ns, margin_ns, clk, ts = pace
+    """Ticks k0 <= k < k1 of the loop (``rt.loop.tick._run_ticks``, untimed: its ``_tick_begin``,
+    ``_tick_plant``, ``_tick_log``, ``_tick_done``) with the C controller cstep
+    (``ctrl_step_flat``) in place of ``_controller_tick``; ctl = (its state buffer, input (8,),
+    output (13,)). Log row (k - k0) mod len(log) receives the tick's signals. Returns failed plant
+    solves. RT-safe."""
+    paced, period_ns, clk, ts = pace[1], pace[2], pace[4], pace[5]
     cstate, cin, cout = ctl
-    xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
-    xa, xa_n, ya, ua, act_p = act
-    xp, xp_n, yp, up, plant_p, plant_wk = plnt
-    shake, xsh, xsh_n, ush, ysh, sh_p = shk
-    col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_dF, col_w_exc, col_v_exc = cols
+    ys, yp = sens[2], plnt[2]
     failed = 0
     for k in range(k0, k1):
-        if clk[CLK_STOP]:
-            break
-        row = (k - k0) % log.shape[0]
-        if not paced:
-            while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
-                pass   # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
-            if clk[CLK_STOP]:
-                break
-        if paced:
-            _wait_for_deadline(clk, ts, margin_ns)
-        t_start = _now_ns(ts)
-        late = t_start - clk[CLK_DEADLINE] if paced else 0
         # 1 sensors, injected sensor faults, the numba integrator (its state advances as the loop's)
-        us[0] = yp[col_a_tip]
-        us[1] = yp[col_a_frf]
-        us[2] = ya[col_strain]
-        us[3] = ya[col_cell]
-        us[4] = yp[col_dF]
-        _copy(ys, ys_prev)
-        _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
-        _inject_sensors(k, faults, ys, ys_prev, sens_p)
-        _tip_velocity(xs, sens_p, xs_n, ys)
-        stall = _stall_ns(k, faults)
-        if stall > 0:
-            t_stall = _now_ns(ts) + stall
-            while _now_ns(ts) < t_stall:
-                pass
+        row, t_start, late = _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log)
+        if row < 0:
+            break
         # 2-4 the C controller on the ADC readings (it integrates a_tip_meas itself)
         cin[0] = k
         cin[1] = ys[0]
         cin[2] = ys[1]
         cin[3] = ys[3]
         cin[4] = ys[4]
-        cin[6] = yp[col_urel]
-        cin[7] = yp[col_vrel]
+        cin[6] = yp[cols[0]]   # u_rel, v_rel: the oracle's test build reads them
+        cin[7] = yp[cols[1]]
         cstep(cstate.ctypes.data, cin.ctypes.data, faults.ctypes.data, faults.shape[0], cout.ctypes.data)
         # 5 actuator on the C's V_cmd, 5s shaker, 6 plant
-        F_exc = exc_amp * math.sin(exc_omega * (k * dt))
-        if shake:
-            ush[0] = F_exc
-            ush[1] = yp[col_w_exc]
-            ush[2] = yp[col_v_exc]
-            _shaker_step(k, xsh, ush, sh_p, xsh_n, ysh)
-            F_exc = ysh[0]
-        iters, t5 = _actuate(k, F_exc, _inject_actuator(k, faults, cout[8]), xa, xa_n, ya, ua, act_p,
-                             xp, xp_n, yp, up, plant_p, plant_wk, False, ts)
+        F_exc, iters, t5 = _tick_plant(k, cout[8], exc, faults, act, plnt, shk, cols, False, ts)
         if iters < 0:
             failed += 1
         # 7 log: the readings with the C's v_tip_meas, the C's outputs, actuator, plant
@@ -103,49 +72,107 @@ def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols
         for j in range(1, cout.shape[0]):
             log[row, c + j - 1] = cout[j]
         c += cout.shape[0] - 1
-        c = _put(log, row, c, ya)
-        c = _put(log, row, c, yp)
-        _copy(xs_n, xs)
-        _copy(xa_n, xa)
-        _copy(xp_n, xp)
-        if shake:
-            _copy(xsh_n, xsh)
-        t_end = _now_ns(ts)
-        log[row, c] = t_end - t_start
-        log[row, c + 1] = late
-        clk[CLK_TICKS] += 1
-        cin[5] = 0.0   # the overrun flag the C's supervisor reads next tick
-        if paced and _next_deadline(clk, period_ns, t_end):
-            cin[5] = 1.0
+        t_end = _tick_log(log, row, c, t_start, late, sens, act, plnt, shk, ts)
+        # the overrun flag the C's supervisor reads next tick
+        cin[5] = 1.0 if _tick_done(clk, paced, period_ns, t_end) else 0.0
     return failed
 
 
 class CController:
-    """The C export in ``folder`` as the controller of runs of ``loop`` started at rest with
-    ``seed`` (``rt.loop.driver.run(..., controller=)``). ValueError for a folder that is no
-    export, an export of another design (both hashes named), a missing compiler."""
+    """The C export in ``folder`` as the controller of runs of ``loop`` (``rt.loop.driver.run(...,
+    controller=)``), checked against the design of ``loop`` started at rest with ``seed``.
+    ValueError for a folder that is no export, an export of another design (both hashes named),
+    a missing compiler.
+
+    The C's state (ctrl_state) is the run's: before its ticks it is loaded from the run's
+    controller states (``rt.loop.build.controller_stages``: estimator, RT1, prefilter, PID,
+    supervisor; the tip integrator's slots of the sensors' state), after them it is stored back,
+    with the law's and the force tracking's last outputs (yl, yf), so that ``Run.final`` is the
+    numba controller's and a run continued from it, with either controller, is the same. One
+    object serves one run at a time.
+
+    It pickles (``frf``'s worker processes, dask): ctypes objects do not, so a copy loads the
+    library this object built, by its path (kept until this object is gone), or, where that path
+    does not exist (another machine), builds the export in ``folder`` again; either must give the
+    same design hash."""
 
     def __init__(self, loop, folder, seed: int, cc=None):
+        folder = Path(folder)
         m = read_manifest(folder)
         digest = design_hash(controller_record(loop, initial_loop_state(loop, seed)))
-        if m["design_hash"] != digest:
-            raise ValueError(f"--controller c:{folder}: an export of another design ({m['design_hash'][:19]}..., "
-                             f"{m['law']}/{m['estimator']}) than this run's ({digest[:19]}..., "
-                             f"{loop.law}/{loop.estimator})")
-        self.build = build(folder, cc)
-        lib = self.build.lib
+        check_design(m, digest, loop, f"--controller c:{folder}", "this run's")
+        self.folder, self.cc, self.design_hash = folder, cc, digest
+        self.observe = loop.estimator == "observer"
+        work = tempfile.mkdtemp(prefix="frictionrt-sil-")   # the library stays for the copies to load
+        weakref.finalize(self, shutil.rmtree, work, True)
+        self._link(build(folder, cc, workdir=work))
+        st = initial_loop_state(loop, seed)
+        sizes = [len(x) for x in self._parts((st.xs,), *controller_stages(loop, st))]
+        if [s.stop - s.start for s in self.slices] != sizes or 8 * len(self.state) != self.build.state_bytes():
+            raise ValueError(f"--controller c:{folder}: its ctrl_state ({', '.join(STATE_PARTS)}: "
+                             f"{[s.stop - s.start for s in self.slices]} doubles) is not this loop's ({sizes}); "
+                             "export it again")
+
+    def _link(self, ctrl) -> None:
+        """Set up the calls into the loaded build ``ctrl`` (``rt.export.cbuild.Controller``) and
+        the buffers it steps on."""
+        self.build = ctrl
+        lib = ctrl.lib
         self.cstep = lib.ctrl_step_flat
         self.cstep.restype = None
         self.cstep.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p]
-        lib.ctrl_init_flat.restype = None
-        lib.ctrl_init_flat.argtypes = [ctypes.c_void_p]
-        self.state = np.zeros(-(-self.build.state_bytes() // 8))   # ctrl_state, 8-byte aligned
-        lib.ctrl_init_flat(self.state.ctypes.data)
+        try:
+            offsets = lib.ctrl_state_offsets
+        except AttributeError:
+            raise ValueError(f"--controller c:{self.folder}: no ctrl_state_offsets in its ctrl_batch.c (an export "
+                             "of an older frictionrt): export it again") from None
+        offsets.restype = None
+        offsets.argtypes = [ctypes.c_void_p]
+        off = np.zeros(len(STATE_PARTS) + 1, dtype=np.int64)
+        offsets(off.ctypes.data)
+        self.slices = [slice(int(a), int(b)) for a, b in zip(off[:-1], off[1:])]
+        self.state = np.zeros(int(off[-1]))   # ctrl_state: doubles only
         self.ctl = (self.state, np.zeros(8), np.zeros(N_OUTPUTS))
-        self.design_hash = digest
 
-    def __call__(self, k0, k1, exc, pace, faults, sens, act, plnt, shk, cols, log) -> int:
-        return _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log)
+    def __getstate__(self) -> dict:
+        return {"folder": self.folder, "cc": self.cc, "design_hash": self.design_hash, "observe": self.observe,
+                "library": str(self.build.path), "command": self.build.command}
+
+    def __setstate__(self, d: dict) -> None:
+        self.folder, self.cc, self.design_hash, self.observe = d["folder"], d["cc"], d["design_hash"], d["observe"]
+        lib = Path(d["library"])
+        ctrl = load(lib, d["command"]) if lib.is_file() else build(self.folder, self.cc)
+        if ctrl.design_hash != self.design_hash:
+            raise ValueError(f"--controller c:{self.folder}: the library {ctrl.path} is of design "
+                             f"{ctrl.design_hash[:19]}..., not {self.design_hash[:19]}...: export it again")
+        self._link(ctrl)
+
+    def _parts(self, sens, est, law, sup, trk) -> list[np.ndarray]:
+        """The loop's arrays (the stages' tuples as ``_run_ticks`` takes them) that ctrl_state
+        holds, in its order (``STATE_PARTS``); views, so that assigning into them writes the
+        loop's state."""
+        return [sens[0][TIP_SLOTS], est[5] if self.observe else est[0], law[0], trk[0], trk[5], sup[0]]
+
+    def __call__(self, k0, k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt, shk, cols, log) -> int:
+        """Ticks k0 <= k < k1 (``rt.loop.tick._run_ticks``' arguments but force_col, observe and
+        comp_ns) with the C controller, its state loaded from the loop's controller states and
+        stored back after (class docstring). Returns the failed plant solves."""
+        clk = pace[4]
+        yl, yf = law[2], trk[7]
+        parts = self._parts(sens, est, law, sup, trk)
+        for sl, x in zip(self.slices, parts):
+            self.state[sl] = x
+        ticks = int(clk[CLK_TICKS])
+        failed = _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log)
+        # the C's states back (the tip integrator's are the sensors' own: the numba integrator ran
+        # beside the C's, the same bits), and the last tick's outputs the loop state keeps
+        for sl, x in zip(self.slices[1:], parts[1:]):
+            x[:] = self.state[sl]
+        if int(clk[CLK_TICKS]) > ticks:
+            cout = self.ctl[2]
+            yl[:] = cout[_F_SET:_F_SET + len(yl)]
+            yf[:] = cout[_V_CMD:_V_CMD + len(yf)]
+        return failed
 
 
 def run_sil(loop, folder, freq_hz: float, amp_n: float, duration_s: float, *, seed=None, faults=None,

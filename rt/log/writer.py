@@ -22,8 +22,9 @@ writer sets ``clk[CLK_WRITTEN]`` to the tick after it (the rows before may be ov
   its thread) sets the count to ``rt.common.clock.NO_WAIT`` so that the loop never waits for it again.
 - paced: a real-time loop never waits. Row i is overwritten once the loop has begun tick
   i + R; a block whose first row is (the loop's count - i >= R, or R + 1 once the loop has
-  ended) is skipped and counted (``dropped_blocks``), checked before copying and again after the
-  copy (a block overwritten while being copied is dropped too). Dropped blocks are whole
+  ended: ``finish()`` was called, or the count has reached the run's length, which ``run``
+  passes to ``start``) is skipped and counted (``dropped_blocks``), checked before copying and
+  again after the copy (a block overwritten while being copied is dropped too). Dropped blocks are whole
   blocks; the MCAP file then has a gap in its ticks, and its closing metadata record
   ``frictionrt.writer`` holds the count (``run`` callers print it). The thread lowers its own
   priority (nice ``WRITER_NICE``) so that, sharing a core, the scheduler prefers the loop.
@@ -346,7 +347,7 @@ class LogWriter:
         ``frictionrt.writer`` (dropped blocks, block and ring size, ticks written, ticks left
         unwritten after a Ctrl-C).
 
-    ``rt.loop.driver.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced)`` before the loop and
+    ``rt.loop.driver.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced, digest, ticks)`` before the loop and
     ``w.finish()`` after it in every case; ``finish()`` is idempotent and also closes the sinks
     of a writer that never started.
     """
@@ -373,13 +374,17 @@ class LogWriter:
         self._thread: threading.Thread | None = None
         self._closed = False
 
-    def start(self, log: np.ndarray, clk: np.ndarray, k0: int, paced: bool, digest=None) -> None:
+    def start(self, log: np.ndarray, clk: np.ndarray, k0: int, paced: bool, digest=None,
+              ticks: int | None = None) -> None:
         """Start draining ``log`` (tick k0 + i in row i mod len(log); ticks below k0 +
         clk[CLK_TICKS] complete); each block taken out is also folded into ``digest``
-        (``rt.loop.digest.RunDigest``) if given."""
+        (``rt.loop.digest.RunDigest``) if given. ``ticks``: the run's length, if known; a loop
+        whose count has reached it has ended (paced: it overwrites no more rows), before
+        ``finish()`` says so."""
         self._log, self._clk, self._k0 = log, clk, int(k0)
         self._paced = paced
         self._digest = digest
+        self._ticks = ticks
         self._next = 0   # next row to write (or drop)
         self._thread = threading.Thread(target=self._main, name="frictionrt-writer", daemon=False)
         self._thread.start()
@@ -441,17 +446,14 @@ class LogWriter:
         if self._abort.is_set():
             return False
         ring = len(self._log)
-        # row i is overwritten once the loop has begun tick i + ring: a running loop is in tick
-        # `done`, a finished one (final) is not
-        lost = ring + 1 if final else ring
-        while self._paced and done - self._next >= lost:
+        while self._paced and self._overwritten(done, final):
             self._next += self.block_ticks
             self.dropped_blocks += 1
         n = min(self.block_ticks, done - self._next)
         if n <= 0 or (n < self.block_ticks and not final):
             return False
         block = self._log[(self._next + np.arange(n)) % ring]   # a copy: the loop may overwrite the ring
-        if self._paced and int(self._clk[CLK_TICKS]) - self._next >= lost:  # overwritten while copied
+        if self._paced and self._overwritten(int(self._clk[CLK_TICKS]), final):  # overwritten while copied
             self._next += self.block_ticks
             self.dropped_blocks += 1
             return True
@@ -464,6 +466,16 @@ class LogWriter:
         self._next += n
         self.written_ticks += n
         return True
+
+    def _overwritten(self, done: int, final: bool) -> bool:
+        """Whether the loop, ``done`` ticks complete, may have overwritten the row of tick
+        ``_next`` (paced). Row i is overwritten once the loop has begun tick i + ring: a running
+        loop may be in tick ``done``; an ended one is not, and has ended when ``finish()`` said so
+        (``final``) or its count has reached the run's length (it then begins no tick, whether
+        finish() has come yet or not: without this, a run no longer than the ring lost its first
+        block to a look between the loop's end and finish())."""
+        ended = final or (self._ticks is not None and done >= self._ticks)
+        return done - self._next >= len(self._log) + (1 if ended else 0)
 
     def _close(self) -> None:
         if self._closed:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from observer.kalman import ObserverParams, design_observer
-from observer.oracle import build_oracle
+from observer.oracle import ORACLE_OUTPUTS, build_oracle
 from observer.step import OBSERVER_OUTPUTS
 from plant.actuator import ACTUATOR_OUTPUTS, ActuatorParams, build_actuator
 from plant.actuator import initial_state as actuator_initial_state
@@ -165,6 +165,20 @@ class LoopState:
         new = {n: (v.copy() if isinstance(v, np.ndarray) else v) for n, v in vars(self).items()}
         new["plant_work"] = type(self.plant_work)(*(a.copy() for a in self.plant_work))
         return LoopState(**new)
+
+
+def controller_stages(loop: Loop, st: LoopState) -> tuple:
+    """(est, law, sup, trk): the controller's arrays as ``rt.loop.tick._controller_tick`` takes
+    them, the states those of ``st`` (advanced in place by the ticks), inputs, outputs and next
+    states fresh scratch (but yl, yf: st's). The loop (``rt.loop.driver.run``), the replay and
+    ``bench controller`` build them here."""
+    est = (st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
+           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
+    law = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
+    sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
+    trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
+           st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+    return est, law, sup, trk
 
 
 def initial_loop_state(loop: Loop, seed: int) -> LoopState:

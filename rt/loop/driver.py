@@ -10,15 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from observer.oracle import ORACLE_OUTPUTS
-from observer.step import OBSERVER_OUTPUTS
 from plant.actuator import output_index as actuator_output_index
 from plant.sensors import output_index as sensor_output_index
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
 from rt.loop import realtime
-from rt.loop.build import COMPONENTS, Loop, LoopState, initial_loop_state
+from rt.loop.build import COMPONENTS, Loop, LoopState, controller_stages, initial_loop_state
 from rt.loop.pacing import START_SLACK_NS
-from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, SUPERVISOR_OUTPUTS, no_faults
+from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, no_faults
 from rt.loop.tick import _run_ticks
 
 
@@ -87,7 +85,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     the same schedule), none by default.
 
     ``writer`` (an ``rt.log.writer.LogWriter``) drains the log to files while the loop runs: its
-    ``start(log, clk, k0, paced)`` is called before the first tick, its ``finish()`` (write the
+    ``start(log, clk, k0, paced, digest, ticks)`` (ticks: the run's length) is called before the first tick, its ``finish()`` (write the
     rest, close the files) after the last one, also on an error or Ctrl-C.
 
     The log: without a writer and ``ring_ticks``, one row per tick of the run. With a writer
@@ -98,8 +96,9 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     order, ``Run.ticks`` the count, ``Run.digest`` the writer's whole-run figures (``summary``).
 
     ``controller``: another controller for stages 2-4, a callable taking ``_run_ticks``' arguments
-    without force_col, observe, est, law, sup, trk and comp_ns (rt/export/sil.py: the C export);
-    not with ``timing``; the run's final state then holds the controller states it started with.
+    without force_col, observe and comp_ns (rt/export/sil.py: the C export), which starts from the
+    controller states in est, law, sup, trk and leaves its own there, so that ``Run.final`` is the
+    same as with the numba controller; not with ``timing``.
 
     ``in_thread``: the compiled loop runs in a thread of its own while the calling thread shows
     progress and turns Ctrl-C into a stop request (the ticks run so far are kept). False: in the
@@ -164,12 +163,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
             # the stages' tuples (``_run_ticks``): states of st advanced in place, fresh scratch per chunk
             sens = (st.xs, np.empty_like(st.xs), st.ys, np.empty_like(st.ys), np.empty_like(st.ys), np.zeros(5),
                     loop.sensors, st.rng)
-            est = (st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
-                   st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
-            law = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
-            sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
-            trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
-                   st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+            est, law, sup, trk = controller_stages(loop, st)
             act = (st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator)
             plnt = (st.xp, np.empty_like(st.xp), st.yp, np.zeros(2), plant.params, st.plant_work)
             shk = (cfg.shaker.on, st.xsh, np.empty_like(st.xsh), np.zeros(3), np.zeros(1), loop.shaker)
@@ -178,7 +172,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                 clk[CLK_DEADLINE] = _now_ns(ts) + START_SLACK_NS
                 t_first[0] = clk[CLK_DEADLINE] - period_ns
             if controller is not None:
-                failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, act, plnt, shk, cols, log[rows])
+                failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt,
+                                        shk, cols, log[rows])
             else:
                 failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
                                         sens, est, law, sup, trk, act, plnt, shk, cols,
@@ -198,7 +193,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         if writer is not None:
             from rt.loop.digest import RunDigest
             digest = RunDigest(loop.signals)
-            writer.start(log, clk, st.k, paced, digest)
+            writer.start(log, clk, st.k, paced, digest, n_ticks)
         interrupted = False
         try:
             if in_thread:

@@ -39,7 +39,7 @@ from rt.log.design_record import use_logged
 from rt.loop import realtime
 from rt.loop.faults import from_json
 from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
-from rt.loop.build import ESTIMATORS, build_loop, initial_loop_state
+from rt.loop.build import ESTIMATORS, build_loop, controller_stages, initial_loop_state
 from rt.loop.driver import watch
 from rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from rt.loop.tick import _controller_done, _controller_tick
@@ -132,6 +132,68 @@ def open_log(path: Path, fallback_cfg=None, sets=()):
     return rec, _config_of(path, rec.metadata, fallback_cfg if fallback_cfg is not None else load(None, sets), sets)
 
 
+def open_controller_log(path: Path, fallback_cfg=None, sets=(), readings=SENSORS):
+    """(``McapLog``, configuration, signal names, loop) of the log at path for a replay of its
+    controller: ``open_log``, then the loop of the law and estimator it states, built from the
+    configuration. ValueError naming the file for one without a /sensors topic holding
+    ``readings``, without ticks, with an unknown estimator or a configuration that cannot be built.
+    The numba replay and the C's (rt/export/replay_c.py) both open logs here."""
+    rec, cfg = open_log(path, fallback_cfg, sets)
+    meta = rec.metadata
+    names = [n for n, _, _ in rec.signals]
+    if "/sensors" not in rec.topics or any(n not in names for n in readings):
+        raise ValueError(f"{path}: no /sensors topic with {', '.join(readings)}: nothing to replay")
+    if len(rec.k) == 0:
+        raise ValueError(f"{path}: the log holds no ticks")
+    estimator = meta.get("estimator", "oracle" if "/plant" in rec.topics else "observer")
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"{path}: unknown estimator {estimator!r} in the metadata")
+    try:
+        loop = build_loop(cfg, meta.get("law", cfg.tracking.law), estimator)
+    except ValueError as exc:
+        raise ValueError(f"{path}: the stored configuration cannot be built ({exc})") from None
+    return rec, cfg, names, loop
+
+
+def oracle_inputs(path: Path, rec, names: list[str], loop, st) -> np.ndarray:
+    """(ticks, 2): the plant's u_rel, v_rel the oracle reads at each recorded tick (row k - 1 of
+    /plant; before the first, the rest state's in ``st``); zeros when the observer is the
+    estimator. ValueError naming the file for an oracle log without /plant."""
+    uv = np.zeros((len(rec.k), 2))
+    if loop.estimator == "oracle":
+        if "/plant" not in rec.topics:
+            raise ValueError(f"{path}: the oracle estimator reads the plant's u_rel, v_rel, but the file has "
+                             "no /plant topic")
+        oi = loop.plant.output_index()
+        uv[0] = st.yp[[oi["u_rel"], oi["v_rel"]]]
+        uv[1:] = rec.log[:-1, [names.index("u_rel"), names.index("v_rel")]]
+    return uv
+
+
+def logged_faults(path: Path, meta: dict[str, str]) -> np.ndarray:
+    """The fault schedule the log states (metadata "faults"); ValueError naming the file for an
+    unreadable one."""
+    try:
+        return from_json(json.loads(meta.get("faults", "[]")))
+    except ValueError as exc:  # JSONDecodeError included
+        raise ValueError(f"{path}: the stored faults are unreadable ({exc})") from None
+
+
+def compare_bits(out: np.ndarray, ref: np.ndarray, signals) -> tuple[bool, dict[str, float], int | None, list[str]]:
+    """Replayed ``out`` against recorded ``ref`` (ticks, len(signals)), bit for bit: (all equal,
+    the largest |difference| per signal (inf where one side is NaN), the first row that differs
+    (None), the signals that differ there)."""
+    same = out.view(np.uint64) == ref.view(np.uint64)
+    with np.errstate(invalid="ignore"):
+        diff = np.where(same, 0.0, np.abs(out - ref))
+    diff = np.where(np.isnan(diff), np.inf, diff)
+    by_sig = {c: float(diff[:, j].max(initial=0.0)) for j, c in enumerate(signals)}
+    bad = ~same.all(axis=1)
+    first = int(np.argmax(bad)) if bad.any() else None
+    at_first = [signals[j] for j in np.nonzero(~same[first])[0]] if first is not None else []
+    return bool(same.all()), by_sig, first, at_first
+
+
 def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
     """Replay the log at ``path`` (module docstring); the summary of ``replay_outputs``."""
     return replay_outputs(path, paced=paced, fallback_cfg=fallback_cfg, sets=sets)[0]
@@ -151,21 +213,9 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     ValueError naming the file for a missing, unreadable or unsuitable file.
     """
     path = Path(path)
-    rec, cfg = open_log(path, fallback_cfg, sets)
+    rec, cfg, names, loop = open_controller_log(path, fallback_cfg, sets)
     meta = rec.metadata
-    names = [n for n, _, _ in rec.signals]
-    if "/sensors" not in rec.topics or any(n not in names for n in SENSORS):
-        raise ValueError(f"{path}: no /sensors topic with {', '.join(SENSORS)}: nothing to replay")
-    if len(rec.k) == 0:
-        raise ValueError(f"{path}: the log holds no ticks")
-    estimator = meta.get("estimator", "oracle" if "/plant" in rec.topics else "observer")
-    if estimator not in ESTIMATORS:
-        raise ValueError(f"{path}: unknown estimator {estimator!r} in the metadata")
-    law = meta.get("law", cfg.tracking.law)
-    try:
-        loop = build_loop(cfg, law, estimator)
-    except ValueError as exc:
-        raise ValueError(f"{path}: the stored configuration cannot be built ({exc})") from None
+    law, estimator = loop.law, loop.estimator
     sens = np.ascontiguousarray(rec.log[:, [names.index(n) for n in SENSORS]])
     v_tip = sens[:, SENSORS.index("v_tip_meas")]   # the integrator's output: finite in every run, NaN = no sample
     if not np.all(np.isfinite(v_tip)):
@@ -174,32 +224,17 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     st = initial_loop_state(loop, seed_of(path, meta, cfg))
     loop, st, design = use_logged(path, loop, st, sets, meta=meta)
     n = len(rec.k)
-    uv = np.zeros((n, 2))
-    if estimator == "oracle":
-        if "/plant" not in rec.topics:
-            raise ValueError(f"{path}: the oracle estimator reads the plant's u_rel, v_rel, but the file has "
-                             "no /plant topic")
-        oi = loop.plant.output_index()
-        uv[0] = st.yp[[oi["u_rel"], oi["v_rel"]]]
-        uv[1:] = rec.log[:-1, [names.index("u_rel"), names.index("v_rel")]]
+    uv = oracle_inputs(path, rec, names, loop, st)
     si = {nm: i for i, nm in enumerate(SENSORS)}
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     out = np.full((n, len(COMMANDED)), np.nan)
     clk = np.zeros(4, dtype=np.int64)
     period_ns = round(cfg.dt_s * 1e9)
     overran = _overran(rec, names, meta, period_ns)
-    try:
-        faults = from_json(json.loads(meta.get("faults", "[]")))
-    except ValueError as exc:  # JSONDecodeError included
-        raise ValueError(f"{path}: the stored faults are unreadable ({exc})") from None
+    faults = logged_faults(path, meta)
     errors: list[BaseException] = []
 
-    est = (st.xo, np.empty_like(st.xo), np.zeros(2), np.zeros(2), loop.oracle,
-           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
-    law_ = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
-    sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
-    trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
-           st.xf, np.empty_like(st.xf), st.yf, np.zeros(2), loop.design.params)
+    est, law_, sup, trk = controller_stages(loop, st)
     with realtime.session(cfg.rt, paced) as rts:
         fixed = (force_col, estimator == "observer", faults, (paced, period_ns, rts.margin_ns, clk, np.zeros(2, np.int64)),
                  np.empty(len(SENSORS)), est, law_, sup, trk)
@@ -232,15 +267,10 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
     if recorded:
         ref = rec.log[:m][:, [names.index(c) for c in COMMANDED]]
-        same = out.view(np.uint64) == ref.view(np.uint64)
-        with np.errstate(invalid="ignore"):
-            diff = np.where(same, 0.0, np.abs(out - ref))
-        diff = np.where(np.isnan(diff), np.inf, diff)
-        by_sig = {c: float(diff[:, j].max(initial=0.0)) for j, c in enumerate(COMMANDED)}
-        bad = ~same.all(axis=1)
-        res |= {"bit_exact": bool(same.all()), "max_abs_diff": float(diff.max(initial=0.0)),
+        exact, by_sig, first, _ = compare_bits(out, ref, COMMANDED)
+        res |= {"bit_exact": exact, "max_abs_diff": max(by_sig.values(), default=0.0),
                 "signals_compared": list(COMMANDED), "max_abs_diff_by_signal": by_sig,
-                "first_mismatch_tick": int(rec.k[:m][bad][0]) if bad.any() else None}
+                "first_mismatch_tick": int(rec.k[first]) if first is not None else None}
     else:
         res |= {"bit_exact": None, "max_abs_diff": None, "signals_compared": [], "max_abs_diff_by_signal": {},
                 "first_mismatch_tick": None}

@@ -35,7 +35,7 @@ from plant.actuator import ACTUATOR_OUTPUTS
 from rt.loop.tick import _actuate, _copy, _put
 from rt.loop.build import build_loop, initial_loop_state
 from rt.log.design_record import use_logged
-from rt.loop.replay import seed_of, open_log
+from rt.loop.replay import compare_bits, open_log, seed_of
 
 INPUTS = ("F_exc", "V_cmd")
 SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")  # "outputs" in the JSON
@@ -127,15 +127,10 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
         j_out = [out_names.index(c) for c in compared]
         ref = np.ascontiguousarray(rec.log[:n][:, [names.index(c) for c in compared]])
         got = np.ascontiguousarray(out[:, j_out])
-        same = got.view(np.uint64) == ref.view(np.uint64)
-        with np.errstate(invalid="ignore"):
-            diff = np.where(same, 0.0, np.abs(got - ref))
-        diff = np.where(np.isnan(diff), np.inf, diff)
-        bad = ~same.all(axis=1)
-        res |= {"bit_exact": bool(same.all()), "max_abs_diff": float(diff.max(initial=0.0)),
-                "signals_compared": compared,
-                "max_abs_diff_by_signal": {c: float(diff[:, j].max(initial=0.0)) for j, c in enumerate(compared)},
-                "first_mismatch_tick": int(rec.k[:n][bad][0]) if bad.any() else None}
+        exact, by_sig, first, _ = compare_bits(got, ref, compared)
+        res |= {"bit_exact": exact, "max_abs_diff": max(by_sig.values(), default=0.0),
+                "signals_compared": compared, "max_abs_diff_by_signal": by_sig,
+                "first_mismatch_tick": int(rec.k[first]) if first is not None else None}
     else:
         res |= {"bit_exact": None, "max_abs_diff": None, "signals_compared": [], "max_abs_diff_by_signal": {},
                 "first_mismatch_tick": None}

@@ -172,6 +172,105 @@ def _controller_done(out, row, c, observe, est, law, sup, trk):
     return c
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log):
+    """The start of tick k of ticks run from k0 into ``log`` and its stage 1. Returns (its row
+    (k - k0) mod len(log), the clock [ns] at its start, its lateness [ns] (paced, else 0)), or
+    row -1 on a stop request (nothing done).
+
+    Offline (not paced) a ring row is never overwritten before the writer has taken it: the tick
+    first spins (nogil) while k - clk[CLK_WRITTEN] >= len(log); paced, it waits for its deadline
+    (rt/loop/pacing.py). Stage 1: the plant accelerations and the force sensors' analog outputs
+    at t_k through the sensors (ADC readings into ys); injected faults act on the readings, before
+    the controller's tip integrator (ys[2] = v_tip_meas); then an injected CPU stall. Arguments
+    as ``_run_ticks`` takes them. The loop and the C controller's loop (rt/export/sil.py) both
+    call this. RT-safe."""
+    timing, paced, period_ns, margin_ns, clk, ts = pace
+    xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
+    ya, yp = act[2], plnt[2]
+    col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_dF, col_w_exc, col_v_exc = cols
+    if clk[CLK_STOP]:
+        return -1, 0, 0
+    row = (k - k0) % log.shape[0]
+    if not paced:  # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
+        while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
+            pass
+        if clk[CLK_STOP]:
+            return -1, 0, 0
+    if paced:
+        _wait_for_deadline(clk, ts, margin_ns)
+    t_start = _now_ns(ts)
+    late = t_start - clk[CLK_DEADLINE] if paced else 0
+    us[0] = yp[col_a_tip]
+    us[1] = yp[col_a_frf]
+    us[2] = ya[col_strain]
+    us[3] = ya[col_cell]
+    us[4] = yp[col_dF]   # the bolt's response to the beams' separation: the sensors read F_N1
+    _copy(ys, ys_prev)
+    _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
+    _inject_sensors(k, faults, ys, ys_prev, sens_p)
+    _tip_velocity(xs, sens_p, xs_n, ys)
+    stall = _stall_ns(k, faults)
+    if stall > 0:
+        t_stall = _now_ns(ts) + stall
+        while _now_ns(ts) < t_stall:
+            pass
+    return row, t_start, late
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _tick_plant(k, V_cmd, exc, faults, act, plnt, shk, cols, timing, ts):
+    """Stages 5s, 5 and 6 of tick k: the drive (through the shaker if it runs), the actuator on
+    the command V_cmd [V] (injected faults act on it) and the plant over the tick. exc, act, plnt,
+    shk, cols as ``_run_ticks`` takes them. Returns (F_exc [N], the plant's Newton iterations or
+    -1 on a failed solve, the clock [ns] after the actuator if timing). RT-safe."""
+    dt, exc_amp, exc_omega = exc
+    xa, xa_n, ya, ua, act_p = act
+    xp, xp_n, yp, up, plant_p, plant_wk = plnt
+    shake, xsh, xsh_n, ush, ysh, sh_p = shk
+    col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_dF, col_w_exc, col_v_exc = cols
+    F_exc = exc_amp * math.sin(exc_omega * (k * dt))   # the drive (an ideal source's force)
+    if shake:  # 5s: the force the structure gets through the stinger (its time counts as the actuator's)
+        ush[0] = F_exc
+        ush[1] = yp[col_w_exc]
+        ush[2] = yp[col_v_exc]
+        _shaker_step(k, xsh, ush, sh_p, xsh_n, ysh)
+        F_exc = ysh[0]
+    iters, t5 = _actuate(k, F_exc, _inject_actuator(k, faults, V_cmd), xa, xa_n, ya, ua, act_p,
+                         xp, xp_n, yp, up, plant_p, plant_wk, timing, ts)
+    return F_exc, iters, t5
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _tick_log(log, row, c, t_start, late, sens, act, plnt, shk, ts):
+    """The end of stage 7 once the readings and the controller's outputs are in log[row, :c]:
+    the actuator's and the plant's outputs, the states advanced, then tick_ns (from t_start
+    [ns]) and late_ns. Returns the clock [ns] at the tick's end. RT-safe."""
+    xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
+    xa, xa_n, ya, ua, act_p = act
+    xp, xp_n, yp, up, plant_p, plant_wk = plnt
+    shake, xsh, xsh_n, ush, ysh, sh_p = shk
+    c = _put(log, row, c, ya)
+    c = _put(log, row, c, yp)
+    _copy(xs_n, xs)
+    _copy(xa_n, xa)
+    _copy(xp_n, xp)
+    if shake:
+        _copy(xsh_n, xsh)
+    t_end = _now_ns(ts)
+    log[row, c] = t_end - t_start
+    log[row, c + 1] = late
+    return t_end
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _tick_done(clk, paced, period_ns, t_end):
+    """The tick counted (the writer may take its row) and, paced, the next deadline after t_end
+    [ns]. Returns True on an overrun (the controller's supervisor reads it next tick). RT-safe."""
+    clk[CLK_TICKS] += 1
+    return paced and _next_deadline(clk, period_ns, t_end)
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
 def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, sup, trk, act, plnt, shk, cols,
                log, comp_ns):
@@ -197,62 +296,28 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
     before the writer has taken it: before tick k the loop spins (nogil) while k -
     clk[CLK_WRITTEN] >= len(log) (``NO_WAIT`` without a writer), and ends early on a stop
     request. Returns the number of failed plant solves.
+
+    Each tick is ``_tick_begin`` (with stage 1), the controller (``_controller_tick``),
+    ``_tick_plant``, the log (``_controller_done``, ``_tick_log``) and ``_tick_done``: the C
+    controller's loop (rt/export/sil.py) is the same but for the controller.
     """
-    dt, exc_amp, exc_omega = exc
     timing, paced, period_ns, margin_ns, clk, ts = pace
-    xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
-    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
-    xl, xl_n, yl, ul, law_p = law
-    sv, ysv, sv_p = sup
-    xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
-    xa, xa_n, ya, ua, act_p = act
-    xp, xp_n, yp, up, plant_p, plant_wk = plnt
-    shake, xsh, xsh_n, ush, ysh, sh_p = shk
-    col_urel, col_vrel, col_a_tip, col_a_frf, col_strain, col_cell, col_dF, col_w_exc, col_v_exc = cols
+    ys, yc = sens[2], sens[4]   # the readings, and those the controller uses
+    sv = sup[0]
+    yf = trk[7]   # the force tracking's outputs: V_cmd, saturated
+    yp = plnt[2]
     failed = 0
     for k in range(k0, k1):
-        if clk[CLK_STOP]:
+        # the ring's row, the deadline; 1 sensors (injected faults on the readings, before the tip integrator)
+        row, t_start, late = _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log)
+        if row < 0:
             break
-        row = (k - k0) % log.shape[0]
-        if not paced:  # the ring's row of tick k - len(log) must be out (the clock call re-reads clk)
-            while k - clk[CLK_WRITTEN] >= log.shape[0] and not clk[CLK_STOP] and _now_ns(ts) > 0:
-                pass
-            if clk[CLK_STOP]:
-                break
-        if paced:
-            _wait_for_deadline(clk, ts, margin_ns)
-        t_start = _now_ns(ts)
-        late = t_start - clk[CLK_DEADLINE] if paced else 0
-        # 1 sensors: plant accelerations and the force sensors' analog outputs at t_k; injected
-        # faults act on the ADC readings, before the controller's tip integrator
-        us[0] = yp[col_a_tip]
-        us[1] = yp[col_a_frf]
-        us[2] = ya[col_strain]
-        us[3] = ya[col_cell]
-        us[4] = yp[col_dF]   # the bolt's response to the beams' separation: the sensors read F_N1
-        _copy(ys, ys_prev)
-        _sensors_read(k, xs, us, sens_p, xs_n, ys, rng)
-        _inject_sensors(k, faults, ys, ys_prev, sens_p)
-        _tip_velocity(xs, sens_p, xs_n, ys)
-        stall = _stall_ns(k, faults)
-        if stall > 0:
-            t_stall = _now_ns(ts) + stall
-            while _now_ns(ts) < t_stall:
-                pass
         t1 = _now_ns(ts) if timing else 0
         # 2 estimator, 3 law, 3s supervisor, 4 force tracking
-        t2, t3, t3s, t4 = _controller_tick(k, ys, yc, yp[col_urel], yp[col_vrel], force_col, observe, faults,
+        t2, t3, t3s, t4 = _controller_tick(k, ys, yc, yp[cols[0]], yp[cols[1]], force_col, observe, faults,
                                            timing, ts, est, law, sup, trk)
-        # 5 actuator (faults act on its input) and 6 plant over the tick
-        F_exc = exc_amp * math.sin(exc_omega * (k * dt))   # the drive (an ideal source's force)
-        if shake:  # 5s: the force the structure gets through the stinger (its time counts as the actuator's)
-            ush[0] = F_exc
-            ush[1] = yp[col_w_exc]
-            ush[2] = yp[col_v_exc]
-            _shaker_step(k, xsh, ush, sh_p, xsh_n, ysh)
-            F_exc = ysh[0]
-        iters, t5 = _actuate(k, F_exc, _inject_actuator(k, faults, yf[0]), xa, xa_n, ya, ua, act_p,
-                             xp, xp_n, yp, up, plant_p, plant_wk, timing, ts)
+        # 5 actuator (faults act on its input), 5s shaker and 6 plant over the tick
+        F_exc, iters, t5 = _tick_plant(k, yf[0], exc, faults, act, plnt, shk, cols, timing, ts)
         if iters < 0:
             failed += 1
         t6 = _now_ns(ts) if timing else 0
@@ -260,16 +325,7 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
         log[row, 0] = F_exc
         c = _put(log, row, 1, ys)
         c = _controller_done(log, row, c, observe, est, law, sup, trk)
-        c = _put(log, row, c, ya)
-        c = _put(log, row, c, yp)
-        _copy(xs_n, xs)
-        _copy(xa_n, xa)
-        _copy(xp_n, xp)
-        if shake:
-            _copy(xsh_n, xsh)
-        t_end = _now_ns(ts)
-        log[row, c] = t_end - t_start
-        log[row, c + 1] = late
+        t_end = _tick_log(log, row, c, t_start, late, sens, act, plnt, shk, ts)
         if timing:
             comp_ns[row, 0] = t1 - t_start
             comp_ns[row, 1] = t2 - t1
@@ -279,8 +335,6 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
             comp_ns[row, 5] = t5 - t4
             comp_ns[row, 6] = t6 - t5
             comp_ns[row, 7] = t_end - t6
-        clk[CLK_TICKS] += 1
-        sv[S_OVERRAN] = 0.0
-        if paced and _next_deadline(clk, period_ns, t_end):
-            sv[S_OVERRAN] = 1.0  # the supervisor's overrun check reads it next tick
+        # the supervisor's overrun check reads the flag next tick
+        sv[S_OVERRAN] = 1.0 if _tick_done(clk, paced, period_ns, t_end) else 0.0
     return failed

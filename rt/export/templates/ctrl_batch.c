@@ -120,6 +120,25 @@ void ctrl_step_flat(void *state, const double *in, const double *faults, int64_t
     out[12] = y.passive;
 }
 
+/* Where ctrl_state's members lie, in doubles from its start: off[0] xs, off[1] the estimator's
+ * state (xe or xo), off[2] xl, off[3] xq, off[4] xf, off[5] sv, off[6] the end (sizeof). Software
+ * in the loop moves the state between ctrl_state and the loop's own arrays with them, so that a
+ * run starts from, and leaves, the loop's state. */
+void ctrl_state_offsets(int64_t *off)
+{
+    off[0] = (int64_t)(offsetof(ctrl_state, xs) / sizeof(double));
+#if CTRL_OBSERVER
+    off[1] = (int64_t)(offsetof(ctrl_state, xe) / sizeof(double));
+#else
+    off[1] = (int64_t)(offsetof(ctrl_state, xo) / sizeof(double));
+#endif
+    off[2] = (int64_t)(offsetof(ctrl_state, xl) / sizeof(double));
+    off[3] = (int64_t)(offsetof(ctrl_state, xq) / sizeof(double));
+    off[4] = (int64_t)(offsetof(ctrl_state, xf) / sizeof(double));
+    off[5] = (int64_t)(offsetof(ctrl_state, sv) / sizeof(double));
+    off[6] = (int64_t)(sizeof(ctrl_state) / sizeof(double));
+}
+
 /* sizeof(ctrl_state), for the caller's check of the build it loaded. */
 int64_t ctrl_state_size(void)
 {
