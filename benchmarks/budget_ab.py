@@ -1,0 +1,81 @@
+"""The whole tick against another tree of the project, alternating: `frictionrt budget --no-floor` A/B.
+
+    python -m benchmarks.budget_ab OTHER_TREE [--rounds 12] [--paced-s 2] [--law lyapunov]
+
+OTHER_TREE is another checkout of the project (e.g. `git worktree add ../base 891904d`, the tree
+before issue 31). Each round runs `budget --no-floor --json` once in that tree and once in this one,
+alternating, each in its own Python process started in the tree's folder (so that it imports that
+tree's code, with this environment's packages): the machine's slow and fast phases fall on both
+alike. Printed per tree: the median over the rounds [min..max] of the tick's median, p99 and p99.9,
+the plant's median and p99.9, and the paced run's tick median and missed periods (docs/plant.md 6.4).
+A run that fails is reported with its stderr's last line and the benchmark exits 1.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from benchmarks.entry import run_main
+
+HERE = Path(__file__).resolve().parents[1]
+FIGURES = {"tick median": ("total", "median_us"), "tick p99": ("total", "p99_us"),
+           "tick p99.9": ("total", "p999_us"), "plant median": ("plant", "median_us"),
+           "plant p99.9": ("plant", "p999_us"), "paced tick median": ("paced", "tick_median_us"),
+           "paced missed": ("paced", "overruns")}
+
+
+def budget_in(tree: Path, paced_s: float, law: str) -> dict:
+    """`budget --no-floor --json` run by ``tree``'s own code (cwd first on sys.path)."""
+    code = ("import sys; from rt.cli import main; "
+            f"sys.exit(main(['budget', '--no-floor', '--json', '--paced-s', '{paced_s}', '--law', '{law}']))")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tree, capture_output=True, text=True)
+    if p.returncode != 0:
+        last = (p.stderr.strip().splitlines() or ["(no stderr)"])[-1]
+        raise RuntimeError(f"budget in {tree} exited {p.returncode}: {last}")
+    return json.loads(p.stdout)
+
+
+def figure(res: dict, where: str, key: str) -> float:
+    part = res["components"]["plant"] if where == "plant" else res[where]
+    return float(part[key])
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("other", type=Path, help="another checkout of the project (the A side)")
+    ap.add_argument("--rounds", type=int, default=12, help="alternating runs per tree (default: 12)")
+    ap.add_argument("--paced-s", type=float, default=2.0, help="paced run length [s] (default: 2)")
+    ap.add_argument("--law", default="lyapunov", choices=["passive", "hysteresis", "lyapunov"])
+    args = ap.parse_args()
+    if not (args.other / "rt" / "cli").is_dir():
+        print(f"benchmarks.budget_ab: error: {args.other} is not a checkout of this project (no rt/cli); "
+              "make one with `git worktree add DIR COMMIT`", file=sys.stderr)
+        return 2
+    trees = {"other": args.other.resolve(), "this": HERE}
+    runs = {name: [] for name in trees}
+    try:
+        for _ in tqdm(range(args.rounds), desc="A/B rounds", unit="round"):
+            for name, tree in trees.items():
+                runs[name].append(budget_in(tree, args.paced_s, args.law))
+    except RuntimeError as exc:
+        print(f"benchmarks.budget_ab: {exc}", file=sys.stderr)
+        return 1
+    print(f"| [us] | {trees['other']} | {trees['this']} |")
+    print("| --- | --- | --- |")
+    for label, (where, key) in FIGURES.items():
+        cells = []
+        for name in trees:
+            v = [figure(r, where, key) for r in runs[name]]
+            cells.append(f"{statistics.median(v):.2f} [{min(v):.2f}..{max(v):.2f}]")
+        print(f"| {label} | {cells[0]} | {cells[1]} |")
+    return 0
+
+
+if __name__ == "__main__":
+    run_main(main)
