@@ -14,7 +14,7 @@ foundation (k' = k_n_area x width per unit length): ~11 mm here, so pitches of 2
 resolve it.
 
 --onset (~40 min more): the joint's slip onset per pitch, what the stuck modes do not show. Stepped
-sines of the nonlinear plant at F_N1 = 300 N (rt.discrepancy.rig_levels.sweep_level: 13 lines over
+sines of the nonlinear plant at F_N1 = 300 N (rt.discrepancy.rig.levels.sweep_level: 13 lines over
 0.90-1.02 of the stuck mode 3, phase-continuous up-sweeps, then two up-sweeps of 11 lines around the
 largest line, each 5x finer: ``resolved_peak``) at force amplitudes ``ONSET_LEVELS_N``, with and
 without micro_slip at its default spread: the peak |a_frf / F| [(m/s^2)/N] per level. Where
@@ -33,7 +33,7 @@ from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from plant.structure import interface_width
 from rt.common.config import Config, load, with_sets
 from rt.discrepancy.effects import get
-from rt.discrepancy.rig_levels import sweep_level
+from rt.discrepancy.rig import sweep_level
 from benchmarks.entry import run_main
 
 F_N1 = 100.0
@@ -60,7 +60,7 @@ def winkler_length(cfg: Config) -> float:
 
 
 def resolved_peak(model, F_N1: float, amp_n: float, lines_hz: np.ndarray, refinements: int = ONSET_REFINE) -> float:
-    """Peak |a_frf / F| [(m/s^2)/N] of the up-sweep over ``lines_hz`` (rig_levels.sweep_level),
+    """Peak |a_frf / F| [(m/s^2)/N] of the up-sweep over ``lines_hz`` (rig.levels.sweep_level),
     resolved: ``refinements`` times, a new up-sweep of ``ONSET_FINE_LINES`` lines from the line below
     the largest to the one above it (each pass 5x finer), the largest of all lines kept. On the stuck
     linear FRF 13 lines 1 % apart gave 134 against a true peak of 143 (issue 31)."""

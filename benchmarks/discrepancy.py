@@ -12,9 +12,9 @@ effect (columns), counts over seeds and strengths.
 
 --model-form: the truth of another model form (rig --model-form, rt.discrepancy.rig.model_form; PARTS
 a comma-separated subset of mesh,pitch,substeps,damping,beams, default all); the
-table then also gives the gap's budget (rt.discrepancy.remainder: calibration / effect / remainder
+table then also gives the gap's budget (rt.discrepancy.diagnose.remainder: calibration / effect / remainder
 shares of the excess RSS, and whether the remainder dominates). --frf-files: linear FRF-file campaigns
-(rig --frf-files) of the structural effects they can show, diagnosed by rt.discrepancy.diagnose_frf.
+(rig --frf-files) of the structural effects they can show, diagnosed by rt.discrepancy.diagnose.frf.
 
 Campaigns get step-sine tests (rig --stepsine) when the hidden effect shows only there
 (channel "stepsine": shaker_interaction), or all of them with --stepsine (~10 s more each).
@@ -28,11 +28,9 @@ from pathlib import Path
 
 from joblib import Parallel, delayed
 
-from rt.discrepancy.diagnose import diagnose
-from rt.discrepancy.diagnose_frf import diagnose_frf
+from rt.discrepancy.diagnose import diagnose, diagnose_frf
 from rt.discrepancy.effects import get, implemented
-from rt.discrepancy.rig import make_campaign, model_form_parts
-from rt.discrepancy.rig_frf import make_frf_campaign
+from rt.discrepancy.rig import make_campaign, make_frf_campaign, model_form_parts
 
 
 def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool, other_form: tuple[str, ...],

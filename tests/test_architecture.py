@@ -1,7 +1,8 @@
 """The package structure (issue 16): import layers and cycles, the packages' faces, module size,
 and the docs' links to files.
 
-The layers and the acyclic-siblings rule are import-linter contracts in pyproject.toml
+The layers (the packages', and rt.discrepancy's sub-packages') and the acyclic-siblings rule are
+import-linter contracts in pyproject.toml
 (``lint-imports`` prints them); this test runs them, so pytest fails like ``make test`` does.
 """
 from __future__ import annotations
@@ -17,8 +18,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("rt.common", "rt.log", "rt.loop", "rt.experiments", "rt.export", "rt.discrepancy", "rt.cli", "plant", "observer",
-            "tracking")
+PACKAGES = ("rt.common", "rt.log", "rt.loop", "rt.experiments", "rt.export", "rt.discrepancy", "rt.discrepancy.rig",
+            "rt.discrepancy.diagnose", "rt.cli", "plant", "observer", "tracking")
 MAX_LINES = 500  # the guide; a longer module gives its reason in a "Length:" paragraph of its docstring
 
 
@@ -34,19 +35,26 @@ def test_import_contracts_hold():
     # other (cycles); output names the offending import chain
     r = subprocess.run([_lint_imports()], cwd=ROOT, capture_output=True, text=True)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
-    assert "2 kept, 0 broken" in r.stdout
+    assert "3 kept, 0 broken" in r.stdout
 
 
-def test_a_layer_violation_breaks_the_contract(tmp_path):
-    # the contract can fail: the log package importing the loop (the writer's old CLK_* import)
+@pytest.mark.parametrize("module, line, message", [
+    # the log package importing the loop (the writer's old CLK_* import)
+    ("rt/log/writer.py", "from rt.loop.driver import run", "rt.log is not allowed to import rt.loop"),
+    # the rig importing the diagnosis (rt.discrepancy's sub-packages)
+    ("rt/discrepancy/rig/frf.py", "from rt.discrepancy.diagnose.campaign import bic",
+     "rt.discrepancy.rig is not allowed to import rt.discrepancy.diagnose"),
+], ids=["log-loop", "rig-diagnose"])
+def test_a_layer_violation_breaks_the_contract(tmp_path, module, line, message):
+    # the contracts can fail
     for pkg in ("rt", "plant", "observer", "tracking"):
         shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "pyproject.toml", tmp_path)
-    writer = tmp_path / "rt" / "log" / "writer.py"
-    writer.write_text(writer.read_text() + "\nfrom rt.loop.driver import run  # noqa\n")
+    path = tmp_path / module
+    path.write_text(path.read_text() + f"\n{line}  # noqa\n")
     r = subprocess.run([_lint_imports()], cwd=tmp_path, capture_output=True, text=True,
                        env={"PYTHONPATH": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    assert r.returncode != 0 and "rt.log is not allowed to import rt.loop" in r.stdout, r.stdout[-2000:]
+    assert r.returncode != 0 and message in r.stdout, r.stdout[-2000:]
 
 
 @pytest.mark.parametrize("package", PACKAGES)

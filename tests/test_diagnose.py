@@ -12,8 +12,8 @@ from rt.cli import main
 from rt.common.config import Config, with_sets
 from rt.log.data_format import validate
 from rt.log.mcap_log import start_time_ns
-from rt.discrepancy.diagnose import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
-from rt.discrepancy.diagnose_structure import SENSORS, prepare, run_shape
+from rt.discrepancy.diagnose.campaign import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
+from rt.discrepancy.diagnose.structure import SENSORS, prepare, run_shape
 from rt.discrepancy.effects import EFFECTS, get, implemented
 from rt.discrepancy.chain import scaled
 from rt.discrepancy.rig import make_campaign, scatter_sets

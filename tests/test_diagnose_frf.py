@@ -14,13 +14,13 @@ from plant.linear_frf import continuous_accelerance, stuck_model
 from plant.model import build_plant
 from rt.cli import main
 from rt.common.config import Config, load, with_sets
-from rt.discrepancy.diagnose_frf import diagnose_frf, prepare, residuals
+from rt.discrepancy.diagnose.frf import diagnose_frf, prepare, residuals
 from rt.discrepancy.effects import get, implemented
 from rt.log.frf_files import load_frf_folder
 from plant.linear_frf import modal_accelerance
 from rt.discrepancy.chain import scaled
 from rt.discrepancy.rig import scatter_sets
-from rt.discrepancy.rig_frf import FREQ_HZ, make_frf_campaign
+from rt.discrepancy.rig.frf import FREQ_HZ, make_frf_campaign
 
 SEED = 5
 LAP_JOINT = Path(__file__).resolve().parents[1] / "configs" / "lap_joint.toml"
@@ -183,7 +183,7 @@ def test_mobility_of_any_sensors_paired_by_shape(one_level, tmp_path):
     there): moving_mass named, every sensor in the gap over the whole band, the modes paired by
     shape (three sensors: MAC > 0.9 for all eight modes of the linear model); the report plots
     each sensor in its quantity."""
-    from rt.discrepancy.diagnose_report import write_report
+    from rt.discrepancy.diagnose.report import write_report
     d, res = one_level("moving_mass", "mobility_sensors")
     assert res["named_effect"] == "moving_mass", res["ranking"]
     assert res["sensors"]["v_mid"] == {"point": "v_mid", "quantity": "mobility", "unit": "(m/s)/N"}
@@ -221,7 +221,7 @@ def test_position_off_every_beam_is_refused(tmp_path):
 def test_drive_voltage_force_scale(one_level, tmp_path):
     """H per volt = 0.37 N/V x H per newton, no force: the scale fitted within 1 % (measured 0.01 %),
     the effect named as with a force, the JSON and report say the data have no force."""
-    from rt.discrepancy.diagnose_report import write_report
+    from rt.discrepancy.diagnose.report import write_report
     _, ref = one_level("clamp_compliance", "accelerance")
     d, res = one_level("clamp_compliance", "drive_voltage")
     assert json.loads((d / "frf_01.json").read_text())["excitation"] == "drive_voltage"
@@ -289,7 +289,7 @@ def test_contact_stiffness_a_decade_off(one_level, k_nominal):
 def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
     """A nominal modal damping 20 x too high: the fit needs a scale ~0.05, below the bound 0.1, and
     ends on it: a warning in the JSON (parameter, value, bound, fix) and in report.md."""
-    from rt.discrepancy.diagnose_report import write_report
+    from rt.discrepancy.diagnose.report import write_report
     nominal = with_sets(Config(), ["plant.modal_damping=0.02"])
     _, res = one_level("none", "accelerance", nominal)
     w = [x for x in res["warnings"] if x["parameter"] == "modal_damping"]
@@ -304,7 +304,7 @@ def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
 def test_bound_warnings_by_scale():
     """Within 0.5 % of a bound: relative to it, on ln for the log-scale ones, relative to the range
     for a bound 0; the fix of a level-like parameter hints at missing force unless per volt."""
-    from rt.discrepancy.diagnose_frf import bound_warnings
+    from rt.discrepancy.diagnose.frf import bound_warnings
     eff = get("clamp_compliance")
     w = bound_warnings({"E": 1.995, "k_t": 0.01004, "modal_damping": 9.9, "clamp_compliance": 1e-6,
                         "force_scale_N_per_V": 999.0}, eff, per_volt=True)

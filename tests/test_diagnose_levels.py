@@ -1,4 +1,4 @@
-"""diagnose --calibrate-on (rt/discrepancy/diagnose_levels.py): FRFs of the nonlinear plant at several
+"""diagnose --calibrate-on (rt/discrepancy/diagnose/levels.py): FRFs of the nonlinear plant at several
 levels, calibrated at the lowest, predicted at the others by the harmonic balance of the joints and by
 the linear stuck model."""
 from __future__ import annotations
@@ -8,8 +8,8 @@ import json
 import pytest
 
 from rt.cli import main
-from rt.discrepancy.diagnose_levels import diagnose_levels, split
-from rt.discrepancy.rig_levels import make_level_campaign
+from rt.discrepancy.diagnose.levels import diagnose_levels, split
+from rt.discrepancy.rig.levels import make_level_campaign
 from rt.log.frf_files import load_frf_folder
 
 SCALE = 0.37                  # [N/V] the shaker's force per drive volt

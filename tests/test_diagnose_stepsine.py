@@ -1,4 +1,4 @@
-"""The step-sine channel's driving-point estimate (rt.discrepancy.diagnose_stepsine.prepare): which
+"""The step-sine channel's driving-point estimate (rt.discrepancy.diagnose.stepsine.prepare): which
 lines it uses and how it weights them. The model's step-sines are replaced by fixed responses here
 (``run_branches``), so the arithmetic is checked exactly; the figures measured on campaigns of
 another model form are in the module docstring and docs/discrepancy.md."""
@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import rt.discrepancy.diagnose_stepsine as ds
+import rt.discrepancy.diagnose.stepsine as ds
 from rt.common.config import Config, with_sets
 from rt.log.frf_files import FRFTest
 

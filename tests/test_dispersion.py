@@ -1,4 +1,4 @@
-"""The diagnosis's dispersion parameter (rt.discrepancy.diagnose_structure.warp, docs/discrepancy.md
+"""The diagnosis's dispersion parameter (rt.discrepancy.diagnose.structure.warp, docs/discrepancy.md
 Method 3): data taken with another time step than the model's plant (a laboratory's continuous time,
 ``rig --model-form``'s two substeps) show the trapezoidal rule's period error in another measure, a
 shift that rises as f^2 and that no scale of E, k_t, mu or the damping makes."""
@@ -13,7 +13,7 @@ import pytest
 
 from rt.common.config import Config, with_sets
 from rt.discrepancy.diagnose import load_campaign
-from rt.discrepancy.diagnose_structure import (
+from rt.discrepancy.diagnose.structure import (
     fit_frequencies,
     force_window,
     model_frf,
@@ -124,7 +124,7 @@ def test_stage1_finds_the_datas_time_step(stage1_by_substeps):
 
 def test_report_says_what_the_dispersion_means():
     """report.md turns c into the data's step: c = 0.75 is half the plant's step, c = 1 continuous time."""
-    from rt.discrepancy.diagnose_report import dispersion_note
+    from rt.discrepancy.diagnose.report import dispersion_note
     assert "0.50 x the model's plant step" in dispersion_note(0.75)
     assert "0.00 x the model's plant step" in dispersion_note(1.0)
     assert "beyond continuous time" in dispersion_note(1.2)

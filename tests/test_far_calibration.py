@@ -1,5 +1,5 @@
 """Calibration from far away in the time-series workflow (issue 18, item 3): the impulse tests'
-calibration (rt.discrepancy.diagnose_structure.fit_structure) moves the contact stiffness and the
+calibration (rt.discrepancy.diagnose.structure.fit_structure) moves the contact stiffness and the
 modal damping on log scales over CAL_FAR's decades, so a nominal model whose k_t is several times
 off is calibrated, not left on a bound."""
 import numpy as np
@@ -9,7 +9,7 @@ from threadpoolctl import threadpool_limits
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import scaled
 from rt.discrepancy.diagnose import load_campaign
-from rt.discrepancy.diagnose_structure import CAL_FAR, fit_structure, prepare
+from rt.discrepancy.diagnose.structure import CAL_FAR, fit_structure, prepare
 from rt.discrepancy.rig import make_campaign, scatter_sets
 
 SEED = 3

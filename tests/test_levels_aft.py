@@ -11,10 +11,10 @@ from plant.harmonic_frf import harmonic_accelerances, harmonic_system
 from plant.model import build_plant
 from rt.common.config import load
 from rt.discrepancy.chain import quiet
-from rt.discrepancy.diagnose_frf import prepare, with_sensor_points
-from rt.discrepancy.diagnose_levels import contact_note, contact_of, diagnose_levels, gap_db, level_of, nonlinear_H
+from rt.discrepancy.diagnose.frf import prepare, with_sensor_points
+from rt.discrepancy.diagnose.levels import contact_note, contact_of, diagnose_levels, gap_db, level_of, nonlinear_H
 from rt.discrepancy.rig import true_structure
-from rt.discrepancy.rig_levels import make_level_campaign
+from rt.discrepancy.rig.levels import make_level_campaign
 from rt.log.frf_files import load_frf_folder
 
 CFG = load("configs/lap_joint_al.toml")

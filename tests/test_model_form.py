@@ -11,10 +11,10 @@ from plant.linear_frf import point_accelerances
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.cli import main
 from rt.common.config import Config, to_dict, with_sets
-from rt.discrepancy.diagnose_frf import diagnose_frf
+from rt.discrepancy.diagnose.frf import diagnose_frf
 from rt.discrepancy.rig import MODEL_FORM_PARTS, model_form
-from rt.discrepancy.rig_frf import make_frf_campaign, sensor_points
-from rt.discrepancy.rig_levels import sweep_level
+from rt.discrepancy.rig.frf import make_frf_campaign, sensor_points
+from rt.discrepancy.rig.levels import sweep_level
 
 F_N1 = 100.0
 

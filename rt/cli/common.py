@@ -197,7 +197,7 @@ def actuator_verb(args) -> str | None:
     if verb == "rig" and not (args.list or args.frf_files):
         return "rig (the time-series campaign; --frf-files writes FRF files without it)"
     if verb == "diagnose" and Path(args.folder).is_dir():   # a missing folder: diagnose's own message
-        from rt.discrepancy.diagnose_frf import is_frf_folder
+        from rt.discrepancy.diagnose import is_frf_folder
         if not is_frf_folder(args.folder):
             return "diagnose of a time-series campaign"
     return None

@@ -1,5 +1,5 @@
 """``frictionrt diagnose``: the discrepancy workflow (rt.discrepancy.diagnose) on a measurement campaign; with
---out a report folder (rt.discrepancy.diagnose_report)."""
+--out a report folder (rt.discrepancy.diagnose.report)."""
 from __future__ import annotations
 
 import argparse
@@ -57,7 +57,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                         "(frictionrt installed there; the same result); a folder of FRF files is diagnosed here")
     p.add_argument("--calibrate-on", metavar="A,B,..", help="FRF files at several levels: calibrate on the files at "
                    "these force amplitudes [N] (sidecar amplitude_n) and predict the others, linear model against "
-                   "the harmonic balance of the joints (rt/discrepancy/diagnose_levels.py)")
+                   "the harmonic balance of the joints (rt/discrepancy/diagnose/levels.py)")
     p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
                    help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df: "
                         "describing functions with the normal contact linear, fast (0.1-0.2 s a level), exact while "
@@ -68,8 +68,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 
 def cmd_diagnose(cfg, args) -> int:
-    from rt.discrepancy.diagnose import diagnose, public, summary
-    from rt.discrepancy.diagnose_frf import diagnose_frf, is_frf_folder
+    from rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
     from pathlib import Path
     if args.out and Path(args.out).exists() and not args.force:
         return fail(f"--out {args.out}: exists; pass --force to replace it as a whole, or give a new folder")
@@ -88,17 +87,17 @@ def cmd_diagnose(cfg, args) -> int:
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     if args.out:
-        from rt.discrepancy.diagnose_report import write_report
+        from rt.discrepancy.diagnose import write_report
         write_folder(args.out, args.force, lambda: write_report(res, args.out))
     print(json.dumps(public(res)) if args.json else summary(res))
     return 0
 
 
 def _levels(cfg, args, say) -> int:
-    """``diagnose --calibrate-on``: rt.discrepancy.diagnose_levels."""
+    """``diagnose --calibrate-on``: rt.discrepancy.diagnose.levels."""
     from rt.cli.common import parse_list
-    from rt.discrepancy.diagnose_frf import is_frf_folder
-    from rt.discrepancy.diagnose_levels import diagnose_levels, summary, write_levels_report
+    from rt.discrepancy.diagnose import is_frf_folder
+    from rt.discrepancy.diagnose.levels import diagnose_levels, summary, write_levels_report
     try:
         levels = parse_list(args.calibrate_on, float, "diagnose --calibrate-on", "0.5,1")
     except ValueError as exc:

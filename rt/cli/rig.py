@@ -61,7 +61,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the scatter, hammer hits and noise")
     p.add_argument("--record-s", type=float, default=1.0, metavar="S", help="impulse record length [s]")
     p.add_argument("--frf-files", action="store_true", help="write FRF files (CSV/UFF + JSON sidecars: linear, "
-                   "contact stuck, at each F_N1) instead of the time-series campaign (rt/discrepancy/rig_frf.py)")
+                   "contact stuck, at each F_N1) instead of the time-series campaign (rt/discrepancy/rig/frf.py)")
     p.add_argument("--quantity", choices=("accelerance", "mobility", "receptance"), default="accelerance",
                    help="with --frf-files: what the files hold, (m/s^2)/N, (m/s)/N or m/N")
     p.add_argument("--force-scale", type=float, metavar="N_PER_V",
@@ -70,7 +70,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--stepsine", action="store_true", help="also step-sine FRF tests (passive, force amplitude "
                    "held at 5 and 10 N, every F_N1 level, 18 lines 120-1250 Hz) as CSV + JSON sidecar")
     p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] (drive voltages [V] with --force-scale) of stepped-sine "
-                   "tests of the nonlinear plant, one file per level (rt/discrepancy/rig_levels.py), instead of "
+                   "tests of the nonlinear plant, one file per level (rt/discrepancy/rig/levels.py), instead of "
                    "the linear FRFs at three F_N1")
     p.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
                    help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
@@ -137,8 +137,7 @@ def cmd_rig(cfg, args) -> int:
         form = model_form_parts(args.model_form)
     except ValueError as exc:
         return fail(f"rig --model-form: {exc}")
-    from rt.discrepancy.rig_frf import make_frf_campaign
-    from rt.discrepancy.rig_levels import make_level_campaign
+    from rt.discrepancy.rig import make_frf_campaign, make_level_campaign
 
     def write():   # the campaign into the new folder out (moved in once complete; rt.discrepancy.rig.new_folder)
         if levels is not None:

@@ -1,7 +1,7 @@
 """The measurement chain that the virtual rig and the diagnosis share: plant -> sensors.
 
 The rig (rt.discrepancy.rig) runs it on the true structure with the sensors' noise, the
-diagnosis (rt.discrepancy.diagnose*) on the nominal model with the noise switched off
+diagnosis (rt.discrepancy.diagnose) on the nominal model with the noise switched off
 (``quiet``), so that model and measurement go through the same filters. ``measure_impulse``
 and ``measure_actuator`` give the channels of an impulse and of an actuator test
 (``SIGNALS``); the noise of the channels that plant.sensors does not model is given here

@@ -44,7 +44,7 @@ class Effect:
                                # linear FRFs of FRF-file input can show it); False: only slip shows it
 
     def visible_in_frf_files(self) -> bool:
-        """Whether linear (stuck-contact) FRF files can show the effect (rt.discrepancy.diagnose_frf, rt.discrepancy.rig_frf)."""
+        """Whether linear (stuck-contact) FRF files can show the effect (rt.discrepancy.diagnose.frf, rt.discrepancy.rig.frf)."""
         return self.channel == "structure" and self.stuck_linear
 
     @property

@@ -16,7 +16,7 @@ Entities (rt.log.rrd_log.write_series_rrd):
 ``before`` is the nominal model, ``after`` the updated one (calibrated, with the named effect).
 Blueprint: one tab per impulse test or FRF file (|H| above the gap, per sensor), one tab with
 the actuator tests, and the report. The FRF bins are those of the report's overlays: BAND_HZ of
-rt.discrepancy.diagnose for impulse tests, the whole band for FRF files.
+rt.discrepancy.diagnose.campaign for impulse tests, the whole band for FRF files.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.discrepancy.diagnose import BAND_HZ, frf_overlays
+from rt.discrepancy.diagnose.campaign import BAND_HZ, frf_overlays
 from rt.log.rrd_log import freq_index, write_series_rrd
 
 CURVES = ("measured", "before", "after")

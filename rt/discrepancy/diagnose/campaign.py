@@ -3,17 +3,17 @@ disagree, which effect of the library (rt.discrepancy.effects) is missing, and h
 
 Method, on a campaign of the measurement format (impulse tests at several F_N1, actuator ramps):
 
-1. Structure (rt.discrepancy.diagnose_structure): calibration scales E, k_t, mu, modal damping alone and
+1. Structure (rt.discrepancy.diagnose.structure): calibration scales E, k_t, mu, modal damping alone and
    with each structural candidate, fitted to the log-magnitude FRFs of both accelerometers over
    4-1600 Hz at every F_N1 (weighted by their noise), the model being the rig's own chain
-   (rt.discrepancy.rig.measure_impulse, noise off) driven by the windowed measured hammer force, read at
+   (rt.discrepancy.chain.measure_impulse, noise off) driven by the windowed measured hammer force, read at
    the data's frequencies through the dispersion c (the data's time step against the plant's:
-   diagnose_structure.warp); started from the identified frequencies of modes 1-8 against the stuck
+   structure.warp); started from the identified frequencies of modes 1-8 against the stuck
    plant's eigenvalues.
 2. Actuator: c_v (and an actuator candidate) by bounded nonlinear least squares
    (scipy.optimize.least_squares) on the exact chain, residuals per signal divided by the signal's
    noise rms estimated on the record's first 2 ms at rest.
-2s. Step-sine tests (rt.discrepancy.diagnose_stepsine, when the folder holds step-sine FRF files): the shaker's
+2s. Step-sine tests (rt.discrepancy.diagnose.stepsine, when the folder holds step-sine FRF files): the shaker's
    force ratio F_amp / drive per line against the two-port of a shaker with armature mass m on the
    calibrated structure (nominal: an ideal source, ratio 1); m by a bounded scalar fit.
 3. Ranking by BIC = sum over channels c of n_c ln(RSS_c / n_c) + p ln n (channels: FRF a_frf,
@@ -44,7 +44,7 @@ from threadpoolctl import threadpool_limits
 
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
-from rt.discrepancy.diagnose_structure import (
+from rt.discrepancy.diagnose.structure import (
     ShapeRun,
     StructureFit,
     fit_cost,
@@ -56,13 +56,13 @@ from rt.discrepancy.diagnose_structure import (
     struct_cfg,
     unwarp,
 )
-from rt.discrepancy.diagnose_stepsine import CHANNEL as SS_CHANNEL
-from rt.discrepancy.diagnose_stepsine import fit_shaker, load_stepsine
-from rt.discrepancy.diagnose_stepsine import gap_db as stepsine_gap_db
-from rt.discrepancy.diagnose_stepsine import prepare as prepare_stepsine
-from rt.discrepancy.diagnose_stepsine import residuals as stepsine_residuals
+from rt.discrepancy.diagnose.stepsine import CHANNEL as SS_CHANNEL
+from rt.discrepancy.diagnose.stepsine import fit_shaker, load_stepsine
+from rt.discrepancy.diagnose.stepsine import gap_db as stepsine_gap_db
+from rt.discrepancy.diagnose.stepsine import prepare as prepare_stepsine
+from rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
 from rt.discrepancy.effects import Effect, get, implemented
-from rt.discrepancy.remainder import budget, verdict
+from rt.discrepancy.diagnose.remainder import budget, verdict
 from rt.log.mcap_log import read_mcap
 from rt.discrepancy.chain import measure_actuator, quiet, scaled
 
@@ -125,13 +125,13 @@ def load_campaign(folder: str | Path) -> list[Test]:
     return tests
 
 
-# --- features (rt.discrepancy.diagnose_structure) ------------------------------------------------------------
+# --- features (rt.discrepancy.diagnose.structure) ------------------------------------------------------------
 
 def frf(t: Test, a: np.ndarray, warp: tuple = (0.0, 0.0)):
     """(freq [Hz], H) of accelerance a / F_exc, the force windowed around the hammer pulse, the
-    response exponentially (tau = T / 4): rt.discrepancy.diagnose_structure.windowed_frf; a model's
-    response read through its dispersion ``warp`` = (c, h) (diagnose_structure.model_frf)."""
-    from rt.discrepancy.diagnose_structure import force_window
+    response exponentially (tau = T / 4): rt.discrepancy.diagnose.structure.windowed_frf; a model's
+    response read through its dispersion ``warp`` = (c, h) (structure.model_frf)."""
+    from rt.discrepancy.diagnose.structure import force_window
     return model_frf(force_window(t.data["F_exc"], t.dt), a, t.dt, *warp)
 
 
@@ -398,7 +398,7 @@ def feat_gap(res: dict) -> float:
 def ranking_result(base: dict, ranked: list[dict], winner: dict | None, gap: dict, localisation: dict,
                    nominal_channels: dict, modes_after: dict) -> dict:
     """The result (docs/discrepancy.md) of the ranking, with the gap metrics ``gap`` (gap_before,
-    gap_calibrated, gap_after), the ``localisation`` and the gap's budget (rt.discrepancy.remainder: from
+    gap_calibrated, gap_after), the ``localisation`` and the gap's budget (rt.discrepancy.diagnose.remainder: from
     the nominal model's channels and the final model's ``modes_after``); the updated configuration
     under "_config"."""
     final = winner or base
@@ -420,7 +420,7 @@ def ranking_result(base: dict, ranked: list[dict], winner: dict | None, gap: dic
 def frf_overlays(plots: dict) -> list[tuple]:
     """(test name, F_N1 [N], freq [Hz], {"measured", "before", "after": H of a_frf_meas}) per test
     of a result's "_plots": the impulse tests' windowed FRFs, or the FRF files' lines ("frf", from
-    rt.discrepancy.diagnose_frf; the first sensor where a file has no a_frf_meas)."""
+    rt.discrepancy.diagnose.frf; the first sensor where a file has no a_frf_meas)."""
     if "frf" in plots:
         out = []
         for name, F_N1, f, H, H0, H1 in plots["frf"]:
@@ -486,7 +486,7 @@ def summary(result: dict) -> str:
         lines.append(f"step-sine F_amp/drive gap [dB]: {gb['stepsine_ratio_db']:.3f} -> {ga['stepsine_ratio_db']:.3f}")
     if gb["actuator_nrmse"] is not None:
         lines.append(f"actuator F_cell NRMSE: {gb['actuator_nrmse']:.4f} -> {ga['actuator_nrmse']:.4f}")
-    if "excitation" in result:      # FRF files per drive volt (rt.discrepancy.diagnose_frf)
+    if "excitation" in result:      # FRF files per drive volt (rt.discrepancy.diagnose.frf)
         lines.append(f"no force in the data: fitted force scale {result['excitation']['force_scale_N_per_V']:g} N/V")
     for w in result.get("warnings", []):
         at = "" if w["bound"] is None else f" on its bound {w['bound']:g}"

@@ -6,7 +6,7 @@ amplitudes (sidecar ``amplitude_n`` [N]; e.g. ``rig --frf-files --levels``). The
 calibrated where the joint just starts to slip (the lowest levels), does the model predict the
 higher ones? Two models, both calibrated on the tests at the levels ``calibrate_on`` only:
 
-* linear: rt.discrepancy.diagnose_frf's stuck model (plant.linear_frf), the same FRF at every level,
+* linear: rt.discrepancy.diagnose.frf's stuck model (plant.linear_frf), the same FRF at every level,
   calibrated as there (E, k_t, modal damping);
 * nonlinear: the harmonic balance of the joints at each test's force amplitude (plant.harmonic_frf,
   one start per line), calibrated in E, k_t, mu and the modal damping, alone and with each slip
@@ -19,14 +19,14 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
   prediction is 2.9x closer than the linear model's, aft's 49x: docs/discrepancy.md). With "df" the
   prediction reports where a closed pair's normal gap swings more than its static gap (``contact_note``).
 
-Residuals: rt.discrepancy.diagnose_frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
+Residuals: rt.discrepancy.diagnose.frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
 noise, every sensor. Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
 of the scales, within ``BOUNDS``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength). A line where the harmonic balance does not converge is
-given the constant weighted residual rt.discrepancy.diagnose_frf.NO_SOLUTION, so a parameter set that
+given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
 leaves the balance without a solution is never preferred.
 
-Ranking of the candidates on the calibration levels: BIC as rt.discrepancy.diagnose, named under its
+Ranking of the candidates on the calibration levels: BIC as rt.discrepancy.diagnose.campaign, named under its
 three conditions (rank). Prediction: at every level not calibrated on, the gap [dB] = RMS of
 20 log10|H_meas / H_model| over the band of the softening mode (``softening_band``: +-``HALF_WIDTH``
 around the stuck model's mode whose measured peak moves most from the lowest to the highest level)
@@ -45,10 +45,10 @@ from plant.harmonic_frf import METHODS, harmonic_accelerances, harmonic_system
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet, scaled
-from rt.discrepancy.diagnose import bic, rank
-from rt.discrepancy.diagnose_frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
+from rt.discrepancy.diagnose.campaign import bic, rank
+from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
-from rt.discrepancy.diagnose_structure import CAL_FAR
+from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
@@ -307,7 +307,7 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
     import matplotlib.pyplot as plt
 
     from rt.common.config import dumps
-    from rt.discrepancy.rig import new_folder
+    from rt.discrepancy.rig.campaign import new_folder
     with new_folder(out) as tmp:
         (tmp / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
                                                       indent=1) + "\n")

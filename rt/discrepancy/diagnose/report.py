@@ -1,6 +1,6 @@
 """Report folder of ``frictionrt diagnose --out``: diagnose.json (the JSON of the workflow),
 model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (the overlays
-for rerun: rt.discrepancy.diagnose_rrd), and overlay PNGs: per impulse
+for rerun: rt.discrepancy.diagnose.rrd), and overlay PNGs: per impulse
 test |H| measured / nominal model (before) / updated model (after) over BAND_HZ, per FRF file the
 same for every sensor over the file's whole band, in its quantity and unit (issue 18), per
 actuator test the bolt force F_cell over time. Written into a temporary folder beside REPORT_DIR,
@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from rt.common.config import dumps
-from rt.discrepancy.diagnose_rrd import write_diagnosis_rrd
-from rt.discrepancy.remainder import verdict
-from rt.discrepancy.diagnose import (
+from rt.discrepancy.diagnose.rrd import write_diagnosis_rrd
+from rt.discrepancy.diagnose.remainder import verdict
+from rt.discrepancy.diagnose.campaign import (
     BAND_HZ,
     MIN_RSS_REDUCTION,
     NAME_THRESHOLD,
@@ -97,7 +97,7 @@ def _plots(res: dict, folder: Path) -> list[str]:
 
 
 def dispersion_note(c: float) -> str:
-    """One line of report.md on the fitted dispersion c (diagnose_structure.warp)."""
+    """One line of report.md on the fitted dispersion c (structure.warp)."""
     step = (f"the data's time step is {math.sqrt(1.0 - c):.2f} x the model's plant step" if c <= 1.0 else
             "beyond continuous time (c > 1): the warp takes a model-form error that rises with frequency")
     return (f"Dispersion c = {c:.3g}: the model's FRFs are read at f (1 - c (pi f h)^2 / 3), h the plant's step; "

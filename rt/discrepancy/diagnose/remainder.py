@@ -1,7 +1,7 @@
 """What the diagnosis explains and what remains (issue 18, docs/discrepancy.md "What remains: model form").
 
 A measurement never comes from the model that fits it. The structure channels' weighted residuals r
-(ln|H| differences over their noise sigma, rt.discrepancy.diagnose_structure / diagnose_frf) give, for
+(ln|H| differences over their noise sigma, rt.discrepancy.diagnose.structure / frf) give, for
 the nominal model (0), calibration alone (c) and the final model (f: calibrated, with the named effect
 if one is named),
 
@@ -43,7 +43,7 @@ def _rss(channels: dict) -> tuple[float, int]:
 
 def budget(nominal: dict, calibrated: dict, final: dict, modes_after: dict) -> dict:
     """The gap's budget (module docstring) from the structure channels {name: weighted residuals} of
-    the nominal, calibrated and final models, and ``modes_after`` {test: rt.discrepancy.diagnose.modes_table
+    the nominal, calibrated and final models, and ``modes_after`` {test: rt.discrepancy.diagnose.campaign.modes_table
     of the final model}. Returns {"calibration_share", "effect_share", "remainder_share", "rms_final",
     "remainder_dominates", "modes_missed": [{"test", "mode", "shift_rel"}], "sensors": [{"sensor",
     "rms"}]}; shares None when the nominal model is already within the noise (excess <= 0)."""

@@ -21,7 +21,7 @@ it, as a real structure's FRF does not).
 Lines (``level_lines``): ``LINES_PER_MODE`` over +-``HALF_WIDTH`` around each mode of the stuck
 structure at F_N1 inside ``BAND_HZ`` (rt.experiments.stepsine.resonance_grid), plus a coarse grid of
 ``COARSE_LINES`` log-spaced lines across the band. The same lines at every level, as a lab's test
-plan. Noise as rt.discrepancy.rig_frf (``NOISE_REL`` of |H| plus ``NOISE_FLOOR``). Files
+plan. Noise as rt.discrepancy.rig.frf (``NOISE_REL`` of |H| plus ``NOISE_FLOOR``). Files
 ``level_NN`` alternately CSV and UFF, kind "frf", ``amplitude_n`` = F; the sidecars are the same for
 every hidden effect.
 """
@@ -40,8 +40,8 @@ from plant.simulate import run
 from rt.common.config import Config, adaptive_screw
 from rt.discrepancy.chain import hold_voltage, stack_force
 from rt.discrepancy.effects import get
-from rt.discrepancy.rig import new_folder, true_structure
-from rt.discrepancy.rig_frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
+from rt.discrepancy.rig.campaign import new_folder, true_structure
+from rt.discrepancy.rig.frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
 from rt.experiments.stepsine import Settle, harmonics_of_columns, resonance_grid, steady
 from rt.log.frf_files import FRFTest, write_frf_csv, write_frf_uff
 
@@ -158,7 +158,7 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N,
                         other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None) -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
-    then renamed), from the true structure of rt.discrepancy.rig.true_structure (the same scatter draw and
+    then renamed), from the true structure of rt.discrepancy.rig.campaign.true_structure (the same scatter draw and
     hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
     levels are drive voltages, as write_level_tests); returns the data files written. ValueError for an effect of the actuator
     or the shaker (FRF files of the structure do not record them) or a level that is not a positive

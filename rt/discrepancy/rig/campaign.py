@@ -146,7 +146,7 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
     ``strength`` [the effect's unit] defaults to its moderate strength. Returns the files written.
     ValueError for an unknown or unimplemented effect, a strength out of bounds, or an existing
     non-empty ``out_dir``, or an effect that shows only in step-sine tests without ``stepsine``.
-    ``stepsine``: also the step-sine FRF tests of rt.discrepancy.rig_stepsine (CSV + sidecar);
+    ``stepsine``: also the step-sine FRF tests of rt.discrepancy.rig.stepsine (CSV + sidecar);
     ``other_form``: the truth of another model form made of these parts (``model_form``; () the nominal's)."""
     if effect != "none" and get(effect).channel == "stepsine" and not stepsine:
         raise ValueError(f"effect {effect!r} shows only in step-sine tests (the shaker's force ratio); add --stepsine")
@@ -182,7 +182,7 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
                 f"{HOLD_S * 1e3:g} ms, structure at rest"))
             names.append(name)
         if stepsine:
-            from rt.discrepancy.rig_stepsine import write_stepsine_tests
+            from rt.discrepancy.rig.stepsine import write_stepsine_tests
             names += write_stepsine_tests(tmp, true, levels_n, seed)
     return [Path(out_dir) / n for n in names]
 

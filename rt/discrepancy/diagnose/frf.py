@@ -10,7 +10,7 @@ sidecar positions must match within ``POSITION_TOL_M``); any other name sits at 
 position on the beam that holds it (sidecar sensor_beams where beams overlap), at the model's
 point there within ``POSITION_TOL_M``, or at a massless point added to the model there
 (``with_sensor_points``: a mesh node, as every point is). It has no friction limit, so mu
-cannot act: calibration is E, k_t and the modal damping (rt.discrepancy.diagnose_structure.CAL_FAR:
+cannot act: calibration is E, k_t and the modal damping (rt.discrepancy.diagnose.structure.CAL_FAR:
 bounds, priors, k_t and the damping on a log scale), alone or with each implemented structural
 candidate of rt.discrepancy.effects.
 
@@ -22,7 +22,7 @@ x 1.5 where the FRF is smooth over two lines), its local level the running media
     sigma_k^2 = median|d|^2 / (3 ln 2 |H_k|^2) + FLOOR^2,
 
 lines with sigma_k > MAX_SIGMA (noise-filled antiresonances) left out (FLOOR, MAX_SIGMA as the
-impulse workflow's, rt.discrepancy.diagnose_structure).
+impulse workflow's, rt.discrepancy.diagnose.structure).
 
 Drive voltage (sidecar excitation drive_voltage: H per volt, no force measured): H_V = s H_F with
 one unknown force scale s [N/V] for the folder's voltage tests. ln s enters every residual of
@@ -37,16 +37,16 @@ an error in the nominal mass scale (measured: a nominal with rho and E of the be
 s = 1.2008 x the truth, E as before, k_t x 1.2, and names moving_mass 0.004 kg for the screws'
 masses that did not scale).
 
-Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.frf_modes:
+Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.diagnose.frf_modes:
 peaks of all sensors, by shape with >= 3 sensors, else by order: no window around the nominal
 frequencies); E, ln k_t (over its decades k_t moves the frequencies by tens of percent) and the
-candidate fitted to them (rt.discrepancy.diagnose_structure.fit_frequencies). Stage 2: weighted
+candidate fitted to them (rt.discrepancy.diagnose.structure.fit_frequencies). Stage 2: weighted
 log-magnitude residuals r = (ln|H_meas| - ln|H_model|) / sigma_k of all sensors and tests plus
-the calibration priors, by rt.discrepancy.diagnose_structure's Gauss-Newton with Broyden updates
+the calibration priors, by rt.discrepancy.diagnose.structure's Gauss-Newton with Broyden updates
 on (E, ln k_t, ln modal_damping, the candidate), at most ``MAX_STEPS_FAR`` steps, from the better
 of stage 1 and the calibration with the candidate at nominal. Ranking, naming conditions and
-result keys as rt.discrepancy.diagnose (rank, ranking_result); the gap per test [dB] is the RMS of
-20 log10|H_meas / H_model| of a_frf_meas (else the first sensor) over rt.discrepancy.diagnose.
+result keys as rt.discrepancy.diagnose.campaign (rank, ranking_result); the gap per test [dB] is the RMS of
+20 log10|H_meas / H_model| of a_frf_meas (else the first sensor) over rt.discrepancy.diagnose.campaign.
 BAND_HZ ("frf_db", as before issue 18) and over every sensor and the file's whole band
 ("frf_db_all", "band_hz"). A fitted parameter within ``BOUND_REL`` of a bound is a warning
 (``bound_warnings``).
@@ -65,8 +65,8 @@ from plant.linear_frf import point_accelerances
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet
-from rt.discrepancy.diagnose import BAND_HZ, bic, modes_table, rank, ranking_result
-from rt.discrepancy.diagnose_structure import (
+from rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
+from rt.discrepancy.diagnose.structure import (
     CAL_FAR,
     FLOOR,
     LOG_SCALE,
@@ -83,8 +83,8 @@ from rt.discrepancy.diagnose_structure import (
     to_z,
 )
 from rt.discrepancy.effects import EFFECTS, Effect, implemented
-from rt.discrepancy.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
-from rt.discrepancy.rig_frf import add_points, sensor_points
+from rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
+from rt.discrepancy.rig.frf import add_points, sensor_points
 from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
 
 NOISE_LINES = 31                 # running-median window of the noise estimate [lines]
@@ -252,7 +252,7 @@ NO_SOLUTION = 30.0   # weighted residual of a line where the model has no value 
 def weighted_residuals(data: list[FRFData], Hm: list[dict], profile_scale: bool = True
                        ) -> tuple[dict, list[dict], float | None]:
     """``residuals`` of the model FRFs ``Hm`` {sensor: H per newton} per test (any model: the stuck
-    linear one, rt.discrepancy.diagnose_levels' harmonic balance). A line where the model is not finite
+    linear one, rt.discrepancy.diagnose.levels' harmonic balance). A line where the model is not finite
     gets the residual ``NO_SOLUTION`` and stays out of the force scale. ``profile_scale`` False: the
     drive-voltage tests' ``Hm`` are per volt already (a nonlinear model, whose force the scale sets)."""
     raw = [{s: (d.ln_h[s] - np.log(np.maximum(np.abs(h[s][d.sel[s]]), 1e-300))) for s in d.sel}
@@ -293,7 +293,7 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     """Stage 1 then stage 2 (module docstring) of the calibration alone (effect None) or with the
     effect; with ``calibrated`` stage 2 starts from the better of stage 1 and the calibration with
     the effect at its nominal strength, there with the calibration's Jacobian columns (so a
-    candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose_structure's
+    candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.structure's
     Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
     step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
@@ -408,7 +408,7 @@ def level_warning(offset_db: float, per_volt: bool) -> list[dict]:
 
 
 def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=None) -> dict:
-    """The workflow (module docstring) on a folder of FRF files; the result dict as rt.discrepancy.diagnose's,
+    """The workflow (module docstring) on a folder of FRF files; the result dict as rt.discrepancy.diagnose.campaign's,
     with the fitted configuration under "_config" and the plotting data under "_plots"."""
     with threadpool_limits(1):
         return _diagnose_frf(folder, nominal, progress or (lambda msg: None))

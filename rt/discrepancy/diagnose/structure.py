@@ -26,7 +26,7 @@ candidate by scipy.optimize.least_squares; mu and the modal damping do not move 
 Stage 2 (the fit that counts; ~0.1 s per model): the log-magnitude residuals
 r = (ln|H_meas| - ln|H_model|) / sigma_k over ``BAND_HZ`` of both accelerometers and all tests:
 modes, antiresonances and the amplitude dependence across F_N1. The model runs the rig's own
-chain (rt.discrepancy.rig.measure_impulse: nonlinear plant, hence slip at a low F_N1, and sensors, noise off)
+chain (rt.discrepancy.chain.measure_impulse: nonlinear plant, hence slip at a low F_N1, and sensors, noise off)
 driven by the windowed measured force; its FRFs are read at the data's frequencies through the
 dispersion c (``model_frf``). Gauss-Newton steps from stage 1 with bounds
 (scipy.optimize.lsq_linear) on a forward-difference Jacobian (plant rebuilt per column, 12 ms)
@@ -67,7 +67,7 @@ CONVERGED = 1e-3                        # stage 2 stops when the cost drops by l
 CAL_FAR = {"E": (0.5, 2.0, 0.3, 1e-3), "k_t": (0.01, 100.0, math.log(10.0), 0.02),
            "mu": (0.5, 2.0, 0.3, 0.02), "modal_damping": (0.1, 10.0, math.log(10.0), 0.02)}
 """Calibration scales around 1: (lower, upper bound, prior sigma, finite-difference step), of the
-impulse tests here and of the FRF-file input (rt.discrepancy.diagnose_frf: without mu; issue 18: a
+impulse tests here and of the FRF-file input (rt.discrepancy.diagnose.frf: without mu; issue 18: a
 first model may be tens of percent off): E and mu within a factor 2 (frequencies within 41 %), prior
 sigma 0.3; the contact stiffness and the modal damping within a factor 100 and 10, on a log scale
 (``LOG_SCALE``), prior sigma ln 10 on ln(scale) (a contact stiffness from Hertz-Mindlin or a

@@ -1,7 +1,7 @@
 """The virtual rig's FRF-file campaign (``frictionrt rig --frf-files``, issue 7): what a lab
 exports from low-level FRF measurements with the contact stuck, as FRF files (rt.log.frf_files,
 docs/data-format.md "FRF files"), from the same "true" structure as ``rig`` writes time series of
-(rt.discrepancy.rig.true_structure: the same scatter draw and hidden effect for the same seed).
+(rt.discrepancy.rig.campaign.true_structure: the same scatter draw and hidden effect for the same seed).
 
 One test per F_N1 level (default 40, 100, 300 N): the stack holds F_N1 within ``HOLD_REL``
 (relative rms; the sidecar gives the held value, as a lab's load-cell mean); the accelerances of
@@ -42,7 +42,7 @@ from rt.log.data_format import ACCELEROMETER_POINTS
 from rt.log.frf_files import FORMAT, FRFTest, from_accelerance, write_frf_csv, write_frf_uff
 from plant.linear_frf import point_accelerances
 from rt.discrepancy.chain import sensor_point
-from rt.discrepancy.rig import FN1_LEVELS_N, new_folder, true_structure
+from rt.discrepancy.rig.campaign import FN1_LEVELS_N, new_folder, true_structure
 
 FREQ_HZ = 4.0 + 0.25 * np.arange(6385)   # [Hz] 4 .. 1600 Hz
 NOISE_REL = 0.01                         # complex noise rms relative to |H|
@@ -79,7 +79,7 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
                       sensors: dict[str, tuple[str, float]] | None = None,
                       other_form: tuple[str, ...] = ()) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
-    then renamed). Arguments as rt.discrepancy.rig.make_campaign; ``quantity`` of the files,
+    then renamed). Arguments as rt.discrepancy.rig.campaign.make_campaign; ``quantity`` of the files,
     ``force_scale_N_per_V`` (given: the excitation is a drive voltage, H per volt = s H per
     newton), ``sensors`` {name: (beam, x_m)} instead of the accelerometers; returns the data files
     written. ValueError for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""

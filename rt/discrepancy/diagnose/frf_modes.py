@@ -3,7 +3,7 @@
 off still pairs every measured mode.
 
 Measured modes, per test: the peaks of ln|H_s| of every sensor s (scipy.signal.find_peaks) with a
-prominence of at least ``PEAK_PROMINENCE`` on lines whose noise sigma_k (rt.discrepancy.diagnose_frf.
+prominence of at least ``PEAK_PROMINENCE`` on lines whose noise sigma_k (rt.discrepancy.diagnose.frf.
 noise_sigma) is below ``PEAK_SIGMA`` (a noise spike in an antiresonance floor is not a mode);
 peaks of different sensors within ``MERGE_REL`` are one mode; its frequency by
 plant.impulse.identify (no window) on the sensor with the highest peak, in a band of 0.4 x the
