@@ -225,8 +225,8 @@ def condense_quasi_static(model: PlantModel) -> PlantModel:
     s, Y = np.linalg.eigh(U.T @ (U / om[:, None] ** 2))   # V^T V with V = Omega^(-1/2) U: s = omega_r^-2
     s, Y = s[::-1], Y[:, ::-1]                             # ascending Ritz frequencies
     Vr = (U / om[:, None]) @ Y / np.sqrt(s)               # M-orthonormal, V^T Omega V = diag(1/s)
-    T = np.zeros((len(qs), int((~qs).sum()) + Vr.shape[1]))
     n_dyn = int((~qs).sum())
+    T = np.zeros((len(qs), n_dyn + Vr.shape[1]))
     T[np.flatnonzero(~qs), np.arange(n_dyn)] = 1.0
     T[np.flatnonzero(qs), n_dyn:] = Vr
     omega = np.concatenate([model.omega[~qs], 1.0 / np.sqrt(s)])

@@ -189,7 +189,7 @@ class Plant:
     substeps: int = param(1, "-", lo=1, hi=256, doc="plant substeps per controller step")
     condense_quasi_static: bool = param(True, doc="step the quasi-static modes as their Ritz modes on the subspace "
                                                   "the contact and the inputs reach (exact; docs/plant.md 2.7): "
-                                                  "3 + 2 pairs + 1 coordinates instead of every mode above "
+                                                  "at most 3 + 2 x pairs + 1 coordinates instead of every mode above "
                                                   "quasi_static_hz; false: every mode")
     period_match: bool = param(True, doc="step the Newmark modes with modal mass (omega / omega_d)^2, omega_d = "
                                          "(2/h) tan(omega h / 2), and matched damping, so that the trapezoidal "
