@@ -52,9 +52,8 @@ MICRO_SLIP_XFAIL = pytest.mark.xfail(strict=True, run=False, reason=(
 # One hidden effect per kind of evidence; every effect (and half strengths, other seeds) is
 # `python -m benchmarks.discrepancy 5`'s confusion table (docs/discrepancy.md): each diagnosis here
 # costs ~2-3 min on a 2-core machine, and the suite's budget is ~15 min. Stribeck has its own test.
-SUITE_EFFECTS = {"accelerometer_mass": "a mass at a sensor", "clamp_compliance": "a compliant clamp",
-                 "current_limit": "the actuator's ramps", "shaker_interaction": "the step-sine channel",
-                 "micro_slip": "the joint's loop"}
+# A mass at a sensor, a compliant clamp, the actuator's ramps, the step-sine channel, the joint's loop:
+SUITE_EFFECTS = ("accelerometer_mass", "clamp_compliance", "current_limit", "shaker_interaction", "micro_slip")
 
 
 def assert_named_fitted_and_closed(res: dict, effect) -> None:
