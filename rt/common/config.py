@@ -131,7 +131,9 @@ class Interface:
                          doc="interface damping: Kelvin-Voigt dashpots c = k tau on the pairs (A); "
                              "damps the contact modes the 21 kHz step cannot resolve")
     dashpot_depth_m: float = param(1e-8, "m", lo=0.0, lo_inclusive=False,
-                                   doc="penetration over which the tangential dashpot fades in (A)")
+                                   doc="penetration over which the tangential dashpot fades in (A): the contact "
+                                       "damping grows with the pressure up to k_n_area x depth; the adaptive screw's "
+                                       "points sit at 0.2..50 nm, so it shapes the controlled joint (docs/plant.md 6.2)")
     k_t_area: float = param(7.82e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="Jenkins tangential stiffness per unit area of interface (Mindlin ratio "
                                 "2 (1 - nu) / (2 - nu) = 0.82 k_n_area)")
