@@ -21,7 +21,7 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
 
 Residuals: rt.discrepancy.diagnose.frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
 noise, every sensor. Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
-of the scales, within ``BOUNDS``, from the linear calibration's E, k_t and damping and mu x 1 (the
+of the scales, within ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength). A line where the harmonic balance does not converge is
 given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
 leaves the balance without a solution is never preferred.
@@ -44,7 +44,7 @@ from threadpoolctl import threadpool_limits
 from plant.harmonic_frf import METHODS, harmonic_accelerances, harmonic_system
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
-from rt.discrepancy.chain import quiet, scaled
+from rt.discrepancy.chain import quiet, scale_bounds, scaled
 from rt.discrepancy.diagnose.campaign import bic, rank
 from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
@@ -53,10 +53,9 @@ from rt.discrepancy.effects import Effect, get
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
-BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.1, 10.0),
-                                                                         FORCE_SCALE: FORCE_SCALE_N_PER_V}
-"""Bounds of the calibration scales (x nominal; the FRF files' far calibration, mu within a decade) and of
-the drive-voltage tests' force scale [N/V]; all moved on a log scale."""
+BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.1, 10.0)}
+"""The fit's own ranges of the calibration scales (x nominal; the FRF files' far calibration, mu within a
+decade), within what the configuration accepts (``fit_bounds``); all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
 CANDIDATES = ("micro_slip",)
 AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lines take 1-9 on the lap joint; a start
@@ -97,6 +96,12 @@ def split(tests: list[FRFTest], calibrate_on) -> tuple[list[int], list[int]]:
     return cal, rest
 
 
+def fit_bounds(nominal: Config) -> dict[str, tuple[float, float]]:
+    """{parameter: (lo, hi)} of the harmonic-balance fit around ``nominal``: ``BOUNDS`` intersected with
+    what the configuration accepts (rt.discrepancy.chain.scale_bounds), the force scale's [N/V]."""
+    return {k: scale_bounds(nominal, k, *b) for k, b in BOUNDS.items()} | {FORCE_SCALE: FORCE_SCALE_N_PER_V}
+
+
 def _cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
     cfg = scaled(nominal, {k: theta[k] for k in CAL_NAMES})
     return effect.apply(cfg, theta[effect.name]) if effect is not None else cfg
@@ -131,13 +136,14 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
-    lo = [math.log(BOUNDS[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
-    hi = [math.log(BOUNDS[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
+    b = fit_bounds(nominal)
+    lo = [math.log(b[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
+    hi = [math.log(b[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
     x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default] if effect else [])
     x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
 
     def theta_of(x):
-        return {k: (math.exp(v) if k in BOUNDS else float(v)) for k, v in zip(names, x)}
+        return {k: (math.exp(v) if k in logs else float(v)) for k, v in zip(names, x)}
 
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
@@ -270,9 +276,9 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
                           "evaluations": fits[None]["evaluations"]},
             "prediction": pred,
             "contact_note": contact_note(pred, method, "V" if per_volt else "N"),
-            "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt)]
+            "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt, nominal)]
                         + [w | {"model": "harmonic balance"} for w in bound_warnings(
-                            final["theta"], winner_effect, per_volt, {k: v for k, v in BOUNDS.items() if k != FORCE_SCALE})],
+                            final["theta"], winner_effect, per_volt, nominal, fit_bounds(nominal))],
             "_config": final["cfg"],
             "_plots": [(d.name, a, d.freq, d.H, h0, h1) for d, a, h0, h1 in zip(data, levels, H_lin, H_nl)]}
 
