@@ -59,11 +59,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from plant.aft import AftLine, continued, newton, ramped
-from plant.describing import pair_df, slider_amplitude
+from plant.describing import _pairs_df, slider_amplitude
 from plant.linear_frf import stuck_model
 from plant.model import PlantModel, contact_forces, preloaded_pairs
 
@@ -157,16 +158,42 @@ class HarmonicFRF:
 
 # --- method "df": describing functions, normal contact linear --------------------------------
 
-def _dk_times(hs: HarmonicSystem, ic: np.ndarray, g: np.ndarray):
-    """(dk g, d(dk g)/dRe g, d(dk g)/dIm g) per closed pair ic (module docstring (2))."""
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _dk_times(g, k_t, q, kf, qf):
+    """(dk g, d(dk g)/dRe g, d(dk g)/dIm g) of the closed pairs' complex gaps g^_t (pc,), dk = k_eq(|g|) - k_t
+    (module docstring (2); k_t [N/m], q [N] per closed pair, the elements' fractions kf, qf)."""
     a = np.abs(g)
-    dk = np.empty(len(g), complex)
-    dd = np.empty(len(g), complex)
-    for c, j in enumerate(ic):
-        e, d = pair_df(a[c], hs.k_t[j], hs.q[j], hs.kf, hs.qf)
-        dk[c], dd[c] = e - hs.k_t[j], d
+    keq = np.empty(len(g), np.complex128)
+    dd = np.empty(len(g), np.complex128)
+    _pairs_df(a, k_t, q, kf, qf, keq, dd)
+    dk = keq - k_t
     u = dd * g / np.where(a > 0.0, a, 1.0)  # d dk / d a * g / a
     return dk * g, dk + u * g.real, 1j * dk + u * g.imag
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _df_residual(x, Htt, u, k_t, q, kf, qf):
+    """r of (D) at x = (Re g^_t, Im g^_t): g^_t + H_tt (dk g^_t) - H_tF F, as (Re r, Im r)."""
+    pc = len(u)
+    g = x[:pc] + 1j * x[pc:]
+    r = g + Htt @ _dk_times(g, k_t, q, kf, qf)[0] - u
+    return np.concatenate((r.real, r.imag))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _df_jacobian(x, Htt, k_t, q, kf, qf):
+    """dr/dx of ``_df_residual`` (2 pc, 2 pc): [[Re Jx, Re Jy], [Im Jx, Im Jy]], Jx = I + H_tt diag(d(dk g)/dRe g),
+    Jy = i I + H_tt diag(d(dk g)/dIm g)."""
+    pc = Htt.shape[0]
+    _, dx, dy = _dk_times(x[:pc] + 1j * x[pc:], k_t, q, kf, qf)
+    J = np.empty((2 * pc, 2 * pc))
+    for i in range(pc):
+        for j in range(pc):
+            jx, jy = Htt[i, j] * dx[j], Htt[i, j] * dy[j]
+            if i == j:
+                jx, jy = jx + 1.0, jy + 1j
+            J[i, j], J[i, pc + j], J[pc + i, j], J[pc + i, pc + j] = jx.real, jy.real, jx.imag, jy.imag
+    return J
 
 
 def _df_line(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, starts, tol, max_iter):
@@ -176,16 +203,13 @@ def _df_line(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, starts
     pc = len(ic)
     Htt = (hs.X_g[1::2][ic] * d) @ hs.Y_g[:, 1::2][:, ic]
     u = (hs.X_g[1::2][ic] * d) @ hs.Y_b * F
+    law = (hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
 
     def res(x):
-        g = x[:pc] + 1j * x[pc:]
-        r = g + Htt @ _dk_times(hs, ic, g)[0] - u
-        return np.concatenate([r.real, r.imag])
+        return _df_residual(x, Htt, u, *law)
 
     def jac(x):
-        _, dx, dy = _dk_times(hs, ic, x[:pc] + 1j * x[pc:])
-        Jx, Jy = np.eye(pc) + Htt * dx[None, :], 1j * np.eye(pc) + Htt * dy[None, :]
-        return np.block([[Jx.real, Jy.real], [Jx.imag, Jy.imag]])
+        return _df_jacobian(x, Htt, *law)
 
     sols = []
     for g0 in starts:
@@ -199,7 +223,7 @@ def _df_line(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, starts
 def _df_response(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, g: np.ndarray) -> np.ndarray:
     """First-order modal response of the first harmonic, from the closed pairs' g^ (method df)."""
     lam_t = np.zeros(hs.X_g.shape[0], complex)
-    lam_t[1::2][ic] = -_dk_times(hs, ic, g)[0]   # lambda_t = -f_t
+    lam_t[1::2][ic] = -_dk_times(g, hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)[0]   # lambda_t = -f_t
     return d * (hs.Y_b * F + hs.Y_g @ lam_t)
 
 
@@ -282,8 +306,7 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
         if method == "df":
             modal = _df_response(hs, ic, d, F_amp, sol)
             g1[i] = hs.X_g @ modal
-            for j in ic:
-                slip[i, j] = slider_amplitude(abs(g1[i, 2 * j + 1]), hs.k_t[j], hs.q[j], hs.kf, hs.qf)
+            slip[i, ic] = slider_amplitude(np.abs(g1[i, 2 * ic + 1]), hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
             slip[i, ~hs.closed] = 0.0
             open_frac[i] = (~hs.closed).astype(float)
         else:
