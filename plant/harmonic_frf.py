@@ -63,7 +63,7 @@ import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.aft import AftLine, continued, newton, ramped
+from plant.aft import AftLine, continued, newton, newton_compiled, ramped
 from plant.describing import _pairs_df, slider_amplitude
 from plant.linear_frf import stuck_model
 from plant.model import PlantModel, contact_forces, preloaded_pairs
@@ -172,8 +172,10 @@ def _dk_times(g, k_t, q, kf, qf):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _df_residual(x, Htt, u, k_t, q, kf, qf):
-    """r of (D) at x = (Re g^_t, Im g^_t): g^_t + H_tt (dk g^_t) - H_tF F, as (Re r, Im r)."""
+def _df_residual(x, p):
+    """r of (D) at x = (Re g^_t, Im g^_t): g^_t + H_tt (dk g^_t) - H_tF F, as (Re r, Im r); p = (H_tt, H_tF F,
+    k_t, q, kf, qf) of the line (``df_matrices``) and the closed pairs' law."""
+    Htt, u, k_t, q, kf, qf = p
     pc = len(u)
     g = x[:pc] + 1j * x[pc:]
     r = g + Htt @ _dk_times(g, k_t, q, kf, qf)[0] - u
@@ -181,9 +183,10 @@ def _df_residual(x, Htt, u, k_t, q, kf, qf):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _df_jacobian(x, Htt, k_t, q, kf, qf):
+def _df_jacobian(x, p):
     """dr/dx of ``_df_residual`` (2 pc, 2 pc): [[Re Jx, Re Jy], [Im Jx, Im Jy]], Jx = I + H_tt diag(d(dk g)/dRe g),
-    Jy = i I + H_tt diag(d(dk g)/dIm g)."""
+    Jy = i I + H_tt diag(d(dk g)/dIm g); p as there."""
+    Htt, _, k_t, q, kf, qf = p
     pc = Htt.shape[0]
     _, dx, dy = _dk_times(x[:pc] + 1j * x[pc:], k_t, q, kf, qf)
     J = np.empty((2 * pc, 2 * pc))
@@ -196,35 +199,38 @@ def _df_jacobian(x, Htt, k_t, q, kf, qf):
     return J
 
 
-def _df_line(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, starts, tol, max_iter):
-    """Solutions of (2) on one line from each start (complex g^ of the closed pairs, or None for
-    the stuck and sliding starts); returns [(g, converged, iterations, residual)], the pair
-    forces' deviation and the modal response of the first."""
+def df_matrices(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float) -> tuple[np.ndarray, np.ndarray]:
+    """(H_tt, H_tF F) of (D) on the lines whose first-order modal receptances are d = 1 / (i Omega - lambda)
+    ((2n,) one line, (lines, 2n) many): the closed pairs' tangential gap receptances to their forces
+    [m/N] and their gaps under the excitation force F [N] [m]."""
+    Xd = hs.X_g[1::2][ic] * d[..., None, :]
+    return Xd @ hs.Y_g[:, 1::2][:, ic], Xd @ hs.Y_b * F
+
+
+def _df_line(hs: HarmonicSystem, ic: np.ndarray, Htt: np.ndarray, u: np.ndarray, starts, tol, max_iter):
+    """Solutions of (2) on one line (its ``df_matrices``) from each start (complex g^ of the closed pairs, or
+    "stuck" and "sliding"), by plant.aft's compiled Newton; returns [(g, converged, iterations, residual)]."""
     pc = len(ic)
-    Htt = (hs.X_g[1::2][ic] * d) @ hs.Y_g[:, 1::2][:, ic]
-    u = (hs.X_g[1::2][ic] * d) @ hs.Y_b * F
-    law = (hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
-
-    def res(x):
-        return _df_residual(x, Htt, u, *law)
-
-    def jac(x):
-        return _df_jacobian(x, Htt, *law)
-
+    p = (Htt, u, hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
     sols = []
     for g0 in starts:
         if isinstance(g0, str):
             g0 = u if g0 == "stuck" else np.linalg.solve(np.eye(pc) - Htt * hs.k_t[ic][None, :], u)
-        x, ok, it, rel = newton(res, jac, np.concatenate([g0.real, g0.imag]), tol, max_iter)
+        x, ok, it, rel = newton_compiled(_df_residual, _df_jacobian, np.concatenate([g0.real, g0.imag]), tol,
+                                         max_iter, p)
         sols.append((x[:pc] + 1j * x[pc:], ok, it, rel))
     return sols
 
 
 def _df_response(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, g: np.ndarray) -> np.ndarray:
-    """First-order modal response of the first harmonic, from the closed pairs' g^ (method df)."""
-    lam_t = np.zeros(hs.X_g.shape[0], complex)
-    lam_t[1::2][ic] = -_dk_times(g, hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)[0]   # lambda_t = -f_t
-    return d * (hs.Y_b * F + hs.Y_g @ lam_t)
+    """First-order modal response of the first harmonic, from the closed pairs' g^ (method df): one line
+    (d (2n,), g (pc,)) or many (d (lines, 2n), g (lines, pc))."""
+    k = np.broadcast_to(hs.k_t[ic], g.shape)
+    q = np.broadcast_to(hs.q[ic], g.shape)
+    lam_t = np.zeros(g.shape[:-1] + (hs.X_g.shape[0],), complex)
+    lam_t[..., 2 * ic + 1] = -_dk_times(np.ascontiguousarray(g).ravel(), k.ravel(), q.ravel(), hs.kf,
+                                        hs.qf)[0].reshape(g.shape)   # lambda_t = -f_t
+    return d * (hs.Y_b * F + lam_t @ hs.Y_g.T)
 
 
 # --- the FRF ----------------------------------------------------------------------------------
@@ -275,19 +281,22 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
     nsol = np.zeros(lines, np.int64)
     slip = np.full((lines, p), np.nan)
     open_frac = np.full((lines, p), np.nan)
+    w_all = 2.0 * np.pi * f
+    D = 1.0 / (1j * w_all[:, None] - hs.lam[None, :])
+    Htt, u = df_matrices(hs, ic, D, F_amp)
+    g_df = np.full((lines, len(ic)), np.nan + 0j)
     prev = None
-    for i, w in enumerate(2.0 * np.pi * f):
-        d = 1.0 / (1j * w - hs.lam)
+    for i, w in enumerate(w_all):
         df_starts = ([] if prev is None or method == "aft" else [prev]) + (["stuck", "sliding"] if branches else [])
         df_starts = df_starts or ["stuck"]
         if method == "df":
-            sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
+            sols = _df_line(hs, ic, Htt[i], u[i], df_starts, 1e-10, max_iter)
         else:
             aft = AftLine(hs, w, F_amp, n_harm, n_t)
             sols = [] if prev is None else [continued(hs, f[i - 1], f[i], prev, F_amp, n_harm, n_t, tol, max_iter)]
             if branches or not sols[:1] or not sols[0][1]:   # without branches: the df start only if needed
-                df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0]))
-                        for s in _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter) if s[1]]
+                df_g = [np.asarray(_gaps_of(hs, ic, D[i], F_amp, s[0]))
+                        for s in _df_line(hs, ic, Htt[i], u[i], df_starts, 1e-10, max_iter) if s[1]]
                 starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
                 sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
             if not any(sl[1] for sl in sols):
@@ -304,15 +313,19 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
         nsol[i] = len(distinct)
         prev = sol
         if method == "df":
-            modal = _df_response(hs, ic, d, F_amp, sol)
-            g1[i] = hs.X_g @ modal
-            slip[i, ic] = slider_amplitude(np.abs(g1[i, 2 * ic + 1]), hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
-            slip[i, ~hs.closed] = 0.0
-            open_frac[i] = (~hs.closed).astype(float)
+            g_df[i] = sol
         else:
             g1[i], modal = aft.first_harmonic(sol)
             open_frac[i], slip[i] = aft.info[:, 0], np.where(aft.info[:, 0] < 1.0, aft.info[:, 1], 0.0)
-        H[:, i] = -w * w * (hs.X_s @ modal) / F_amp
+            H[:, i] = -w * w * (hs.X_s @ modal) / F_amp
+    if method == "df":    # every converged line at once
+        ok = np.flatnonzero(conv)
+        modal = _df_response(hs, ic, D[ok], F_amp, g_df[ok])
+        g1[ok] = modal @ hs.X_g.T
+        H[:, ok] = (-(w_all[ok] ** 2)[:, None] * (modal @ hs.X_s.T) / F_amp).T
+        slip[ok] = 0.0
+        slip[np.ix_(ok, ic)] = slider_amplitude(np.abs(g1[np.ix_(ok, 2 * ic + 1)]), hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
+        open_frac[ok] = (~hs.closed).astype(float)
     a_slip = np.full(p, np.inf)
     for j in ic:
         a_slip[j] = float(np.min(hs.qf * hs.q[j] / (hs.kf * hs.k_t[j])))
