@@ -19,7 +19,8 @@ the slip force mu f_n,j at the pair's static normal force f_n,j = k_n max(0, -g_
 
     r(g^_t) = g^_t + H_tt ((k_eq(|g^_t|) - k_t) g^_t) - H_tF F = 0                         (D)
 
-Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq. 2-56 ms a line (docs/plant.md 10).
+Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq, compiled (plant.aft.newton_compiled): 0.06-0.12
+ms a line with one start (docs/plant.md 10).
 
 "aft", alternating frequency-time with harmonics 0..H of every pair's normal and tangential gap
 (plant.aft): the plant's own pair law (penalty contact that opens and closes, slip limit
@@ -246,7 +247,7 @@ def harmonic_accelerances(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: 
     ``HarmonicFRF`` (H per sensor, the pairs' gaps, slip and contact per line, convergence).
 
     method "df": describing functions of the closed pairs' tangential law, normal contact
-    linear (measured 2-56 ms a line, docs/plant.md 10); "aft": the full pair law by AFT with
+    linear (measured 0.06-0.12 ms a line with one start, docs/plant.md 10); "aft": the full pair law by AFT with
     harmonics 0..n_harm on n_t samples a period (contact opening and closing, slip limit
     mu f_n(t), the mean normal gaps' shift; 0.1-1.7 s a line), each line also started from the
     "df" solution. tol: Newton's relative residual (default 1e-10 df; 1e-8 aft, whose marched law

@@ -13,7 +13,8 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
   candidate of the library that it can represent (micro_slip: the Iwan spread; Stribeck friction is
   velocity-dependent, which neither method holds: not tried). ``method`` "df" (default): each closed
   pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force mu f_n at its static normal
-  force, the normal contact linear; 0.1-0.2 s per level of ~45-70 lines. "aft": the plant's own pair law
+  force, the normal contact linear; ~0.1 s per model evaluation (its build) plus 0.06 ms a line and level
+  (docs/plant.md 10). "aft": the plant's own pair law
   marched over the period (contact opening and closing, slip limit mu f_n(t)), 3 harmonics; 0.5-0.9 s
   per level of 45 lines on the aluminium lap joint, whose overlap ends gape (there df's 10 N
   prediction is 2.9x closer than the linear model's, aft's 49x: docs/discrepancy.md). With "df" the
