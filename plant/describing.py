@@ -50,7 +50,8 @@ def _pairs_df(a, k_t, q, kf, qf, keq, dkeq):
             k, qi = kf[i] * k_t[c], qf[i] * q[c]
             if k * s > qi:
                 th = math.acos(min(max(1.0 - 2.0 * qi / (k * s), -1.0), 1.0))
-                e += complex((k / math.pi) * (th - 0.5 * math.sin(2.0 * th)), (4.0 * qi / (math.pi * s)) * (1.0 - qi / (k * s)))
+                e += complex((k / math.pi) * (th - 0.5 * math.sin(2.0 * th)),
+                             (4.0 * qi / (math.pi * s)) * (1.0 - qi / (k * s)))
                 d += complex(-(4.0 * qi / (math.pi * s * s)) * math.sin(th),
                              (4.0 * qi / math.pi) * (2.0 * qi / (k * s * s * s) - 1.0 / (s * s)))
             else:

@@ -323,8 +323,8 @@ def jenkins_df(a, k, q):
     slip = k * a > q
     s = np.where(slip, a, 1.0)
     th = np.arccos(np.clip(1.0 - 2.0 * q / (k * s), -1.0, 1.0))
-    keq = np.where(slip, (k / np.pi) * (th - 0.5 * np.sin(2.0 * th)) + 1j * (4.0 * q / (np.pi * s)) * (1.0 - q / (k * s)),
-                   k + 0j)
+    keq = np.where(slip, (k / np.pi) * (th - 0.5 * np.sin(2.0 * th))
+                   + 1j * (4.0 * q / (np.pi * s)) * (1.0 - q / (k * s)), k + 0j)
     dkeq = np.where(slip, -(4.0 * q / (np.pi * s * s)) * np.sin(th)
                     + 1j * (4.0 * q / np.pi) * (2.0 * q / (k * s ** 3) - 1.0 / s ** 2), 0j)
     return keq, dkeq

@@ -109,11 +109,12 @@ def test_an_interrupted_diagnosis_keeps_its_fits(folder, tmp_path, capsys, monke
     assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(out)]) == 130
     printed, err = capsys.readouterr()
     res = json.loads(printed)
-    assert res["interrupted"] and list(res["fits"]) == ["linear", "harmonic balance (interrupted: its best point so far)"]
-    assert res["fits"]["harmonic balance (interrupted: its best point so far)"]["evaluations"] == 5
+    stopped = "harmonic balance (interrupted: its best point so far)"
+    assert res["interrupted"] and list(res["fits"]) == ["linear", stopped]
+    assert res["fits"][stopped]["evaluations"] == 5
     assert sorted(f.name for f in out.iterdir()) == ["diagnose.json", "model.toml", "report.md"]
     assert json.loads((out / "diagnose.json").read_text()) == res
-    mu = res["fits"]["harmonic balance (interrupted: its best point so far)"]["fitted"]["mu"]
+    mu = res["fits"][stopped]["fitted"]["mu"]
     assert load(out / "model.toml").plant.interface.mu == pytest.approx(0.4 * mu, rel=1e-4)
     assert "harmonic balance: 5model" in err and "the 2 fits done so far are in" in err
     assert err.rstrip().splitlines()[-1].endswith(" s wall")

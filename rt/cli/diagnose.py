@@ -64,7 +64,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "the harmonic balance of the joints (rt/discrepancy/diagnose/levels.py)")
     p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
                    help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df: "
-                        "describing functions with the normal contact linear, fast (0.1 s a model, 0.06 ms a line), exact while "
+                        "describing functions with the normal contact linear, fast (0.1 s a model, 0.06 ms a line), "
+                        "exact while "
                         "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
                         "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "
                         "overlap ends (about 4x the cost; docs/discrepancy.md \"Amplitude dependence\")")

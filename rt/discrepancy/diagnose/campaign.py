@@ -75,7 +75,8 @@ MIN_RSS_REDUCTION = 0.25         # and a named effect must remove this share of 
                                  # cost is rough at the 2-4 % level (contact events), which BIC's
                                  # independent-residual count would take as evidence
 REST_S = 2e-3                    # actuator records start with this long at rest (noise estimate)
-ACT_CAL = {"c_v": (0.8, 1.2)}   # the actuator fit's own range of c_v (x nominal), within the configuration's (scale_bounds)
+ACT_CAL = {"c_v": (0.8, 1.2)}   # the actuator fit's own range of c_v (x nominal), within the configuration's
+#                                 (rt.discrepancy.chain.scale_bounds)
 
 
 class Test(NamedTuple):

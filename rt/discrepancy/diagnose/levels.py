@@ -23,8 +23,9 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
 Residuals: rt.discrepancy.diagnose.frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
 noise, every sensor; the linear model's on all lines, the harmonic balance's on the modes' bands only
 (``mode_bands``: +-``HALF_WIDTH`` around each measured mode, where the joint shows; each band weighted
-to the same total, so that a lab's dense lines at a high mode do not outvote a low mode's). Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
-of the scales, within ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
+to the same total, so that a lab's dense lines at a high mode do not outvote a low mode's). Fit:
+scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
+``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength). A line where the harmonic balance does not converge is
 given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
 leaves the balance without a solution is never preferred.
@@ -208,8 +209,9 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
     def r(x):
         ch, _, _ = weighted_residuals(data, H_of(theta_of(x)), profile_scale=False)
         v = np.concatenate(list(ch.values()))
-        if v @ v < best["cost"]:
-            best.update(cost=float(v @ v), x=np.array(x))
+        cost = float(v @ v)
+        if cost < best["cost"]:
+            best.update(cost=cost, x=np.array(x))
         bar.set_postfix(cost=f"{best['cost']:.6g}", refresh=False)
         bar.update()
         return v
@@ -423,8 +425,9 @@ def write_partial_report(partial: dict, out: str | Path) -> Path:
     with new_folder(out) as tmp:
         _write_result(tmp, partial)
         (tmp / "report.md").write_text("\n".join(
-            ["# Amplitude dependence: interrupted", "", "The diagnosis was stopped before its end; the fits done so far "
-             "(model.toml: the last of them):", "", "| fit | fitted |", "| --- | --- |",
+            ["# Amplitude dependence: interrupted", "",
+             "The diagnosis was stopped before its end; the fits done so far (model.toml: the last of them):", "",
+             "| fit | fitted |", "| --- | --- |",
              *[f"| {name} | `{f['fitted']}` |" for name, f in partial["fits"].items()], ""]))
     return Path(out)
 
