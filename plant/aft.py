@@ -116,10 +116,11 @@ def transforms(n_harm: int, n_t: int) -> tuple[np.ndarray, np.ndarray]:
 
 # --- the harmonic balance on one line (plant.harmonic_frf, method "aft") -------------------------
 
-def newton(res, jac, x: np.ndarray, tol: float, max_iter: int):
-    """Newton with backtracking on |res|_2 from x; converged when |res|_inf <= tol |x|_inf.
-    Returns (x, converged, iterations, relative residual)."""
-    r = res(x)
+def _newton(res, jac, x, tol, max_iter, p):
+    """Newton with backtracking on |res|_2 from x; converged when |res|_inf <= tol |x|_inf; res(x, p) and
+    jac(x, p) with the parameters p passed through. Returns (x, converged, iterations, relative residual).
+    One source, run as Python (``newton``) and compiled for compiled res and jac (``newton_compiled``)."""
+    r = res(x, p)
     it = 0
     for it in range(max_iter + 1):
         rel = float(np.max(np.abs(r)) / max(np.max(np.abs(x)), 1e-300))
@@ -127,14 +128,15 @@ def newton(res, jac, x: np.ndarray, tol: float, max_iter: int):
             return x, True, it, rel
         if it == max_iter:
             break
+        J = jac(x, p)
         try:
-            dx = np.linalg.solve(jac(x), -r)
-        except np.linalg.LinAlgError:
+            dx = np.linalg.solve(J, -r)
+        except Exception:   # singular (numba's nopython mode catches no narrower class)
             break
         nr, alpha = np.linalg.norm(r), 1.0
         for _ in range(40):
             x_new = x + alpha * dx
-            r_new = res(x_new)
+            r_new = res(x_new, p)
             if np.linalg.norm(r_new) < (1.0 - 1e-4 * alpha) * nr:
                 break
             alpha *= 0.5
@@ -143,6 +145,13 @@ def newton(res, jac, x: np.ndarray, tol: float, max_iter: int):
         x, r = x_new, r_new
     return x, False, it, float(np.max(np.abs(r)) / max(np.max(np.abs(x)), 1e-300))
 
+
+newton_compiled = numba.njit(cache=True, nogil=True)(_newton)
+
+
+def newton(res, jac, x: np.ndarray, tol: float, max_iter: int):
+    """``_newton`` on Python callables res(x), jac(x)."""
+    return _newton(lambda z, _: res(z), lambda z, _: jac(z), x, tol, max_iter, None)
 
 
 class AftLine:

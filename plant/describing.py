@@ -26,52 +26,64 @@ Iwan element (plant.model.iwan_fractions): N Jenkins elements in parallel, k_i =
 q_i = qf_i mu f_n; its describing function is the sum of theirs (exact for the discrete
 element the plant steps, not an approximation of the continuous one).
 
-Design time (numpy, vectorised over amplitudes).
+Design time: one compiled kernel (``_pairs_df``, numba, cache=True) over pairs and elements, behind
+the NumPy-facing ``pair_df`` and ``jenkins_df``; the plain NumPy reference is tests/naive.py's.
 """
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _pairs_df(a, k_t, q, kf, qf, keq, dkeq):
+    """(k_eq, dk_eq/da) [N/m, N/m^2] of pairs c at amplitudes a[c] [m] (module docstring) into keq[c],
+    dkeq[c]: the sum over the elements i of the Jenkins element k_i = kf[i] k_t[c], q_i = qf[i] q[c] [N];
+    stuck (k_i a <= q_i) k_eq = k_i, else the slipping closed form. Arrays (pairs,) and (elements,)."""
+    for c in range(a.shape[0]):
+        s = a[c]
+        e = 0.0 + 0.0j
+        d = 0.0 + 0.0j
+        for i in range(kf.shape[0]):
+            k, qi = kf[i] * k_t[c], qf[i] * q[c]
+            if k * s > qi:
+                th = math.acos(min(max(1.0 - 2.0 * qi / (k * s), -1.0), 1.0))
+                e += complex((k / math.pi) * (th - 0.5 * math.sin(2.0 * th)),
+                             (4.0 * qi / (math.pi * s)) * (1.0 - qi / (k * s)))
+                d += complex(-(4.0 * qi / (math.pi * s * s)) * math.sin(th),
+                             (4.0 * qi / math.pi) * (2.0 * qi / (k * s * s * s) - 1.0 / (s * s)))
+            else:
+                e += k
+        keq[c] = e
+        dkeq[c] = d
+
+
+def pair_df(a, k_t, q, kf: np.ndarray, qf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k_eq, dk_eq/da) [N/m, N/m^2] of pairs' tangential law at amplitudes a [m] (>= 0): the sum of
+    the elements' Jenkins describing functions (k_i = kf_i k_t, q_i = qf_i q; one Jenkins element:
+    kf = qf = [1]), k_t [N/m] and q = mu f_n [N] (the macro-slip force) per pair; a, k_t, q broadcast
+    to one shape (any). Module docstring; the kernel ``_pairs_df``."""
+    a, k_t, q = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (a, k_t, q)))
+    keq = np.empty(a.shape, complex)
+    dkeq = np.empty(a.shape, complex)
+    _pairs_df(a.ravel(), k_t.ravel(), q.ravel(), np.asarray(kf, dtype=float), np.asarray(qf, dtype=float),
+              keq.reshape(-1), dkeq.reshape(-1))
+    return keq, dkeq
 
 
 def jenkins_df(a, k: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     """(k_eq, dk_eq/da): the Jenkins element's complex equivalent stiffness [N/m] and its
     derivative [N/m^2] at the amplitudes a [m] (>= 0, any shape), spring k [N/m], slip force
     q [N] (>= 0; q = 0: a free slider, k_eq = 0 for a > 0). Module docstring."""
-    a = np.asarray(a, dtype=float)
-    keq = np.full(a.shape, complex(k))
-    dkeq = np.zeros(a.shape, dtype=complex)
-    slip = k * a > q
-    if not np.any(slip):
-        return keq, dkeq
-    s = a[slip]
-    th = np.arccos(np.clip(1.0 - 2.0 * q / (k * s), -1.0, 1.0))
-    keq[slip] = (k / np.pi) * (th - 0.5 * np.sin(2.0 * th)) + 1j * (4.0 * q / (np.pi * s)) * (1.0 - q / (k * s))
-    dkeq[slip] = (-(4.0 * q / (np.pi * s * s)) * np.sin(th)
-                  + 1j * (4.0 * q / np.pi) * (2.0 * q / (k * s ** 3) - 1.0 / s ** 2))
-    return keq, dkeq
+    return pair_df(a, k, q, np.ones(1), np.ones(1))
 
 
-def pair_df(a, k_t: float, q: float, kf: np.ndarray, qf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(k_eq, dk_eq/da) [N/m, N/m^2] of one pair's tangential law at amplitudes a [m]: the sum of
-    the elements' ``jenkins_df`` (k_i = kf_i k_t, q_i = qf_i q; one Jenkins element: kf = qf = [1]),
-    q = mu f_n [N] the pair's macro-slip force."""
-    a = np.asarray(a, dtype=float)
-    keq = np.zeros(a.shape, dtype=complex)
-    dkeq = np.zeros(a.shape, dtype=complex)
-    for k_i, q_i in zip(np.asarray(kf) * k_t, np.asarray(qf) * q):
-        e, d = jenkins_df(a, k_i, q_i)
-        keq += e
-        dkeq += d
-    return keq, dkeq
-
-
-def slider_amplitude(a, k_t: float, q: float, kf: np.ndarray, qf: np.ndarray) -> np.ndarray:
-    """Slip amplitude [m] of a pair at tangential amplitude a [m]: half the range of the slider
+def slider_amplitude(a, k_t, q, kf: np.ndarray, qf: np.ndarray) -> np.ndarray:
+    """Slip amplitude [m] of pairs at tangential amplitudes a [m]: half the range of the slider
     motion, max(0, a - q_i / k_i) per element (the Jenkins loop slides by 2 (a - q / k) per half
     cycle), weighted by the elements' stiffness fractions kf (sum 1): 0 while the pair sticks,
-    a - q / k_t for one Jenkins element."""
-    a = np.asarray(a, dtype=float)
-    out = np.zeros(a.shape)
-    for f_k, k_i, q_i in zip(np.asarray(kf), np.asarray(kf) * k_t, np.asarray(qf) * q):
-        out += f_k * np.maximum(0.0, a - q_i / k_i)
-    return out
+    a - q / k_t for one Jenkins element. a, k_t [N/m], q [N] broadcast to one shape (any)."""
+    a, k_t, q = (np.asarray(v, dtype=float)[..., None] for v in (a, k_t, q))
+    return np.sum(kf * np.maximum(0.0, a - (qf * q) / (kf * k_t)), axis=-1)

@@ -19,7 +19,8 @@ the slip force mu f_n,j at the pair's static normal force f_n,j = k_n max(0, -g_
 
     r(g^_t) = g^_t + H_tt ((k_eq(|g^_t|) - k_t) g^_t) - H_tF F = 0                         (D)
 
-Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq. 2-56 ms a line (docs/plant.md 10).
+Newton on (Re g^_t, Im g^_t) with the exact Jacobian of k_eq, compiled (plant.aft.newton_compiled): 0.06-0.12
+ms a line with one start (docs/plant.md 10).
 
 "aft", alternating frequency-time with harmonics 0..H of every pair's normal and tangential gap
 (plant.aft): the plant's own pair law (penalty contact that opens and closes, slip limit
@@ -59,11 +60,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.aft import AftLine, continued, newton, ramped
-from plant.describing import pair_df, slider_amplitude
+from plant.aft import AftLine, continued, newton, newton_compiled, ramped
+from plant.describing import _pairs_df, slider_amplitude
 from plant.linear_frf import stuck_model
 from plant.model import PlantModel, contact_forces, preloaded_pairs
 
@@ -157,50 +159,79 @@ class HarmonicFRF:
 
 # --- method "df": describing functions, normal contact linear --------------------------------
 
-def _dk_times(hs: HarmonicSystem, ic: np.ndarray, g: np.ndarray):
-    """(dk g, d(dk g)/dRe g, d(dk g)/dIm g) per closed pair ic (module docstring (2))."""
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _dk_times(g, k_t, q, kf, qf):
+    """(dk g, d(dk g)/dRe g, d(dk g)/dIm g) of the closed pairs' complex gaps g^_t (pc,), dk = k_eq(|g|) - k_t
+    (module docstring (2); k_t [N/m], q [N] per closed pair, the elements' fractions kf, qf)."""
     a = np.abs(g)
-    dk = np.empty(len(g), complex)
-    dd = np.empty(len(g), complex)
-    for c, j in enumerate(ic):
-        e, d = pair_df(a[c], hs.k_t[j], hs.q[j], hs.kf, hs.qf)
-        dk[c], dd[c] = e - hs.k_t[j], d
+    keq = np.empty(len(g), np.complex128)
+    dd = np.empty(len(g), np.complex128)
+    _pairs_df(a, k_t, q, kf, qf, keq, dd)
+    dk = keq - k_t
     u = dd * g / np.where(a > 0.0, a, 1.0)  # d dk / d a * g / a
     return dk * g, dk + u * g.real, 1j * dk + u * g.imag
 
 
-def _df_line(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, starts, tol, max_iter):
-    """Solutions of (2) on one line from each start (complex g^ of the closed pairs, or None for
-    the stuck and sliding starts); returns [(g, converged, iterations, residual)], the pair
-    forces' deviation and the modal response of the first."""
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _df_residual(x, p):
+    """r of (D) at x = (Re g^_t, Im g^_t): g^_t + H_tt (dk g^_t) - H_tF F, as (Re r, Im r); p = (H_tt, H_tF F,
+    k_t, q, kf, qf) of the line (``df_matrices``) and the closed pairs' law."""
+    Htt, u, k_t, q, kf, qf = p
+    pc = len(u)
+    g = x[:pc] + 1j * x[pc:]
+    r = g + Htt @ _dk_times(g, k_t, q, kf, qf)[0] - u
+    return np.concatenate((r.real, r.imag))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _df_jacobian(x, p):
+    """dr/dx of ``_df_residual`` (2 pc, 2 pc): [[Re Jx, Re Jy], [Im Jx, Im Jy]], Jx = I + H_tt diag(d(dk g)/dRe g),
+    Jy = i I + H_tt diag(d(dk g)/dIm g); p as there."""
+    Htt, _, k_t, q, kf, qf = p
+    pc = Htt.shape[0]
+    _, dx, dy = _dk_times(x[:pc] + 1j * x[pc:], k_t, q, kf, qf)
+    J = np.empty((2 * pc, 2 * pc))
+    for i in range(pc):
+        for j in range(pc):
+            jx, jy = Htt[i, j] * dx[j], Htt[i, j] * dy[j]
+            if i == j:
+                jx, jy = jx + 1.0, jy + 1j
+            J[i, j], J[i, pc + j], J[pc + i, j], J[pc + i, pc + j] = jx.real, jy.real, jx.imag, jy.imag
+    return J
+
+
+def df_matrices(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float) -> tuple[np.ndarray, np.ndarray]:
+    """(H_tt, H_tF F) of (D) on the lines whose first-order modal receptances are d = 1 / (i Omega - lambda)
+    ((2n,) one line, (lines, 2n) many): the closed pairs' tangential gap receptances to their forces
+    [m/N] and their gaps under the excitation force F [N] [m]."""
+    Xd = hs.X_g[1::2][ic] * d[..., None, :]
+    return Xd @ hs.Y_g[:, 1::2][:, ic], Xd @ hs.Y_b * F
+
+
+def _df_line(hs: HarmonicSystem, ic: np.ndarray, Htt: np.ndarray, u: np.ndarray, starts, tol, max_iter):
+    """Solutions of (2) on one line (its ``df_matrices``) from each start (complex g^ of the closed pairs, or
+    "stuck" and "sliding"), by plant.aft's compiled Newton; returns [(g, converged, iterations, residual)]."""
     pc = len(ic)
-    Htt = (hs.X_g[1::2][ic] * d) @ hs.Y_g[:, 1::2][:, ic]
-    u = (hs.X_g[1::2][ic] * d) @ hs.Y_b * F
-
-    def res(x):
-        g = x[:pc] + 1j * x[pc:]
-        r = g + Htt @ _dk_times(hs, ic, g)[0] - u
-        return np.concatenate([r.real, r.imag])
-
-    def jac(x):
-        _, dx, dy = _dk_times(hs, ic, x[:pc] + 1j * x[pc:])
-        Jx, Jy = np.eye(pc) + Htt * dx[None, :], 1j * np.eye(pc) + Htt * dy[None, :]
-        return np.block([[Jx.real, Jy.real], [Jx.imag, Jy.imag]])
-
+    p = (Htt, u, hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
     sols = []
     for g0 in starts:
         if isinstance(g0, str):
             g0 = u if g0 == "stuck" else np.linalg.solve(np.eye(pc) - Htt * hs.k_t[ic][None, :], u)
-        x, ok, it, rel = newton(res, jac, np.concatenate([g0.real, g0.imag]), tol, max_iter)
+        x, ok, it, rel = newton_compiled(_df_residual, _df_jacobian, np.concatenate([g0.real, g0.imag]), tol,
+                                         max_iter, p)
         sols.append((x[:pc] + 1j * x[pc:], ok, it, rel))
     return sols
 
 
 def _df_response(hs: HarmonicSystem, ic: np.ndarray, d: np.ndarray, F: float, g: np.ndarray) -> np.ndarray:
-    """First-order modal response of the first harmonic, from the closed pairs' g^ (method df)."""
-    lam_t = np.zeros(hs.X_g.shape[0], complex)
-    lam_t[1::2][ic] = -_dk_times(hs, ic, g)[0]   # lambda_t = -f_t
-    return d * (hs.Y_b * F + hs.Y_g @ lam_t)
+    """First-order modal response of the first harmonic, from the closed pairs' g^ (method df): one line
+    (d (2n,), g (pc,)) or many (d (lines, 2n), g (lines, pc))."""
+    k = np.broadcast_to(hs.k_t[ic], g.shape)
+    q = np.broadcast_to(hs.q[ic], g.shape)
+    lam_t = np.zeros(g.shape[:-1] + (hs.X_g.shape[0],), complex)
+    lam_t[..., 2 * ic + 1] = -_dk_times(np.ascontiguousarray(g).ravel(), k.ravel(), q.ravel(), hs.kf,
+                                        hs.qf)[0].reshape(g.shape)   # lambda_t = -f_t
+    return d * (hs.Y_b * F + lam_t @ hs.Y_g.T)
 
 
 # --- the FRF ----------------------------------------------------------------------------------
@@ -216,7 +247,7 @@ def harmonic_accelerances(hs: HarmonicSystem, F_amp: float, freq_hz, *, method: 
     ``HarmonicFRF`` (H per sensor, the pairs' gaps, slip and contact per line, convergence).
 
     method "df": describing functions of the closed pairs' tangential law, normal contact
-    linear (measured 2-56 ms a line, docs/plant.md 10); "aft": the full pair law by AFT with
+    linear (measured 0.06-0.12 ms a line with one start, docs/plant.md 10); "aft": the full pair law by AFT with
     harmonics 0..n_harm on n_t samples a period (contact opening and closing, slip limit
     mu f_n(t), the mean normal gaps' shift; 0.1-1.7 s a line), each line also started from the
     "df" solution. tol: Newton's relative residual (default 1e-10 df; 1e-8 aft, whose marched law
@@ -251,19 +282,22 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
     nsol = np.zeros(lines, np.int64)
     slip = np.full((lines, p), np.nan)
     open_frac = np.full((lines, p), np.nan)
+    w_all = 2.0 * np.pi * f
+    D = 1.0 / (1j * w_all[:, None] - hs.lam[None, :])
+    Htt, u = df_matrices(hs, ic, D, F_amp)
+    g_df = np.full((lines, len(ic)), np.nan + 0j)
     prev = None
-    for i, w in enumerate(2.0 * np.pi * f):
-        d = 1.0 / (1j * w - hs.lam)
+    for i, w in enumerate(w_all):
         df_starts = ([] if prev is None or method == "aft" else [prev]) + (["stuck", "sliding"] if branches else [])
         df_starts = df_starts or ["stuck"]
         if method == "df":
-            sols = _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter)
+            sols = _df_line(hs, ic, Htt[i], u[i], df_starts, 1e-10, max_iter)
         else:
             aft = AftLine(hs, w, F_amp, n_harm, n_t)
             sols = [] if prev is None else [continued(hs, f[i - 1], f[i], prev, F_amp, n_harm, n_t, tol, max_iter)]
             if branches or not sols[:1] or not sols[0][1]:   # without branches: the df start only if needed
-                df_g = [np.asarray(_gaps_of(hs, ic, d, F_amp, s[0]))
-                        for s in _df_line(hs, ic, d, F_amp, df_starts, 1e-10, max_iter) if s[1]]
+                df_g = [np.asarray(_gaps_of(hs, ic, D[i], F_amp, s[0]))
+                        for s in _df_line(hs, ic, Htt[i], u[i], df_starts, 1e-10, max_iter) if s[1]]
                 starts = [aft.start(g) for g in df_g[:1]] + ([aft.start(None)] if branches else [])
                 sols += [newton(aft.res, aft.jac, z0, tol, max_iter) for z0 in starts]
             if not any(sl[1] for sl in sols):
@@ -280,16 +314,19 @@ def _frf(hs: HarmonicSystem, F_amp: float, f: np.ndarray, method: str, n_harm: i
         nsol[i] = len(distinct)
         prev = sol
         if method == "df":
-            modal = _df_response(hs, ic, d, F_amp, sol)
-            g1[i] = hs.X_g @ modal
-            for j in ic:
-                slip[i, j] = slider_amplitude(abs(g1[i, 2 * j + 1]), hs.k_t[j], hs.q[j], hs.kf, hs.qf)
-            slip[i, ~hs.closed] = 0.0
-            open_frac[i] = (~hs.closed).astype(float)
+            g_df[i] = sol
         else:
             g1[i], modal = aft.first_harmonic(sol)
             open_frac[i], slip[i] = aft.info[:, 0], np.where(aft.info[:, 0] < 1.0, aft.info[:, 1], 0.0)
-        H[:, i] = -w * w * (hs.X_s @ modal) / F_amp
+            H[:, i] = -w * w * (hs.X_s @ modal) / F_amp
+    if method == "df":    # every converged line at once
+        ok = np.flatnonzero(conv)
+        modal = _df_response(hs, ic, D[ok], F_amp, g_df[ok])
+        g1[ok] = modal @ hs.X_g.T
+        H[:, ok] = (-(w_all[ok] ** 2)[:, None] * (modal @ hs.X_s.T) / F_amp).T
+        slip[ok] = 0.0
+        slip[np.ix_(ok, ic)] = slider_amplitude(np.abs(g1[np.ix_(ok, 2 * ic + 1)]), hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
+        open_frac[ok] = (~hs.closed).astype(float)
     a_slip = np.full(p, np.inf)
     for j in ic:
         a_slip[j] = float(np.min(hs.qf * hs.q[j] / (hs.kf * hs.k_t[j])))

@@ -310,3 +310,27 @@ def simulate(x0, U, P, slots, labels, splits=None):
         Y.append(y)
         infos.append(info)
     return np.array(X), np.array(Y), infos
+
+
+# --- describing functions (plant/describing.py) -----------------------------------------------
+
+def jenkins_df(a, k, q):
+    """(k_eq, dk_eq/da) of a Jenkins element (spring k [N/m], slip force q [N]) at amplitudes a [m]:
+    k while k a <= q, else with cos(theta*) = 1 - 2 q / (k a) (Krack & Gross 2019, sec. 2.3)
+    k_eq = (k / pi)(theta* - sin(2 theta*) / 2) + i (4 q / (pi a))(1 - q / (k a)),
+    dk_eq/da = -(4 q / (pi a^2)) sin(theta*) + i (4 q / pi)(2 q / (k a^3) - 1 / a^2)."""
+    a = np.asarray(a, dtype=float)
+    slip = k * a > q
+    s = np.where(slip, a, 1.0)
+    th = np.arccos(np.clip(1.0 - 2.0 * q / (k * s), -1.0, 1.0))
+    keq = np.where(slip, (k / np.pi) * (th - 0.5 * np.sin(2.0 * th))
+                   + 1j * (4.0 * q / (np.pi * s)) * (1.0 - q / (k * s)), k + 0j)
+    dkeq = np.where(slip, -(4.0 * q / (np.pi * s * s)) * np.sin(th)
+                    + 1j * (4.0 * q / np.pi) * (2.0 * q / (k * s ** 3) - 1.0 / s ** 2), 0j)
+    return keq, dkeq
+
+
+def pair_df(a, k_t, q, kf, qf):
+    """The Iwan element's (k_eq, dk_eq/da): the sum of its Jenkins elements k_i = kf_i k_t, q_i = qf_i q."""
+    parts = [jenkins_df(a, fk * k_t, fq * q) for fk, fq in zip(kf, qf)]
+    return sum(p[0] for p in parts), sum(p[1] for p in parts)

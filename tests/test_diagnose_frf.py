@@ -307,12 +307,12 @@ def test_bound_warnings_by_scale():
     from rt.discrepancy.diagnose.frf import bound_warnings
     eff = get("clamp_compliance")
     w = bound_warnings({"E": 1.995, "k_t": 0.01004, "modal_damping": 9.9, "clamp_compliance": 1e-6,
-                        "force_scale_N_per_V": 999.0}, eff, per_volt=True)
+                        "force_scale_N_per_V": 999.0}, eff, True, Config())
     assert [(x["parameter"], x["bound"]) for x in w] == [("E", 2.0), ("k_t", 0.01), ("clamp_compliance", 0.0),
                                                          ("force_scale_N_per_V", 1000.0)]
     assert all("drive_voltage" not in x["fix"] for x in w)
-    assert bound_warnings({"E": 1.98}, None, per_volt=False) == []
-    assert "drive_voltage" in bound_warnings({"E": 0.5}, None, per_volt=False)[0]["fix"]
+    assert bound_warnings({"E": 1.98}, None, False, Config()) == []
+    assert "drive_voltage" in bound_warnings({"E": 0.5}, None, False, Config())[0]["fix"]
 
 
 def test_voltage_data_taken_as_force_warn_of_the_level(one_level, tmp_path):

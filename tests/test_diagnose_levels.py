@@ -67,3 +67,54 @@ def test_levels_are_checked(folder, tmp_path, capsys):
     meta = dict(tests[0].meta) | {"excitation": "force"}
     with pytest.raises(ValueError, match="drive_amplitude_v is given, but the excitation is a force"):
         check_meta(meta)
+
+
+def test_the_fit_uses_the_modes_bands_each_weighted_alike():
+    """mode_bands: a dense band (100 lines at 0.4 Hz around 200 Hz) and a sparse one (10 lines around
+    50 Hz, an unpaired measured mode) are kept, the lines between them left out; each band's weights
+    w = sigma_k^2 / sigma_k'^2 sum to n / B = 55 (the sparse band's lines weigh 10x the dense band's)."""
+    import numpy as np
+
+    from rt.discrepancy.diagnose.frf import FRFData
+    from rt.discrepancy.diagnose.levels import mode_bands
+    freq = np.concatenate([np.linspace(46.0, 54.0, 10), np.linspace(100.0, 150.0, 20), 180.2 + 0.4 * np.arange(100)])
+    H = {"v": np.ones(len(freq)) + 0j}
+    sel = {"v": np.ones(len(freq), bool)}
+    d = FRFData("t", 100.0, freq, H, sel, {"v": np.zeros(len(freq))}, {"v": np.full(len(freq), 0.02)},
+                {"measured": np.array([200.0, np.nan])}, unpaired_hz=(50.0,))
+    b = mode_bands(d)
+    assert len(b.freq) == 110 and b.freq[9] == 54.0 and b.freq[10] == 180.2
+    w = (0.02 / b.sigma["v"]) ** 2
+    assert w[:10].sum() == pytest.approx(55.0, rel=1e-12) and w[10:].sum() == pytest.approx(55.0, rel=1e-12)
+    assert w[0] / w[-1] == pytest.approx(10.0, rel=1e-12)
+
+
+def test_an_interrupted_diagnosis_keeps_its_fits(folder, tmp_path, capsys, monkeypatch):
+    """Ctrl-C inside the harmonic-balance fit (the 11th model evaluation: after 5 whole ones on the two
+    calibration levels): exit 130, the report folder holds the linear fit and the interrupted fit's best
+    point (diagnose.json as printed, model.toml that point's configuration), the fit's progress bar and
+    the wall time are on stderr."""
+    import rt.discrepancy.diagnose.levels as levels
+    from rt.common.config import load
+    calls = []
+
+    def stopping(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 11:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+    real = levels.harmonic_accelerances
+    monkeypatch.setattr(levels, "harmonic_accelerances", stopping)
+    out = tmp_path / "report"
+    assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(out)]) == 130
+    printed, err = capsys.readouterr()
+    res = json.loads(printed)
+    stopped = "harmonic balance (interrupted: its best point so far)"
+    assert res["interrupted"] and list(res["fits"]) == ["linear", stopped]
+    assert res["fits"][stopped]["evaluations"] == 5
+    assert sorted(f.name for f in out.iterdir()) == ["diagnose.json", "model.toml", "report.md"]
+    assert json.loads((out / "diagnose.json").read_text()) == res
+    mu = res["fits"][stopped]["fitted"]["mu"]
+    assert load(out / "model.toml").plant.interface.mu == pytest.approx(0.4 * mu, rel=1e-4)
+    assert "harmonic balance: 5model" in err and "the 2 fits done so far are in" in err
+    assert err.rstrip().splitlines()[-1].endswith(" s wall")

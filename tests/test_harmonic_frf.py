@@ -83,6 +83,22 @@ def test_describing_function_derivative_is_its_finite_difference():
         assert np.allclose(d, fd, rtol=1e-5, atol=1e-6 * K_T / A_S)
 
 
+def test_compiled_describing_function_is_the_numpy_reference():
+    """plant.describing's kernel (over pairs and elements) against tests/naive.py's NumPy formulas,
+    Jenkins and Iwan, stuck and slipping, per pair its own k_t and q: equal to round-off (1e-13
+    relative: arccos near theta* = pi and the sums of N elements)."""
+    from tests import naive
+    fr = iwan_fractions(load(sets=["plant.interface.iwan_spread=0.5"]))
+    a = A_S * np.array([0.0, 0.3, 0.999, 1.001, 1.7, 4.0, 30.0, 1e4])
+    k_t, q = K_T * np.linspace(0.5, 2.0, len(a)), Q * np.linspace(2.0, 0.5, len(a))
+    for kf, qf in ((np.ones(1), np.ones(1)), (fr["iwan_k"], fr["iwan_q"])):
+        got, want = pair_df(a, k_t, q, kf, qf), [np.array([naive.pair_df(x, k, f, kf, qf)[j] for x, k, f
+                                                            in zip(a, k_t, q)]) for j in (0, 1)]
+        assert np.allclose(got[0], want[0], rtol=1e-13, atol=0.0)
+        assert np.allclose(got[1], want[1], rtol=1e-13, atol=1e-13 * K_T / A_S)
+    assert jenkins_df(2 * A_S, K_T, Q)[0] == pytest.approx(naive.jenkins_df(2 * A_S, K_T, Q)[0], rel=1e-14)
+
+
 @pytest.mark.parametrize("method", ["df", "aft"])
 @pytest.mark.parametrize("config,band", [(None, (195.0, 235.0)), ("configs/lap_joint.toml", (66.0, 72.0))])
 def test_stuck_level_is_the_linear_frf(config, band, method):

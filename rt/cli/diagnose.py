@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 
 import shtab
 
 from rt.cli.common import add_force, add_out, fail, write_folder
 
+INTERRUPTED = 130       # exit status after Ctrl-C (128 + SIGINT), the fits done so far kept
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
 V_cmd), calibrates E, mu, k_t, modal damping, c_v and the dispersion (the data's time step against
 the model's: 0 for the virtual rig's own data, ~1 for a lab's), fits each implemented effect of the library
@@ -27,7 +29,9 @@ act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force a
 rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
 are calibrated on the files at those levels only and predict the others; the report gives both
 predictions' gaps around the softening mode (1-2 min); --harmonic-method aft for a joint whose contact
-opens and closes (about 2 min on configs/lap_joint_al.toml). Method: docs/discrepancy.md."""
+opens and closes (about 2 min on configs/lap_joint_al.toml). The harmonic-balance fits show a progress
+bar on stderr (with --json too); Ctrl-C stops the diagnosis and keeps the fits done so far (printed,
+and in --out's folder; exit 130). The wall time is printed on stderr. Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
@@ -60,7 +64,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "the harmonic balance of the joints (rt/discrepancy/diagnose/levels.py)")
     p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
                    help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df: "
-                        "describing functions with the normal contact linear, fast (0.1-0.2 s a level), exact while "
+                        "describing functions with the normal contact linear, fast (0.1 s a model, 0.06 ms a line), "
+                        "exact while "
                         "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
                         "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "
                         "overlap ends (about 4x the cost; docs/discrepancy.md \"Amplitude dependence\")")
@@ -68,15 +73,27 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 
 def cmd_diagnose(cfg, args) -> int:
-    from rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
     from pathlib import Path
     if args.out and Path(args.out).exists() and not args.force:
         return fail(f"--out {args.out}: exists; pass --force to replace it as a whole, or give a new folder")
     if args.jobs is not None and args.jobs < 1:
         return fail(f"diagnose --jobs {args.jobs}: give 1 or more processes")
     say = None if args.json else lambda m: print(f"  {m}", file=sys.stderr)
-    if args.calibrate_on is not None:
-        return _levels(cfg, args, say)
+    t0 = time.perf_counter()
+    code = _levels(cfg, args, say) if args.calibrate_on is not None else _campaign_or_frf(cfg, args, say)
+    if code in (0, INTERRUPTED):
+        print(f"diagnose: {time.perf_counter() - t0:.1f} s wall", file=sys.stderr)
+    return code
+
+
+def _json(res: dict) -> str:
+    """A levels result as --json prints it: without its "_" keys (configuration, plots)."""
+    return json.dumps({k: v for k, v in res.items() if not k.startswith("_")})
+
+
+def _campaign_or_frf(cfg, args, say) -> int:
+    """``diagnose`` of a campaign (rt.discrepancy.diagnose.campaign) or of FRF files (.frf)."""
+    from rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
     try:
         if is_frf_folder(args.folder):
             res = diagnose_frf(args.folder, cfg, progress=say)
@@ -97,7 +114,8 @@ def _levels(cfg, args, say) -> int:
     """``diagnose --calibrate-on``: rt.discrepancy.diagnose.levels."""
     from rt.cli.common import parse_list
     from rt.discrepancy.diagnose import is_frf_folder
-    from rt.discrepancy.diagnose.levels import diagnose_levels, summary, write_levels_report
+    from rt.discrepancy.diagnose.levels import (Interrupted, diagnose_levels, partial_summary, summary,
+                                                write_levels_report, write_partial_report)
     try:
         levels = parse_list(args.calibrate_on, float, "diagnose --calibrate-on", "0.5,1")
     except ValueError as exc:
@@ -106,10 +124,19 @@ def _levels(cfg, args, say) -> int:
         return fail(f"diagnose --calibrate-on: {args.folder} is not a folder of FRF files (rig --frf-files --levels "
                     "writes one)")
     try:
-        res = diagnose_levels(args.folder, levels, cfg, progress=say, method=args.harmonic_method)
+        res = diagnose_levels(args.folder, levels, cfg, progress=say, method=args.harmonic_method, bars=True)
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
+    except Interrupted as stop:   # Ctrl-C: keep the fits done so far
+        part = stop.partial
+        if args.out and part["fits"]:
+            write_folder(args.out, args.force, lambda: write_partial_report(part, args.out))
+        print(_json(part) if args.json else partial_summary(part))
+        kept = (f"the {len(part['fits'])} fits done so far are in {args.out}" if args.out else "printed above"
+                ) if part["fits"] else "before the first fit ended: nothing to keep"
+        print(f"diagnose: interrupted; {kept}", file=sys.stderr)
+        return INTERRUPTED
     if args.out:
         write_folder(args.out, args.force, lambda: write_levels_report(res, args.out))
-    print(json.dumps({k: v for k, v in res.items() if not k.startswith("_")}) if args.json else summary(res))
+    print(_json(res) if args.json else summary(res))
     return 0

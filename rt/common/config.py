@@ -667,6 +667,19 @@ def check_key(cfg: Config, key: str) -> None:
     _apply_set(to_dict(cfg), f"{key}=0")
 
 
+def key_range(cfg: Config, key: str) -> tuple[float | None, float | None, bool]:
+    """(lo, hi, lo_inclusive) that ``validate`` allows for the numeric --set ``key`` of ``cfg`` (list
+    elements by name, e.g. plant.beams.main.E): its ``param`` declaration; None where unbounded.
+    ConfigError naming the allowed keys for a key --set does not reach."""
+    check_key(cfg, key)
+    *path, name = key.split(".")
+    obj = cfg
+    for part in path:
+        obj = next(x for x in obj if x.name == part) if isinstance(obj, tuple) else getattr(obj, part)
+    meta = next(f.metadata for f in dataclasses.fields(obj) if f.name == name)
+    return meta.get("lo"), meta.get("hi"), meta.get("lo_inclusive", True)
+
+
 def _resolve(data: dict, sets, source: str | None = None) -> Config:
     """``data`` with the ``sets`` applied, built and validated; a refusal names the input it is
     due to (``_blame``)."""

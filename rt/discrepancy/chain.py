@@ -15,7 +15,7 @@ from plant.actuator import build_actuator, initial_state, output_index, run_actu
 from plant.model import PlantModel
 from plant.sensors import build_sensors, run_sensors
 from plant.simulate import run
-from rt.common.config import Config, with_sets
+from rt.common.config import Config, key_range, with_sets
 from rt.common.noise import new_rng
 
 FORCE_NOISE_N = 0.02                  # [N] rms, hammer force transducer
@@ -29,25 +29,44 @@ SIGNALS = (("F_exc", "N", "rt"), ("a_tip_meas", "m/s^2", "sensors"), ("a_frf_mea
 SENSOR_FIELDS = ("a_tip_meas", "a_frf_meas", "v_tip_meas", "F_strain", "F_cell")   # plant.sensors outputs
 
 
+FIT_MARGIN = 1e-9
+"""Relative margin of ``scale_bounds`` inside the configuration's range: v (1 - FIT_MARGIN) hi / v and
+exp(ln f) stay <= hi after round-off (a few ulps, 1e-16 each)."""
+
+
+def scaled_keys(cfg: Config, key: str) -> list[tuple[str, float]]:
+    """The configuration keys that the calibration scale ``key`` (E, mu, k_t, modal_damping, c_v)
+    multiplies, with their nominal values in ``cfg``: E every beam's, k_t the tangential stiffness per
+    unit area. KeyError for another key."""
+    if key == "E":
+        return [(f"plant.beams.{b.name}.E", b.E) for b in cfg.plant.beams]
+    table = {"mu": ("plant.interface.mu", cfg.plant.interface.mu),
+             "k_t": ("plant.interface.k_t_area", cfg.plant.interface.k_t_area),
+             "modal_damping": ("plant.modal_damping", cfg.plant.modal_damping),
+             "c_v": ("actuator.c_v", cfg.actuator.c_v)}
+    return [table[key]]
+
+
 def scaled(cfg: Config, factors: dict[str, float]) -> Config:
-    """``cfg`` with its nominal parameters multiplied by ``factors`` (keys E, mu, k_t,
-    modal_damping, c_v: the rig's ``SCATTER``; E scales every beam)."""
-    sets = []
-    for key, f in factors.items():
-        f = float(f)
-        if key == "E":
-            sets += [f"plant.beams.{b.name}.E={b.E * f!r}" for b in cfg.plant.beams]
-        elif key == "mu":
-            sets.append(f"plant.interface.mu={cfg.plant.interface.mu * f!r}")
-        elif key == "k_t":   # the tangential stiffness per unit area
-            sets.append(f"plant.interface.k_t_area={cfg.plant.interface.k_t_area * f!r}")
-        elif key == "modal_damping":
-            sets.append(f"plant.modal_damping={cfg.plant.modal_damping * f!r}")
-        elif key == "c_v":
-            sets.append(f"actuator.c_v={cfg.actuator.c_v * f!r}")
-        else:
-            raise KeyError(key)
-    return with_sets(cfg, sets)
+    """``cfg`` with its nominal parameters multiplied by ``factors`` (keys of ``scaled_keys``: the
+    rig's ``SCATTER``, the diagnosis' calibration scales; E scales every beam)."""
+    return with_sets(cfg, [f"{k}={v * float(f)!r}" for key, f in factors.items() for k, v in scaled_keys(cfg, key)])
+
+
+def scale_bounds(cfg: Config, key: str, lo: float, hi: float) -> tuple[float, float]:
+    """A fit's range [lo, hi] of the scale ``key`` (x nominal) intersected with the factors f that the
+    configuration accepts (rt.common.config.key_range of every key it scales, nominal v > 0:
+    lo_c / v <= f <= hi_c / v), FIT_MARGIN inside them: a fit never leaves what ``scaled`` can build (an open
+    lower end, lo_c = 0 exclusive, is inside every fit's range: their lower bounds are > 0)."""
+    for k, v in scaled_keys(cfg, key):
+        lo_c, hi_c, _ = key_range(cfg, k)
+        if v <= 0.0:          # 0 x any factor: the nominal itself
+            continue
+        if lo_c is not None:
+            lo = max(lo, lo_c / v * (1.0 + FIT_MARGIN))
+        if hi_c is not None:
+            hi = min(hi, hi_c / v * (1.0 - FIT_MARGIN))
+    return lo, hi
 
 
 def quiet(cfg: Config) -> Config:

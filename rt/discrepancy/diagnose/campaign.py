@@ -64,7 +64,7 @@ from rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
 from rt.discrepancy.effects import Effect, get, implemented
 from rt.discrepancy.diagnose.remainder import budget, verdict
 from rt.log.mcap_log import read_mcap
-from rt.discrepancy.chain import measure_actuator, quiet, scaled
+from rt.discrepancy.chain import measure_actuator, quiet, scale_bounds, scaled
 
 BAND_HZ = (50.0, 1200.0)         # FRF gap band [Hz]
 NAME_THRESHOLD = 10.0            # BIC margin over calibration alone to name an effect
@@ -75,7 +75,8 @@ MIN_RSS_REDUCTION = 0.25         # and a named effect must remove this share of 
                                  # cost is rough at the 2-4 % level (contact events), which BIC's
                                  # independent-residual count would take as evidence
 REST_S = 2e-3                    # actuator records start with this long at rest (noise estimate)
-ACT_CAL = {"c_v": (0.8, 1.2)}
+ACT_CAL = {"c_v": (0.8, 1.2)}   # the actuator fit's own range of c_v (x nominal), within the configuration's
+#                                 (rt.discrepancy.chain.scale_bounds)
 
 
 class Test(NamedTuple):
@@ -192,8 +193,9 @@ def fit_actuator(nominal: Config, tests: list[Test], effect: Effect | None, cali
     72 % more F_cell RSS) returns that nested point instead."""
     noise = _act_noise(tests)
     names = ["c_v"] + ([effect.name] if effect else [])
-    lo = [ACT_CAL["c_v"][0]] + ([effect.parameter.lo] if effect else [])
-    hi = [ACT_CAL["c_v"][1]] + ([effect.parameter.hi] if effect else [])
+    c_v = scale_bounds(nominal, "c_v", *ACT_CAL["c_v"])
+    lo = [c_v[0]] + ([effect.parameter.lo] if effect else [])
+    hi = [c_v[1]] + ([effect.parameter.hi] if effect else [])
 
     def cfg_of(x):
         cfg = scaled(nominal, {"c_v": x[0]})

@@ -298,7 +298,7 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
-    lo, hi = (to_z(b, log) for b in bounds(names, effect))
+    lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     steps = fd_steps(names, effect)
 
     def evaluate(z):
@@ -359,21 +359,21 @@ FIXES = {
 NO_FORCE_HINT = "; or the data have no force: if the FRF is per drive voltage, set the sidecar's excitation to drive_voltage"
 
 
-def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, log_bounds: dict | None = None) -> list[dict]:
-    """{"parameter", "value", "bound", "fix"} for every fitted parameter within BOUND_REL of a bound
-    (relative to the bound; on ln for the LOG_SCALE ones, the force scale and those of ``log_bounds``
-    {name: (lo, hi)}; relative to the range for a bound 0)."""
+def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, nominal: Config,
+                   log_bounds: dict | None = None) -> list[dict]:
+    """{"parameter", "value", "bound", "fix"} for every fitted parameter within BOUND_REL of a bound of its
+    fit (rt.discrepancy.diagnose.structure.bounds around ``nominal``; ``log_bounds`` {name: (lo, hi)} for the
+    fits with their own) (relative to the bound; on ln for the LOG_SCALE ones, the force scale and those of
+    ``log_bounds``; relative to the range for a bound 0)."""
     out = []
     for k, v in theta.items():
         if k == FORCE_SCALE:
             lo, hi, log = *FORCE_SCALE_N_PER_V, True
         elif log_bounds and k in log_bounds:
             lo, hi, log = *log_bounds[k], True
-        elif k in CAL_FAR:
-            lo, hi, _, _ = CAL_FAR[k]
-            log = k in LOG_SCALE
         else:
-            lo, hi, log = effect.parameter.lo, effect.parameter.hi, False
+            (lo,), (hi,) = bounds([k], effect, nominal)
+            log = k in LOG_SCALE
         for b in (lo, hi):
             near = (abs(math.log(v / b)) <= math.log1p(BOUND_REL) if log
                     else abs(v - b) <= BOUND_REL * (abs(b) if b != 0 else hi - lo))
@@ -381,7 +381,7 @@ def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, log_bound
                 fix = FIXES.get(k, f"widen the range of {k} ({lo:g}..{hi:g}) or check where the model puts the effect")
                 if k in CAL_FAR and not per_volt:
                     fix += NO_FORCE_HINT
-                out.append({"parameter": k, "value": float(f"{v:.6g}"), "bound": b, "fix": fix})
+                out.append({"parameter": k, "value": float(f"{v:.6g}"), "bound": float(b), "fix": fix})
     return out
 
 
@@ -479,7 +479,7 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     offset = level_offset_db(data, final["fit"].H)
     out["level_offset_db"] = round(offset, 4)
     out["warnings"] = bound_warnings(final["theta"], next((e for e in candidates if e.name == final["effect"]), None),
-                                     per_volt) + level_warning(offset, per_volt)
+                                     per_volt, nominal) + level_warning(offset, per_volt)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:
         out["excitation"] = {

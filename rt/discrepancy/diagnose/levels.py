@@ -13,15 +13,19 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
   candidate of the library that it can represent (micro_slip: the Iwan spread; Stribeck friction is
   velocity-dependent, which neither method holds: not tried). ``method`` "df" (default): each closed
   pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force mu f_n at its static normal
-  force, the normal contact linear; 0.1-0.2 s per level of ~45-70 lines. "aft": the plant's own pair law
+  force, the normal contact linear; ~0.1 s per model evaluation (its build) plus 0.06 ms a line and level
+  (docs/plant.md 10). "aft": the plant's own pair law
   marched over the period (contact opening and closing, slip limit mu f_n(t)), 3 harmonics; 0.5-0.9 s
   per level of 45 lines on the aluminium lap joint, whose overlap ends gape (there df's 10 N
   prediction is 2.9x closer than the linear model's, aft's 49x: docs/discrepancy.md). With "df" the
   prediction reports where a closed pair's normal gap swings more than its static gap (``contact_note``).
 
 Residuals: rt.discrepancy.diagnose.frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
-noise, every sensor. Fit: scipy.optimize.least_squares (trust-region reflective) in the logarithms
-of the scales, within ``BOUNDS``, from the linear calibration's E, k_t and damping and mu x 1 (the
+noise, every sensor; the linear model's on all lines, the harmonic balance's on the modes' bands only
+(``mode_bands``: +-``HALF_WIDTH`` around each measured mode, where the joint shows; each band weighted
+to the same total, so that a lab's dense lines at a high mode do not outvote a low mode's). Fit:
+scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
+``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength). A line where the harmonic balance does not converge is
 given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
 leaves the balance without a solution is never preferred.
@@ -40,11 +44,12 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
+from tqdm import tqdm
 
 from plant.harmonic_frf import METHODS, harmonic_accelerances, harmonic_system
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
-from rt.discrepancy.chain import quiet, scaled
+from rt.discrepancy.chain import quiet, scale_bounds, scaled
 from rt.discrepancy.diagnose.campaign import bic, rank
 from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
@@ -53,10 +58,9 @@ from rt.discrepancy.effects import Effect, get
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
-BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.1, 10.0),
-                                                                         FORCE_SCALE: FORCE_SCALE_N_PER_V}
-"""Bounds of the calibration scales (x nominal; the FRF files' far calibration, mu within a decade) and of
-the drive-voltage tests' force scale [N/V]; all moved on a log scale."""
+BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.1, 10.0)}
+"""The fit's own ranges of the calibration scales (x nominal; the FRF files' far calibration, mu within a
+decade), within what the configuration accepts (``fit_bounds``); all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
 CANDIDATES = ("micro_slip",)
 AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lines take 1-9 on the lap joint; a start
@@ -97,6 +101,35 @@ def split(tests: list[FRFTest], calibrate_on) -> tuple[list[int], list[int]]:
     return cal, rest
 
 
+def fit_bounds(nominal: Config) -> dict[str, tuple[float, float]]:
+    """{parameter: (lo, hi)} of the harmonic-balance fit around ``nominal``: ``BOUNDS`` intersected with
+    what the configuration accepts (rt.discrepancy.chain.scale_bounds), the force scale's [N/V]."""
+    return {k: scale_bounds(nominal, k, *b) for k, b in BOUNDS.items()} | {FORCE_SCALE: FORCE_SCALE_N_PER_V}
+
+
+def mode_bands(d: FRFData) -> FRFData:
+    """``d`` on the lines that carry the amplitude dependence: those within +-HALF_WIDTH of a measured mode
+    (paired with the model's or not: ``f_modes``, ``unpaired_hz``), each in the band of its nearest mode;
+    every fitted line's sigma_k divided by sqrt(w_b), w_b = n / (B n_b) (n_b the band's fitted lines of the
+    sensor, B its bands with lines, n = sum_b n_b), so each band weighs the same in the sum of squares,
+    sum_{k in b} w_b = n / B, however dense its lines. ``d`` itself if no mode was measured."""
+    f_m = np.array(sorted({*d.f_modes["measured"][np.isfinite(d.f_modes["measured"])], *d.unpaired_hz}))
+    if not len(f_m):
+        return d
+    near = np.argmin(np.abs(np.log(d.freq[:, None] / f_m[None, :])), axis=1)
+    band = np.where(np.abs(d.freq / f_m[near] - 1.0) <= HALF_WIDTH, near, -1)
+    keep = band >= 0
+    sel, ln_h, sigma = {}, {}, {}
+    for s, m0 in d.sel.items():
+        sig = np.full(len(d.freq), np.nan)
+        sig[m0] = d.sigma[s]
+        m = m0 & keep
+        n_b = np.bincount(band[m], minlength=len(f_m))
+        w = m.sum() / (np.count_nonzero(n_b) * n_b[band[m]])
+        sel[s], ln_h[s], sigma[s] = m[keep], np.log(np.abs(d.H[s][m])), sig[m] / np.sqrt(w)
+    return d._replace(freq=d.freq[keep], H={s: h[keep] for s, h in d.H.items()}, sel=sel, ln_h=ln_h, sigma=sigma)
+
+
 def _cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
     cfg = scaled(nominal, {k: theta[k] for k in CAL_NAMES})
     return effect.apply(cfg, theta[effect.name]) if effect is not None else cfg
@@ -124,29 +157,72 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
     return out
 
 
+class FitInterrupted(KeyboardInterrupt):
+    """A harmonic-balance fit stopped by the user (Ctrl-C): ``label`` names it, ``best`` = {"fitted",
+    "evaluations", "cfg"} its best point evaluated so far."""
+
+    def __init__(self, label: str, best: dict):
+        super().__init__(label)
+        self.label, self.best = label, best
+
+
+class Interrupted(KeyboardInterrupt):
+    """The diagnosis stopped by the user (Ctrl-C); ``partial``: what it had (``partial_result``)."""
+
+    def __init__(self, partial: dict):
+        super().__init__("interrupted")
+        self.partial = partial
+
+
+def fit_label(effect: Effect | None) -> str:
+    """The name of a harmonic-balance fit in the report and its progress bar."""
+    return "harmonic balance" + (f" with {effect.name}" if effect else "")
+
+
+def rounded(theta: dict) -> dict:
+    """Fitted parameters as the report gives them: 5 significant digits."""
+    return {k: float(f"{v:.5g}") for k, v in theta.items()}
+
+
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
-                  effect: Effect | None, method: str = "df") -> dict:
+                  effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
-    model on ``data``: {"theta", "channels", "cfg", "evaluations"}."""
+    model on ``data``: {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over
+    the model evaluations, with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
-    lo = [math.log(BOUNDS[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
-    hi = [math.log(BOUNDS[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
+    b = fit_bounds(nominal)
+    lo = [math.log(b[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
+    hi = [math.log(b[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
     x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default] if effect else [])
     x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
 
     def theta_of(x):
-        return {k: (math.exp(v) if k in BOUNDS else float(v)) for k, v in zip(names, x)}
+        return {k: (math.exp(v) if k in logs else float(v)) for k, v in zip(names, x)}
 
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
 
+    best = {"cost": math.inf, "x": x0}
+
     def r(x):
         ch, _, _ = weighted_residuals(data, H_of(theta_of(x)), profile_scale=False)
-        return np.concatenate(list(ch.values()))
+        v = np.concatenate(list(ch.values()))
+        cost = float(v @ v)
+        if cost < best["cost"]:
+            best.update(cost=cost, x=np.array(x))
+        bar.set_postfix(cost=f"{best['cost']:.6g}", refresh=False)
+        bar.update()
+        return v
 
-    sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
+    with tqdm(desc=fit_label(effect), unit="model", disable=not bars) as bar:
+        try:
+            sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
+        except KeyboardInterrupt:
+            th = theta_of(best["x"])
+            raise FitInterrupted(fit_label(effect), {"fitted": rounded(th), "evaluations": bar.n,
+                                                     "cfg": _cfg(nominal, th, effect)}) from None
     theta = theta_of(sol.x)
     return {"theta": theta, "channels": weighted_residuals(data, H_of(theta), profile_scale=False)[0],
             "cfg": _cfg(nominal, theta, effect), "evaluations": int(sol.nfev)}
@@ -206,17 +282,30 @@ def contact_note(pred: list[dict], method: str, unit: str) -> str | None:
 
 
 def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None,
-                    method: str = "df") -> dict:
+                    method: str = "df", bars: bool = False) -> dict:
     """The workflow (module docstring) on a folder of FRF files at several levels, the harmonic balance
     by ``method`` (METHODS); a JSON-ready dict with the calibrated configuration under "_config" and
-    plotting data under "_plots"."""
+    plotting data under "_plots". ``progress(msg)``: the stages; ``bars``: tqdm bars on stderr inside the
+    harmonic-balance fits. Ctrl-C raises Interrupted with the fits done so far (``partial_result``)."""
     if method not in METHODS:
         raise ValueError(f"harmonic-balance method {method!r}: expected one of {', '.join(METHODS)}")
     with threadpool_limits(1):
-        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method)
+        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method, bars)
 
 
-def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str) -> dict:
+def partial_result(done: dict, stopped: KeyboardInterrupt, calibrate_on: list, method: str) -> dict:
+    """What an interrupted diagnosis had: {"interrupted": True, "fits": {name: {"fitted", ...}}} of the fits
+    ``done`` (and the interrupted one's best point, if ``stopped`` is a FitInterrupted), the configuration
+    of the last under "_config"."""
+    fits = dict(done)
+    if isinstance(stopped, FitInterrupted):
+        fits[f"{stopped.label} (interrupted: its best point so far)"] = stopped.best
+    out = {"input": "frf_levels", "interrupted": True, "calibrate_on_n": calibrate_on, "harmonic_method": method,
+           "fits": {k: {n: v for n, v in f.items() if n != "cfg"} for k, f in fits.items()}}
+    return out | ({"_config": list(fits.values())[-1]["cfg"]} if fits else {})
+
+
+def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str, bars: bool) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_frf_folder(folder)
     cal, rest = split(tests, calibrate_on)
@@ -228,17 +317,32 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
         nominal, _ = with_sensor_points(tests, nominal)
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
+    done: dict = {}
+    try:
+        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done)
+    except KeyboardInterrupt as exc:
+        raise Interrupted(partial_result(done, exc, [levels[i] for i in cal], method)) from None
+
+
+def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[float], cal: list[int], say,
+                           method: str, bars: bool, done: dict) -> dict:
+    """The fits and the prediction of ``_diagnose_levels``; each fit, once done, also into ``done``
+    {name: {"fitted", "cfg", ...}} (what an interruption keeps)."""
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N")
     lin = fit(nominal, dc, None)
+    done["linear"] = {"fitted": rounded(lin.theta), "cfg": lin.cfg}
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
-    say(f"harmonic balance ({method}), calibration only")
-    fits = {None: fit_nonlinear(nominal, dc, lc, start, None, method)}
-    for name in CANDIDATES:
-        eff = get(name)
-        say(f"harmonic balance with {name}")
-        fits[eff] = fit_nonlinear(nominal, dc, lc, fits[None]["theta"], eff, method)
+    db = [mode_bands(d) for d in dc]
+    say(f"harmonic balance ({method}), calibration only, on {sum(len(d.freq) for d in db)} lines of the modes' bands")
+    fits = {}
+    for eff in [None, *map(get, CANDIDATES)]:
+        if eff is not None:
+            say(fit_label(eff))
+        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars)
+        done[fit_label(eff)] = {"fitted": rounded(fits[eff]["theta"]), "evaluations": fits[eff]["evaluations"],
+                                "cfg": fits[eff]["cfg"]}
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
     base, ranked, winner = rank(results)
@@ -264,15 +368,16 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
             "named_effect": winner["effect"] if winner else None,
             "ranking": [{"effect": r["effect"], "delta_bic": round(base["score"] - r["score"], 2),
                          "rss_reduction": round(r["rss_reduction"], 4),
-                         "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}} for r in ranked],
-            "linear": {"fitted": {k: float(f"{v:.5g}") for k, v in lin.theta.items()}},
-            "nonlinear": {"fitted": {k: float(f"{v:.5g}") for k, v in final["theta"].items()},
-                          "evaluations": fits[None]["evaluations"]},
+                         "fitted": rounded(r["theta"])} for r in ranked],
+            "linear": {"fitted": rounded(lin.theta)},
+            "nonlinear": {"fitted": rounded(final["theta"]),
+                          "evaluations": fits[None]["evaluations"],
+                          "lines": {d.name: [len(b.freq), len(d.freq)] for d, b in zip(dc, db)}},
             "prediction": pred,
             "contact_note": contact_note(pred, method, "V" if per_volt else "N"),
-            "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt)]
+            "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt, nominal)]
                         + [w | {"model": "harmonic balance"} for w in bound_warnings(
-                            final["theta"], winner_effect, per_volt, {k: v for k, v in BOUNDS.items() if k != FORCE_SCALE})],
+                            final["theta"], winner_effect, per_volt, nominal, fit_bounds(nominal))],
             "_config": final["cfg"],
             "_plots": [(d.name, a, d.freq, d.H, h0, h1) for d, a, h0, h1 in zip(data, levels, H_lin, H_nl)]}
 
@@ -296,6 +401,37 @@ def summary(res: dict) -> str:
     return "\n".join(lines)
 
 
+def _write_result(folder: Path, res: dict) -> None:
+    """diagnose.json (``res`` without its "_" keys) and, if ``res`` has one, model.toml ("_config") in ``folder``."""
+    import json
+
+    from rt.common.config import dumps
+    (folder / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
+                                                     indent=1) + "\n")
+    if "_config" in res:
+        (folder / "model.toml").write_text(dumps(res["_config"]))
+
+
+def partial_summary(partial: dict) -> str:
+    """The text the CLI prints for an interrupted diagnosis (``partial_result``)."""
+    return "\n".join(["interrupted; the fits done so far:"]
+                     + [f"  {name}: {f['fitted']}" for name, f in partial["fits"].items()])
+
+
+def write_partial_report(partial: dict, out: str | Path) -> Path:
+    """The report folder of an interrupted diagnosis (written beside and renamed, as ``write_levels_report``):
+    diagnose.json (``partial_result``), model.toml (the last fit's configuration) and report.md."""
+    from rt.discrepancy.rig.campaign import new_folder
+    with new_folder(out) as tmp:
+        _write_result(tmp, partial)
+        (tmp / "report.md").write_text("\n".join(
+            ["# Amplitude dependence: interrupted", "",
+             "The diagnosis was stopped before its end; the fits done so far (model.toml: the last of them):", "",
+             "| fit | fitted |", "| --- | --- |",
+             *[f"| {name} | `{f['fitted']}` |" for name, f in partial["fits"].items()], ""]))
+    return Path(out)
+
+
 def write_levels_report(res: dict, out: str | Path) -> Path:
     """The report folder (a new folder, written beside and renamed: never half a report):
     diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
@@ -306,12 +442,9 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from rt.common.config import dumps
     from rt.discrepancy.rig.campaign import new_folder
     with new_folder(out) as tmp:
-        (tmp / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
-                                                      indent=1) + "\n")
-        (tmp / "model.toml").write_text(dumps(res["_config"]))
+        _write_result(tmp, res)
         plots = res["_plots"]
         fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
         for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):

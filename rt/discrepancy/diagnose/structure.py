@@ -47,7 +47,7 @@ from plant.impulse import accelerance_frf, identify
 from plant.model import build_plant, preloaded_pairs, stuck_stiffness
 from rt.common.config import Config
 from rt.discrepancy.effects import Effect
-from rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scaled
+from rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
 
 SENSORS = ("a_frf_meas", "a_tip_meas")
 MODES = (1, 2, 3, 4, 5, 6, 7, 8)        # bending modes whose frequencies start the fit (stage 1)
@@ -238,10 +238,14 @@ def struct_cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
     return cfg
 
 
-def bounds(names, effect):
-    """(lower, upper) bounds of the parameters ``names``: CAL_FAR's, DISPERSION's, the effect's."""
-    lo = [CAL_FAR[k][0] if k in CAL_FAR else DISPERSION[0] if k == "dispersion" else effect.parameter.lo for k in names]
-    hi = [CAL_FAR[k][1] if k in CAL_FAR else DISPERSION[1] if k == "dispersion" else effect.parameter.hi for k in names]
+def bounds(names, effect, nominal: Config):
+    """(lower, upper) bounds of the parameters ``names``: CAL_FAR's within what the configuration accepts
+    around ``nominal`` (rt.discrepancy.chain.scale_bounds), DISPERSION's, the effect's."""
+    def one(k):
+        if k in CAL_FAR:
+            return scale_bounds(nominal, k, *CAL_FAR[k][:2])
+        return DISPERSION[:2] if k == "dispersion" else (effect.parameter.lo, effect.parameter.hi)
+    lo, hi = zip(*map(one, names))
     return np.array(lo), np.array(hi)
 
 
@@ -297,7 +301,7 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
         r = ((meas - fm) / meas / SIGMA_F)[ok]
         return np.concatenate([r, prior(names, x)])
 
-    lo, hi = (to_z(b, log) for b in bounds(names, effect))
+    lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + ([effect.parameter.default] if effect else [])
     x0 = [1.0] + [0.0] * len(STAGE1_LOG) + [0.0] * len(disp) + ([effect.parameter.default] if effect else [])
     h_min = np.array([1e-4] + [STAGE1_LOG_STEP] * len(STAGE1_LOG) + [1e-3] * len(disp)
@@ -351,11 +355,12 @@ def damping_start(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     with mu at nominal, and can be the poorer start too (the rig's own form, seed 3: stage 1's k_t
     1.88 for the true 1.02, the grid's damping 0.22, the fit from there RSS / n 2.61 against 0.21
     from 1.0): calibration alone runs stage 2 from both and keeps the better, a candidate has
-    calibration's own result among its starts."""
+    calibration's own result among its starts. The grid is clipped to the fit's ``bounds``."""
+    grid = np.unique(np.clip(DAMPING_GRID, *(b[0] for b in bounds(["modal_damping"], None, nominal))))
     cost = [sum(float(v @ v) for v in run_shape(struct_cfg(nominal, start | {"modal_damping": g}, effect), data,
                                                 start.get("dispersion", 0.0)).r.values())
-            for g in DAMPING_GRID]
-    return start | {"modal_damping": float(DAMPING_GRID[int(np.argmin(cost))])}
+            for g in grid]
+    return start | {"modal_damping": float(grid[int(np.argmin(cost))])}
 
 
 class StructureFit(NamedTuple):
@@ -385,7 +390,7 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
             return min((fit_structure(nominal, data, None, start=s) for s in (stage1, start)), key=fit_cost)
     names = ["E", "k_t", "mu", "modal_damping", "dispersion"] + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
-    lo, hi = (to_z(b, log) for b in bounds(names, effect))
+    lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     z = np.clip(to_z(np.array([start.get(k, 0.0 if k == "dispersion" else 1.0) for k in names]), log), lo, hi)
     steps = fd_steps(names, effect)
 
