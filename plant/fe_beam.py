@@ -36,6 +36,22 @@ def element_matrices(l: float, E: float, A: float, I: float, rho: float) -> tupl
     return k, m
 
 
+def frame_shape(xi: float, l: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The frame element's interpolation at xi = (x - x1) / l in [0, 1] of an element of length l [m]:
+    rows of weights on (u1, w1, th1, u2, w2, th2) giving u(x) (linear), w(x) (cubic Hermite) and
+    theta(x) = dw/dx, the fields whose energy element_matrices integrates.
+
+        u = (1 - xi) u1 + xi u2
+        w = (1 - 3 xi^2 + 2 xi^3) w1 + l (xi - 2 xi^2 + xi^3) th1 + (3 xi^2 - 2 xi^3) w2 + l (xi^3 - xi^2) th2
+    """
+    u = np.array([1.0 - xi, 0.0, 0.0, xi, 0.0, 0.0])
+    w = np.array([0.0, 1.0 - 3 * xi**2 + 2 * xi**3, l * (xi - 2 * xi**2 + xi**3),
+                  0.0, 3 * xi**2 - 2 * xi**3, l * (xi**3 - xi**2)])
+    th = np.array([0.0, (-6 * xi + 6 * xi**2) / l, 1.0 - 4 * xi + 3 * xi**2,
+                   0.0, (6 * xi - 6 * xi**2) / l, 3 * xi**2 - 2 * xi])
+    return u, w, th
+
+
 def assemble_beam(x_nodes: np.ndarray, E: float, width: float, height: float, rho: float
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Global K, M of one beam meshed at `x_nodes` [m] (3 DOFs per node, node-major order)."""

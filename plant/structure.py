@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
-from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, mesh_nodes
+from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, frame_shape, mesh_nodes
 from plant.tributary import tributary_lengths
 from rt.common.config import Beam, Config, adaptive_screw
 
@@ -39,6 +39,29 @@ class Substructure:
         if len(hit) == 0:
             raise ValueError(f"DOF {component} of beam {self.beam.name!r} at x = {x} m is clamped")
         return self.offset + int(hit[0])
+
+    def element_of(self, x: float) -> int:
+        """Index e of the element [x_nodes[e], x_nodes[e + 1]] that holds x [m]."""
+        return int(np.clip(np.searchsorted(self.x_nodes, x, side="right") - 1, 0, len(self.x_nodes) - 2))
+
+    def field_row(self, x: float, component: int) -> np.ndarray:
+        """Row on the stacked physical vector (length ``offset + n`` is enough: the caller pads)
+        giving the field ``component`` (U, W, THETA) at x [m]: the node's DOF at a node, else the
+        element's interpolation (plant.fe_beam.frame_shape); clamped DOFs carry nothing."""
+        node = int(np.argmin(np.abs(self.x_nodes - x)))
+        if abs(self.x_nodes[node] - x) <= 1e-9:
+            weights = {DOFS_PER_NODE * node + component: 1.0}
+        else:
+            e = self.element_of(x)
+            l = self.x_nodes[e + 1] - self.x_nodes[e]
+            shape = frame_shape((x - self.x_nodes[e]) / l, l)[component]
+            weights = {DOFS_PER_NODE * e + k: shape[k] for k in range(2 * DOFS_PER_NODE)}
+        row = np.zeros(self.offset + self.n)
+        for d, wt in weights.items():
+            hit = np.nonzero(self.free == d)[0]
+            if len(hit):
+                row[self.offset + int(hit[0])] += wt
+        return row
 
     @property
     def n(self) -> int:
@@ -107,6 +130,22 @@ def _pair_positions(cfg: Config) -> np.ndarray:
     return i.x_start_m + i.pitch_m * np.arange(n + 1)
 
 
+def node_pairs(x_pairs: np.ndarray, h_min: float) -> np.ndarray:
+    """The contact points that are also mesh nodes [m]: from the first, each point at least h_min
+    [m] from the previous node, and the last. With a pitch >= the element length every point is a
+    node (contact node-to-node); with a finer pitch the points between them sample the elements'
+    interpolation (interface_rows)."""
+    if len(x_pairs) == 0:
+        return x_pairs
+    keep = [x_pairs[0]]
+    for x in x_pairs[1:-1]:
+        if x - keep[-1] >= h_min - 1e-9:
+            keep.append(x)
+    if len(x_pairs) > 1:
+        keep.append(x_pairs[-1])
+    return np.array(keep)
+
+
 def add_lumped(K: np.ndarray, M: np.ndarray, node_of, masses, rot_springs) -> None:
     """Add lumped masses m [kg] at x (transverse and axial DOFs; rotary inertia neglected) and
     rotational springs k = 1 / compliance [N m/rad] at x (compliance 0: none, the clamp fixes
@@ -130,10 +169,13 @@ def build_structure(cfg: Config) -> Structure:
     offset = 0
     for b in p.beams:
         in_itf = itf.enabled and b.name in (itf.lower, itf.upper)
-        full_nodes = list(x_pairs) + [s.x_m for s in screws] if in_itf else []
+        full_nodes = list(node_pairs(x_pairs, p.element_length_m)) + [s.x_m for s in screws] if in_itf else []
         w_nodes = [pt.x_m for pt in p.points if pt.beam == b.name]
         clamp_x = [c.x_m for c in p.clamps if c.beam == b.name]
         x_nodes = mesh_nodes(b.x0_m, b.x0_m + b.length_m, full_nodes + w_nodes + clamp_x, p.element_length_m)
+        if in_itf:  # a pair between nodes moves with its element's two nodes: they are boundary too
+            full_nodes += [float(x_nodes[e + k]) for x in x_pairs if np.min(np.abs(x_nodes - x)) > 1e-9
+                           for e in [int(np.searchsorted(x_nodes, x, side="right") - 1)] for k in (0, 1)]
         K, M = assemble_beam(x_nodes, b.E, b.width_m, b.height_m, b.rho)
 
         def node_of(x):
@@ -223,18 +265,20 @@ def interface_rows(cfg: Config, subs: tuple[Substructure, ...] | list[Substructu
                    ) -> tuple[np.ndarray, np.ndarray]:
     """(normal row, tangential row) of the interface at x [m] on the stacked physical vector:
     g_n = w_upper - w_lower [m] (> 0 open) and g_t = u at the bottom of the upper beam minus u
-    at the top of the lower beam, u(z) = u - z theta [m]. Both beams need a node at x."""
+    at the top of the lower beam, u(z) = u - z theta [m]. At a node these are its DOFs; between
+    nodes the elements' own interpolation (Substructure.field_row), so a contact pitch finer than
+    the elements samples the same beams."""
     itf = cfg.plant.interface
     beams = {b.name: b for b in cfg.plant.beams}
     by_name = {s.beam.name: s for s in subs}
     lo, up = by_name[itf.lower], by_name[itf.upper]
     n = sum(s.n for s in subs)
-    r_n = np.zeros(n)
-    r_n[up.dof(x, W)] += 1.0
-    r_n[lo.dof(x, W)] -= 1.0
-    r_t = np.zeros(n)
-    r_t[up.dof(x, U)] += 1.0
-    r_t[up.dof(x, THETA)] += beams[itf.upper].height_m / 2
-    r_t[lo.dof(x, U)] -= 1.0
-    r_t[lo.dof(x, THETA)] += beams[itf.lower].height_m / 2
+
+    def field(sub, component):
+        row = sub.field_row(x, component)
+        return np.concatenate([row, np.zeros(n - len(row))])
+
+    r_n = field(up, W) - field(lo, W)
+    r_t = (field(up, U) + beams[itf.upper].height_m / 2 * field(up, THETA)
+           - field(lo, U) + beams[itf.lower].height_m / 2 * field(lo, THETA))
     return r_n, r_t

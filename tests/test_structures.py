@@ -43,3 +43,31 @@ def test_damper_at_another_position_by_set():
     cfg = load(sets=MOVED_DAMPER)
     red, _ = _check_assembly(cfg)
     np.testing.assert_allclose(red.structure.x_pairs[[0, -1]], [0.30, 0.46], atol=1e-12)
+
+
+def test_contact_points_between_nodes_read_the_elements_interpolation():
+    """docs/plant.md 1.3: a contact pitch finer than the elements puts points between nodes; their
+    gaps are the frame elements' own fields there (u linear, w cubic Hermite, theta = dw/dx), so a
+    field the elements represent exactly (u linear, w cubic, zero at the main beam's clamp) gives
+    the exact gaps at every point, and only the nodes around the points become boundary DOFs."""
+    from plant.fe_beam import DOFS_PER_NODE, THETA, U, W
+    from plant.structure import build_structure, node_pairs
+
+    cfg = load(sets=["plant.interface.pitch_m=0.0025", "plant.element_length_m=0.01"])
+    st = build_structure(cfg)
+    assert len(st.x_pairs) == 65 and len(node_pairs(st.x_pairs, 0.01)) == 17   # 3 of every 4 points between nodes
+    fields = {"main": (3e-4, -2e-3, 5e-6), "damper": (-4e-4, 1e-3, -2e-6)}        # w = a x^2 + b x^3, u = c x
+    X = np.zeros(sum(s.n for s in st.subs))
+    for s in st.subs:
+        a, b, c = fields[s.beam.name]
+        full = np.zeros(DOFS_PER_NODE * len(s.x_nodes))
+        x = s.x_nodes
+        full[U::3], full[W::3], full[THETA::3] = c * x, a * x**2 + b * x**3, 2 * a * x + 3 * b * x**2
+        X[s.offset:s.offset + s.n] = full[s.free]
+    h = {b.name: b.height_m for b in cfg.plant.beams}
+    (au, bu, cu), (al, bl, cl) = fields["damper"], fields["main"]
+    x = st.x_pairs
+    g_n = (au - al) * x**2 + (bu - bl) * x**3
+    g_t = (cu - cl) * x + h["damper"] / 2 * (2 * au * x + 3 * bu * x**2) + h["main"] / 2 * (2 * al * x + 3 * bl * x**2)
+    np.testing.assert_allclose(st.gap_rows[0::2] @ X, g_n, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(st.gap_rows[1::2] @ X, g_t, rtol=0, atol=1e-15)
