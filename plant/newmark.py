@@ -141,7 +141,8 @@ class PlantWork(NamedTuple):
     ra: np.ndarray         # (2p,) right-hand side / solution of the active block
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
     mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
-    stale: np.ndarray      # (1,) int64: 1 if mu_eff changed since the LU was factorised
+    stale: np.ndarray      # (2,) int64: [0] 1 if mu_eff changed since the LU was factorised; [1] 1 if the
+                           # factors hold fading dashpots' weights of their step (_contact_newton)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -201,7 +202,9 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     have Lambda = 0). The tangential law is the Jenkins element (p.iwan_k of length 1) or the
     Iwan element (``plant.contact._iwan_pair``; code 1 + sum_i s_i 3^i over its elements), with
     the friction coefficient wk.mu_eff of the substep. Returns (n_act, True if every pair's state
-    equals wk.pattern and none opens or closes). RT-safe.
+    equals wk.pattern and none opens or closes, n_fade: the active pairs whose tangential dashpot
+    is fading in, 0 < s < 1; their law is affine within the step, s being lagged, but their
+    Jacobian entry changes from step to step). RT-safe.
     """
     # fields unpacked into locals: inside loops numba would reload every array pointer from
     # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below
@@ -211,6 +214,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     kf, qf = p.iwan_k, p.iwan_q
     ne = kf.shape[0]
     n_act = 0
+    n_fade = 0
     same = True
     for j in range(g.shape[0] // 2):
         if g0[2 * j] >= 0.0 and g[2 * j] >= 0.0:  # open at both ends: no force, slider relaxed
@@ -282,7 +286,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
         ldn, ldt, ddn, ddtn, ddtt, fading = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
                                                                c_n[j] * inv_h, c_t[j] * inv_h, depth)
         if fading and c != 0:
-            c = TRANSITION  # not affine in the gaps: no cached factors, no exactness shortcut
+            n_fade += 1  # affine within the step (s lagged), but its Jacobian entry differs from step to step
         lam[2 * j] += ldn
         lam[2 * j + 1] += ldt
         lamd[2 * j] = ldn
@@ -295,7 +299,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
         if c != 0:
             act[n_act] = j
             n_act += 1
-    return n_act, same
+    return n_act, same, n_fade
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -348,7 +352,9 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         scale = max(scale, abs(g_pred[i]))
     tol = p.tol + ROUNDOFF * scale  # never ask for less than round-off of the gaps allows
     tol2 = tol * tol
-    n_act, same = _contact_laws(g, w_old, p, wk, inv_h)
+    n_act, same, n_fade = _contact_laws(g, w_old, p, wk, inv_h)
+    if n_fade > 0 or stale[1] != 0:  # a fading dashpot's weight is its step's own: factors of another step do not hold
+        stale[0] = 1
     res2 = _contact_residual(g, g_pred, W, wk, n_act)
     for it in range(p.max_iter):
         if res2 <= tol2:
@@ -365,6 +371,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
                     LU[ra, 2 * b + 1] = -W[i, 2 * j + 1] * d[3 * j + 2]
                 LU[ra, ra] += 1.0
             _lu_factor(LU, piv, ma)
+            stale[1] = 1 if n_fade > 0 else 0
             for j in range(npair):
                 pattern[j] = code[j]
         for ra in range(ma):
@@ -388,7 +395,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
             dg[2 * j + 1] = rhs[2 * b + 1]
         for i in range(m):
             g[i] += dg[i]
-        n_act, same = _contact_laws(g, w_old, p, wk, inv_h)
+        n_act, same, n_fade = _contact_laws(g, w_old, p, wk, inv_h)
         if same:
             # the law is affine within one pattern and the step solved it exactly there
             return it + 1
@@ -399,7 +406,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
                 alpha *= 0.5
                 for i in range(m):
                     g[i] = g_old[i] + alpha * dg[i]
-                n_act, same = _contact_laws(g, w_old, p, wk, inv_h)
+                n_act, same, n_fade = _contact_laws(g, w_old, p, wk, inv_h)
                 new2 = _contact_residual(g, g_pred, W, wk, n_act)
         res2 = new2
     return -1 if res2 > tol2 else p.max_iter
