@@ -83,6 +83,7 @@ from rt.discrepancy.diagnose.structure import (
     to_z,
 )
 from rt.discrepancy.effects import EFFECTS, Effect, implemented
+from rt.discrepancy.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
 from rt.discrepancy.rig.frf import add_points, sensor_points
 from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
@@ -289,35 +290,50 @@ def _theta(names, x, scale) -> dict:
     return dict(zip(names, map(float, x))) | ({FORCE_SCALE: scale} if scale is not None else {})
 
 
-def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None) -> Fit:
+def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None,
+        plausible: dict | None = None) -> Fit:
     """Stage 1 then stage 2 (module docstring) of the calibration alone (effect None) or with the
-    effect; with ``calibrated`` stage 2 starts from the better of stage 1 and the calibration with
-    the effect at its nominal strength, there with the calibration's Jacobian columns (so a
-    candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.structure's
-    Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
-    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
+    effect; with ``calibrated`` (a fit with the same ``plausible``) stage 2 starts from the better of stage 1
+    and the calibration with the effect at its nominal strength, there with the calibration's Jacobian
+    columns (so a candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.
+    structure's Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
+    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others. Both stages
+    are penalised outside the ``plausible`` ranges {parameter: (lo, hi)} (rt.discrepancy.plausible.penalty;
+    default: rt.discrepancy.plausible.ranges of ``nominal``; {}: none, the parameters let go)."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     steps = fd_steps(names, effect)
+    plausible = ranges(nominal, names) if plausible is None else plausible
+    n = sum(len(v) for d in data for v in d.ln_h.values())
+
+    def pen(names_, x, n_=n):
+        return penalty(names_, x, plausible, n_)
 
     def evaluate(z):
         x = from_z(z, log)
         ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x)])
+        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x), pen(names, x)])
 
-    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies)
+    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, penalty=pen)
     z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
     run, r = evaluate(z)
     J = None
     if calibrated is not None and effect is not None:
         z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
-        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, from_z(z_cal, log))])
+        x_cal = from_z(z_cal, log)
+        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal), pen(names, x_cal)])
         if r_cal @ r_cal < r @ r:
             z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
-            J = np.column_stack([calibrated.J[k] for k in names[:-1]]
+            # the calibration's columns gain the effect's penalty row, which they do not move
+            J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
                                 + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
-    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR)
+    def box(z):
+        b_lo, b_hi = step_box(names, from_z(z, log), plausible)
+        with np.errstate(divide="ignore"):
+            return np.clip(to_z(b_lo, log & (b_lo > 0)), lo, hi), np.clip(to_z(b_hi, log), lo, hi)
+
+    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR, box)
     theta = _theta(names, from_z(z, log), scale)
     return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
@@ -457,6 +473,13 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
     base, ranked, winner = rank(results)
     final = winner or base
+    plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
+    let_go = None
+    if winner is None and outside(base["theta"], plausible):     # no candidate took their place: let them go
+        say("fit calibration only, the plausible ranges let go")
+        free = fit(nominal, data, None, plausible={})
+        let_go = {"fitted": {k: float(f"{v:.5g}") for k, v in free.theta.items()},
+                  "gap_db": gap_db(data, free.H)["structure_frf_db"]}
     m0 = build_plant(quiet(nominal))
     localise = {}
     for d, h in zip(data, H0):
@@ -480,6 +503,8 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     out["level_offset_db"] = round(offset, 4)
     out["warnings"] = bound_warnings(final["theta"], next((e for e in candidates if e.name == final["effect"]), None),
                                      per_volt, nominal) + level_warning(offset, per_volt)
+    out["plausibility"] = verdict(plausible, base["theta"], final["theta"], final["effect"],
+                                  [e.name for e in candidates], let_go)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:
         out["excitation"] = {
