@@ -392,10 +392,10 @@ class Shaker:
 @dataclass(frozen=True)
 class Uncertainty:
     """How uncertain the user says the nominal values of the calibrated parameters are: each sets the
-    parameter's plausible range (rt.discrepancy.plausible: inside it the diagnosis' fits are free, outside
+    parameter's plausible range (rt.discrepancy.diagnose.plausible: inside it the diagnosis' fits are free, outside
     they are penalised and the parameter is reported as evidence of a missing effect or a wrong model
     form). A factor of 0 means the range the literature gives for what the parameter is (the table in
-    rt/discrepancy/plausible.py); a factor f >= 1 the nominal / f .. nominal x f instead."""
+    rt/discrepancy/diagnose/plausible.py); a factor f >= 1 the nominal / f .. nominal x f instead."""
     E_rel: float = param(0.05, "-", lo=0.0, lo_inclusive=False,
                          doc="the beams' Young's modulus lies within nominal x (1 -+ E_rel): a named metal's E is "
                              "known to a few % (structural steels 195-215 GPa, wrought aluminium alloys 68-72 GPa)")

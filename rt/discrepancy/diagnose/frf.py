@@ -50,6 +50,9 @@ result keys as rt.discrepancy.diagnose.campaign (rank, ranking_result); the gap 
 BAND_HZ ("frf_db", as before issue 18) and over every sensor and the file's whole band
 ("frf_db_all", "band_hz"). A fitted parameter within ``BOUND_REL`` of a bound is a warning
 (``bound_warnings``).
+
+Length: the FRF-file workflow in its reading order (data, model, fit, gap, warnings, the workflow), each
+part used by the next; the plausible ranges and their penalty are rt.discrepancy.diagnose.plausible's.
 """
 from __future__ import annotations
 
@@ -83,7 +86,7 @@ from rt.discrepancy.diagnose.structure import (
     to_z,
 )
 from rt.discrepancy.effects import EFFECTS, Effect, implemented
-from rt.discrepancy.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
+from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
 from rt.discrepancy.rig.frf import add_points, sensor_points
 from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
@@ -293,13 +296,12 @@ def _theta(names, x, scale) -> dict:
 def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None,
         plausible: dict | None = None) -> Fit:
     """Stage 1 then stage 2 (module docstring) of the calibration alone (effect None) or with the
-    effect; with ``calibrated`` (a fit with the same ``plausible``) stage 2 starts from the better of stage 1
-    and the calibration with the effect at its nominal strength, there with the calibration's Jacobian
-    columns (so a candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.
-    structure's Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
-    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others. Both stages
-    are penalised outside the ``plausible`` ranges {parameter: (lo, hi)} (rt.discrepancy.plausible.penalty;
-    default: rt.discrepancy.plausible.ranges of ``nominal``; {}: none, the parameters let go)."""
+    effect; with ``calibrated`` stage 2 starts from the better of stage 1 and the calibration with
+    the effect at its nominal strength, there with the calibration's Jacobian columns (so a
+    candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.structure's
+    Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
+    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others. Both
+    penalised outside the ``plausible`` ranges (default: plausible.ranges; {}: let go; plausible.penalty)."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
@@ -307,7 +309,7 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     plausible = ranges(nominal, names) if plausible is None else plausible
     n = sum(len(v) for d in data for v in d.ln_h.values())
 
-    def pen(names_, x, n_=n):
+    def pen(names_, x, n_=n):                    # n_: stage 1 has its own number of residuals
         return penalty(names_, x, plausible, n_)
 
     def evaluate(z):
@@ -328,12 +330,8 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
             # the calibration's columns gain the effect's penalty row, which they do not move
             J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
                                 + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
-    def box(z):
-        b_lo, b_hi = step_box(names, from_z(z, log), plausible)
-        with np.errstate(divide="ignore"):
-            return np.clip(to_z(b_lo, log & (b_lo > 0)), lo, hi), np.clip(to_z(b_hi, log), lo, hi)
-
-    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR, box)
+    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR,
+                                                   lambda z: step_box(names, z, log, plausible, lo, hi))
     theta = _theta(names, from_z(z, log), scale)
     return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 

@@ -28,7 +28,7 @@ to the same total, so that a lab's dense lines at a high mode do not outvote a l
 scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
 ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength, its steps scaled by its range), penalised outside the parameters'
-plausible ranges (rt.discrepancy.plausible; the report's "plausibility" names those that want to leave them).
+plausible ranges (rt.discrepancy.diagnose.plausible; the report's "plausibility" names those that want to leave them).
 A line where the harmonic balance does not converge is given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
 leaves the balance without a solution is never preferred.
 
@@ -57,7 +57,7 @@ from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFDa
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
-from rt.discrepancy.plausible import CLAMP, outside, penalty, ranges, verdict
+from rt.discrepancy.diagnose.plausible import CLAMP, markdown, outside, penalty, ranges, summary_lines, verdict
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
@@ -190,7 +190,7 @@ def rounded(theta: dict) -> dict:
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
                   effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
-    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.plausible):
+    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.plausible):
     {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model evaluations,
     with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
     per_volt = any(d.per_volt for d in data)
@@ -404,6 +404,7 @@ def summary(res: dict) -> str:
              *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
              *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
                for w in res["warnings"]],
+             *summary_lines(res["plausibility"]),
              f"level [{res['level_unit']}]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  "
              "ratio"]
     for p in res["prediction"]:
@@ -492,5 +493,6 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
                "| --- | --- | --- | --- | --- |"]
               + [f"| {w['model']} | {w['parameter']} | {w['value']:g} | {w['bound']:g} | {w['fix']} |"
                  for w in res["warnings"]] if res["warnings"] else []), "",
+            *markdown(res["plausibility"]), "",
             "![levels.png](levels.png)", ""]))
     return Path(out)

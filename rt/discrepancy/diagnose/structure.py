@@ -284,7 +284,7 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
     identified frequencies (``f_modes``: per sensor, or per pairing of the FRF-file input; the same keys
     in every test) in the stuck tests; the model's are ``frequencies(model, F_N1)`` (default: as the
     plant step shows them, then ``unwarp``ed); bounds and prior CAL_FAR's. ``penalty(names, x, n)``:
-    residuals appended to the n frequency residuals (rt.discrepancy.plausible.penalty)."""
+    residuals appended to the n frequency residuals (rt.discrepancy.diagnose.plausible.penalty)."""
     disp = ["dispersion"] if step is not None else []
     names = ["E", *STAGE1_LOG, *disp] + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])

@@ -130,18 +130,21 @@ def penalty(names, x, plausible: dict, n: int) -> np.ndarray:
     return np.array([w * excess(float(v), *plausible[k]) if k in plausible else 0.0 for k, v in zip(names, x)])
 
 
-def step_box(names, x, plausible: dict) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) of one Gauss-Newton step from the parameter values x: within EDGE_LN beyond the plausible range
-    of each name, or beyond x where x lies outside already (-inf, inf for a name without a range). The
-    penalty has a kink at the range's edge that the step's linear model (its Jacobian row is 0 inside) does
-    not see: a step across it by more than EDGE_LN would cost the penalty n or more and fail."""
-    lo, hi = np.full(len(x), -np.inf), np.full(len(x), np.inf)
-    for j, (k, v) in enumerate(zip(names, x)):
+def step_box(names, z, log, plausible: dict, lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of one Gauss-Newton step from the optimiser's variables z (ln of the parameter where ``log``)
+    within the fit's bounds lo, hi: at most EDGE_LN beyond each name's plausible range, or beyond its value
+    where that lies outside already. The step's linear model does not see the penalty's kink at the edge
+    (its Jacobian row is 0 inside): a step across it by more would cost the penalty n or more and fail."""
+    b_lo, b_hi = np.array(lo, float), np.array(hi, float)
+    for j, k in enumerate(names):
         if k in plausible:
             a, b = plausible[k]
-            hi[j] = max(b, v) * math.exp(EDGE_LN)
-            lo[j] = min(a, v) * math.exp(-EDGE_LN) if a > 0.0 else -np.inf
-    return lo, hi
+            v = math.exp(z[j]) if log[j] else z[j]
+            top, bottom = max(b, v) * math.exp(EDGE_LN), min(a, v) * math.exp(-EDGE_LN)
+            b_hi[j] = min(hi[j], math.log(top) if log[j] else top)
+            if a > 0.0:
+                b_lo[j] = max(lo[j], math.log(bottom) if log[j] else bottom)
+    return b_lo, b_hi
 
 
 def outside(theta: dict, plausible: dict) -> list[dict]:
@@ -154,6 +157,10 @@ def outside(theta: dict, plausible: dict) -> list[dict]:
             for k, v in theta.items() if k in plausible and pressed(v, *plausible[k])]
 
 
+def _range_text(o: dict) -> str:
+    return f"{o['parameter']} = {o['value']:g} (plausible {o['plausible'][0]:g}..{o['plausible'][1]:g})"
+
+
 def verdict(plausible: dict, calibration: dict, final: dict, named: str | None, tried: list[str],
             let_go: dict | None = None) -> dict:
     """The report's plausibility section: the ``plausible`` ranges, the parameters of the calibration alone
@@ -161,8 +168,7 @@ def verdict(plausible: dict, calibration: dict, final: dict, named: str | None, 
     ``tried`` in their place, the ``named`` one, ``let_go`` (the calibration with the ranges let go:
     {"fitted", ...}, or None), and a note that says what it means in words."""
     cal, fin = outside(calibration, plausible), outside(final, plausible)
-    which = ", ".join(f"{o['parameter']} = {o['value']:g} (plausible {o['plausible'][0]:g}..{o['plausible'][1]:g})"
-                      for o in cal)
+    which = ", ".join(map(_range_text, cal))
     if not cal and not fin:
         note = "every calibrated parameter lies within its plausible range"
     elif cal and named and not fin:
@@ -179,3 +185,31 @@ def verdict(plausible: dict, calibration: dict, final: dict, named: str | None, 
     return {"ranges": {k: [float(f"{b:.5g}") for b in v] for k, v in plausible.items()},
             "calibration_outside": cal, "outside": fin, "candidates_tried": list(tried), "let_go": let_go,
             "note": note}
+
+
+def summary_lines(p: dict) -> list[str]:
+    """The CLI's lines of a ``verdict``: its note, each parameter of the final fit outside its range with its
+    meaning, and the fit with the ranges let go."""
+    out = [f"plausibility: {p['note']}"]
+    out += [f"outside its plausible range: {_range_text(o)}: {o['meaning']}" for o in p["outside"]]
+    if p["let_go"]:
+        out.append(f"with the plausible ranges let go: {p['let_go']['fitted']} (gap {p['let_go']['gap_db']:g} dB)")
+    return out
+
+
+def markdown(p: dict) -> list[str]:
+    """report.md's section of a ``verdict``: the note, the parameters outside their ranges (calibration
+    alone and final fit) with their meaning, the fit with the ranges let go, and the ranges."""
+    rows = [(fit, o) for fit, key in (("calibration alone", "calibration_outside"), ("final", "outside"))
+            for o in p[key]]
+    out = ["", "## Plausibility", "", p["note"] + ".", ""]
+    if rows:
+        out += ["| fit | parameter | value | plausible range | what it means |", "| --- | --- | --- | --- | --- |"]
+        out += [f"| {fit} | {o['parameter']} | {o['value']:g} | {o['plausible'][0]:g}..{o['plausible'][1]:g} | "
+                f"{o['meaning']} |" for fit, o in rows] + [""]
+    if p["let_go"]:
+        out += [f"With the plausible ranges let go the calibration is `{p['let_go']['fitted']}` (gap "
+                f"{p['let_go']['gap_db']:g} dB): what the data ask, not a physical model.", ""]
+    out.append("Plausible ranges (x nominal; clamp compliance in rad/(N m)): "
+               + ", ".join(f"{k} {a:g}..{b:g}" for k, (a, b) in p["ranges"].items()) + ".")
+    return out
