@@ -10,7 +10,8 @@ import pytest
 
 from rt.common.config import Config, ConfigError, load, with_sets
 from rt.discrepancy.diagnose.frf import diagnose_frf
-from rt.discrepancy.diagnose.plausible import AT_EDGE_LN, EDGE_LN, clamp_range, outside, penalty, ranges
+from rt.discrepancy.diagnose import summary
+from rt.discrepancy.diagnose.plausible import AT_EDGE_LN, EDGE_LN, clamp_range, markdown, outside, penalty, ranges
 from rt.discrepancy.rig import scatter_sets
 from rt.discrepancy.rig.frf import make_frf_campaign
 
@@ -59,7 +60,8 @@ def test_penalty_is_zero_inside_and_costs_n_per_edge_outside():
                                         "0.9 (E within nominal x (1 -+ E_rel)); for E known to +-5 % give 0.05"),
     (["diagnosis.uncertainty.mu_factor=0.5"], "diagnosis.uncertainty.mu_factor = 0.5: a factor f gives the range "
                                               "nominal / f .. nominal x f, so it is at least 1"),
-    (["diagnosis.uncertainty.k_t_factor=-1"], "diagnosis.uncertainty.k_t_factor = -1.0 is not allowed: must be 0 <= value"),
+    (["diagnosis.uncertainty.k_t_factor=-1"],
+     "diagnosis.uncertainty.k_t_factor = -1.0 is not allowed: must be 0 <= value"),
     (["diagnosis.uncertainty.E_rel=0"], "diagnosis.uncertainty.E_rel = 0.0 is not allowed: must be 0 < value"),
 ])
 def test_bad_uncertainty_values_are_refused_naming_value_and_fix(sets, words):
@@ -87,7 +89,11 @@ def test_a_compliant_clamp_is_named_and_E_stays_within_its_range(tmp_path):
     assert fitted["clamp_compliance"] == pytest.approx(4.5e-4, rel=0.01)
     p = res["plausibility"]
     lo, hi = p["ranges"]["E"]
-    assert lo <= fitted["E"] <= hi and fitted["E"] == pytest.approx(scatter_sets(np.random.default_rng(3))["E"], rel=1e-3)
+    assert lo <= fitted["E"] <= hi
+    assert fitted["E"] == pytest.approx(scatter_sets(np.random.default_rng(3))["E"], rel=1e-3)
     assert {o["parameter"] for o in p["calibration_outside"]} >= {"E"}, p
     assert p["outside"] == [] and p["let_go"] is None and "clamp_compliance takes their place" in p["note"]
     assert "model's form is wrong" in next(o["meaning"] for o in p["calibration_outside"] if o["parameter"] == "E")
+    assert "plausibility: the calibration alone needs E = 0.95" in summary(res)            # the CLI's text
+    md = "\n".join(markdown(p))                                                           # report.md's section
+    assert "## Plausibility" in md and "| calibration alone | E | 0.95" in md and "clamp_compliance 0..0.00050942" in md

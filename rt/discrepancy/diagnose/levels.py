@@ -28,9 +28,10 @@ to the same total, so that a lab's dense lines at a high mode do not outvote a l
 scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
 ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength, its steps scaled by its range), penalised outside the parameters'
-plausible ranges (rt.discrepancy.diagnose.plausible; the report's "plausibility" names those that want to leave them).
-A line where the harmonic balance does not converge is given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
-leaves the balance without a solution is never preferred.
+plausible ranges (rt.discrepancy.diagnose.plausible; the report's "plausibility" names those that want to
+leave them). A line where the harmonic balance does not converge is given the constant weighted residual
+rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that leaves the balance without a solution is
+never preferred.
 
 Ranking of the candidates on the calibration levels: BIC as rt.discrepancy.diagnose.campaign, named under its
 three conditions (rank). Prediction: at every level not calibrated on, the gap [dB] = RMS of
@@ -190,8 +191,8 @@ def rounded(theta: dict) -> dict:
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
                   effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
-    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.plausible):
-    {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model evaluations,
+    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.
+    plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model evaluations,
     with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
@@ -225,8 +226,8 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
 
     with tqdm(desc=fit_label(effect), unit="model", disable=not bars) as bar:
         try:
-            sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=60,
-                                x_scale=[1.0] * len(logs) + ([effect.parameter.hi - effect.parameter.lo] if effect else []))
+            span = [effect.parameter.hi - effect.parameter.lo] if effect else []
+            sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=60, x_scale=[1.0] * len(logs) + span)
         except KeyboardInterrupt:
             th = theta_of(best["x"])
             raise FitInterrupted(fit_label(effect), {"fitted": rounded(th), "evaluations": bar.n,

@@ -190,21 +190,26 @@ def verdict(plausible: dict, calibration: dict, final: dict, named: str | None, 
             "note": note}
 
 
+FITS = (("calibration alone", "calibration_outside"), ("final", "outside"), ("linear model", "linear_outside"))
+"""The fits of a ``verdict`` whose parameters outside their ranges the report lists (the level diagnosis adds
+its linear model's)."""
+
+
 def summary_lines(p: dict) -> list[str]:
-    """The CLI's lines of a ``verdict``: its note, each parameter of the final fit outside its range with its
-    meaning, and the fit with the ranges let go."""
+    """The CLI's lines of a ``verdict``: its note, each parameter of the final fit (and of a level diagnosis'
+    linear model) outside its range with its meaning, and the fit with the ranges let go."""
     out = [f"plausibility: {p['note']}"]
-    out += [f"outside its plausible range: {_range_text(o)}: {o['meaning']}" for o in p["outside"]]
+    out += [f"outside its plausible range ({fit}): {_range_text(o)}: {o['meaning']}"
+            for fit, key in FITS[1:] for o in p.get(key, [])]
     if p["let_go"]:
         out.append(f"with the plausible ranges let go: {p['let_go']['fitted']} (gap {p['let_go']['gap_db']:g} dB)")
     return out
 
 
 def markdown(p: dict) -> list[str]:
-    """report.md's section of a ``verdict``: the note, the parameters outside their ranges (calibration
-    alone and final fit) with their meaning, the fit with the ranges let go, and the ranges."""
-    rows = [(fit, o) for fit, key in (("calibration alone", "calibration_outside"), ("final", "outside"))
-            for o in p[key]]
+    """report.md's section of a ``verdict``: the note, the parameters outside their ranges (of the ``FITS``)
+    with their meaning, the fit with the ranges let go, and the ranges."""
+    rows = [(fit, o) for fit, key in FITS for o in p.get(key, [])]
     out = ["", "## Plausibility", "", p["note"] + ".", ""]
     if rows:
         out += ["| fit | parameter | value | plausible range | what it means |", "| --- | --- | --- | --- | --- |"]
