@@ -114,7 +114,7 @@ def test_a_modulus_really_off_is_reported_and_let_go(tmp_path):
     assert res["named_effect"] is None and [o["parameter"] for o in p["outside"]] == ["E"], p
     assert p["outside"][0]["value"] == pytest.approx(true_E, rel=2e-3)
     assert p["let_go"]["fitted"]["E"] == pytest.approx(true_E, rel=2e-3) and p["let_go"]["gap_db"] < 0.1
-    assert "no candidate (clamp_compliance) takes their place" in p["note"]
+    assert "no candidate (clamp_compliance) takes its place" in p["note"]
     assert "with the plausible ranges let go" in summary(res)
 
 
@@ -127,8 +127,8 @@ def test_the_verdict_in_words():
     assert verdict(r, inside, inside, None, ["x"])["note"] == "every calibrated parameter lies within its plausible range"
     v = verdict(r, out, inside, "clamp_compliance", ["clamp_compliance"])
     assert v["note"].startswith("the calibration alone needs E = 0.8 (plausible 0.95..1.05): evidence of a missing "
-                                "effect or a wrong model form; clamp_compliance takes their place")
+                                "effect or a wrong model form; clamp_compliance takes its place")
     v = verdict(r, out, out | {"mu": 5.0}, "micro_slip", ["micro_slip"])
     assert v["note"].startswith("micro_slip is named, but E, mu still lie outside") and len(v["outside"]) == 2
     v = verdict(r, out, out, None, ["micro_slip", "clamp_compliance"], {"fitted": {"E": 0.8}, "gap_db": 0.1})
-    assert "no candidate (micro_slip, clamp_compliance) takes their place" in v["note"] and "'let_go'" in v["note"]
+    assert "no candidate (micro_slip, clamp_compliance) takes its place" in v["note"] and "'let_go'" in v["note"]

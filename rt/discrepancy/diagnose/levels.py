@@ -27,9 +27,10 @@ noise, every sensor; the linear model's on all lines, the harmonic balance's on 
 to the same total, so that a lab's dense lines at a high mode do not outvote a low mode's). Fit:
 scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
 ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
-candidate from its default strength, its steps scaled by its range), penalised outside the parameters'
-plausible ranges (rt.discrepancy.diagnose.plausible; the report's "plausibility" names those that want to
-leave them). A line where the harmonic balance does not converge is given the constant weighted residual
+candidate from its default strength, moved as strength / its range: scipy's finite-difference step is
+relative to max(1, |x|), 1e-3 of a clamp compliance's range rather than twice its range), penalised outside
+the parameters' plausible ranges (rt.discrepancy.diagnose.plausible; the report's "plausibility" names those
+that want to leave them). A line where the harmonic balance does not converge is given the constant weighted residual
 rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that leaves the balance without a solution is
 never preferred.
 
@@ -192,19 +193,20 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
                   effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
     model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.
-    plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model evaluations,
-    with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
+    plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model
+    evaluations, with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
     b = fit_bounds(nominal)
-    lo = [math.log(b[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
-    hi = [math.log(b[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
-    x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default] if effect else [])
+    span = effect.parameter.hi - effect.parameter.lo if effect else 1.0   # the effect moves as strength / span
+    lo = [math.log(b[k][0]) for k in logs] + ([effect.parameter.lo / span] if effect else [])
+    hi = [math.log(b[k][1]) for k in logs] + ([effect.parameter.hi / span] if effect else [])
+    x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default / span] if effect else [])
     x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
 
     def theta_of(x):
-        return {k: (math.exp(v) if k in logs else float(v)) for k, v in zip(names, x)}
+        return {k: (math.exp(v) if k in logs else float(v) * span) for k, v in zip(names, x)}
 
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
@@ -226,8 +228,7 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
 
     with tqdm(desc=fit_label(effect), unit="model", disable=not bars) as bar:
         try:
-            span = [effect.parameter.hi - effect.parameter.lo] if effect else []
-            sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=60, x_scale=[1.0] * len(logs) + span)
+            sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
         except KeyboardInterrupt:
             th = theta_of(best["x"])
             raise FitInterrupted(fit_label(effect), {"fitted": rounded(th), "evaluations": bar.n,

@@ -172,17 +172,20 @@ def verdict(plausible: dict, calibration: dict, final: dict, named: str | None, 
     {"fitted", ...}, or None), and a note that says what it means in words."""
     cal, fin = outside(calibration, plausible), outside(final, plausible)
     which = ", ".join(map(_range_text, cal))
+    its = "its" if len(cal) == 1 else "their"
     if not cal and not fin:
         note = "every calibrated parameter lies within its plausible range"
     elif cal and named and not fin:
         note = (f"the calibration alone needs {which}: evidence of a missing effect or a wrong model form; "
-                f"{named} takes their place with every parameter within its range")
+                f"{named} takes {its} place with every parameter within its range")
     elif named:
-        note = (f"{named} is named, but {', '.join(o['parameter'] for o in fin)} still lie outside their plausible "
-                "ranges: part of the model's form is still wrong or a second effect is missing")
+        one = len(fin) == 1
+        note = (f"{named} is named, but {', '.join(o['parameter'] for o in fin)} still "
+                f"{'lies outside its plausible range' if one else 'lie outside their plausible ranges'}: part of the "
+                "model's form is still wrong or a second effect is missing")
     else:
         note = (f"the calibration needs {which}: evidence of a missing effect or a wrong model form; no candidate "
-                f"({', '.join(tried) or 'none'}) takes their place, so the missing effect is not in the library or "
+                f"({', '.join(tried) or 'none'}) takes {its} place, so the missing effect is not in the library or "
                 "the model's form (geometry, joint, boundary) is wrong: the calibrated model is not a physical one"
                 + ("; 'let_go' gives the calibration without the ranges (what the data ask)" if let_go else ""))
     return {"ranges": {k: [float(f"{b:.5g}") for b in v] for k, v in plausible.items()},
