@@ -54,15 +54,15 @@ EDGE_LN = 0.01
 AT_EDGE_LN = 1e-3
 """A parameter this close to its range's edge (on ln) or beyond it is pressed there by the data (``outside``)."""
 K_T_STEEL = (1e12, 1e14)          # [N/m^3] tangential contact stiffness per area, ground steel on steel
-E_STEEL = (210e9, 0.3)            # [Pa], [-] the modulus and Poisson's ratio K_T_STEEL refers to
+E_STEEL = (210e9, 0.3)            # ([Pa], [-]) the modulus and Poisson's ratio K_T_STEEL refers to
 MU_DRY_METAL = (0.1, 1.5)         # [-] dry metal on metal
 ZETA_BOLTED = (5e-4, 5e-2)        # [-] modal damping ratios of bolted metal structures
 CLAMP = "clamp_compliance"        # the candidate effect whose strength has a range here
 
 MEANING = {
-    "E": "a material's modulus is known to a few %: a calibration that needs E this far off has found that the "
-         "model's form is wrong (a compliant clamp, the joint's geometry or stiffness, the beams' dimensions) or "
-         "that an effect is missing, not a material",
+    "E": "a material's modulus is known to a few %: a calibration that needs E at or beyond the edge of that has "
+         "found that the model's form is wrong (a compliant clamp, the joint's geometry or stiffness, the beams' "
+         "dimensions) or that an effect is missing, not a material",
     "k_t": "outside the contact stiffness per area the literature gives for these materials: the joint's "
            "geometry, its pressure distribution or the way it slips differ from the model's",
     "mu": "outside the friction coefficients of dry metal: the slip the data show comes from something else "
