@@ -250,12 +250,14 @@ def test_force_scale_absorbs_the_mass_scale(one_level):
     assert res["fitted_parameters"]["E"] == pytest.approx(ref["fitted_parameters"]["E"], rel=5e-3)
 
 
-@pytest.mark.parametrize("e_nominal", [0.7, 1.4], ids=["E-30%", "E+40%"])
+@pytest.mark.parametrize("e_nominal", [0.56, 0.7, 1.4, 1.77], ids=["E-44%", "E-30%", "E+40%", "E+77%"])
 def test_calibration_from_far_away(one_level, e_nominal):
-    """A nominal E 30 % low or 40 % high (frequencies -16 %, +18 %): every measured mode paired,
-    E fitted to the campaign's true scatter within 1e-4 (measured 2e-6), the gap as from the
-    right nominal within 0.01 dB."""
-    nominal = scaled(with_sets(Config(), []), {"E": e_nominal})
+    """A nominal E 44 or 30 % low, 40 or 77 % high (frequencies -25 %, -16 %, +18 %, +33 %) whose user
+    says so (diagnosis.uncertainty.E_rel = 0.9: E within nominal x 0.1..1.9; the default 0.05 would
+    hold E near nominal and report it): every measured mode paired, E fitted to the campaign's true
+    scatter within 1e-4 (measured 2e-6), the gap as from the right nominal within 0.01 dB, nothing
+    outside its plausible range."""
+    nominal = scaled(with_sets(Config(), ["diagnosis.uncertainty.E_rel=0.9"]), {"E": e_nominal})
     true_E = scaled(Config(), scatter_sets(np.random.default_rng(SEED)))   # make_frf_campaign's first draws
     _, ref = one_level("none", "accelerance")
     _, res = one_level("none", "accelerance", nominal)
@@ -266,6 +268,7 @@ def test_calibration_from_far_away(one_level, e_nominal):
     assert all(m["f_measured_hz"] is not None for m in modes.values()), modes
     assert all(abs(m["shift_rel"] - (e_nominal ** -0.5 * math.sqrt(E_fit) - 1)) < 0.05 for m in modes.values())
     assert res["gap_after"]["structure_frf_db"] == pytest.approx(ref["gap_after"]["structure_frf_db"], abs=0.01)
+    assert res["plausibility"]["calibration_outside"] == res["plausibility"]["outside"] == []
 
 
 @pytest.mark.parametrize("k_nominal", [0.1, 10.0], ids=["k_t/10", "k_t*10"])

@@ -7,12 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from rt.common.config import Config, ConfigError, key_range, load, with_sets
+from rt.common.config import Config, ConfigError, dumps, key_range, load, loads, with_sets
 from rt.discrepancy.chain import FIT_MARGIN, scale_bounds, scaled
 from rt.discrepancy.diagnose.campaign import ACT_CAL
 from rt.discrepancy.diagnose.frf import CAL_NAMES as FRF_NAMES
 from rt.discrepancy.diagnose.frf import bound_warnings
 from rt.discrepancy.diagnose.levels import fit_bounds
+from rt.discrepancy.diagnose.plausible import CLAMP, ranges
 from rt.discrepancy.diagnose.structure import CAL_FAR, bounds
 from rt.discrepancy.effects import get, implemented
 
@@ -22,8 +23,14 @@ EDGE = ["plant.interface.mu=1.5", "plant.modal_damping=0.5"]
 (mu x 2 or x 10, the damping x 10) reach beyond them."""
 
 
+TOLD = ["diagnosis.uncertainty.E_rel=0.9", "diagnosis.uncertainty.k_t_factor=1000", "diagnosis.uncertainty.mu_factor=1",
+        "diagnosis.uncertainty.modal_damping_factor=100", "diagnosis.uncertainty.clamp_heights=100"]
+"""A user who says every nominal is far off (issue 35): plausible ranges wider than the fits' bounds."""
+
+
 def nominals():
-    return [Config(), with_sets(Config(), EDGE)] + [load(p) for p in sorted(CONFIGS.glob("*.toml"))]
+    return ([Config(), with_sets(Config(), EDGE), with_sets(Config(), EDGE + TOLD)]
+            + [load(p) for p in sorted(CONFIGS.glob("*.toml"))])
 
 
 def fits(nominal):
@@ -45,10 +52,27 @@ def test_every_calibration_at_its_bounds_is_a_valid_configuration(nominal):
     for name, b in fits(nominal).items():
         for corner in (0, 1):
             theta = {k: v[corner] for k, v in b.items()}
-            scaled(nominal, theta)
+            cfg = scaled(nominal, theta)
+            assert loads(dumps(cfg)) == cfg          # the calibrated model.toml, [diagnosis.uncertainty] with it
             scaled(nominal, {k: math.exp(math.log(v)) for k, v in theta.items()})
             for k, v in theta.items():
                 scaled(nominal, {k: v})
+
+
+@pytest.mark.parametrize("nominal", nominals(), ids=lambda c: f"Erel{c.diagnosis.uncertainty.E_rel:g}_"
+                         f"mu{c.plant.interface.mu:g}_{c.plant.beams[0].name}")
+def test_the_plausible_ranges_ends_within_the_bounds_are_valid_configurations(nominal):
+    """The penalty pulls a fit towards its plausible ranges (rt.discrepancy.diagnose.plausible), the bounds
+    stay the configuration's: each range's ends clipped to the fit's bounds validate, as scales and, for the
+    clamp compliance, as the candidate's strength (clipped to its bounds, which the ranges may exceed)."""
+    clamp = get(CLAMP)
+    for name, b in fits(nominal).items():
+        for k, (lo, hi) in ranges(nominal, list(b)).items():
+            for v in (lo, hi):
+                scaled(nominal, {k: min(max(v, b[k][0]), b[k][1])})
+    lo, hi = ranges(nominal, [CLAMP])[CLAMP]
+    for v in (lo, hi):
+        clamp.apply(nominal, min(max(v, clamp.parameter.lo), clamp.parameter.hi))
 
 
 def test_the_bounds_are_the_configurations_where_it_is_narrower():

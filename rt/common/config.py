@@ -390,6 +390,38 @@ class Shaker:
 
 
 @dataclass(frozen=True)
+class Uncertainty:
+    """How uncertain the user says the nominal values of the calibrated parameters are: each sets the
+    parameter's plausible range (rt.discrepancy.diagnose.plausible: inside it the diagnosis' fits are free, outside
+    they are penalised and the parameter is reported as evidence of a missing effect or a wrong model
+    form). A factor of 0 means the range the literature gives for what the parameter is (the table in
+    rt/discrepancy/diagnose/plausible.py); a factor f >= 1 the nominal / f .. nominal x f instead."""
+    E_rel: float = param(0.05, "-", lo=0.0, lo_inclusive=False,
+                         doc="the beams' Young's modulus lies within nominal x (1 -+ E_rel): a named metal's E is "
+                             "known to a few % (structural steels 195-215 GPa, wrought aluminium alloys 68-72 GPa)")
+    k_t_factor: float = param(0.0, "-", lo=0.0,
+                              doc="tangential contact stiffness per area plant.interface.k_t_area within nominal / f "
+                                  ".. x f; 0: the literature's 1e12..1e14 N/m^3 of ground steel, scaled to the "
+                                  "interface's materials by their contact modulus")
+    mu_factor: float = param(0.0, "-", lo=0.0,
+                             doc="friction coefficient plant.interface.mu within nominal / f .. x f; 0: the "
+                                 "literature's 0.1..1.5 of dry metal on metal")
+    modal_damping_factor: float = param(0.0, "-", lo=0.0,
+                                        doc="plant.modal_damping within nominal / f .. x f; 0: the literature's "
+                                            "5e-4..5e-2 (0.05..5 %) of bolted metal structures")
+    clamp_heights: float = param(3.0, "-", lo=0.0,
+                                 doc="a clamp's rotational compliance lies within 0 .. clamp_heights x h / (E I) of "
+                                     "its beam: the fixture is as compliant as at most this many beam heights h of "
+                                     "extra beam (A)")
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Settings of the discrepancy diagnosis (``frictionrt diagnose``, docs/discrepancy.md)."""
+    uncertainty: Uncertainty = field(default_factory=Uncertainty)
+
+
+@dataclass(frozen=True)
 class Config:
     """The whole configuration tree."""
     rt: Rt = field(default_factory=Rt)
@@ -401,6 +433,7 @@ class Config:
     supervisor: Supervisor = field(default_factory=Supervisor)
     impulse: Impulse = field(default_factory=Impulse)
     shaker: Shaker = field(default_factory=Shaker)
+    diagnosis: Diagnosis = field(default_factory=Diagnosis)
 
     @property
     def dt_s(self) -> float:
@@ -800,6 +833,24 @@ def validate(cfg: Config) -> None:
                           "plant.interface.enabled = false: a screw clamps the interface; remove the screws "
                           "(plant.screws = []) or enable the interface")
     _check_adaptive(p, t)
+    _check_uncertainty(cfg.diagnosis.uncertainty)
+
+
+E_REL_MAX = 0.9   # diagnosis.uncertainty.E_rel above this leaves E's plausible range without a positive lower end
+
+
+def _check_uncertainty(u: Uncertainty) -> None:
+    """Refuse an E_rel above E_REL_MAX and a factor between 0 and 1, naming the value and the fix."""
+    key = "diagnosis.uncertainty"
+    if u.E_rel > E_REL_MAX:
+        raise ConfigError(f"{key}.E_rel = {u.E_rel!r}: it is a fraction of the nominal E, at most {E_REL_MAX:g} "
+                          f"(E within nominal x (1 -+ E_rel)); for E known to +-5 % give 0.05")
+    for name in ("k_t_factor", "mu_factor", "modal_damping_factor"):
+        f = getattr(u, name)
+        if 0.0 < f < 1.0:
+            raise ConfigError(f"{key}.{name} = {f!r}: a factor f gives the range nominal / f .. nominal x f, so it is "
+                              f"at least 1 (e.g. 2 for a value known within a factor 2), or 0 for the literature's "
+                              f"range; did you mean {1.0 / f:g}?")
 
 
 def adaptive_screw(cfg: Config) -> Screw | None:

@@ -5,7 +5,8 @@ Modules: ``campaign`` (a time-series campaign: the workflow, its actuator channe
 ranking the other inputs share), ``structure`` (the structural fit of the impulse tests),
 ``stepsine`` (the step-sine channel: the shaker), ``frf`` (a folder of FRF files) with
 ``frf_modes`` (measured modes paired with the model's), ``levels`` (FRFs at several levels:
-``--calibrate-on``), ``remainder`` (what calibration, the effect and the model form explain),
+``--calibrate-on``), ``plausible`` (the calibrated parameters' plausible ranges and the fits' penalty
+outside them), ``remainder`` (what calibration, the effect and the model form explain),
 ``report`` and ``rrd`` (the report folder and its rerun file). Imports rt.discrepancy.rig (the
 FRF files' sensor points, the levels report's new folder) and the shared modules. A verb-named function
 is on this face (``rt.discrepancy.diagnose.diagnose``, defined in ``campaign``). The names below

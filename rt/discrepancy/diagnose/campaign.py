@@ -63,6 +63,7 @@ from rt.discrepancy.diagnose.stepsine import prepare as prepare_stepsine
 from rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
 from rt.discrepancy.effects import Effect, get, implemented
 from rt.discrepancy.diagnose.remainder import budget, verdict
+from rt.discrepancy.diagnose.plausible import summary_lines
 from rt.log.mcap_log import read_mcap
 from rt.discrepancy.chain import measure_actuator, quiet, scale_bounds, scaled
 
@@ -493,5 +494,7 @@ def summary(result: dict) -> str:
     for w in result.get("warnings", []):
         at = "" if w["bound"] is None else f" on its bound {w['bound']:g}"
         lines.append(f"warning: {w['parameter']} = {w['value']:g}{at}: {w['fix']}")
+    if "plausibility" in result:    # FRF files (rt.discrepancy.diagnose.plausible)
+        lines += summary_lines(result["plausibility"])
     return "\n".join(lines)
 

@@ -50,6 +50,9 @@ result keys as rt.discrepancy.diagnose.campaign (rank, ranking_result); the gap 
 BAND_HZ ("frf_db", as before issue 18) and over every sensor and the file's whole band
 ("frf_db_all", "band_hz"). A fitted parameter within ``BOUND_REL`` of a bound is a warning
 (``bound_warnings``).
+
+Length: the FRF-file workflow in its reading order (data, model, fit, gap, warnings, the workflow), each
+part used by the next; the plausible ranges and their penalty are rt.discrepancy.diagnose.plausible's.
 """
 from __future__ import annotations
 
@@ -83,6 +86,7 @@ from rt.discrepancy.diagnose.structure import (
     to_z,
 )
 from rt.discrepancy.effects import EFFECTS, Effect, implemented
+from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
 from rt.discrepancy.rig.frf import add_points, sensor_points
 from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
@@ -289,35 +293,45 @@ def _theta(names, x, scale) -> dict:
     return dict(zip(names, map(float, x))) | ({FORCE_SCALE: scale} if scale is not None else {})
 
 
-def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None) -> Fit:
+def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None,
+        plausible: dict | None = None) -> Fit:
     """Stage 1 then stage 2 (module docstring) of the calibration alone (effect None) or with the
     effect; with ``calibrated`` stage 2 starts from the better of stage 1 and the calibration with
     the effect at its nominal strength, there with the calibration's Jacobian columns (so a
     candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.structure's
     Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
-    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others."""
+    step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others. Both
+    penalised outside the ``plausible`` ranges (default: plausible.ranges; {}: let go; plausible.penalty)."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     steps = fd_steps(names, effect)
+    plausible = ranges(nominal, names) if plausible is None else plausible
+    n = sum(len(v) for d in data for v in d.ln_h.values())
+
+    def pen(names_, x, n_=n):                    # n_: stage 1 has its own number of residuals
+        return penalty(names_, x, plausible, n_)
 
     def evaluate(z):
         x = from_z(z, log)
         ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x)])
+        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x), pen(names, x)])
 
-    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies)
+    stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, penalty=pen)
     z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
     run, r = evaluate(z)
     J = None
     if calibrated is not None and effect is not None:
         z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
-        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, from_z(z_cal, log))])
+        x_cal = from_z(z_cal, log)
+        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal), pen(names, x_cal)])
         if r_cal @ r_cal < r @ r:
             z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
-            J = np.column_stack([calibrated.J[k] for k in names[:-1]]
+            # the calibration's columns gain the effect's penalty row, which they do not move
+            J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
                                 + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
-    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR)
+    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR,
+                                                   lambda z: step_box(names, z, log, plausible, lo, hi))
     theta = _theta(names, from_z(z, log), scale)
     return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
@@ -457,6 +471,13 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
     base, ranked, winner = rank(results)
     final = winner or base
+    plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
+    let_go = None
+    if winner is None and outside(base["theta"], plausible):     # no candidate took their place: let them go
+        say("fit calibration only, the plausible ranges let go")
+        free = fit(nominal, data, None, plausible={})
+        let_go = {"fitted": {k: float(f"{v:.5g}") for k, v in free.theta.items()},
+                  "gap_db": gap_db(data, free.H)["structure_frf_db"]}
     m0 = build_plant(quiet(nominal))
     localise = {}
     for d, h in zip(data, H0):
@@ -480,6 +501,8 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     out["level_offset_db"] = round(offset, 4)
     out["warnings"] = bound_warnings(final["theta"], next((e for e in candidates if e.name == final["effect"]), None),
                                      per_volt, nominal) + level_warning(offset, per_volt)
+    out["plausibility"] = verdict(plausible, base["theta"], final["theta"], final["effect"],
+                                  [e.name for e in candidates], let_go)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:
         out["excitation"] = {

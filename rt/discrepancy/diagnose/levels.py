@@ -11,8 +11,9 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
 * nonlinear: the harmonic balance of the joints at each test's force amplitude (plant.harmonic_frf,
   one start per line), calibrated in E, k_t, mu and the modal damping, alone and with each slip
   candidate of the library that it can represent (micro_slip: the Iwan spread; Stribeck friction is
-  velocity-dependent, which neither method holds: not tried). ``method`` "df" (default): each closed
-  pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force mu f_n at its static normal
+  velocity-dependent, which neither method holds: not tried), and clamp compliance (the structural candidate
+  that takes the place of a calibration pressed against its plausible ranges). ``method`` "df" (default): each
+  closed pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force mu f_n at its static normal
   force, the normal contact linear; ~0.1 s per model evaluation (its build) plus 0.06 ms a line and level
   (docs/plant.md 10). "aft": the plant's own pair law
   marched over the period (contact opening and closing, slip limit mu f_n(t)), 3 harmonics; 0.5-0.9 s
@@ -26,9 +27,12 @@ noise, every sensor; the linear model's on all lines, the harmonic balance's on 
 to the same total, so that a lab's dense lines at a high mode do not outvote a low mode's). Fit:
 scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
 ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
-candidate from its default strength). A line where the harmonic balance does not converge is
-given the constant weighted residual rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that
-leaves the balance without a solution is never preferred.
+candidate from its default strength, moved as strength / its range: scipy's finite-difference step is
+relative to max(1, |x|), 1e-3 of a clamp compliance's range rather than twice its range), penalised outside
+the parameters' plausible ranges (rt.discrepancy.diagnose.plausible; the report's "plausibility" names those
+that want to leave them). A line where the harmonic balance does not converge is given the constant weighted residual
+rt.discrepancy.diagnose.frf.NO_SOLUTION, so a parameter set that leaves the balance without a solution is
+never preferred.
 
 Ranking of the candidates on the calibration levels: BIC as rt.discrepancy.diagnose.campaign, named under its
 three conditions (rank). Prediction: at every level not calibrated on, the gap [dB] = RMS of
@@ -55,6 +59,7 @@ from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFDa
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
+from rt.discrepancy.diagnose.plausible import CLAMP, markdown, outside, penalty, ranges, summary_lines, verdict
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
@@ -62,7 +67,7 @@ BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.
 """The fit's own ranges of the calibration scales (x nominal; the FRF files' far calibration, mu within a
 decade), within what the configuration accepts (``fit_bounds``); all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
-CANDIDATES = ("micro_slip",)
+CANDIDATES = ("micro_slip", CLAMP)
 AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lines take 1-9 on the lap joint; a start
 #                             that fails (the continuation across a jump) then costs a third of the default 60, and
 #                             gives the same FRFs there (2.4 instead of 6.5 s at 10 N)
@@ -187,28 +192,33 @@ def rounded(theta: dict) -> dict:
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
                   effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
-    model on ``data``: {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over
-    the model evaluations, with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
+    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.
+    plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model
+    evaluations, with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
     b = fit_bounds(nominal)
-    lo = [math.log(b[k][0]) for k in logs] + ([effect.parameter.lo] if effect else [])
-    hi = [math.log(b[k][1]) for k in logs] + ([effect.parameter.hi] if effect else [])
-    x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default] if effect else [])
+    span = effect.parameter.hi - effect.parameter.lo if effect else 1.0   # the effect moves as strength / span
+    lo = [math.log(b[k][0]) for k in logs] + ([effect.parameter.lo / span] if effect else [])
+    hi = [math.log(b[k][1]) for k in logs] + ([effect.parameter.hi / span] if effect else [])
+    x0 = [math.log(start.get(k, 1.0)) for k in logs] + ([effect.parameter.default / span] if effect else [])
     x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
 
     def theta_of(x):
-        return {k: (math.exp(v) if k in logs else float(v)) for k, v in zip(names, x)}
+        return {k: (math.exp(v) if k in logs else float(v) * span) for k, v in zip(names, x)}
 
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
 
     best = {"cost": math.inf, "x": x0}
+    plausible = ranges(nominal, names)
 
     def r(x):
-        ch, _, _ = weighted_residuals(data, H_of(theta_of(x)), profile_scale=False)
+        theta = theta_of(x)
+        ch, _, _ = weighted_residuals(data, H_of(theta), profile_scale=False)
         v = np.concatenate(list(ch.values()))
+        v = np.concatenate([v, penalty(names, theta.values(), plausible, len(v))])
         cost = float(v @ v)
         if cost < best["cost"]:
             best.update(cost=cost, x=np.array(x))
@@ -349,6 +359,9 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     final = winner or base
     winner_effect = next((e for e in fits if e is not None and e.name == final["effect"]), None)
     per_volt = any(d.per_volt for d in data)
+    plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
+    plausibility = verdict(plausible, fits[None]["theta"], final["theta"], final["effect"], list(CANDIDATES)) | {
+        "linear_outside": outside(lin.theta, plausible)}
     say("prediction at the other levels")
     hb = []
     H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0), method, hb)
@@ -375,6 +388,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
                           "lines": {d.name: [len(b.freq), len(d.freq)] for d, b in zip(dc, db)}},
             "prediction": pred,
             "contact_note": contact_note(pred, method, "V" if per_volt else "N"),
+            "plausibility": plausibility,
             "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt, nominal)]
                         + [w | {"model": "harmonic balance"} for w in bound_warnings(
                             final["theta"], winner_effect, per_volt, nominal, fit_bounds(nominal))],
@@ -392,6 +406,7 @@ def summary(res: dict) -> str:
              *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
              *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
                for w in res["warnings"]],
+             *summary_lines(res["plausibility"]),
              f"level [{res['level_unit']}]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  "
              "ratio"]
     for p in res["prediction"]:
@@ -480,5 +495,6 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
                "| --- | --- | --- | --- | --- |"]
               + [f"| {w['model']} | {w['parameter']} | {w['value']:g} | {w['bound']:g} | {w['fix']} |"
                  for w in res["warnings"]] if res["warnings"] else []), "",
+            *markdown(res["plausibility"]), "",
             "![levels.png](levels.png)", ""]))
     return Path(out)

@@ -18,6 +18,7 @@ import numpy as np
 
 from rt.common.config import dumps
 from rt.discrepancy.diagnose.rrd import write_diagnosis_rrd
+from rt.discrepancy.diagnose.plausible import markdown
 from rt.discrepancy.diagnose.remainder import verdict
 from rt.discrepancy.diagnose.campaign import (
     BAND_HZ,
@@ -162,12 +163,14 @@ def _not_tried(res: dict) -> str:
 
 
 def _frf_file_sections(res: dict) -> list[str]:
-    """The FRF-file input's warnings, excitation and sensors (issue 18)."""
+    """The FRF-file input's warnings, plausibility (issue 35), excitation and sensors (issue 18)."""
     out = []
     if res.get("warnings"):
         out += ["", "## Warnings: parameters on a bound, level", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]
         out += [f"| {w['parameter']} | {w['value']:g} | {'-' if w['bound'] is None else format(w['bound'], 'g')} | "
                 f"{w['fix']} |" for w in res["warnings"]]
+    if res.get("plausibility"):
+        out += markdown(res["plausibility"])
     exc = res.get("excitation")
     if exc:
         out += ["", "## Excitation: drive voltage, no force", "",

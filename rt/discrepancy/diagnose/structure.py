@@ -278,12 +278,13 @@ def from_z(z, log: np.ndarray) -> np.ndarray:
 # --- stage 1: frequencies -------------------------------------------------------------------------
 
 def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
-                    frequencies=model_frequencies, step: float | None = None) -> dict:
+                    frequencies=model_frequencies, step: float | None = None, penalty=None) -> dict:
     """E, ln k_t (``STAGE1_LOG``: over its decades the contact stiffness moves the frequencies by tens
     of percent), with ``step`` (the plant's h [s]) the dispersion (``warp``), and the effect on the
     identified frequencies (``f_modes``: per sensor, or per pairing of the FRF-file input; the same keys
     in every test) in the stuck tests; the model's are ``frequencies(model, F_N1)`` (default: as the
-    plant step shows them, then ``unwarp``ed); bounds and prior CAL_FAR's."""
+    plant step shows them, then ``unwarp``ed); bounds and prior CAL_FAR's. ``penalty(names, x, n)``:
+    residuals appended to the n frequency residuals (rt.discrepancy.diagnose.plausible.penalty)."""
     disp = ["dispersion"] if step is not None else []
     names = ["E", *STAGE1_LOG, *disp] + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
@@ -299,7 +300,7 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
         if disp:
             fm = unwarp(fm, th["dispersion"], step)
         r = ((meas - fm) / meas / SIGMA_F)[ok]
-        return np.concatenate([r, prior(names, x)])
+        return np.concatenate([r, prior(names, x)] + ([penalty(names, x, len(r))] if penalty else []))
 
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + ([effect.parameter.default] if effect else [])
@@ -437,12 +438,13 @@ def jacobian_column(evaluate, x: np.ndarray, r: np.ndarray, j: int, steps: np.nd
     return -(evaluate(xj)[1] - r) / h
 
 
-def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps, max_steps: int = MAX_STEPS):
+def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps, max_steps: int = MAX_STEPS, box=None):
     """Bounded Gauss-Newton steps (scipy.optimize.lsq_linear) from x (``run``, residuals r, the
     Jacobian J or None: computed) with Broyden's rank-one update of J after each step (in units of
     ``steps``), recomputed by finite differences only when a step fails; a fresh Jacobian's step is
     halved up to twice. Stops when the cost drops by less than ``CONVERGED`` (relative), after
-    ``max_steps`` (default MAX_STEPS) or when a fresh Jacobian's step fails. Returns (x, run, r, J)."""
+    ``max_steps`` (default MAX_STEPS) or when a fresh Jacobian's step fails. ``box(x) -> (lo, hi)``: the
+    bounds of one step from x (within lo, hi; default lo, hi themselves). Returns (x, run, r, J)."""
     def column(x, r, j):
         return jacobian_column(evaluate, x, r, j, steps, hi)
 
@@ -450,7 +452,8 @@ def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps, max_steps: int =
     if J is None:
         J = np.column_stack([column(x, r, j) for j in range(len(x))])
     for _ in range(max_steps):
-        dx = lsq_linear(J, r, bounds=(lo - x, hi - x)).x
+        lo_x, hi_x = box(x) if box else (lo, hi)
+        dx = lsq_linear(J, r, bounds=(lo_x - x, hi_x - x)).x
         cost = float(r @ r)
         for _ in range(3 if fresh else 1):             # a fresh Jacobian's step is halved up to twice
             run1, r1 = evaluate(x + dx)
