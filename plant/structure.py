@@ -123,11 +123,18 @@ class Structure:
 
 
 def _pair_positions(cfg: Config) -> np.ndarray:
+    """Contact point positions [m]: x_start .. x_end at pitch_m, or at end_pitch_m within end_zone_m
+    of both ends and pitch_m between (plant.interface; validated to whole pitches)."""
     i = cfg.plant.interface
     if not i.enabled:
         return np.zeros(0)
-    n = int(round((i.x_end_m - i.x_start_m) / i.pitch_m))
-    return i.x_start_m + i.pitch_m * np.arange(n + 1)
+    if i.end_pitch_m <= 0.0:
+        return i.x_start_m + i.pitch_m * np.arange(int(round((i.x_end_m - i.x_start_m) / i.pitch_m)) + 1)
+    a, b = i.x_start_m + i.end_zone_m, i.x_end_m - i.end_zone_m
+    n_end = int(round(i.end_zone_m / i.end_pitch_m))
+    return np.concatenate([np.linspace(i.x_start_m, a, n_end + 1)[:-1],
+                           np.linspace(a, b, int(round((b - a) / i.pitch_m)) + 1),
+                           np.linspace(b, i.x_end_m, n_end + 1)[1:]])
 
 
 def node_pairs(x_pairs: np.ndarray, h_min: float) -> np.ndarray:

@@ -78,6 +78,7 @@ def test_dumped_configuration_loads_back_identical(tmp_path):
     ("plant.modal_damping=-0.01", ["plant.modal_damping", "-0.01"]),
     ("plant.screws.adaptive.F_N=10", ["F_N", "10", "F_min_N"]),
     ("plant.interface.pitch_m=0.03", ["pitch_m", "0.03", "whole pitches"]),
+    ("plant.interface.end_pitch_m=0.0025", ["end_zone_m = 0 m", "whole number of end pitches", "end_pitch_m = 0"]),
     ("plant.beams.damper.z0_m=0.01", ["damper", "z0_m", "0.008"]),
     ("plant.interface.foo=1", ["unknown key", "plant.interface.foo"]),
     ("plant.screws.nosuch.F_N=1", ["nosuch", "adaptive"]),

@@ -122,6 +122,13 @@ class Interface:
     pitch_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False,
                            doc="contact point spacing: a numerical choice (docs/plant.md 6, convergence), "
                                "not a physical parameter; each point carries its tributary area")
+    end_pitch_m: float = param(0.0, "m", lo=0.0,
+                               doc="contact point spacing within end_zone_m of both ends of the interface, where "
+                                   "the joint's slip starts (docs/plant.md 6.5); 0 = pitch_m everywhere. A "
+                                   "numerical choice like pitch_m; it may be finer than the elements")
+    end_zone_m: float = param(0.0, "m", lo=0.0,
+                              doc="length at each end of the interface that end_pitch_m samples (used if "
+                                  "end_pitch_m > 0)")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
     k_n_area: float = param(9.5e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="normal penalty stiffness per unit area of interface (a pair carries it times "
@@ -691,6 +698,7 @@ def refined_sets(cfg: Config, factor: int) -> list[str]:
     per unit area) is unchanged."""
     p = cfg.plant
     return [f"plant.interface.pitch_m={p.interface.pitch_m / factor!r}",
+            f"plant.interface.end_pitch_m={p.interface.end_pitch_m / factor!r}",
             f"plant.element_length_m={p.element_length_m / factor!r}",
             f"plant.substeps={p.substeps * factor * factor}"]
 
@@ -900,10 +908,19 @@ def _check_interface(p: Plant, beams: dict, screws: dict) -> None:
             if not (b.x0_m - 1e-12 <= x <= b.x0_m + b.length_m + 1e-12):
                 raise ConfigError(f"plant.interface.{key} = {x:g} m lies outside beam {b.name!r} "
                                   f"[{b.x0_m:g}, {b.x0_m + b.length_m:g}] m")
-    n = (i.x_end_m - i.x_start_m) / i.pitch_m
+    graded = i.end_pitch_m > 0.0
+    length = i.x_end_m - i.x_start_m - (2.0 * i.end_zone_m if graded else 0.0)
+    if graded:
+        z = i.end_zone_m / i.end_pitch_m
+        if not (0.0 < i.end_zone_m and 2.0 * i.end_zone_m < i.x_end_m - i.x_start_m) or abs(z - round(z)) > 1e-6:
+            raise ConfigError(f"plant.interface.end_zone_m = {i.end_zone_m:g} m: with end_pitch_m = {i.end_pitch_m:g} m "
+                              f"it must be a whole number of end pitches and less than half the interface "
+                              f"({i.x_end_m - i.x_start_m:g} m), e.g. {20 * i.end_pitch_m:g}; or end_pitch_m = 0")
+    n = length / i.pitch_m
     if not math.isfinite(n) or abs(n - round(n)) > 1e-6:
-        raise ConfigError(f"plant.interface.pitch_m = {i.pitch_m:g} m does not divide the interface "
-                          f"length {i.x_end_m - i.x_start_m:g} m into whole pitches")
+        where = "the interface between its end zones" if graded else "the interface"
+        raise ConfigError(f"plant.interface.pitch_m = {i.pitch_m:g} m does not divide {where} "
+                          f"length {length:g} m into whole pitches")
     gap = (up_b.z0_m - up_b.height_m / 2) - (lo_b.z0_m + lo_b.height_m / 2)
     if abs(gap) > 1e-9:
         raise ConfigError(f"plant.beams[{_shown(up_b.name)}].z0_m = {up_b.z0_m:g} m: the bottom of {up_b.name!r} "
