@@ -2,31 +2,36 @@
 random tests, e.g. ``rig --frf-files --levels .. --excitation random``).
 
 The describing-function harmonic balance (plant.harmonic_frf) holds a sine: at a line of frequency f it
-gives the FRF under the force F cos(2 pi f t). A random test (sidecar "random", rt.log.frf_files) drives
-the structure with a force of rms F_rms [N] (a drive voltage of rms V_rms [V]) spread flat over the band
-f_lo..f_hi, S_ff = F_rms^2 / (f_hi - f_lo) [N^2/Hz]; near a mode the response is narrow-band, its
-amplitude (the envelope) what the joint sees. Mapping, per measured mode m (its band b: the test's lines
-within +-``half_width`` of the mode and nearer to it than to another measured mode, as
-rt.discrepancy.diagnose.levels.mode_bands):
+gives the FRF under the force F cos(2 pi f t), the joint's amplitude that of this one frequency. A random
+test (sidecar "random", rt.log.frf_files) drives the structure with a force of rms F_rms [N] (a drive
+voltage of rms V_rms [V]) spread flat over the band f_lo..f_hi, S_ff = F_rms^2 / (f_hi - f_lo) [N^2/Hz]:
+every mode responds at once, and the joint slips under the sum of their motions. Mapping (an
+rms-equivalent sine per mode band): with c, b the bands of the measured modes (a band: the test's lines
+within +-``half_width`` of its mode and nearer to it than to another, as
+rt.discrepancy.diagnose.levels.mode_bands), per sensor
 
-    sigma_b^2 = S_ff int_b |H1(f)|^2 df                       the response's variance in the band
-    F_b       = sqrt(2) sigma_b / max_b |H1|                  the rms-equivalent sine amplitude [N]
-              = F_rms sqrt(2 B_b / (f_hi - f_lo)),   B_b = int_b |H1|^2 df / max_b |H1|^2   [Hz]
+    sigma_c^2 = S_ff int_c |H1(f)|^2 df                         the response's variance in band c (measured)
+    r_c       = |g_t(f_c)| / |H(f_c)|                           the joint's motion per response at c's peak f_c
+                                                               (stuck nominal model; |g_t| the norm of the
+                                                               closed pairs' tangential gaps, ``joint_ratio``)
+    sigma_g^2 = sum_c r_c^2 sigma_c^2                           the joint's variance, every band's motion
+    F_b       = sqrt(2) sigma_g / (r_b max_b |H1|)              the sine amplitude at band b [N, or V]
 
-i.e. the sine whose response at the band's peak has the amplitude sqrt(2) sigma_b of a sine of the
-random response's rms; B_b is the mode's noise bandwidth (pi zeta f_m for one mode of damping ratio
-zeta: 3.5 Hz at 374 Hz and 0.3 %), F_b sqrt(2) times the force's rms within it. B_b is the mean over
-the test's sensors (the same for an isolated mode), from the measured H1, so it takes the joint's
-damping at that level as measured, and it needs no model. Every line of the test, in a band or not,
-is solved at the F_b of its nearest measured mode (in ln f), in the fit (the modes' bands) and in the
-prediction (all lines) alike: the mapping is the test's, not the fit's.
+i.e. the sine at b's peak under which the joint moves with the amplitude sqrt(2) sigma_g of a sine of the
+random joint motion's rms (its response r_b max_b |H1| F_b). F_b is the mean over the sensors. With one
+mode at the joint, F_b = F_rms sqrt(2 B_b / (f_hi - f_lo)), B_b = int_b |H1|^2 df / max_b |H1|^2 the
+mode's noise bandwidth (pi zeta f_b): sqrt(2) times the force's rms within it. The response's part
+(sigma_c, max |H1|) is measured, so it holds the joint's damping at that level; the model gives only the
+joint's share of each mode (its shapes), from the nominal structure once per test. Every line of the
+test, in a band or not, is solved at the F_b of its nearest measured mode (in ln f), in the fit (the
+modes' bands) and in the prediction (all lines) alike: the mapping is the test's, not the fit's.
 
-What it leaves out: the random response's amplitude is not constant (a Rayleigh envelope about
-sqrt(2) sigma_b): the equivalent linearisation of a Gaussian response differs from the describing
-function at sqrt(2) sigma_b by a factor on the amplitude that, for a joint whose slip grows as a
-power of the amplitude (micro-slip), is the same at every level and is taken up by mu in the fit; a
-sine off the peak gives the joint less amplitude than the random response has there, so the lines on
-a peak's flanks are solved nearer to stuck than they were measured.
+What it leaves out (measured on the rig's lap joint with micro_slip, docs/discrepancy.md "Random
+excitation"): a Gaussian response's amplitude is not constant (a Rayleigh envelope about sqrt(2)
+sigma_g), and a sine's describing function is not the equivalent linearisation of a Gaussian response:
+at the rig's 20 N rms the mode's measured damping is that of the true model's harmonic balance at about
+the mapped F_b, its frequency shift that of 3-4x F_b. A sine off the peak also gives the joint less
+amplitude than the random response has there.
 """
 from __future__ import annotations
 
@@ -36,9 +41,12 @@ import math
 import numpy as np
 from scipy.integrate import trapezoid
 
-from plant.harmonic_frf import HarmonicFRF, HarmonicSystem, harmonic_accelerances
+from plant.harmonic_frf import HarmonicFRF, HarmonicSystem, harmonic_accelerances, harmonic_system
+from plant.model import build_plant
+from rt.common.config import Config
+from rt.discrepancy.chain import quiet
 from rt.discrepancy.diagnose.frf import FRFData
-from rt.log.frf_files import FRFTest
+from rt.log.frf_files import FRFTest, from_accelerance
 
 
 class RandomLevel(float):
@@ -65,10 +73,11 @@ def is_random(test: FRFTest) -> bool:
     return test.meta.get("random") is not None
 
 
-def random_level(test: FRFTest, d: FRFData, half_width: float) -> RandomLevel:
+def random_level(test: FRFTest, d: FRFData, half_width: float, nominal: Config) -> RandomLevel:
     """The level of the random test ``test`` (its prepared data ``d``: the measured modes) with the sine
-    amplitude of each mode's band of +-``half_width`` (relative) (module docstring). ValueError if the
-    test has no measured mode."""
+    amplitude of each mode's band of +-``half_width`` (relative) (module docstring), the joint ratios r_c
+    from the stuck ``nominal`` model (it holds the sensors' points) at the test's F_N1. ValueError if the
+    test has no measured mode or a mode's band fewer than two lines."""
     r = test.meta["random"]
     f_m = d.modes_hz
     if not len(f_m):
@@ -76,15 +85,30 @@ def random_level(test: FRFTest, d: FRFData, half_width: float) -> RandomLevel:
                          "balance's amplitude from (docs/discrepancy.md, \"Random excitation\")")
     S = r["rms"] ** 2 / (r["band_hz"][1] - r["band_hz"][0])
     near = np.argmin(np.abs(np.log(d.freq[:, None] / f_m[None, :])), axis=1)
-    amps = []
+    names = list(d.H)
+    var, peak, f_peak = (np.empty((len(f_m), len(names))) for _ in range(3))
     for j, fm in enumerate(f_m):
         m = (near == j) & (np.abs(d.freq / fm - 1.0) <= half_width)
         if m.sum() < 2:
-            raise ValueError(f"{test.name}: the band of the mode at {fm:g} Hz has {m.sum()} line(s); the noise "
-                             "bandwidth needs two or more")
-        B = [trapezoid(np.abs(h[m]) ** 2, d.freq[m]) / np.max(np.abs(h[m])) ** 2 for h in d.H.values()]
-        amps.append(math.sqrt(2.0 * S * np.mean(B)))
-    return RandomLevel(r["rms"], f_m, amps)
+            raise ValueError(f"{test.name}: the band of the mode at {fm:g} Hz has {m.sum()} line(s); the response's "
+                             "rms in it needs two or more")
+        for k, s in enumerate(names):
+            h = np.abs(d.H[s][m])
+            var[j, k], peak[j, k], f_peak[j, k] = S * trapezoid(h ** 2, d.freq[m]), h.max(), d.freq[m][np.argmax(h)]
+    hs = harmonic_system(build_plant(quiet(nominal)), dict(d.points), F_N1=d.F_N1)
+    ratio = np.array([[joint_ratio(hs, s, f, d.quantity) for s, f in zip(names, row)] for row in f_peak])
+    sigma_g = np.sqrt(np.sum(var * ratio ** 2, axis=0))
+    return RandomLevel(r["rms"], f_m, np.mean(math.sqrt(2.0) * sigma_g[None, :] / (ratio * peak), axis=1))
+
+
+def joint_ratio(hs: HarmonicSystem, sensor: str, f_hz: float, quantity: str) -> float:
+    """r = |g_t(f)| / |H_s(f)| of the stuck model ``hs`` under a unit force at f [Hz]: the norm of the closed
+    pairs' tangential gaps [m] over the sensor's response (``quantity``) [m/s^2, m/s or m]."""
+    ic = np.flatnonzero(hs.closed)
+    w = 2.0 * math.pi * f_hz
+    modal = hs.Y_b / (1j * w - hs.lam)
+    h_s = from_accelerance(np.array([-w * w * (hs.X_s[hs.names.index(sensor)] @ modal)]), np.array([f_hz]), quantity)
+    return float(np.linalg.norm(hs.X_g[1::2][ic] @ modal) / abs(h_s[0]))
 
 
 def sine_accelerances(hs: HarmonicSystem, level: float, scale: float, freq_hz: np.ndarray, **kw) -> HarmonicFRF:

@@ -48,7 +48,7 @@ from rt.discrepancy.chain import hold_voltage, stack_force
 from rt.discrepancy.effects import get
 from rt.discrepancy.rig.campaign import new_folder, true_structure
 from rt.discrepancy.rig.frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
-from rt.discrepancy.rig.random_excitation import BLOCK_S, OVERLAP, random_test, record_s
+from rt.discrepancy.rig.random_excitation import OVERLAP, random_test, record_s
 from rt.experiments.stepsine import Settle, harmonics_of_columns, resonance_grid, steady
 from rt.log.frf_files import FRFTest, write_frf_csv, write_frf_uff
 
@@ -156,11 +156,11 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
             drive = (f"force of {amp:g} N rms" if force_scale_N_per_V is None else
                      f"shaker driven by a voltage of {amp:g} V rms, no force transducer")
             how = (f"band-limited random excitation ({band_hz[0]:g}-{band_hz[1]:g} Hz, flat), {drive} at the "
-                   f"excitation point, {held}; H1 by Welch's method, {rnd.averages} Hann blocks of {BLOCK_S:g} s, "
+                   f"excitation point, {held}; H1 by Welch's method, {rnd.averages} Hann blocks of {rnd.block_s:g} s, "
                    f"{OVERLAP:.0%} overlap")
             extra = ({"amplitude_n": None} if force_scale_N_per_V is None else
                      {"amplitude_n": None, "excitation": "drive_voltage"}) | {"random": {
-                         "rms": float(amp), "band_hz": [float(band_hz[0]), float(band_hz[1])], "block_s": BLOCK_S,
+                         "rms": float(amp), "band_hz": [float(band_hz[0]), float(band_hz[1])], "block_s": rnd.block_s,
                          "averages": rnd.averages, "overlap": OVERLAP, "window": "hann"}}
         else:
             if progress:

@@ -60,12 +60,13 @@ class RandomTest(NamedTuple):
     H: dict                  # sensor -> complex (n,) H1 [(m/s^2)/N]
     coherence: dict          # sensor -> (n,) gamma^2 [-]
     averages: int            # Welch blocks n_d
+    block_s: float           # Welch block [s]
     sim_s: float             # simulated time [s]
 
 
-def record_s(averages: int = AVERAGES, block_s: float = BLOCK_S) -> float:
-    """Simulated time of one level [s]: the lead-in and ``averages`` blocks overlapping by OVERLAP."""
-    return LEAD_S + block_s * (1.0 + (averages - 1) * (1.0 - OVERLAP))
+def record_s() -> float:
+    """Simulated time of one level [s]: the lead-in and AVERAGES blocks of BLOCK_S overlapping by OVERLAP."""
+    return LEAD_S + BLOCK_S * (1.0 + (AVERAGES - 1) * (1.0 - OVERLAP))
 
 
 def random_force(rms: float, n: int, dt: float, band_hz: tuple[float, float], rng: np.random.Generator) -> np.ndarray:
@@ -84,9 +85,9 @@ def h1_error(coherence: np.ndarray, averages: int) -> np.ndarray:
     return np.sqrt(1.0 - g2) / np.sqrt(g2 * 2.0 * averages)
 
 
-def h1(force: np.ndarray, response: np.ndarray, dt: float, block_s: float = BLOCK_S) -> tuple[np.ndarray, ...]:
+def h1(force: np.ndarray, response: np.ndarray, dt: float, block_s: float) -> tuple[np.ndarray, ...]:
     """(f [Hz], H1 (m, f) [response unit / N], gamma^2 (m, f)) of the responses (n, m) to the force (n,) by
-    Welch's method (module docstring), the force held over each step of dt [s]."""
+    Welch's method (module docstring) with blocks of ``block_s`` [s], the force held over each step of dt [s]."""
     fs, nper = 1.0 / dt, int(round(block_s / dt))
     kw = {"fs": fs, "window": "hann", "nperseg": nper, "noverlap": int(round(OVERLAP * nper)), "detrend": False}
     f, S_ff = welch(force, **kw)
@@ -97,11 +98,12 @@ def h1(force: np.ndarray, response: np.ndarray, dt: float, block_s: float = BLOC
 
 
 def random_test(model: PlantModel, F_N1: float, rms: float, band_hz: tuple[float, float], cols: dict[str, int],
-                rng: np.random.Generator, averages: int = AVERAGES, block_s: float = BLOCK_S) -> RandomTest:
-    """The random test (module docstring) of ``model`` at the held F_N1 [N] and force rms ``rms`` [N] over
-    ``band_hz`` [Hz], the sensors {name: output column}; the force and the accelerometer noise from ``rng``."""
+                rng: np.random.Generator) -> RandomTest:
+    """The random test (module docstring: AVERAGES blocks of BLOCK_S) of ``model`` at the held F_N1 [N] and
+    force rms ``rms`` [N] over ``band_hz`` [Hz], the sensors {name: output column}; the force and the
+    accelerometer noise from ``rng``."""
     dt = model.cfg.dt_s
-    n_lead, n = int(round(LEAD_S / dt)), int(round((record_s(averages, block_s) - LEAD_S) / dt))
+    n_lead, n = int(round(LEAD_S / dt)), int(round((record_s() - LEAD_S) / dt))
     force = random_force(rms, n_lead + n, dt, band_hz, rng)
     idx = list(cols.values())
     a = np.empty((n_lead + n, len(idx)))
@@ -110,7 +112,7 @@ def random_test(model: PlantModel, F_N1: float, rms: float, band_hz: tuple[float
         Y, x, _ = run(model, force[k:k + chunk], F_N1, x0=x)
         a[k:k + chunk] = Y[:, idx]
     a = a[n_lead:] + ACC_NOISE * math.sqrt(0.5 / dt) * rng.standard_normal((n, len(idx)))
-    f, H, g2 = h1(force[n_lead:], a, dt, block_s)
+    f, H, g2 = h1(force[n_lead:], a, dt, BLOCK_S)
     m = (f >= band_hz[0]) & (f <= band_hz[1])
     return RandomTest(float(rms), f[m], {s: H[j, m] for j, s in enumerate(cols)},
-                      {s: g2[j, m] for j, s in enumerate(cols)}, averages, (n_lead + n) * dt)
+                      {s: g2[j, m] for j, s in enumerate(cols)}, AVERAGES, BLOCK_S, (n_lead + n) * dt)
