@@ -139,8 +139,8 @@ def test_rig_excitation_errors(tmp_path, capsys, argv, words):
 
 
 def test_the_sidecar_random_is_checked():
-    meta = {"format": "frictionrt-frf/1", "kind": "frf", "excitation_x_m": 0.085, "sensor_positions_m": {"a_tip_meas": 0.4},
-            "F_N1_N": 0.0, "amplitude_n": None, "description": "",
+    meta = {"format": "frictionrt-frf/1", "kind": "frf", "excitation_x_m": 0.085,
+            "sensor_positions_m": {"a_tip_meas": 0.4}, "F_N1_N": 0.0, "amplitude_n": None, "description": "",
             "random": {"rms": 2.0, "band_hz": [50.0, 1200.0], "block_s": 16.0, "averages": 10, "overlap": 0.5,
                        "window": "hann"}}
     check_meta(meta)

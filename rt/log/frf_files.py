@@ -247,7 +247,8 @@ def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict, co
                 raise ValueError(f"{name} <= 0 at line {int(np.argmax(a <= 0)) + 1}; amplitudes are > 0 [N]")
     for s, g in (coherence or {}).items():
         if s not in H:
-            raise ValueError(f"a coherence of {str(s)[:40]!r}, which has no FRF; give its FRF too or drop the coherence")
+            raise ValueError(f"a coherence of {str(s)[:40]!r}, which has no FRF; give its FRF too or drop the "
+                             "coherence")
         _check_array(g, f"{s} coherence", n)
         if np.any((g < 0) | (g > 1)):
             raise ValueError(f"{s} coherence outside 0..1 at line {int(np.argmax((g < 0) | (g > 1))) + 1}; "

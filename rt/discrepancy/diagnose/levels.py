@@ -319,7 +319,8 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
     try:
         data = prepare(tests, nominal)
         nominal, _ = with_sensor_points(tests, nominal)
-        levels = [random_level(t, d, HALF_WIDTH, nominal) if is_random(t) else a for t, d, a in zip(tests, data, levels)]
+        levels = [random_level(t, d, HALF_WIDTH, nominal) if is_random(t) else a
+                  for t, d, a in zip(tests, data, levels)]
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     done: dict = {}

@@ -186,8 +186,8 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
 
 def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N,
-                        other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None,
-                        excitation: str = "stepsine") -> list[Path]:
+                        other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ,
+                        force_scale_N_per_V: float | None = None, excitation: str = "stepsine") -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed), from the true structure of rt.discrepancy.rig.campaign.true_structure (the same scatter draw and
     hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
