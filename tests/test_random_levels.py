@@ -68,7 +68,8 @@ def test_h1_of_a_stuck_joint_is_the_stepped_sine(short_records):
 
 def test_random_level_files(tmp_path, short_records):
     """Two random levels of a drive voltage: files as the stepped sine's (CSV and UFF), the coherence in
-    both (UFF: a function-type-6 data set that pyuff reads), the sidecar's "random", the lines of the band."""
+    both (UFF: a function-type-6 data set that pyuff reads), the sidecar's "random", the lines of the band;
+    the same seed writes the same files."""
     import pyuff
     out = tmp_path / "c"
     make_level_campaign(out, "micro_slip", seed=1, cfg=load(LAP), force_levels_n=(2.0, 1.0), band_hz=(340.0, 410.0),
@@ -86,6 +87,10 @@ def test_random_level_files(tmp_path, short_records):
     coh = [d for d in sets if d["func_type"] == 6]
     assert sorted(d["id1"].strip() for d in coh) == sorted(tests[1].H)
     np.testing.assert_allclose(coh[0]["data"], tests[1].coherence[coh[0]["id1"].strip()])
+    again = tmp_path / "again"
+    make_level_campaign(again, "micro_slip", seed=1, cfg=load(LAP), force_levels_n=(1.0,), band_hz=(340.0, 410.0),
+                        force_scale_N_per_V=0.5, excitation="random")
+    assert (again / "level_01.csv").read_bytes() == (out / "level_01.csv").read_bytes()   # the seed's draw
 
 
 def test_the_mapping_is_the_noise_bandwidth_for_one_mode(monkeypatch):
