@@ -111,6 +111,12 @@ def test_the_mapping_is_the_noise_bandwidth_for_one_mode(monkeypatch):
     assert lv.amplitudes(np.array([10.0, 374.0, 2000.0])).tolist() == [lv.sine_amps[0]] * 3
 
 
+def test_random_and_sine_levels_do_not_mix():
+    t = [FRFTest(n, np.array([1.0, 2.0]), {}, None, None, m) for n, m in (("a", {"random": {"rms": 1.0}}), ("b", {}))]
+    with pytest.raises(ValueError, match="mix random and sine excitation"):
+        rl.random_levels(t, [None, None], [1.0, 2.0], 0.12, load(None))
+
+
 def test_sine_accelerances_solve_each_band_at_its_amplitude():
     """A RandomLevel's lines are solved band by band at their F_b times the force scale, as the harmonic
     balance at that amplitude on the band's lines alone; a plain level at level x scale."""

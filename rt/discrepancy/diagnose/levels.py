@@ -53,7 +53,7 @@ from rt.discrepancy.chain import quiet, scale_bounds, scaled
 from rt.discrepancy.diagnose.campaign import bic, rank
 from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
-from rt.discrepancy.diagnose.random_level import is_random, random_level, sine_accelerances
+from rt.discrepancy.diagnose.random_level import is_random, random_levels, sine_accelerances
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
@@ -319,8 +319,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
     try:
         data = prepare(tests, nominal)
         nominal, _ = with_sensor_points(tests, nominal)
-        levels = [random_level(t, d, HALF_WIDTH, nominal) if is_random(t) else a
-                  for t, d, a in zip(tests, data, levels)]
+        levels = random_levels(tests, data, levels, HALF_WIDTH, nominal)
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     done: dict = {}

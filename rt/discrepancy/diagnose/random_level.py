@@ -73,6 +73,16 @@ def is_random(test: FRFTest) -> bool:
     return test.meta.get("random") is not None
 
 
+def random_levels(tests: list[FRFTest], data: list[FRFData], levels: list[float], half_width: float,
+                  nominal: Config) -> list[float]:
+    """``levels`` (rt.discrepancy.diagnose.levels.level_of) with each random test's a ``random_level``; ValueError
+    if the tests mix random and sine excitation (an rms and an amplitude are not one scale)."""
+    if len({is_random(t) for t in tests}) > 1:
+        raise ValueError("the tests mix random and sine excitation (sidecar random in some only); --calibrate-on "
+                         "compares levels of one kind")
+    return [random_level(t, d, half_width, nominal) if is_random(t) else a for t, d, a in zip(tests, data, levels)]
+
+
 def random_level(test: FRFTest, d: FRFData, half_width: float, nominal: Config) -> RandomLevel:
     """The level of the random test ``test`` (its prepared data ``d``: the measured modes) with the sine
     amplitude of each mode's band of +-``half_width`` (relative) (module docstring), the joint ratios r_c
