@@ -30,6 +30,12 @@ With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from steppe
 the nonlinear plant (the adaptive screw, if any, held at 100 N; lines around the stuck structure's
 modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff); with
 --force-scale S the levels are drive voltages [V] of a shaker without force transducer.
+With --excitation random the levels are rms values instead: per level a Gaussian force (drive voltage
+with --force-scale) of that rms [N] ([V]) with a flat spectrum over 50-1200 Hz drives the nonlinear plant
+for 92 s; the files hold H1 = S_fa / S_ff and the coherence gamma^2 = |S_fa|^2 / (S_ff S_aa) by Welch's
+method (10 Hann blocks of 16 s, 50 % overlap: 0.0625 Hz lines, |H1|'s random error
+sqrt(1 - gamma^2) / (gamma sqrt(20)), 2 % at gamma^2 = 0.99) on the lines of 50-1200 Hz, as a lab's
+analyser exports them (rt/discrepancy/rig/random_excitation.py).
 --model-form: the truth is of another model form than the nominal (half the element length and
 contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
 so that no calibration of the nominal model fits it exactly, as with a real structure;
@@ -46,6 +52,7 @@ EXAMPLES = """examples:
   frictionrt rig --effect moving_mass --frf-files --quantity mobility --force-scale 0.37 -o logs/frf_volt
 
   frictionrt rig --effect micro_slip --frf-files --levels 0.5,1,2,5,10,20 -o logs/frf_levels
+  frictionrt rig --effect micro_slip --frf-files --levels 1,2,5,10,20 --excitation random -o logs/frf_random
   frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form
   frictionrt rig --effect micro_slip --model-form damping,beams -o logs/campaign_form2"""
 
@@ -72,6 +79,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--levels", metavar="A,B,..", help="with --frf-files: force amplitudes [N] (drive voltages [V] with --force-scale) of stepped-sine "
                    "tests of the nonlinear plant, one file per level (rt/discrepancy/rig/levels.py), instead of "
                    "the linear FRFs at three F_N1")
+    p.add_argument("--excitation", choices=("stepsine", "random"), default="stepsine",
+                   help="with --frf-files --levels: stepped sines of those amplitudes (default), or band-limited "
+                   "random excitation of those rms values over 50-1200 Hz, H1 and coherence by Welch (16 s Hann "
+                   "blocks, 10 averages, 50 %% overlap: 0.0625 Hz lines)")
     p.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
                    help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
                    "damping, beams not copies of the nominal's (rt.discrepancy.rig.model_form); PARTS: all "
@@ -126,6 +137,8 @@ def cmd_rig(cfg, args) -> int:
     if args.levels is not None and args.quantity != "accelerance":
         return fail("rig --levels: the level tests are accelerances; --quantity applies to the linear FRF files "
                     "only, drop it")
+    if args.excitation != "stepsine" and args.levels is None:
+        return fail(f"rig --excitation {args.excitation}: it drives the level tests; add --frf-files --levels A,B,..")
     levels = None
     if args.levels is not None:
         try:
@@ -143,6 +156,7 @@ def cmd_rig(cfg, args) -> int:
         if levels is not None:
             return make_level_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, force_levels_n=levels,
                                        other_form=form, force_scale_N_per_V=args.force_scale,
+                                       excitation=args.excitation,
                                        progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
         if args.frf_files:
             return make_frf_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, quantity=args.quantity,

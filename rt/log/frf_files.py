@@ -9,19 +9,24 @@ measured force, the default, or the shaker's drive voltage, then H is per volt).
 name that is a ROS 2 field name (rt.log.registry.FIELD_RE, lowercase snake_case), placed by
 ``sensor_positions_m`` (and, where beams overlap, ``sensor_beams``).
 
-* CSV ``<stem>.csv``: header ``freq_hz[,F_amp_N][,drive_amp_N],<sensor>_re,<sensor>_im,...``,
-  one row per frequency line; written with ``repr`` floats, so a round trip is bit-exact.
+* CSV ``<stem>.csv``: header ``freq_hz[,F_amp_N][,drive_amp_N],<sensor>_re,<sensor>_im[,<sensor>_coh],...``,
+  one row per frequency line; written with ``repr`` floats, so a round trip is bit-exact. The optional
+  ``<sensor>_coh`` column is the sensor's coherence gamma^2 (0..1) of a random test's H1 (issue 35).
 * UFF ``<stem>.uff`` (or .unv): universal file, one data set 58 per sensor (function type 4 =
   frequency response function, complex ordinate, abscissa frequency in Hz, ID line 1 = sensor
   name), plus one real data set 58 of function type 0 (general) per optional amplitude column
-  (ID line 1 = F_amp_N or drive_amp_N). Written by pyuff in ASCII, uneven abscissa: the frequency
+  (ID line 1 = F_amp_N or drive_amp_N), and one real data set 58 of function type 6 (coherence) per
+  sensor with a coherence (ID line 1 = sensor name). Written by pyuff in ASCII, uneven abscissa: the frequency
   with 6 significant digits (E13.5, relative error <= 5e-6), the ordinate with 12 (E20.11,
   relative error <= 5e-12); binary 58b files go to pyuff's reader too (not tested).
 * sidecar ``<stem>.json``: {"format": "frictionrt-frf/1", "kind": "stepsine" | "frf",
   "excitation_x_m", "sensor_positions_m": {sensor: x_m}, "F_N1_N", "amplitude_n", "description"}
   and optionally "quantity", "excitation", "sensor_beams": {sensor: beam}, "drive_amplitude_v" (the drive
-  voltage's amplitude [V] of a drive_voltage test at one level) (``OPTIONAL_KEYS``, their
-  defaults those of a file without them: accelerance per newton, beams found from x).
+  voltage's amplitude [V] of a drive_voltage test at one level), "random" (a random test, issue 35:
+  {"rms", "band_hz": [f_lo, f_hi], "block_s", "averages", "overlap", "window"}, the level ``rms`` the force's [N]
+  or, for a drive_voltage test, the drive voltage's [V] rms over the band, amplitude_n and
+  drive_amplitude_v then null; ``check_random``) (``OPTIONAL_KEYS``, their defaults those of a file
+  without them: accelerance per newton, beams found from x, a sine).
 * UFF ordinate data characteristics: numerator 8 / 11 / 12 (displacement, velocity, acceleration)
   for receptance / mobility / accelerance, denominator 13 (excitation force) or 0 (unknown: a
   voltage has no code) for a drive voltage; a reader checks a stated numerator (8, 11, 12) and
@@ -56,12 +61,13 @@ QUANTITIES = {"accelerance": (2, "m/s^2", 12), "mobility": (1, "m/s", 11), "rece
 H_quantity = H_accelerance / (i omega)^(2 - k)."""
 EXCITATIONS = {"force": ("N", 13), "drive_voltage": ("V", 0)}
 """excitation -> (unit of the FRF's denominator, UFF 58 ordinate-denominator data characteristic)."""
-OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}, "drive_amplitude_v": None}
+OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}, "drive_amplitude_v": None,
+                 "random": None}
 """Sidecar keys a file may omit, with the value a file without them has (issue 18)."""
 AMPLITUDES = ("F_amp_N", "drive_amp_N")         # optional per-line columns [N]
 UFF_SUFFIXES = (".uff", ".unv")
 SUFFIXES = (".csv",) + UFF_SUFFIXES
-FUNC_FRF, FUNC_GENERAL = 4, 0                   # UFF 58 function types
+FUNC_FRF, FUNC_GENERAL, FUNC_COHERENCE = 4, 0, 6  # UFF 58 function types
 SPEC_FREQUENCY, SPEC_FORCE = 18, 13              # UFF 58 data characteristics
 SIDECAR_KEYS = ("format", "kind", "excitation_x_m", "sensor_positions_m", "F_N1_N", "amplitude_n", "description")
 FIX_DOC = 'docs/data-format.md, "FRF files"'
@@ -76,6 +82,7 @@ class FRFTest:
     F_amp_N: np.ndarray | None      # (n,) measured force amplitude per line [N] (step-sine), or None
     drive_amp: np.ndarray | None    # (n,) shaker drive amplitude per line as an ideal source's force [N], or None
     meta: dict                      # the sidecar
+    coherence: dict | None = None   # sensor -> (n,) coherence gamma^2 of a random test's H1 [-], or None
 
     @property
     def F_N1(self) -> float:
@@ -165,6 +172,8 @@ def check_meta(meta) -> dict:
             raise ValueError("sidecar drive_amplitude_v is given, but the excitation is a force; give excitation "
                              "drive_voltage or leave drive_amplitude_v out")
         _finite(meta["drive_amplitude_v"], "sidecar drive_amplitude_v", positive=True)
+    if meta.get("random") is not None:
+        check_random(meta)
     beams = meta.get("sensor_beams", {})
     if not isinstance(beams, dict):
         raise ValueError(f"sidecar sensor_beams is {str(beams)[:40]!r}; give an object {{sensor: beam name}} or "
@@ -178,6 +187,24 @@ def check_meta(meta) -> dict:
     return meta
 
 
+def check_random(meta: dict) -> None:
+    """The sidecar's "random" object (module docstring) checked; ValueError with the problem and the fix."""
+    r = meta["random"]
+    keys = ("rms", "band_hz", "block_s", "averages", "overlap", "window")
+    if not isinstance(r, dict) or any(k not in r for k in keys):
+        raise ValueError(f"sidecar random is {str(r)[:60]!r}; give an object with {', '.join(keys)} ({FIX_DOC})")
+    for k in ("rms", "block_s", "averages"):
+        _finite(r[k], f"sidecar random.{k}", positive=True)
+    _finite(r["overlap"], "sidecar random.overlap", non_negative="no overlap")
+    b = r["band_hz"]
+    if not (isinstance(b, list) and len(b) == 2 and 0 <= _finite(b[0], "sidecar random.band_hz[0]")
+            < _finite(b[1], "sidecar random.band_hz[1]")):
+        raise ValueError(f"sidecar random.band_hz is {str(b)[:40]!r}; give [f_lo, f_hi] in Hz, 0 <= f_lo < f_hi")
+    if meta["amplitude_n"] is not None or meta.get("drive_amplitude_v") is not None:
+        raise ValueError("sidecar random is given with amplitude_n or drive_amplitude_v: a random test's level is "
+                         "random.rms; set the amplitudes to null")
+
+
 def check_sensor_name(s, what: str = "sensor") -> str:
     """``s`` if it is a valid sensor name: a ROS 2 field name (rt.log.registry.FIELD_RE: lowercase
     letters, digits and single underscores, starting with a letter) other than stamp, tick;
@@ -189,9 +216,9 @@ def check_sensor_name(s, what: str = "sensor") -> str:
     return s
 
 
-def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict) -> None:
+def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict, coherence: dict | None = None) -> None:
     """Frequency lines > 0 and strictly increasing, at least 2; every array (n,) and finite; every
-    sensor known and placed in the sidecar."""
+    sensor known and placed in the sidecar; a coherence only of a sensor with an FRF, within 0..1."""
     n = len(freq_hz)
     if n < 2:
         raise ValueError(f"{n} frequency line(s); an FRF needs at least 2")
@@ -218,6 +245,14 @@ def check_lines(freq_hz: np.ndarray, H: dict, F_amp_N, drive_amp, meta: dict) ->
             _check_array(a, name, n)
             if np.any(a <= 0):
                 raise ValueError(f"{name} <= 0 at line {int(np.argmax(a <= 0)) + 1}; amplitudes are > 0 [N]")
+    for s, g in (coherence or {}).items():
+        if s not in H:
+            raise ValueError(f"a coherence of {str(s)[:40]!r}, which has no FRF; give its FRF too or drop the "
+                             "coherence")
+        _check_array(g, f"{s} coherence", n)
+        if np.any((g < 0) | (g > 1)):
+            raise ValueError(f"{s} coherence outside 0..1 at line {int(np.argmax((g < 0) | (g > 1))) + 1}; "
+                             "gamma^2 = |S_fa|^2 / (S_ff S_aa) lies within 0..1")
 
 
 def _check_array(a: np.ndarray, name: str, n: int) -> None:
@@ -231,7 +266,7 @@ def _check_array(a: np.ndarray, name: str, n: int) -> None:
 def check_test(test: FRFTest) -> None:
     """A test as the writers and readers accept it; ValueError otherwise."""
     check_meta(test.meta)
-    check_lines(np.asarray(test.freq_hz, float), test.H, test.F_amp_N, test.drive_amp, test.meta)
+    check_lines(np.asarray(test.freq_hz, float), test.H, test.F_amp_N, test.drive_amp, test.meta, test.coherence)
 
 
 # --- writers -------------------------------------------------------------------------------------
@@ -269,6 +304,9 @@ def write_frf_csv(path: str | os.PathLike, test: FRFTest) -> None:
     for s, h in test.H.items():
         cols += [np.real(h).astype(float), np.imag(h).astype(float)]
         names += [f"{s}_re", f"{s}_im"]
+        if test.coherence and s in test.coherence:
+            cols.append(np.asarray(test.coherence[s], float))
+            names.append(f"{s}_coh")
     rows = np.column_stack(cols).tolist()
     text = ",".join(names) + "\n" + "".join(",".join(map(repr, r)) + "\n" for r in rows)
     _atomic_write(path, lambda p: p.write_text(text), lambda: _write_sidecar(path, test))
@@ -298,6 +336,8 @@ def write_frf_uff(path: str | os.PathLike, test: FRFTest) -> None:
             for j, (s, h) in enumerate(test.H.items())]
     sets += [_uff_record(x, np.asarray(a, float), name, FUNC_GENERAL, 0, SPEC_FORCE)
              for name, a in zip(AMPLITUDES, (test.F_amp_N, test.drive_amp)) if a is not None]
+    sets += [_uff_record(x, np.asarray(g, float), s, FUNC_COHERENCE, _uff_node(s, list(test.H).index(s)), 0, units="")
+             for s, g in (test.coherence or {}).items()]
     _atomic_write(path, lambda p: pyuff.UFF(str(p)).write_sets(sets, mode="overwrite"),
                   lambda: _write_sidecar(path, test))
 
@@ -328,7 +368,7 @@ def read_meta(path: Path) -> dict:
         raise ValueError(f"{side}: {exc}") from None
 
 
-def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
+def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None, dict | None]:
     lines = text.lstrip("\ufeff").splitlines()
     while lines and not lines[-1].strip():
         lines.pop()
@@ -342,11 +382,12 @@ def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarr
         dup = next(h for h in header if header.count(h) > 1)
         raise ValueError(f"header column {dup[:40]!r} appears twice; name each column once")
     for h in header[1:]:
-        if h not in AMPLITUDES and not (h.endswith(("_re", "_im")) and FIELD_RE.match(h[:-3])):
+        if h not in AMPLITUDES and not (h.endswith(("_re", "_im")) and FIELD_RE.match(h[:-3])
+                                        or h.endswith("_coh") and FIELD_RE.match(h[:-4])):
             raise ValueError(f"unknown header column {h[:40]!r}; columns are freq_hz, F_amp_N, drive_amp_N and "
-                             f"<sensor>_re, <sensor>_im for each sensor (a lowercase snake_case name, e.g. "
-                             f"{', '.join(SENSORS)})")
-    sensors = list(dict.fromkeys(h[:-3] for h in header[1:] if h not in AMPLITUDES))
+                             f"<sensor>_re, <sensor>_im (and optionally <sensor>_coh) for each sensor (a lowercase "
+                             f"snake_case name, e.g. {', '.join(SENSORS)})")
+    sensors = list(dict.fromkeys(h[:-3] for h in header[1:] if h not in AMPLITUDES and not h.endswith("_coh")))
     for s in sensors:
         for part in ("_re", "_im"):
             if s + part not in header:
@@ -364,7 +405,8 @@ def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarr
                 raise ValueError(f"line {i + 2}, column {header[j]}: {f.strip()[:40]!r} is not a number") from None
     col = {h: vals[:, j] for j, h in enumerate(header)}
     H = {s: col[s + "_re"] + 1j * col[s + "_im"] for s in sensors}
-    return col["freq_hz"], H, col.get("F_amp_N"), col.get("drive_amp_N")
+    coh = {h[:-4]: col[h] for h in header[1:] if h.endswith("_coh")}
+    return col["freq_hz"], H, col.get("F_amp_N"), col.get("drive_amp_N"), coh or None
 
 
 def _uff_sets(path: Path) -> list[dict]:
@@ -408,8 +450,8 @@ def _check_characteristics(d: dict, name: str, meta: dict) -> None:
                          f"says excitation {e!r}; correct one of them")
 
 
-def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
-    x, H, amp = None, {}, {}
+def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None, dict | None]:
+    x, H, amp, coh = None, {}, {}, {}
     for d in _uff_sets(path):
         name = str(d.get("id1", "")).strip()
         ft = d.get("func_type")
@@ -420,14 +462,15 @@ def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | N
                                  "complex (ordinate data type 5 or 6)")
             _check_characteristics(d, name, meta)
             target = H
-        elif ft == FUNC_GENERAL and name in AMPLITUDES:
+        elif ft == FUNC_GENERAL and name in AMPLITUDES or ft == FUNC_COHERENCE:
             if d.get("ord_data_type") not in (2, 4):
-                raise ValueError(f"data set {name}: complex ordinate; an amplitude is real (type 2 or 4)")
-            target = amp
+                raise ValueError(f"data set {name}: complex ordinate; an amplitude or a coherence is real (type 2 "
+                                 "or 4)")
+            target = amp if ft == FUNC_GENERAL else coh
         else:
             raise ValueError(f"data set 58 {name[:40]!r} has function type {ft!r}; the file holds FRFs (type "
-                             f"{FUNC_FRF}) of the sensors and amplitudes (type {FUNC_GENERAL}) named "
-                             f"{' or '.join(AMPLITUDES)}")
+                             f"{FUNC_FRF}) and coherences (type {FUNC_COHERENCE}) of the sensors and amplitudes (type "
+                             f"{FUNC_GENERAL}) named {' or '.join(AMPLITUDES)}")
         if d.get("abscissa_spec_data_type") != SPEC_FREQUENCY:
             raise ValueError(f"data set {name}: abscissa data type {d.get('abscissa_spec_data_type')!r}, not "
                              f"{SPEC_FREQUENCY} (frequency in Hz)")
@@ -444,7 +487,7 @@ def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | N
         target[name] = yd.astype(complex) if target is H else yd.astype(float)
     if not H:
         raise ValueError(f"no FRF data set (function type {FUNC_FRF}); give one per sensor")
-    return x, H, amp.get("F_amp_N"), amp.get("drive_amp_N")
+    return x, H, amp.get("F_amp_N"), amp.get("drive_amp_N"), coh or None
 
 
 def read_frf(path: str | os.PathLike) -> FRFTest:
@@ -462,13 +505,13 @@ def read_frf(path: str | os.PathLike) -> FRFTest:
                 text = path.read_text(encoding="utf-8")
             except UnicodeDecodeError:
                 raise ValueError("not UTF-8 text; an FRF CSV is plain text") from None
-            freq, H, F_amp, drive = _parse_csv(text)
+            freq, H, F_amp, drive, coh = _parse_csv(text)
         else:
-            freq, H, F_amp, drive = _parse_uff(path, meta)
-        check_lines(freq, H, F_amp, drive, meta)
+            freq, H, F_amp, drive, coh = _parse_uff(path, meta)
+        check_lines(freq, H, F_amp, drive, meta, coh)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
-    return FRFTest(path.stem, freq, H, F_amp, drive, meta)
+    return FRFTest(path.stem, freq, H, F_amp, drive, meta, coh)
 
 
 def frf_files(folder: str | os.PathLike) -> list[Path]:

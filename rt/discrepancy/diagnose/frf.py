@@ -118,6 +118,11 @@ class FRFData(NamedTuple):
     unpaired_hz: tuple = ()      # measured modes not paired with a model mode [Hz]
     unit: str = "(m/s^2)/N"
 
+    @property
+    def modes_hz(self) -> np.ndarray:
+        """Every measured mode [Hz], paired with the model's or not, ascending."""
+        return np.array(sorted({*self.f_modes["measured"][np.isfinite(self.f_modes["measured"])], *self.unpaired_hz}))
+
 
 def is_frf_folder(folder: str | Path) -> bool:
     """A folder of FRF files: FRF data files (rt.log.frf_files) and no *.mcap measurement."""

@@ -50,13 +50,14 @@ from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
-from plant.harmonic_frf import METHODS, harmonic_accelerances, harmonic_system
+from plant.harmonic_frf import METHODS, harmonic_system
 from plant.model import build_plant
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet, scale_bounds, scaled
 from rt.discrepancy.diagnose.campaign import bic, rank
 from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
+from rt.discrepancy.diagnose.random_level import is_random, random_levels, sine_accelerances
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
 from rt.discrepancy.diagnose.plausible import CLAMP, markdown, outside, penalty, ranges, summary_lines, verdict
@@ -75,7 +76,10 @@ AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lin
 
 def level_of(test: FRFTest) -> float:
     """The test's level: its force amplitude [N] (sidecar amplitude_n), or a drive-voltage test's drive
-    amplitude [V] (drive_amplitude_v); ValueError if the sidecar has none."""
+    amplitude [V] (drive_amplitude_v), or a random test's rms [N or V] (rt.discrepancy.diagnose.random_level);
+    ValueError if the sidecar has none."""
+    if is_random(test):
+        return float(test.meta["random"]["rms"])
     key = "drive_amplitude_v" if test.excitation == "drive_voltage" else "amplitude_n"
     a = test.meta.get(key)
     if a is None:
@@ -118,7 +122,7 @@ def mode_bands(d: FRFData) -> FRFData:
     every fitted line's sigma_k divided by sqrt(w_b), w_b = n / (B n_b) (n_b the band's fitted lines of the
     sensor, B its bands with lines, n = sum_b n_b), so each band weighs the same in the sum of squares,
     sum_{k in b} w_b = n / B, however dense its lines. ``d`` itself if no mode was measured."""
-    f_m = np.array(sorted({*d.f_modes["measured"][np.isfinite(d.f_modes["measured"])], *d.unpaired_hz}))
+    f_m = d.modes_hz
     if not len(f_m):
         return d
     near = np.argmin(np.abs(np.log(d.freq[:, None] / f_m[None, :])), axis=1)
@@ -154,8 +158,8 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
         if key not in systems:
             systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
         g = scale if d.per_volt else 1.0
-        r = harmonic_accelerances(systems[key], amp * g, d.freq, method=method, branches=False,
-                                  **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
+        r = sine_accelerances(systems[key], amp, g, d.freq, method=method, branches=False,
+                              **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
         if details is not None:
             details.append(r)
         out.append({s: g * from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
@@ -325,6 +329,7 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
     try:
         data = prepare(tests, nominal)
         nominal, _ = with_sensor_points(tests, nominal)
+        levels = random_levels(tests, data, levels, HALF_WIDTH, nominal)
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     done: dict = {}

@@ -24,6 +24,12 @@ structure at F_N1 inside ``BAND_HZ`` (rt.experiments.stepsine.resonance_grid), p
 plan. Noise as rt.discrepancy.rig.frf (``NOISE_REL`` of |H| plus ``NOISE_FLOOR``). Files
 ``level_NN`` alternately CSV and UFF, kind "frf", ``amplitude_n`` = F; the sidecars are the same for
 every hidden effect.
+
+Random excitation (``excitation`` "random", issue 35): per level a band-limited Gaussian force of that
+rms [N] over ``BAND_HZ`` (a drive voltage of that rms [V] with a force scale) for one record, H1 and its
+coherence by Welch's method on the band's 0.0625 Hz lines (rt.discrepancy.rig.random_excitation); no
+noise added to H1 (the accelerometers' noise is in the record), the sidecar's "random" names the level
+(rms), the band and the estimator, amplitude_n and drive_amplitude_v null.
 """
 from __future__ import annotations
 
@@ -42,6 +48,7 @@ from rt.discrepancy.chain import hold_voltage, stack_force
 from rt.discrepancy.effects import get
 from rt.discrepancy.rig.campaign import new_folder, true_structure
 from rt.discrepancy.rig.frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
+from rt.discrepancy.rig.random_excitation import OVERLAP, random_test, record_s
 from rt.experiments.stepsine import Settle, harmonics_of_columns, resonance_grid, steady
 from rt.log.frf_files import FRFTest, write_frf_csv, write_frf_uff
 
@@ -51,6 +58,7 @@ HALF_WIDTH = 0.12                              # relative half width of the band
 LINES_PER_MODE = 13                            # 2 % steps: friction-softened peaks are 3-10 % wide
 COARSE_LINES = 8                               # log-spaced lines across BAND_HZ
 F_N1_N = 100.0                                 # [N] the adaptive screw's held force
+EXCITATIONS = ("stepsine", "random")             # how the levels are driven (module docstring)
 SETTLE = Settle(max_s=4.0)                     # a line gives up after 4 s of simulated time (lines 2 % off a
                                                # bare-beam mode of 0.1 % damping ring for longer: left out)
 
@@ -102,12 +110,16 @@ def settle_line(model: PlantModel, x: np.ndarray, phase: float, freq_hz: float, 
     return np.mean(blocks[-settle.n_blocks:], axis=0), x, phase, ok, k * dt
 
 
+def sensor_columns(model: PlantModel) -> dict[str, int]:
+    """{accelerometer: column of its acceleration in the plant's outputs}."""
+    io = model.output_index()
+    return {s: io[f"a_{p}"] for s, p in sensor_points(model.cfg).items()}
+
+
 def sweep_level(model: PlantModel, F_N1: float, amp_n: float, lines_hz: np.ndarray) -> LevelSweep:
     """The up-sweep at force amplitude ``amp_n`` [N] over ``lines_hz`` from rest at F_N1 [N]."""
-    pts = sensor_points(model.cfg)
-    io = model.output_index()
-    names = list(pts)
-    cols = [io[f"a_{pts[s]}"] for s in names]
+    by_name = sensor_columns(model)
+    names, cols = list(by_name), list(by_name.values())
     x, phase = model.initial_state(F_N1), -0.5 * math.pi      # the force starts at 0 from rest
     H = np.empty((len(lines_hz), len(names)), complex)
     settled = np.zeros(len(lines_hz), bool)
@@ -119,50 +131,71 @@ def sweep_level(model: PlantModel, F_N1: float, amp_n: float, lines_hz: np.ndarr
 
 
 def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Generator,
-                      progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None) -> list[str]:
-    """Run the level sweeps on the true structure and write them into ``folder`` (module docstring;
-    lines around the modes in ``band_hz`` [Hz]); returns the data file names. ``progress(msg)`` is
-    told of each level. ``force_scale_N_per_V`` s: a voltage-driven shaker without force transducer,
-    the levels are drive amplitudes V [V], the force s V, the files' FRFs per volt (s H) with the
-    sidecar's excitation drive_voltage and drive_amplitude_v V."""
+                      progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None,
+                      excitation: str = "stepsine") -> list[str]:
+    """Run the level tests on the true structure and write them into ``folder`` (module docstring; stepped
+    sines on lines around the modes in ``band_hz`` [Hz], or with ``excitation`` "random" a random force over
+    ``band_hz``); returns the data file names. ``progress(msg)`` is told of each level. ``force_scale_N_per_V``
+    s: a voltage-driven shaker without force transducer, the levels are drive amplitudes (rms, random) V [V],
+    the force s V, the files' FRFs per volt (s H) with the sidecar's excitation drive_voltage and
+    drive_amplitude_v V (stepped sine) or random.rms V."""
     with threadpool_limits(1):
         model = build_plant(true)
         F_N1 = stack_force(true, hold_voltage(true, F_N1_N)) if adaptive_screw(true) is not None else 0.0
-        lines = level_lines(model, F_N1, band_hz)
+        lines = level_lines(model, F_N1, band_hz) if excitation == "stepsine" else None
     names = []
     gain = 1.0 if force_scale_N_per_V is None else float(force_scale_N_per_V)
     unit = "N" if force_scale_N_per_V is None else "V"
+    held = f"adaptive screw held at about {F_N1_N:g} N by the stack" if F_N1 else "no adaptive screw"
     for j, amp in enumerate(levels_n):
-        if progress:
-            progress(f"level {j + 1}/{len(levels_n)}: {amp:g} {unit}, {len(lines)} lines")
-        sw = sweep_level(model, F_N1, float(amp) * gain, lines)
-        H = {}
-        for s, h in sw.H.items():
-            z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
-            H[s] = gain * (h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w)[sw.settled]
-        held = f"adaptive screw held at about {F_N1_N:g} N by the stack" if F_N1 else "no adaptive screw"
-        drive = (f"force amplitude held at {amp:g} N" if force_scale_N_per_V is None else
-                 f"shaker driven by a voltage of {amp:g} V amplitude, no force transducer")
-        extra = ({"amplitude_n": float(amp)} if force_scale_N_per_V is None else
-                 {"amplitude_n": None, "excitation": "drive_voltage", "drive_amplitude_v": float(amp)})
-        meta = frf_meta(true, round(F_N1, 2), f"stepped-sine up-sweep, {drive} at the excitation point, {held}; "
-                        f"lines that did not settle within {SETTLE.max_s:g} s left out") | extra
+        if excitation == "random":
+            if progress:
+                progress(f"level {j + 1}/{len(levels_n)}: {amp:g} {unit} rms, a {record_s():g} s record")
+            rnd = random_test(model, F_N1, float(amp) * gain, band_hz, sensor_columns(model), rng)
+            freq, H, coh = rnd.freq_hz, {s: gain * h for s, h in rnd.H.items()}, rnd.coherence
+            drive = (f"force of {amp:g} N rms" if force_scale_N_per_V is None else
+                     f"shaker driven by a voltage of {amp:g} V rms, no force transducer")
+            how = (f"band-limited random excitation ({band_hz[0]:g}-{band_hz[1]:g} Hz, flat), {drive} at the "
+                   f"excitation point, {held}; H1 by Welch's method, {rnd.averages} Hann blocks of {rnd.block_s:g} s, "
+                   f"{OVERLAP:.0%} overlap")
+            extra = ({"amplitude_n": None} if force_scale_N_per_V is None else
+                     {"amplitude_n": None, "excitation": "drive_voltage"}) | {"random": {
+                         "rms": float(amp), "band_hz": [float(band_hz[0]), float(band_hz[1])], "block_s": rnd.block_s,
+                         "averages": rnd.averages, "overlap": OVERLAP, "window": "hann"}}
+        else:
+            if progress:
+                progress(f"level {j + 1}/{len(levels_n)}: {amp:g} {unit}, {len(lines)} lines")
+            sw = sweep_level(model, F_N1, float(amp) * gain, lines)
+            H, coh, freq = {}, None, sw.freq_hz[sw.settled]
+            for s, h in sw.H.items():
+                z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
+                H[s] = gain * (h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w)[sw.settled]
+            drive = (f"force amplitude held at {amp:g} N" if force_scale_N_per_V is None else
+                     f"shaker driven by a voltage of {amp:g} V amplitude, no force transducer")
+            how = (f"stepped-sine up-sweep, {drive} at the excitation point, {held}; lines that did not settle "
+                   f"within {SETTLE.max_s:g} s left out")
+            extra = ({"amplitude_n": float(amp)} if force_scale_N_per_V is None else
+                     {"amplitude_n": None, "excitation": "drive_voltage", "drive_amplitude_v": float(amp)})
+        meta = frf_meta(true, round(F_N1, 2), how) | extra
         name = f"level_{j + 1:02d}" + (".uff" if j % 2 else ".csv")
-        (write_frf_uff if j % 2 else write_frf_csv)(folder / name, FRFTest(
-            Path(name).stem, sw.freq_hz[sw.settled], H, None, None, meta))
+        (write_frf_uff if j % 2 else write_frf_csv)(folder / name, FRFTest(Path(name).stem, freq, H, None, None,
+                                                                           meta, coh))
         names.append(name)
     return names
 
 
 def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N,
-                        other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None) -> list[Path]:
+                        other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ,
+                        force_scale_N_per_V: float | None = None, excitation: str = "stepsine") -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed), from the true structure of rt.discrepancy.rig.campaign.true_structure (the same scatter draw and
     hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
-    levels are drive voltages, as write_level_tests); returns the data files written. ValueError for an effect of the actuator
-    or the shaker (FRF files of the structure do not record them) or a level that is not a positive
-    finite force."""
+    levels are drive voltages, as write_level_tests; ``excitation``: "stepsine" or "random", as there); returns the
+    data files written. ValueError for an effect of the actuator or the shaker (FRF files of the structure do not
+    record them), an unknown excitation or a level that is not a positive finite force."""
+    if excitation not in EXCITATIONS:
+        raise ValueError(f"excitation {excitation!r}: give one of {', '.join(EXCITATIONS)}")
     if effect != "none" and get(effect).channel != "structure":
         raise ValueError(f"effect {effect!r} acts through the actuator or the shaker, which FRF files of the "
                          "structure do not record; write a time-series campaign instead (rig without --frf-files)")
@@ -173,5 +206,5 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng, other_form)
     with new_folder(out_dir) as tmp:
-        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz, force_scale_N_per_V)
+        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz, force_scale_N_per_V, excitation)
     return [Path(out_dir) / n for n in names]
