@@ -1,6 +1,7 @@
 """Convergence of the bolted joint in its contact pitch (docs/plant.md 6, "Contact pitch").
 
     python -m benchmarks.contact_pitch [--pitches-mm 20 10 5 2.5 1.25] [--onset] [--set KEY=VALUE ...]
+    python -m benchmarks.contact_pitch --onset-only --onset-effect none --levels 0.05 [--points]
 
 The interface is a row of node-to-node contact points, each carrying its tributary area (SPEC 2:
 the contact is per unit area, the pitch a numerical choice). Refining the pitch (elements no
@@ -19,7 +20,11 @@ sines of the nonlinear plant at F_N1 = 300 N (rt.discrepancy.rig.levels.sweep_le
 largest line, each 5x finer: ``resolved_peak``) at force amplitudes ``ONSET_LEVELS_N``, with and
 without micro_slip at its default spread: the peak |a_frf / F| [(m/s^2)/N] per level. Where
 every pair sticks the peak is the linear one; the first pairs to slip lower it. docs/discrepancy.md,
-"Which part of the model form hides an effect".
+"Which part of the model form hides an effect". ``--levels`` chooses the amplitudes.
+
+--points: per pitch, the contact points that reach their friction limit (or open and close) at the
+lowest level, driven at the stuck mode 3 (``slipping_points``; docs/plant.md 6.5: the slip zone at
+the interface's end is narrower than the coarse pitches).
 """
 from __future__ import annotations
 
@@ -30,6 +35,7 @@ import numpy as np
 
 from plant.impulse import impulse_test
 from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from plant.simulate import run
 from plant.structure import interface_width
 from rt.common.config import Config, load, with_sets
 from rt.discrepancy.effects import get
@@ -75,12 +81,36 @@ def resolved_peak(model, F_N1: float, amp_n: float, lines_hz: np.ndarray, refine
     return best
 
 
-def onset_peaks(cfg: Config) -> list[float]:
-    """Resolved peak |a_frf / F| [(m/s^2)/N] of mode 3 per ``ONSET_LEVELS_N`` at ``ONSET_F_N1`` (module docstring)."""
+def onset_peaks(cfg: Config, levels=ONSET_LEVELS_N) -> list[float]:
+    """Resolved peak |a_frf / F| [(m/s^2)/N] of mode 3 per level [N] at ``ONSET_F_N1`` (module docstring)."""
     model = build_plant(cfg)
     f3 = stuck_frequencies_hz(model, preloaded_pairs(model, ONSET_F_N1))[2]
     lines = f3 * np.linspace(0.90, 1.02, 13)
-    return [resolved_peak(model, ONSET_F_N1, a, lines) for a in ONSET_LEVELS_N]
+    return [resolved_peak(model, ONSET_F_N1, a, lines) for a in levels]
+
+
+def slipping_points(cfg: Config, amp_n: float, seconds: float = 3.0, tail_s: float = 0.5) -> dict:
+    """Which contact points act at ``amp_n`` [N] (docs/plant.md 6.5): the plant driven ``seconds``
+    from its static state at ``ONSET_F_N1`` by a sine at the stuck mode 3, read over the last
+    ``tail_s``. Per point x [m], closed throughout or not, the largest |f_t| / (mu f_n) while closed;
+    the points that reach their limit (ratio >= 0.999) or open and close ("breathing"), the peak
+    |a_frf| / F and the friction power [W] (E_fric over the tail)."""
+    model = build_plant(cfg)
+    f3 = stuck_frequencies_hz(model, preloaded_pairs(model, ONSET_F_N1))[2]
+    dt = cfg.dt_s
+    n, tail = int(round(seconds / dt)), int(round(tail_s / dt))
+    Y, _, _ = run(model, amp_n * np.sin(2 * np.pi * f3 * dt * np.arange(n)), ONSET_F_N1)
+    io, p = model.output_index(), model.n_pairs
+    fn = Y[-tail:, [io[f"f_n_{j}"] for j in range(p)]]
+    ft = Y[-tail:, [io[f"f_t_{j}"] for j in range(p)]]
+    mu = cfg.plant.interface.mu
+    ratio = np.where(fn > 0, np.abs(ft) / np.maximum(mu * fn, 1e-300), 0.0).max(axis=0)
+    closed, open_ = (fn > 0).all(axis=0), (fn <= 0).all(axis=0)
+    x = model.structure.x_pairs
+    E = Y[:, io["E_fric"]]
+    return {"peak": float(np.abs(Y[-tail:, io["a_frf"]]).max() / amp_n), "x": x, "ratio": ratio,
+            "slipping": np.flatnonzero(closed & (ratio >= 0.999)), "breathing": np.flatnonzero(~closed & ~open_),
+            "friction_W": float((E[-1] - E[-tail - 1]) / tail_s)}
 
 
 def main(argv=None) -> int:
@@ -91,9 +121,28 @@ def main(argv=None) -> int:
                     help="the onset also with this hidden effect at its default strength (default micro_slip)")
     ap.add_argument("--set", action="append", default=[], dest="sets")
     ap.add_argument("--onset-only", action="store_true", help="the onset only (no stuck modes, no hammer test)")
+    ap.add_argument("--levels", type=float, nargs="+", default=list(ONSET_LEVELS_N), metavar="N",
+                    help=f"the onset's force amplitudes [N] (default {' '.join(f'{a:g}' for a in ONSET_LEVELS_N)})")
+    ap.add_argument("--points", action="store_true",
+                    help="per pitch, which points reach their friction limit at the lowest level (3 s at the stuck "
+                         "mode 3; docs/plant.md 6.5), instead of the stuck modes and the hammer test")
     args = ap.parse_args(argv)
     base = load(None, args.sets)
     print(f"Winkler length of the default joint: {1e3 * winkler_length(base):.1f} mm")
+    if args.points:
+        print(f"\nPoints at their friction limit at {min(args.levels):g} N, F_N1 = {ONSET_F_N1:g} N, the stuck mode 3 "
+              "(x from the interface's end [mm]):\n")
+        print("| pitch [mm] | points | peak | slipping | breathing | largest ratio of the others | friction power [W] |")
+        print("| --- " * 7 + "|", flush=True)
+        for p_mm in args.pitches_mm:
+            r = slipping_points(refined(base, args.sets, 1e-3 * p_mm), min(args.levels))
+            at = (r["x"] - r["x"][-1]) * 1e3
+            others = np.setdiff1d(np.arange(len(at)), np.concatenate([r["slipping"], r["breathing"]]))
+            k = others[np.argmax(r["ratio"][others])]
+            print(f"| {p_mm:g} | {len(at)} | {r['peak']:.1f} | {', '.join(f'{v:.2f}' for v in at[r['slipping']])} | "
+                  f"{', '.join(f'{v:.2f}' for v in at[r['breathing']])} | {r['ratio'][k]:.2f} at {at[k]:.2f} | "
+                  f"{r['friction_W']:.2e} |", flush=True)
+        return 0
     if not args.onset_only:
         rows = []
         for p_mm in args.pitches_mm:
@@ -120,13 +169,13 @@ def main(argv=None) -> int:
         ms = None if args.onset_effect == "none" else get(args.onset_effect)
         with_ms = "" if ms is None else f", without / with {ms.name} {ms.parameter.default:g}"
         print(f"\nSlip onset: resolved peak |a_frf / F| [(m/s^2)/N] of mode 3 at F_N1 = {ONSET_F_N1:g} N{with_ms}:\n")
-        print("| pitch [mm] | " + " | ".join(f"{a:g} N" for a in ONSET_LEVELS_N) + " | s |")
-        print("| --- " * (len(ONSET_LEVELS_N) + 2) + "|", flush=True)
+        print("| pitch [mm] | " + " | ".join(f"{a:g} N" for a in args.levels) + " | s |")
+        print("| --- " * (len(args.levels) + 2) + "|", flush=True)
         for p_mm in args.pitches_mm:
             t0 = time.perf_counter()
             cfg = refined(base, args.sets, 1e-3 * p_mm)
-            plain = onset_peaks(cfg)
-            spread = plain if ms is None else onset_peaks(ms.apply(cfg, ms.parameter.default))
+            plain = onset_peaks(cfg, args.levels)
+            spread = plain if ms is None else onset_peaks(ms.apply(cfg, ms.parameter.default), args.levels)
             cells = [f"{a:.1f}" if ms is None else f"{a:.1f} / {b:.1f}" for a, b in zip(plain, spread)]
             print(f"| {p_mm:g} | " + " | ".join(cells) + f" | {time.perf_counter() - t0:.0f} |", flush=True)
     return 0
