@@ -114,8 +114,9 @@ def _levels(cfg, args, say) -> int:
     """``diagnose --calibrate-on``: rt.discrepancy.diagnose.levels."""
     from rt.cli.common import parse_list
     from rt.discrepancy.diagnose import is_frf_folder
-    from rt.discrepancy.diagnose.levels import (Interrupted, diagnose_levels, partial_summary, summary,
-                                                write_levels_report, write_partial_report)
+    from rt.discrepancy.diagnose.levels import Interrupted, diagnose_levels
+    from rt.discrepancy.diagnose.levels_report import (partial_summary, summary, write_levels_report,
+                                                       write_partial_report)
     try:
         levels = parse_list(args.calibrate_on, float, "diagnose --calibrate-on", "0.5,1")
     except ValueError as exc:

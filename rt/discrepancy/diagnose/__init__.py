@@ -19,7 +19,7 @@ _EXPORTS = {
     "fit_in_parallel": "rt.discrepancy.diagnose.campaign", "public": "rt.discrepancy.diagnose.campaign",
     "summary": "rt.discrepancy.diagnose.campaign",
     "diagnose_frf": "rt.discrepancy.diagnose.frf", "is_frf_folder": "rt.discrepancy.diagnose.frf",
-    "diagnose_levels": "rt.discrepancy.diagnose.levels", "write_levels_report": "rt.discrepancy.diagnose.levels",
+    "diagnose_levels": "rt.discrepancy.diagnose.levels", "write_levels_report": "rt.discrepancy.diagnose.levels_report",
     "write_report": "rt.discrepancy.diagnose.report",
 }
 __all__ = list(_EXPORTS)

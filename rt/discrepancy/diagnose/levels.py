@@ -60,7 +60,7 @@ from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFDa
 from rt.discrepancy.diagnose.random_level import is_random, random_levels, sine_accelerances
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
-from rt.discrepancy.diagnose.plausible import CLAMP, markdown, outside, penalty, ranges, summary_lines, verdict
+from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, verdict
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
@@ -399,107 +399,3 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
                             final["theta"], winner_effect, per_volt, nominal, fit_bounds(nominal))],
             "_config": final["cfg"],
             "_plots": [(d.name, a, d.freq, d.H, h0, h1) for d, a, h0, h1 in zip(data, levels, H_lin, H_nl)]}
-
-
-def summary(res: dict) -> str:
-    """The text the CLI prints."""
-    lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']} (harmonic balance: "
-             f"{res['harmonic_method']}); softening mode "
-             f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
-             f"named effect: {res['named_effect'] or 'no missing effect found'}",
-             f"fitted (harmonic balance): {res['nonlinear']['fitted']}",
-             *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
-             *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
-               for w in res["warnings"]],
-             *summary_lines(res["plausibility"]),
-             f"level [{res['level_unit']}]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  "
-             "ratio"]
-    for p in res["prediction"]:
-        lines.append(f"  {p['level_n']:>7g}  {'yes' if p['calibrated_on'] else 'no':>10}  "
-                     f"{p['gap_linear_db']:.3f} / {p['gap_nonlinear_db']:.3f}  ({p['gap_linear_all_db']:.3f} / "
-                     f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}")
-    return "\n".join(lines)
-
-
-def _write_result(folder: Path, res: dict) -> None:
-    """diagnose.json (``res`` without its "_" keys) and, if ``res`` has one, model.toml ("_config") in ``folder``."""
-    import json
-
-    from rt.common.config import dumps
-    (folder / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
-                                                     indent=1) + "\n")
-    if "_config" in res:
-        (folder / "model.toml").write_text(dumps(res["_config"]))
-
-
-def partial_summary(partial: dict) -> str:
-    """The text the CLI prints for an interrupted diagnosis (``partial_result``)."""
-    return "\n".join(["interrupted; the fits done so far:"]
-                     + [f"  {name}: {f['fitted']}" for name, f in partial["fits"].items()])
-
-
-def write_partial_report(partial: dict, out: str | Path) -> Path:
-    """The report folder of an interrupted diagnosis (written beside and renamed, as ``write_levels_report``):
-    diagnose.json (``partial_result``), model.toml (the last fit's configuration) and report.md."""
-    from rt.discrepancy.rig.campaign import new_folder
-    with new_folder(out) as tmp:
-        _write_result(tmp, partial)
-        (tmp / "report.md").write_text("\n".join(
-            ["# Amplitude dependence: interrupted", "",
-             "The diagnosis was stopped before its end; the fits done so far (model.toml: the last of them):", "",
-             "| fit | fitted |", "| --- | --- |",
-             *[f"| {name} | `{f['fitted']}` |" for name, f in partial["fits"].items()], ""]))
-    return Path(out)
-
-
-def write_levels_report(res: dict, out: str | Path) -> Path:
-    """The report folder (a new folder, written beside and renamed: never half a report):
-    diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
-    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction)."""
-    import json
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from rt.discrepancy.rig.campaign import new_folder
-    with new_folder(out) as tmp:
-        _write_result(tmp, res)
-        plots = res["_plots"]
-        fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
-        for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):
-            s = next(iter(H))
-            ax.semilogy(f, np.abs(H[s]), "k.", ms=3, label=f"measured {s}")
-            ax.semilogy(f, np.abs(h0[s]), "C1-", lw=0.8, label="linear (stuck)")
-            ax.semilogy(f, np.abs(h1[s]), "C0-", lw=0.8, label="harmonic balance")
-            ax.axvspan(*res["softening_band_hz"], color="0.9", zorder=0)
-            cal = "calibrated on" if a in res["calibrate_on_n"] else "predicted"
-            ax.set_title(f"{name}: {a:g} {res['level_unit']} ({cal})", fontsize=9)
-            ax.grid(True, lw=0.3)
-        axes[0, 0].legend(fontsize=7)
-        axes[-1, 0].set_xlabel("f [Hz]")
-        fig.tight_layout()
-        fig.savefig(tmp / "levels.png", dpi=110)
-        plt.close(fig)
-        rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "
-                f"{p['gap_nonlinear_db']} | {p['ratio']} | {p['gap_linear_all_db']} | {p['gap_nonlinear_all_db']} |"
-                for p in res["prediction"]]
-        (tmp / "report.md").write_text("\n".join([
-            "# Amplitude dependence: calibrated at some levels, predicted at the others", "",
-            f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}. Softening mode "
-            f"{res['softening_mode']}, band {res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz "
-            "(docs/discrepancy.md, \"Amplitude dependence\").", "",
-            f"**Named effect: {res['named_effect'] or 'no missing effect found'}**", "",
-            f"Harmonic balance: method {res['harmonic_method']}." + (f" Note: {res['contact_note']}." if res["contact_note"]
-                                                                     else ""), "",
-            f"Harmonic-balance calibration: `{json.dumps(res['nonlinear']['fitted'])}`; linear: "
-            f"`{json.dumps(res['linear']['fitted'])}`.", "",
-            f"| level [{res['level_unit']}] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
-            "harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- |", *rows, "",
-            *(["", "## Warnings: parameters on a bound", "", "| model | parameter | value | bound | fix |",
-               "| --- | --- | --- | --- | --- |"]
-              + [f"| {w['model']} | {w['parameter']} | {w['value']:g} | {w['bound']:g} | {w['fix']} |"
-                 for w in res["warnings"]] if res["warnings"] else []), "",
-            *markdown(res["plausibility"]), "",
-            "![levels.png](levels.png)", ""]))
-    return Path(out)
