@@ -35,6 +35,9 @@ name that is a ROS 2 field name (rt.log.registry.FIELD_RE, lowercase snake_case)
 Readers raise ValueError naming the file, the problem and the fix. Writers are atomic (a temporary
 file in the same folder, then ``os.replace``); the sidecar is in place before its data file
 appears, and a failed write leaves neither.
+
+Length: one file format, its CSV and UFF writers and readers around the sidecar checks they all
+share (check_meta, check_lines); split, the readers and the checks would import each other.
 """
 from __future__ import annotations
 
