@@ -913,9 +913,11 @@ def _check_interface(p: Plant, beams: dict, screws: dict) -> None:
     if graded:
         z = i.end_zone_m / i.end_pitch_m
         if not (0.0 < i.end_zone_m and 2.0 * i.end_zone_m < i.x_end_m - i.x_start_m) or abs(z - round(z)) > 1e-6:
+            fit = min(20, math.ceil((i.x_end_m - i.x_start_m) / (2.0 * i.end_pitch_m) - 1e-9) - 1)   # whole pitches < half
+            hint = f"e.g. {fit * i.end_pitch_m:g}; or end_pitch_m = 0" if fit >= 1 else "set end_pitch_m = 0"
             raise ConfigError(f"plant.interface.end_zone_m = {i.end_zone_m:g} m: with end_pitch_m = {i.end_pitch_m:g} m "
                               f"it must be a whole number of end pitches and less than half the interface "
-                              f"({i.x_end_m - i.x_start_m:g} m), e.g. {20 * i.end_pitch_m:g}; or end_pitch_m = 0")
+                              f"({i.x_end_m - i.x_start_m:g} m): {hint}")
     n = length / i.pitch_m
     if not math.isfinite(n) or abs(n - round(n)) > 1e-6:
         where = "the interface between its end zones" if graded else "the interface"
