@@ -40,19 +40,14 @@ class Substructure:
             raise ValueError(f"DOF {component} of beam {self.beam.name!r} at x = {x} m is clamped")
         return self.offset + int(hit[0])
 
-    def element_of(self, x: float) -> int:
-        """Index e of the element [x_nodes[e], x_nodes[e + 1]] that holds x [m]."""
-        return int(np.clip(np.searchsorted(self.x_nodes, x, side="right") - 1, 0, len(self.x_nodes) - 2))
-
     def field_row(self, x: float, component: int) -> np.ndarray:
         """Row on the stacked physical vector (length ``offset + n`` is enough: the caller pads)
         giving the field ``component`` (U, W, THETA) at x [m]: the node's DOF at a node, else the
         element's interpolation (plant.fe_beam.frame_shape); clamped DOFs carry nothing."""
-        node = int(np.argmin(np.abs(self.x_nodes - x)))
-        if abs(self.x_nodes[node] - x) <= 1e-9:
-            weights = {DOFS_PER_NODE * node + component: 1.0}
+        if on_node(self.x_nodes, x):
+            weights = {DOFS_PER_NODE * int(np.argmin(np.abs(self.x_nodes - x))) + component: 1.0}
         else:
-            e = self.element_of(x)
+            e = element_of(self.x_nodes, x)
             l = self.x_nodes[e + 1] - self.x_nodes[e]
             shape = frame_shape((x - self.x_nodes[e]) / l, l)[component]
             weights = {DOFS_PER_NODE * e + k: shape[k] for k in range(2 * DOFS_PER_NODE)}
@@ -122,6 +117,16 @@ class Structure:
         return len(self.x_pairs)
 
 
+def on_node(x_nodes: np.ndarray, x: float) -> bool:
+    """True if a mesh node lies at x [m] (to 1 nm)."""
+    return bool(np.min(np.abs(x_nodes - x)) <= 1e-9)
+
+
+def element_of(x_nodes: np.ndarray, x: float) -> int:
+    """Index e of the element [x_nodes[e], x_nodes[e + 1]] that holds x [m]."""
+    return int(np.clip(np.searchsorted(x_nodes, x, side="right") - 1, 0, len(x_nodes) - 2))
+
+
 def _pair_positions(cfg: Config) -> np.ndarray:
     """Contact point positions [m]: x_start .. x_end at pitch_m, or at end_pitch_m within end_zone_m
     of both ends and pitch_m between (plant.interface; validated to whole pitches)."""
@@ -181,8 +186,8 @@ def build_structure(cfg: Config) -> Structure:
         clamp_x = [c.x_m for c in p.clamps if c.beam == b.name]
         x_nodes = mesh_nodes(b.x0_m, b.x0_m + b.length_m, full_nodes + w_nodes + clamp_x, p.element_length_m)
         if in_itf:  # a pair between nodes moves with its element's two nodes: they are boundary too
-            full_nodes += [float(x_nodes[e + k]) for x in x_pairs if np.min(np.abs(x_nodes - x)) > 1e-9
-                           for e in [int(np.searchsorted(x_nodes, x, side="right") - 1)] for k in (0, 1)]
+            between = [element_of(x_nodes, x) for x in x_pairs if not on_node(x_nodes, x)]
+            full_nodes += [float(x_nodes[e + k]) for e in between for k in (0, 1)]
         K, M = assemble_beam(x_nodes, b.E, b.width_m, b.height_m, b.rho)
 
         def node_of(x):
