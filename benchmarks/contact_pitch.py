@@ -51,9 +51,9 @@ ONSET_FINE_LINES = 11                    # lines per refinement pass
 
 
 def refined(base: Config, sets: list[str], pitch: float) -> Config:
-    """``base`` at contact pitch ``pitch`` [m] (the contact is per unit area: the same joint),
-    elements no longer than min(pitch, 2.5 mm)."""
-    return load(None, sets + [f"plant.interface.pitch_m={pitch!r}",
+    """``base`` at contact pitch ``pitch`` [m] everywhere (unless ``sets`` give an end_refinement; the
+    contact is per unit area: the same joint), elements no longer than min(pitch, 2.5 mm)."""
+    return load(None, ["plant.interface.end_refinement=1"] + sets + [f"plant.interface.pitch_m={pitch!r}",
                               f"plant.element_length_m={min(base.plant.element_length_m, pitch, 0.0025)!r}"])
 
 

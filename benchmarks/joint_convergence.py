@@ -1,10 +1,12 @@
 """Convergence of the joint's figures in its discretisation: contact pitch, element length and
 plant step (docs/plant.md 6, "Convergence"; SPEC 2).
 
-    python -m benchmarks.joint_convergence [--grid P:E:S ...] [--fn1 40 100] [--set KEY=VALUE ...]
+    python -m benchmarks.joint_convergence [--grid P:E:S[:R] ...] [--fn1 40 100] [--set KEY=VALUE ...]
 
-Each grid entry P:E:S is a contact pitch P [mm], a largest element E [mm] and S plant substeps per
-controller step; the contact is per unit area, so every entry is the same physical model. Per entry
+Each grid entry P:E:S[:R] is a contact pitch P [mm], a largest element E [mm], S plant substeps per
+controller step and the pitch's refinement R near the interface's ends (plant.interface.end_refinement;
+1, the default of an entry, is P everywhere: the default plant is 10:5:1:2); the contact is per unit
+area, so every entry is the same physical model. Per entry
 and hammer level F_N1 the script runs the simulated hammer test (plant.impulse.impulse_test, the
 configured hammer, 1 s) and prints modes 2-5's identified f [Hz] and zeta [%], their offsets from
 the last (finest) entry, the hammer FRF's distance from the last entry (RMS of 20 log10 |H / H_ref|
@@ -32,23 +34,32 @@ BAND_HZ = (50.0, 1200.0)
 DEFAULT_GRID = ("20:10:1", "10:5:1", "5:2.5:1", "2.5:2.5:1")
 
 
-def setting(text: str) -> tuple[float, float, int]:
-    """(pitch [mm], element [mm], substeps) of a grid entry 'P:E:S'."""
+def setting(text: str) -> tuple[float, float, int, int]:
+    """(pitch [mm], element [mm], substeps, end refinement) of a grid entry 'P:E:S[:R]'."""
     try:
-        p, e, s = text.split(":")
-        out = (float(p), float(e), int(s))
+        fields = text.split(":")
+        if len(fields) not in (3, 4):
+            raise ValueError
+        out = (float(fields[0]), float(fields[1]), int(fields[2]), int(fields[3]) if len(fields) == 4 else 1)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected PITCH_MM:ELEMENT_MM:SUBSTEPS, e.g. 10:5:4") from None
+        raise argparse.ArgumentTypeError(f"{text!r}: expected PITCH_MM:ELEMENT_MM:SUBSTEPS[:END_REFINEMENT], "
+                                         "e.g. 10:5:4 or 10:5:1:2") from None
     if min(out) <= 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: pitch, element and substeps must be positive")
+        raise argparse.ArgumentTypeError(f"{text!r}: pitch, element, substeps and refinement must be positive")
     return out
 
 
-def configured(base: Config, entry: tuple[float, float, int]) -> Config:
-    """``base`` at the entry's pitch, element length and substeps."""
-    p, e, s = entry
+def label(entry: tuple[float, float, int, int]) -> str:
+    """'P:E:S', or 'P:E:S:R' where the entry refines the ends."""
+    p, e, s, r = entry
+    return f"{p:g}:{e:g}:{s}" + (f":{r}" if r > 1 else "")
+
+
+def configured(base: Config, entry: tuple[float, float, int, int]) -> Config:
+    """``base`` at the entry's pitch, element length, substeps and end refinement."""
+    p, e, s, r = entry
     return with_sets(base, [f"plant.interface.pitch_m={p * 1e-3!r}", f"plant.element_length_m={e * 1e-3!r}",
-                            f"plant.substeps={s}"])
+                            f"plant.substeps={s}", f"plant.interface.end_refinement={r}"])
 
 
 def hammer(cfg: Config, F_N1: float) -> dict:
@@ -73,7 +84,8 @@ def richardson(H1: np.ndarray, H2: np.ndarray, H4: np.ndarray) -> tuple[float, n
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--grid", type=setting, nargs="+", default=[setting(g) for g in DEFAULT_GRID],
-                    metavar="P:E:S", help="pitch [mm]:element [mm]:substeps per entry, the finest last "
+                    metavar="P:E:S[:R]", help="pitch [mm]:element [mm]:substeps[:end refinement, 1 = uniform] "
+                                              "per entry, the finest last "
                                           f"(default {' '.join(DEFAULT_GRID)})")
     ap.add_argument("--fn1", type=float, nargs="+", default=[100.0], help="F_N1 levels [N] (default 100)")
     ap.add_argument("--save", metavar="FILE.npz", help="also write every entry's f, zeta and FRF (numpy .npz)")
@@ -85,29 +97,30 @@ def main(argv=None) -> int:
         rows = []
         for entry in args.grid:
             rows.append(hammer(configured(base, entry), F_N1))
-            print(f"F_N1 {F_N1:g} N, {entry[0]:g}:{entry[1]:g}:{entry[2]} done ({rows[-1]['wall_s']:.0f} s)", flush=True)
+            print(f"F_N1 {F_N1:g} N, {label(entry)} done ({rows[-1]['wall_s']:.0f} s)", flush=True)
         for entry, r in zip(args.grid, rows):
-            key = f"{F_N1:g}N_{entry[0]:g}_{entry[1]:g}_{entry[2]}"
+            key = f"{F_N1:g}N_" + label(entry).replace(":", "_")
             saved |= {f"{key}_f": r["f"], f"{key}_zeta": r["zeta"], f"{key}_H": r["H"], f"{key}_wall": r["wall_s"]}
         ref = rows[-1]
         print(f"\nHammer test at F_N1 = {F_N1:g} N: modes 2-5, f [Hz] and zeta [%] (offsets from the last entry), "
               f"FRF distance [dB rms, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz]\n")
-        print("| pitch [mm] | element [mm] | substeps | " + " | ".join(f"mode {m} f" for m in (2, 3, 4, 5)) + " | "
+        print("| P:E:S[:R] | " + " | ".join(f"mode {m} f" for m in (2, 3, 4, 5)) + " | "
               + " | ".join(f"mode {m} zeta" for m in (2, 3, 4, 5)) + " | FRF [dB] | wall [s] |")
-        print("| --- " * 14 + "|")
+        print("| --- " * 11 + "|")
         for entry, r in zip(args.grid, rows):
             fs = " | ".join(f"{f:.2f} ({100 * (f / f0 - 1):+.2f} %)" for f, f0 in zip(r["f"], ref["f"]))
             zs = " | ".join(f"{100 * z:.3f} ({100 * (z / z0 - 1):+.0f} %)" for z, z0 in zip(r["zeta"], ref["zeta"]))
-            print(f"| {entry[0]:g} | {entry[1]:g} | {entry[2]} | {fs} | {zs} | {rms_db(r['H'], ref['H']):.2f} | "
+            print(f"| {label(entry)} | {fs} | {zs} | {rms_db(r['H'], ref['H']):.2f} | "
                   f"{r['wall_s']:.0f} |")
-        by_space: dict[tuple[float, float], dict[int, np.ndarray]] = {}
+        by_space: dict[tuple[float, float, int], dict[int, np.ndarray]] = {}
         for entry, r in zip(args.grid, rows):
-            by_space.setdefault(entry[:2], {})[entry[2]] = r["H"]
-        for (p, e), Hs in by_space.items():
+            by_space.setdefault((entry[0], entry[1], entry[3]), {})[entry[2]] = r["H"]
+        for (p, e, r), Hs in by_space.items():
             for s in sorted(Hs):
                 if 2 * s in Hs and 4 * s in Hs:
                     order, limit = richardson(Hs[s], Hs[2 * s], Hs[4 * s])
-                    print(f"\n{p:g} mm / {e:g} mm, substeps {s}, {2 * s}, {4 * s}: observed order {order:.2f}; distance "
+                    ends = f" (ends {p / r:g} mm)" if r > 1 else ""
+                    print(f"\n{p:g} mm{ends} / {e:g} mm, substeps {s}, {2 * s}, {4 * s}: observed order {order:.2f}; distance "
                           "from the Richardson limit [dB rms]: "
                           + ", ".join(f"{k} substeps {rms_db(Hs[k], limit):.2f}" for k in (s, 2 * s, 4 * s)))
     if args.save:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
@@ -128,18 +130,18 @@ def element_of(x_nodes: np.ndarray, x: float) -> int:
 
 
 def _pair_positions(cfg: Config) -> np.ndarray:
-    """Contact point positions [m]: x_start .. x_end at pitch_m, or at end_pitch_m within end_zone_m
-    of both ends and pitch_m between (plant.interface; validated to whole pitches)."""
+    """Contact point positions [m]: x_start .. x_end at pitch_m, each of the n_z pitches nearest
+    either end (n_z = end_zone_m / pitch_m rounded up) split into end_refinement; where the two
+    zones meet, every pitch is (plant.interface; validated to whole pitches)."""
     i = cfg.plant.interface
     if not i.enabled:
         return np.zeros(0)
-    if i.end_pitch_m <= 0.0:
-        return i.x_start_m + i.pitch_m * np.arange(int(round((i.x_end_m - i.x_start_m) / i.pitch_m)) + 1)
-    a, b = i.x_start_m + i.end_zone_m, i.x_end_m - i.end_zone_m
-    n_end = int(round(i.end_zone_m / i.end_pitch_m))
-    return np.concatenate([np.linspace(i.x_start_m, a, n_end + 1)[:-1],
-                           np.linspace(a, b, int(round((b - a) / i.pitch_m)) + 1),
-                           np.linspace(b, i.x_end_m, n_end + 1)[1:]])
+    n = int(round((i.x_end_m - i.x_start_m) / i.pitch_m))
+    n_z = math.ceil(i.end_zone_m / i.pitch_m - 1e-6)
+    x = i.x_start_m + i.pitch_m * np.arange(n + 1)
+    r = i.end_refinement
+    inner = [x[k] + i.pitch_m * j / r for k in range(n) if k < n_z or k >= n - n_z for j in range(1, r)]
+    return np.sort(np.concatenate([x, inner]))
 
 
 def node_pairs(x_pairs: np.ndarray, h_min: float) -> np.ndarray:

@@ -65,7 +65,8 @@ def test_spec_orientation_value_all_stuck(capsys):
     # (here half: 12.5 % less joint stiffness, all at the screw ends), so agreement to ~1.5 % is what
     # to expect (measured 225.63 Hz, -1.04 %)
     code, out, _ = _run(["--set", "plant.interface.k_n_area=1.25e12", "--set", "plant.interface.k_t_area=6.25e11",
-                         "--set", "plant.interface.pitch_m=0.02", "modes", "--json"], capsys)
+                         "--set", "plant.interface.pitch_m=0.02",
+                         "--set", "plant.interface.end_refinement=1", "modes", "--json"], capsys)
     assert code == 0
     assert json.loads(out)["full_stuck_hz"][2] == pytest.approx(228.0, rel=0.015)
 

@@ -56,6 +56,24 @@ def test_per_pair_contact_keys_refused_in_a_file_converted_in_a_log(tmp_path):
     assert cfg.plant.interface.k_t_area == pytest.approx(1e12, rel=1e-15)
 
 
+def test_a_stored_layout_keeps_the_points_it_ran_with(tmp_path):
+    """The default refines the contact pitch at the interface's ends (end_refinement = 2) since stop
+    40. A configuration stored in a log before it ran at a uniform pitch: without end_refinement it
+    loads with 1, with the earlier end_pitch_m (with a warning) pitch_m / end_pitch_m; a user's
+    file with end_pitch_m gets one line naming the key that replaces it."""
+    f = tmp_path / "old.toml"
+    f.write_text("[plant.interface]\npitch_m = 0.01\n")
+    assert loads(f.read_text(), stored=True).plant.interface.end_refinement == 1
+    assert load(f).plant.interface.end_refinement == 2
+    f.write_text("[plant.interface]\npitch_m = 0.01\nend_pitch_m = 0.0025\nend_zone_m = 0.03\n")
+    with pytest.warns(UserWarning, match="end_pitch_m = 0.0025 m is no longer a key"):
+        cfg = loads(f.read_text(), stored=True)
+    assert (cfg.plant.interface.end_refinement, cfg.plant.interface.end_zone_m) == (4, 0.03)
+    with pytest.raises(ConfigError, match=r"old.toml: .*use plant.interface.end_refinement = 4 ") as err:
+        load(f)
+    assert "\n" not in str(err.value)
+
+
 def test_dumped_configuration_loads_back_identical(tmp_path):
     cfg = load(sets=["plant.interface.k_n_area=2.5e12", "plant.screws.adaptive.F_N=150"])
     f = tmp_path / "resolved.toml"
@@ -78,7 +96,8 @@ def test_dumped_configuration_loads_back_identical(tmp_path):
     ("plant.modal_damping=-0.01", ["plant.modal_damping", "-0.01"]),
     ("plant.screws.adaptive.F_N=10", ["F_N", "10", "F_min_N"]),
     ("plant.interface.pitch_m=0.03", ["pitch_m", "0.03", "whole pitches"]),
-    ("plant.interface.end_pitch_m=0.0025", ["end_zone_m = 0 m", "whole number of end pitches", "end_pitch_m = 0"]),
+    ("plant.interface.end_pitch_m=0.0025", ["end_pitch_m", "no longer a key", "end_refinement = 4"]),
+    ("plant.interface.end_refinement=0", ["plant.interface.end_refinement", "0", "1 <= value <= 8"]),
     ("plant.beams.damper.z0_m=0.01", ["damper", "z0_m", "0.008"]),
     ("plant.interface.foo=1", ["unknown key", "plant.interface.foo"]),
     ("plant.screws.nosuch.F_N=1", ["nosuch", "adaptive"]),

@@ -221,7 +221,7 @@ def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, es
     loop = build_loop(load(), law, estimator)
     got = run_sil(loop, exp, 223.6, 5.0, 0.05)
     names = [n for n, _, _ in loop.signals if n not in ("tick_ns", "late_ns")]
-    assert got.shape == (TICKS, len(loop.signals)) and len(names) == 120   # 52 + 4 per contact point (17)
+    assert got.shape == (TICKS, len(loop.signals)) and len(names) == 144   # 52 + 4 per contact point (23)
     a = got[:, [loop.column(n) for n in names]]
     b = rec.log[:, [rec.column(n) for n in names]]
     assert (a.view(np.uint64) == b.view(np.uint64)).all()
@@ -269,7 +269,7 @@ def test_simulate_with_the_c_controller_logs_the_numba_runs_bits(runs, capsys, t
                  "--controller", f"c:{exp}"]) == 0
     a, b = read_mcap(sil), read_mcap(log)
     names = [n for n, _, _ in b.signals if n not in ("tick_ns", "late_ns")]
-    assert len(names) == 120   # 52 + 4 per contact point (17)
+    assert len(names) == 144   # 52 + 4 per contact point (23)
     assert (a.log[:, [a.column(n) for n in names]].view(np.uint64)
             == b.log[:, [b.column(n) for n in names]].view(np.uint64)).all()
     capsys.readouterr()

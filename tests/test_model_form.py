@@ -32,8 +32,9 @@ def _stuck_hz(cfg):
 def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
     """The other model form: twice the contact points (the same contact per unit area), and a
     pattern of frequency shifts that no scale of E removes (the beams part's 0.5 % in height and
-    density, the joint's discretisation; measured 0.29 % rms over modes 1-9 after the best E on the
-    10 mm default, 1.49 % when the pitch part also halved the stiffness per area on the 20 mm one)."""
+    density, the joint's discretisation; measured 0.13 % rms over modes 1-9 after the best E on the
+    graded default, 0.29 % on the uniform 10 mm joint, 1.49 % when the pitch part also halved the
+    stiffness per area on the 20 mm one: the better the joint converges, the less the pitch part adds)."""
     true = model_form(nominal)
     itf, itf0 = true.plant.interface, nominal.plant.interface
     assert (itf.pitch_m, itf.k_n_area, itf.k_t_area, itf.tau_s) == (itf0.pitch_m / 2, itf0.k_n_area, itf0.k_t_area,
@@ -42,7 +43,7 @@ def test_model_form_truth_is_not_a_rescaled_nominal(nominal):
     assert [b.height_m / b0.height_m for b, b0 in zip(true.plant.beams, nominal.plant.beams)] == pytest.approx([1.005, 0.995])
     shift = np.log(_stuck_hz(true) / _stuck_hz(nominal))
     rest = shift - shift.mean()             # the best single frequency scale (E) removes the mean log shift
-    assert 0.002 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
+    assert 0.0008 < np.sqrt(np.mean(rest ** 2)) < 0.03, rest
 
 
 def _changed(a: Config, b: Config) -> set[str]:

@@ -297,6 +297,7 @@ def test_contact_solve_falls_back_to_fine_substeps():
     # on the default joint the capped solves stall in runs that the fine substeps do not end either
     cfg = load(sets=["plant.interface.tau_s=0", "plant.newton_max_iter=7", "plant.fallback_split=16",
                      "plant.quasi_static_theta=0", "plant.quasi_static_hz=10500", "plant.interface.pitch_m=0.02",
+                     "plant.interface.end_refinement=1",
                      "plant.element_length_m=0.01", "plant.interface.k_n_area=2.125e12",
                      "plant.interface.k_t_area=1.75e12", "plant.period_match=false"])
     m = build_plant(cfg)
@@ -362,13 +363,17 @@ def test_joint_converges_in_its_contact_pitch():
     """docs/plant.md 6.2: the contact per unit area, refined in its pitch (benchmarks.contact_pitch),
     gives preloaded stuck modes 2-9 at F_N1 = 100 N of the full model that converge: 2.5 mm lies
     within 0.07 % of 1.25 mm (measured; 0.15 % allowed), and the refinement's step shrinks (2.5 ->
-    1.25 mm at most half of 10 -> 2.5 mm on every mode). The default 10 mm lies 0.87 % above on
-    mode 5 (measured; 0.5..1.2 % required): its discretisation error, reported beside its figures."""
+    1.25 mm at most half of 10 -> 2.5 mm on every mode). A uniform 10 mm pitch lies 0.87 % above on
+    mode 5 (measured; 0.5..1.2 % required); the default, 10 mm with 5 mm points within 30 mm of both
+    ends (docs/plant.md 6.3), gives 5 mm everywhere's modes (to 2e-6; 1e-5 allowed) and lies within
+    issue 31's 0.3 % of 1.25 mm (measured 0.28 %, mode 3): its discretisation error."""
     from benchmarks.contact_pitch import refined
     base = load()
 
     def modes(pitch):
-        model = build_plant(refined(base, ["plant.reduced=false"], pitch))
+        """Stuck modes 1-9 at ``pitch`` everywhere, or at the default layout (None)."""
+        cfg = with_sets(base, ["plant.reduced=false"]) if pitch is None else refined(base, ["plant.reduced=false"], pitch)
+        model = build_plant(cfg)
         return stuck_frequencies_hz(model, preloaded_pairs(model, 100.0))[:9]
 
     # modes 2-9: mode 1 (9.7 Hz) is resolved only to eps lambda_max / (2 lambda_1) = 0.6 % at 1.25 mm
@@ -378,6 +383,8 @@ def test_joint_converges_in_its_contact_pitch():
     assert np.max(np.abs(f2 / f1 - 1)) < 1.5e-3
     assert np.all(np.abs(f2 - f1) < 0.5 * np.abs(f10 - f2))
     assert 0.005 < np.max(f10 / f1 - 1) < 0.012
+    f_default, f5 = modes(None)[1:], modes(0.005)[1:]
+    assert np.max(np.abs(f_default / f5 - 1)) < 1e-5 and np.max(np.abs(f_default / f1 - 1)) < 3e-3
     # the elements are not what moves: the same 1.25 mm points on 5 mm elements (three of every four
     # points between nodes, read through the elements' interpolation) give modes 2-9 within 0.017 %
     # of the 1.25 mm elements (measured; 0.03 % allowed), a tenth of the 2.5 -> 1.25 mm pitch's step
@@ -390,11 +397,13 @@ def test_joint_converges_in_its_contact_pitch():
 def test_hammer_test_step_error_after_period_matching():
     """docs/plant.md 2.2 and 6.2 (benchmarks.substep_convergence): the 50 N hammer test's a_frf
     accelerance over 50-1200 Hz against 8 substeps, with the modes period-matched. All but stuck (mu
-    = 2, 300 N) and slipping (100 N) the error falls with every halving (measured 0.88 -> 0.43 ->
-    0.06 dB and 0.53 -> 0.37 -> 0.05 dB at 1, 2, 4 substeps; before period matching, on the 20 mm
-    plant, the slipping test gave 4.39 -> 2.47 -> 1.31 dB), one substep's error stays below 1 dB, and
-    it is still 4.6 x the signature of micro_slip at its default strength (0.11 dB measured; 3 x
-    required): the step's error, not the effect, is what a diagnosis at one substep sees first."""
+    = 2, 300 N) and slipping (100 N) the error falls with every halving (measured on the graded
+    joint 1.04 -> 0.89 -> 0.23 dB and 0.44 -> 0.35 -> 0.04 dB at 1, 2, 4 substeps; on the uniform
+    10 mm joint 0.88 -> 0.43 -> 0.06 and 0.53 -> 0.37 -> 0.05 dB; before period matching, on the 20 mm
+    plant, the slipping test gave 4.39 -> 2.47 -> 1.31 dB), one substep's error stays near 1 dB (1.2
+    allowed), and the slipping test's is still 2.7 x the signature of micro_slip at its default
+    strength (0.16 dB measured; 2 x required): the step's error, not the effect, is what a diagnosis
+    at one substep sees first."""
     from benchmarks.substep_convergence import accelerance, rms_db
     from rt.discrepancy.effects import get
     base = load()
@@ -406,22 +415,24 @@ def test_hammer_test_step_error_after_period_matching():
     stuck, _ = errors(with_sets(base, ["plant.interface.mu=2.0"]), 300.0)
     slip, H1 = errors(base, 100.0)
     for e in (stuck, slip):
-        assert np.all(np.diff(e) < 0) and e[0] < 1.0, e
+        assert np.all(np.diff(e) < 0) and e[0] < 1.2, e
     ms = get("micro_slip")
     signature = rms_db(accelerance(ms.apply(base, ms.parameter.default), 100.0), H1)
-    assert slip[0] > 3.0 * signature, (slip, signature)
+    assert slip[0] > 2.0 * signature, (slip, signature)
 
 def test_a_graded_contact_layout_equals_the_uniform_one_where_the_middle_stays_open():
-    """docs/plant.md 6.5: the pitch matters only where the joint is closed, near the screws at both
+    """docs/plant.md 6.4: the pitch matters only where the joint is closed, near the screws at both
     ends; between them the beams stand apart (0.2..1.5 um at 100 N). 2.5 mm points within 30 mm of
-    both ends and 10 mm points between (35 points) give the 50 N hammer test at 100 N of 2.5 mm
-    points everywhere (65) to 0.0006 dB rms (measured; 0.02 dB allowed) and its modes 2-5 to 1e-6
-    (1e-4 allowed), while the default's 10 mm points are 1.6 dB and 0.75 % away."""
+    both ends and 10 mm points between (end_refinement 4: 35 points) give the 50 N hammer test at
+    100 N of 2.5 mm points everywhere (65) to 0.0006 dB rms (measured; 0.02 dB allowed) and its
+    modes 2-5 to 1e-6 (1e-4 allowed), while 10 mm points everywhere are 1.6 dB and 0.75 % away."""
     from benchmarks.joint_convergence import hammer, rms_db
-    uniform = load(sets=["plant.interface.pitch_m=0.0025", "plant.element_length_m=0.0025"])
-    graded = load(sets=["plant.interface.end_pitch_m=0.0025", "plant.interface.end_zone_m=0.03",
+    uniform = load(sets=["plant.interface.pitch_m=0.0025", "plant.interface.end_refinement=1",
+                         "plant.element_length_m=0.0025"])
+    graded = load(sets=["plant.interface.end_refinement=4", "plant.interface.end_zone_m=0.03",
                         "plant.element_length_m=0.0025"])
-    r_u, r_g, r_d = hammer(uniform, 100.0), hammer(graded, 100.0), hammer(load(), 100.0)
+    coarse = load(sets=["plant.interface.end_refinement=1"])
+    r_u, r_g, r_c = hammer(uniform, 100.0), hammer(graded, 100.0), hammer(coarse, 100.0)
     assert build_plant(graded).n_pairs == 35
     assert rms_db(r_g["H"], r_u["H"]) < 0.02 and np.max(np.abs(r_g["f"] / r_u["f"] - 1)) < 1e-4
-    assert rms_db(r_d["H"], r_u["H"]) > 1.0 and np.max(np.abs(r_d["f"] / r_u["f"] - 1)) > 5e-3
+    assert rms_db(r_c["H"], r_u["H"]) > 1.0 and np.max(np.abs(r_c["f"] / r_u["f"] - 1)) > 5e-3

@@ -45,8 +45,8 @@ def test_plant_replay_of_a_fresh_run_is_bit_exact(logs, capsys, law, reduced):
     assert code == 0 and r["bit_exact"] is True and r["max_abs_diff"] == 0.0 and r["first_mismatch_tick"] is None
     assert r["ticks"] == 2100 and r["missing_ticks"] == 0 and r["failed_solves"] == 0 and r["law"] == law
     expected = [n for n, _ in ACTUATOR_OUTPUTS] + [n for n, _ in reduced.output_labels()]
-    # 9 actuator, 93 plant: 20 of the points, energies and counters, 5 of the bolts, 4 per contact point (17)
-    assert r["signals_compared"] == expected and len(expected) == 9 + 20 + 5 + 4 * reduced.n_pairs == 102
+    # 9 actuator, 117 plant: 20 of the points, energies and counters, 5 of the bolts, 4 per contact point (23)
+    assert r["signals_compared"] == expected and len(expected) == 9 + 20 + 5 + 4 * reduced.n_pairs == 126
     # not vacuous: the structure moved and the stack was driven (passive: 0 V throughout; hysteresis:
     # F_N1 swings 0.65 N in 0.1 s while RT1 (T1 = 20 ms) builds up; Lyapunov: tens of N)
     assert r["outputs"]["abar_tip"]["max"] > 1.0
@@ -54,7 +54,7 @@ def test_plant_replay_of_a_fresh_run_is_bit_exact(logs, capsys, law, reduced):
     assert swing > {"passive": -1.0, "hysteresis": 0.3, "lyapunov": 10.0}[law]
 
 
-def test_a_changed_friction_coefficient_is_found_in_the_plant_only(logs, capsys):
+def test_a_changed_friction_coefficient_is_found_in_the_plant_only(logs, capsys, reduced):
     code, r, _ = replay(capsys, logs["lyapunov"], "--set", "plant.interface.mu=0.3")
     assert code == 1 and r["bit_exact"] is False and r["sets"] == ["plant.interface.mu=0.3"]
     by = r["max_abs_diff_by_signal"]
@@ -63,8 +63,8 @@ def test_a_changed_friction_coefficient_is_found_in_the_plant_only(logs, capsys)
     # the interface slips differently: its tangential forces and the accelerations change (a 1 s run
     # measured 33 m/s^2 in abar_tip, 1.2 mm/s in v_rel, 9.8 N at the point under the adaptive screw on
     # the 20 mm plant; loose lower bounds here)
-    itf, screw = load().plant.interface, adaptive_screw(load())
-    j = int(round((screw.x_m - itf.x_start_m) / itf.pitch_m))
+    screw = adaptive_screw(load())
+    j = int(np.argmin(np.abs(reduced.structure.x_pairs - screw.x_m)))
     assert by[f"f_t_{j}"] > 1.0 and by["abar_tip"] > 1.0 and by["v_rel"] > 1e-4
     assert r["first_mismatch_tick"] > 0
 

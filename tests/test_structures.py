@@ -53,7 +53,8 @@ def test_contact_points_between_nodes_read_the_elements_interpolation():
     from plant.fe_beam import DOFS_PER_NODE, THETA, U, W
     from plant.structure import build_structure, node_pairs
 
-    cfg = load(sets=["plant.interface.pitch_m=0.0025", "plant.element_length_m=0.01"])
+    cfg = load(sets=["plant.interface.pitch_m=0.0025", "plant.interface.end_refinement=1",
+                     "plant.element_length_m=0.01"])
     st = build_structure(cfg)
     assert len(st.x_pairs) == 65 and len(node_pairs(st.x_pairs, 0.01)) == 17   # 3 of every 4 points between nodes
     fields = {"main": (3e-4, -2e-3, 5e-6), "damper": (-4e-4, 1e-3, -2e-6)}        # w = a x^2 + b x^3, u = c x
@@ -71,3 +72,19 @@ def test_contact_points_between_nodes_read_the_elements_interpolation():
     g_t = (cu - cl) * x + h["damper"] / 2 * (2 * au * x + 3 * bu * x**2) + h["main"] / 2 * (2 * al * x + 3 * bl * x**2)
     np.testing.assert_allclose(st.gap_rows[0::2] @ X, g_n, rtol=0, atol=1e-15)
     np.testing.assert_allclose(st.gap_rows[1::2] @ X, g_t, rtol=0, atol=1e-15)
+
+
+def test_the_default_layout_refines_the_contact_pitch_at_both_ends():
+    """docs/plant.md 6.3: 10 mm points with each of the three 10 mm pitches nearest either end of the
+    160 mm interface halved (end_refinement 2, end_zone_m 30 mm): 23 points; a zone is rounded up to
+    whole pitches (25 mm gives the same points), zones that meet refine the whole interface (33
+    points, 5 mm everywhere), and end_refinement 1 is the uniform 10 mm grid (17 points)."""
+    from plant.structure import build_structure
+
+    def spacing_mm(sets):
+        return np.round(np.diff(build_structure(load(sets=sets)).x_pairs) * 1e3, 9)
+
+    assert spacing_mm([]).tolist() == [5.0] * 6 + [10.0] * 10 + [5.0] * 6
+    assert spacing_mm(["plant.interface.end_zone_m=0.025"]).tolist() == spacing_mm([]).tolist()
+    assert spacing_mm(["plant.interface.end_zone_m=0.09"]).tolist() == [5.0] * 32
+    assert spacing_mm(["plant.interface.end_refinement=1"]).tolist() == [10.0] * 16

@@ -122,13 +122,13 @@ class Interface:
     pitch_m: float = param(0.010, "m", lo=0.0, lo_inclusive=False,
                            doc="contact point spacing: a numerical choice (docs/plant.md 6, convergence), "
                                "not a physical parameter; each point carries its tributary area")
-    end_pitch_m: float = param(0.0, "m", lo=0.0,
-                               doc="contact point spacing within end_zone_m of both ends of the interface, where "
-                                   "the joint's slip starts (docs/plant.md 6.5); 0 = pitch_m everywhere. A "
-                                   "numerical choice like pitch_m; it may be finer than the elements")
-    end_zone_m: float = param(0.0, "m", lo=0.0,
-                              doc="length at each end of the interface that end_pitch_m samples (used if "
-                                  "end_pitch_m > 0)")
+    end_refinement: int = param(2, "-", lo=1, hi=8,
+                                doc="the contact pitch near both ends of the interface is pitch_m / end_refinement "
+                                    "(within end_zone_m), where the joint is closed and its slip starts "
+                                    "(docs/plant.md 6.4, 6.5); 1 = pitch_m everywhere. A numerical choice like pitch_m")
+    end_zone_m: float = param(0.03, "m", lo=0.0,
+                              doc="length at each end of the interface sampled at pitch_m / end_refinement, rounded "
+                                  "up to whole pitch_m; where the two zones meet, the whole interface is")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
     k_n_area: float = param(9.5e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="normal penalty stiffness per unit area of interface (a pair carries it times "
@@ -619,6 +619,37 @@ def _legacy_contact(data: dict, stored: bool, source: str) -> None:
                       "stiffness, the converted one half)", stacklevel=2)
 
 
+def _end_pitch_text(end_pitch, r: int) -> str:
+    """One line: the earlier ``end_pitch_m`` is gone, and the end_refinement that replaces it."""
+    return (f"plant.interface.end_pitch_m = {_short(end_pitch)} m is no longer a key: use plant.interface."
+            f"end_refinement = {r} (pitch_m / end_pitch_m; 1 = pitch_m everywhere)")
+
+
+def _legacy_layout(data: dict, over: dict, stored: bool, source: str) -> None:
+    """Handle the contact layout of earlier versions in ``data`` (merged) in place, from ``over`` (the
+    text's own keys): a stored configuration without ``end_refinement`` ran at a uniform pitch, so it
+    gets end_refinement = 1, or pitch_m / end_pitch_m if it has the earlier ``end_pitch_m`` (with a
+    warning); any other input that gives ``end_pitch_m`` is refused with the key that replaces it."""
+    itf_over = over.get("plant", {}).get("interface")
+    itf = data.get("plant", {}).get("interface")
+    if not isinstance(itf, dict):
+        return
+    itf_over = itf_over if isinstance(itf_over, dict) else {}
+    if not stored and "end_pitch_m" not in itf_over:
+        return
+    end_pitch = itf.pop("end_pitch_m", 0.0)
+    if "end_refinement" in itf_over:
+        return
+    pitch = float(itf.get("pitch_m", Interface.pitch_m))
+    r = round(pitch / end_pitch) if isinstance(end_pitch, (int, float)) and end_pitch > 0 else 1
+    text = _end_pitch_text(end_pitch, r)
+    if not stored:
+        raise ConfigError(f"{source}: {text}")
+    if "end_pitch_m" in itf_over:
+        warnings.warn(f"{source}: {text}; converted", stacklevel=3)
+    itf["end_refinement"] = r
+
+
 def _apply_set(data: dict, assignment: str) -> None:
     """Apply one ``key=value``; list elements are addressed by their ``name``."""
     if "=" not in assignment:
@@ -627,6 +658,11 @@ def _apply_set(data: dict, assignment: str) -> None:
     parts = key.strip().split(".")
     if parts[:2] == ["plant", "interface"] and len(parts) == 3 and parts[2] in LEGACY_PER_PAIR:
         raise ConfigError(f"--set {_shown(key)}: {_per_area_text(data, parts[2], _parse_value(text.strip()))}")
+    if parts == ["plant", "interface", "end_pitch_m"]:
+        value = _parse_value(text.strip())
+        pitch = float(data["plant"]["interface"].get("pitch_m", Interface.pitch_m))
+        r = round(pitch / value) if isinstance(value, (int, float)) and value > 0 else 1
+        raise ConfigError(f"--set {_shown(key)}: {_end_pitch_text(value, r)}")
     node, path = data, ""
     shown = _shown(key)
     for i, part in enumerate(parts):
@@ -682,6 +718,7 @@ def loads(text: str, sets: list[str] | tuple[str, ...] = (), source: str = "conf
         raise ConfigError(f"{source}: not valid TOML ({exc})") from None
     data = _merge(to_dict(Config()), over)
     _legacy_contact(data, stored, source)
+    _legacy_layout(data, over, stored, source)
     return _resolve(data, sets, source)
 
 
@@ -698,7 +735,6 @@ def refined_sets(cfg: Config, factor: int) -> list[str]:
     per unit area) is unchanged."""
     p = cfg.plant
     return [f"plant.interface.pitch_m={p.interface.pitch_m / factor!r}",
-            f"plant.interface.end_pitch_m={p.interface.end_pitch_m / factor!r}",
             f"plant.element_length_m={p.element_length_m / factor!r}",
             f"plant.substeps={p.substeps * factor * factor}"]
 
@@ -908,21 +944,10 @@ def _check_interface(p: Plant, beams: dict, screws: dict) -> None:
             if not (b.x0_m - 1e-12 <= x <= b.x0_m + b.length_m + 1e-12):
                 raise ConfigError(f"plant.interface.{key} = {x:g} m lies outside beam {b.name!r} "
                                   f"[{b.x0_m:g}, {b.x0_m + b.length_m:g}] m")
-    graded = i.end_pitch_m > 0.0
-    length = i.x_end_m - i.x_start_m - (2.0 * i.end_zone_m if graded else 0.0)
-    if graded:
-        z = i.end_zone_m / i.end_pitch_m
-        if not (0.0 < i.end_zone_m and 2.0 * i.end_zone_m < i.x_end_m - i.x_start_m) or abs(z - round(z)) > 1e-6:
-            fit = min(20, math.ceil((i.x_end_m - i.x_start_m) / (2.0 * i.end_pitch_m) - 1e-9) - 1)   # whole pitches < half
-            hint = f"e.g. {fit * i.end_pitch_m:g}; or end_pitch_m = 0" if fit >= 1 else "set end_pitch_m = 0"
-            raise ConfigError(f"plant.interface.end_zone_m = {i.end_zone_m:g} m: with end_pitch_m = {i.end_pitch_m:g} m "
-                              f"it must be a whole number of end pitches and less than half the interface "
-                              f"({i.x_end_m - i.x_start_m:g} m): {hint}")
-    n = length / i.pitch_m
+    n = (i.x_end_m - i.x_start_m) / i.pitch_m
     if not math.isfinite(n) or abs(n - round(n)) > 1e-6:
-        where = "the interface between its end zones" if graded else "the interface"
-        raise ConfigError(f"plant.interface.pitch_m = {i.pitch_m:g} m does not divide {where} "
-                          f"length {length:g} m into whole pitches")
+        raise ConfigError(f"plant.interface.pitch_m = {i.pitch_m:g} m does not divide the interface "
+                          f"length {i.x_end_m - i.x_start_m:g} m into whole pitches")
     gap = (up_b.z0_m - up_b.height_m / 2) - (lo_b.z0_m + lo_b.height_m / 2)
     if abs(gap) > 1e-9:
         raise ConfigError(f"plant.beams[{_shown(up_b.name)}].z0_m = {up_b.z0_m:g} m: the bottom of {up_b.name!r} "

@@ -29,9 +29,10 @@ BUDGET_US = 1e6 / 21000.0  # the controller step [us]
 
 
 def _with_pairs(cfg: Config, n_pairs: int) -> Config:
+    """``cfg`` with n_pairs contact points at a uniform pitch (end_refinement 1) over its interface."""
     itf = cfg.plant.interface
     pitch = (itf.x_end_m - itf.x_start_m) / (n_pairs - 1)
-    plant = dataclasses.replace(cfg.plant, interface=dataclasses.replace(itf, pitch_m=pitch),
+    plant = dataclasses.replace(cfg.plant, interface=dataclasses.replace(itf, pitch_m=pitch, end_refinement=1),
                                 element_length_m=min(cfg.plant.element_length_m, pitch))
     return dataclasses.replace(cfg, plant=plant)
 

@@ -90,8 +90,6 @@ def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS) -> Config
         sets.append(f"plant.element_length_m={p.element_length_m / 2!r}")
     if "pitch" in parts:
         sets.append(f"plant.interface.pitch_m={itf.pitch_m / 2!r}")
-        if itf.end_pitch_m > 0.0:
-            sets.append(f"plant.interface.end_pitch_m={itf.end_pitch_m / 2!r}")
     if "substeps" in parts:
         sets.append(f"plant.substeps={2 * p.substeps}")
     if "damping" in parts:
