@@ -20,7 +20,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                         "part against python-control's nlsys; controller: the whole controller, numba and C (--c DIR)")
     b.add_argument("--steps", type=int, default=21000, metavar="N", help="steps per case (21000 = 1 s)")
     b.add_argument("--pairs", type=int, nargs="+", default=[5, 9, 17, 33], metavar="P",
-                   help="contact pair counts")
+                   help="contact point counts, each at a uniform pitch over the interface (the default's graded "
+                        "layout is 23 points: `frictionrt bench loop` times it)")
     b.add_argument("--c", metavar="DIR", default=None, help="controller: time the C export in DIR beside numba "
                    "(an export of the same configuration, law and estimator)").complete = shtab.DIRECTORY
     b.add_argument("--cc", metavar="CC", default=None, help="controller with --c: the C compiler (default: $CC or cc)")
