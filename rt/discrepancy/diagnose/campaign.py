@@ -47,7 +47,7 @@ from rt.common.config import Config, with_sets
 from rt.discrepancy.diagnose.structure import (
     ShapeRun,
     StructureFit,
-    fit_cost,
+    best_nested,
     fit_structure,
     model_frequencies,
     model_frf,
@@ -294,23 +294,16 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
                            dask_address)
     struct_fits |= dict(zip(struct_eff, fits))
     act_fits |= dict(zip(act_eff, fits[len(struct_eff):])) if act else {e: ({}, {}) for e in act_eff}
-    # calibration alone is nested in every candidate: where a candidate's calibration scales fit
-    # better without the effect, calibration alone stopped short of its optimum; continue from there,
-    # and fit the candidates that then end less likely than it again from it (their first fits had
-    # started in another valley: seed 5 with hidden Stribeck friction on the graded joint, Stribeck
-    # had ended at 0.15 with 1.2 x the continued calibration's RSS, from it 0.29 with 1.7 % of it);
-    # until no candidate's scales are better, at most CONTINUE_ROUNDS times
+    # calibration alone is nested in every candidate: continued from better scales, refits (docs/discrepancy.md, Method 3)
     for _ in range(CONTINUE_ROUNDS):
-        cal = _best_nested(struct_fits, struct_eff, nominal, data)
+        cal = best_nested(struct_fits, struct_eff, nominal, data)
         if cal is struct_fits[None]:
             break
-        say("fit calibration only, continued")
+        say("fit calibration only, continued, and again the candidates less likely than it")
         struct_fits[None] = cal = fit_structure(nominal, data, None, start=cal.theta)
         again = [e for e in struct_eff if bic(struct_fits[e].channels, 0) > bic(cal.channels, 0)]
-        if again:
-            say(f"fit {', '.join(e.name for e in again)} again, from the continued calibration")
-            struct_fits |= dict(zip(again, fit_in_parallel([(fit_structure, (nominal, data, e), {"calibrated": cal})
-                                                            for e in again], jobs, dask_address)))
+        calls = [(fit_structure, (nominal, data, e), {"calibrated": cal}) for e in again]
+        struct_fits |= dict(zip(again, fit_in_parallel(calls, jobs, dask_address)))
     # ... and a candidate whose fit still ended less likely than (the continued) calibration alone is
     # scored at that nested point, its strength at nominal (seed 3 with a hidden shaker: the three
     # mass/compliance candidates had ended 10.7 % above calibration's RSS, 994 BIC points below it)
@@ -380,18 +373,6 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
         res["not_tried"] += [e.name for e in implemented() if e.channel == "stepsine"]
     return res | {
         "_plots": {"imp": imp, "act": act, "before": (run0, arun0), "after": (final["run"], arun1)}}
-
-
-def _best_nested(struct_fits: dict, struct_eff: list, nominal: Config, data: list) -> StructureFit:
-    """Calibration alone (``struct_fits[None]``), or the scales of the candidate fit that fit the data
-    better without their effect (the lowest RSS), as a StructureFit to continue calibration from."""
-    cal = struct_fits[None]
-    for e in struct_eff:
-        th = {k: v for k, v in struct_fits[e].theta.items() if k != e.name}
-        run = run_shape(struct_cfg(nominal, th, None), data, th["dispersion"])
-        if sum(v @ v for v in run.r.values()) < fit_cost(cal):
-            cal = StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, None), cal.J)
-    return cal
 
 
 def rank(results: list[dict]) -> tuple[dict, list[dict], dict | None]:

@@ -429,6 +429,18 @@ def fit_cost(fit: StructureFit) -> float:
     return float(sum(v @ v for v in fit.channels.values()))
 
 
+def best_nested(struct_fits: dict, struct_eff: list, nominal: Config, data: list) -> StructureFit:
+    """Calibration alone (``struct_fits[None]``), or the scales of the candidate fit that fit the data
+    better without their effect (the lowest RSS), as a StructureFit to continue calibration from."""
+    cal = struct_fits[None]
+    for e in struct_eff:
+        th = {k: v for k, v in struct_fits[e].theta.items() if k != e.name}
+        run = run_shape(struct_cfg(nominal, th, None), data, th["dispersion"])
+        if sum(v @ v for v in run.r.values()) < fit_cost(cal):
+            cal = StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, None), cal.J)
+    return cal
+
+
 def jacobian_column(evaluate, x: np.ndarray, r: np.ndarray, j: int, steps: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """d(model)/d(theta_j) by a forward difference of ``steps[j]`` (backward at the upper bound);
     ``evaluate(x) -> (run, r)`` with r = measurement - model."""
