@@ -9,9 +9,8 @@ Physical coordinates are the free DOFs of all beams stacked beam by beam
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 

@@ -1,6 +1,7 @@
 """The typed configuration: SPEC defaults, overrides, validation messages, round trip."""
 import math
 import tomllib
+import warnings
 
 import pytest
 
@@ -65,6 +66,10 @@ def test_a_stored_layout_keeps_the_points_it_ran_with(tmp_path):
     f.write_text("[plant.interface]\npitch_m = 0.01\n")
     assert loads(f.read_text(), stored=True).plant.interface.end_refinement == 1
     assert load(f).plant.interface.end_refinement == 2
+    f.write_text("[plant.interface]\npitch_m = 0.01\nend_pitch_m = 0.0\nend_zone_m = 0.0\n")   # stops 38-39's logs
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # the uniform layout they ran: converted without a word
+        assert loads(f.read_text(), stored=True).plant.interface.end_refinement == 1
     f.write_text("[plant.interface]\npitch_m = 0.01\nend_pitch_m = 0.0025\nend_zone_m = 0.03\n")
     with pytest.warns(UserWarning, match="end_pitch_m = 0.0025 m is no longer a key"):
         cfg = loads(f.read_text(), stored=True)
