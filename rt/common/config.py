@@ -619,6 +619,11 @@ def _legacy_contact(data: dict, stored: bool, source: str) -> None:
                       "stiffness, the converted one half)", stacklevel=2)
 
 
+def _end_refinement_of(pitch: float, end_pitch) -> int:
+    """The end_refinement that replaces the earlier ``end_pitch_m`` at ``pitch`` [m] (0 or none: 1)."""
+    return round(pitch / end_pitch) if isinstance(end_pitch, (int, float)) and end_pitch > 0 else 1
+
+
 def _end_pitch_text(end_pitch, r: int) -> str:
     """One line: the earlier ``end_pitch_m`` is gone, and the end_refinement that replaces it."""
     return (f"plant.interface.end_pitch_m = {_short(end_pitch)} m is no longer a key: use plant.interface."
@@ -640,8 +645,7 @@ def _legacy_layout(data: dict, over: dict, stored: bool, source: str) -> None:
     end_pitch = itf.pop("end_pitch_m", 0.0)
     if "end_refinement" in itf_over:
         return
-    pitch = float(itf.get("pitch_m", Interface.pitch_m))
-    r = round(pitch / end_pitch) if isinstance(end_pitch, (int, float)) and end_pitch > 0 else 1
+    r = _end_refinement_of(float(itf.get("pitch_m", Interface.pitch_m)), end_pitch)
     text = _end_pitch_text(end_pitch, r)
     if not stored:
         raise ConfigError(f"{source}: {text}")
@@ -660,8 +664,7 @@ def _apply_set(data: dict, assignment: str) -> None:
         raise ConfigError(f"--set {_shown(key)}: {_per_area_text(data, parts[2], _parse_value(text.strip()))}")
     if parts == ["plant", "interface", "end_pitch_m"]:
         value = _parse_value(text.strip())
-        pitch = float(data["plant"]["interface"].get("pitch_m", Interface.pitch_m))
-        r = round(pitch / value) if isinstance(value, (int, float)) and value > 0 else 1
+        r = _end_refinement_of(float(data["plant"]["interface"].get("pitch_m", Interface.pitch_m)), value)
         raise ConfigError(f"--set {_shown(key)}: {_end_pitch_text(value, r)}")
     node, path = data, ""
     shown = _shown(key)
