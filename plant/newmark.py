@@ -322,6 +322,32 @@ def _contact_residual(g, g_pred, W, wk, n_act):
     return res2
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _jacobian_solve(r_, x, W, wk, n_act):
+    """x = J^-1 r_ with the factors wk.LU of the active block (``_contact_newton``'s partitioned
+    solve): J_aa x_a = r_a by LU, then x_i = r_i + (W dLambda/dg)_ia x_a. r_ and x are (2p,)
+    and distinct. RT-safe."""
+    act, LU, d, piv, rhs = wk.act, wk.LU, wk.d, wk.piv, wk.ra
+    m = r_.shape[0]
+    ma = 2 * n_act
+    for ra in range(ma):
+        rhs[ra] = r_[2 * act[ra // 2] + ra % 2]
+    _lu_solve(LU, piv, rhs, ma)
+    for i in range(m):
+        x[i] = r_[i]
+    # x_i = r_i + (W dLambda/dg)_ia x_a (active rows are overwritten below; W symmetric)
+    for b in range(n_act):
+        j = act[b]
+        cn = d[3 * j] * rhs[2 * b]
+        cnt = d[3 * j + 1] * rhs[2 * b] + d[3 * j + 2] * rhs[2 * b + 1]
+        for i in range(m):
+            x[i] += W[2 * j, i] * cn + W[2 * j + 1, i] * cnt
+    for b in range(n_act):
+        j = act[b]
+        x[2 * j] = rhs[2 * b]
+        x[2 * j + 1] = rhs[2 * b + 1]
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
 def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place);
@@ -344,7 +370,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     if that was not reached within p.max_iter. RT-safe.
     """
     act, LU, d, piv, pattern, code = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code
-    rhs, r_, g_old, dg, stale = wk.ra, wk.r, wk.g_old, wk.dg, wk.stale
+    r_, g_old, dg, stale = wk.r, wk.g_old, wk.dg, wk.stale
     m = g.shape[0]
     npair = m // 2
     scale = 0.0
@@ -374,26 +400,9 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
             stale[1] = 1 if n_fade > 0 else 0
             for j in range(npair):
                 pattern[j] = code[j]
-        for ra in range(ma):
-            rhs[ra] = r_[2 * act[ra // 2] + ra % 2]
-        _lu_solve(LU, piv, rhs, ma)
+        _jacobian_solve(r_, dg, W, wk, n_act)
         for i in range(m):
             g_old[i] = g[i]
-            dg[i] = r_[i]
-        # d_i = r_i + (W dLambda/dg)_ia d_a (active rows are overwritten below; W symmetric)
-        for b in range(n_act):
-            j = act[b]
-            dn = rhs[2 * b]
-            dt = rhs[2 * b + 1]
-            cn = d[3 * j] * dn
-            cnt = d[3 * j + 1] * dn + d[3 * j + 2] * dt
-            for i in range(m):
-                dg[i] += W[2 * j, i] * cn + W[2 * j + 1, i] * cnt
-        for b in range(n_act):
-            j = act[b]
-            dg[2 * j] = rhs[2 * b]
-            dg[2 * j + 1] = rhs[2 * b + 1]
-        for i in range(m):
             g[i] += dg[i]
         n_act, same, n_fade = _contact_laws(g, w_old, p, wk, inv_h)
         if same:
