@@ -93,7 +93,7 @@ class PlantModel:
                          lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p * self.n_sliders), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
-                         ra=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
+                         ra=np.zeros(m), z=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
                          mu_eff=self.params.mu.copy(), stale=np.zeros(2, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:

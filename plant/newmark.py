@@ -139,6 +139,7 @@ class PlantWork(NamedTuple):
     piv: np.ndarray        # (2p,) int64 row pivots of LU
     act: np.ndarray        # (p,) int64 active pairs of the current iterate (first n_act entries)
     ra: np.ndarray         # (2p,) right-hand side / solution of the active block
+    z: np.ndarray          # (2p,) J^-1 W e_n of a pair opening or closing within the step (_transition_step)
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
     mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
     stale: np.ndarray      # (2,) int64: [0] 1 if mu_eff changed since the LU was factorised; [1] 1 if the
@@ -348,6 +349,113 @@ def _jacobian_solve(r_, x, W, wk, n_act):
         x[2 * j + 1] = rhs[2 * b + 1]
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _one_transition(code):
+    """The pair that opens or closes within the step if it is the only one, else -1. RT-safe."""
+    jt = -1
+    for j in range(code.shape[0]):
+        if code[j] == TRANSITION:
+            if jt >= 0:
+                return -1
+            jt = j
+    return jt
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _normal_mean(g0, g1, k_n, cn_h):
+    """A pair's mean normal force over the step, spring (discrete gradient) plus dashpot, and its
+    derivative in the end gap g1 [N, N/m] (``_normal_impulse`` + ``_interface_dashpot``'s normal
+    part). RT-safe."""
+    lam, dlam, _ = _normal_impulse(g0, g1, k_n)
+    ldn, _, ddn, _, _, _ = _interface_dashpot(g0, g1, 0.0, 0.0, cn_h, 0.0, 1.0)
+    return lam + ldn, dlam + ddn
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
+def _transition_root(g_free, w_eff, g0, k_n, cn_h):
+    """The end gap x [m] with x = g_free + w_eff Lambda_n(g0, x) and its Lambda_n [N] (``_normal_mean``).
+
+    With w_eff > 0 and dLambda_n/dx <= 0 (the spring's discrete gradient and the dashpot both
+    resist the gap's change), F(x) = x - g_free - w_eff Lambda_n(x) rises with slope >= 1, so its
+    one root lies between x and x - F(x) for any x: Newton safeguarded by that bracket, to
+    round-off. RT-safe."""
+    x = g_free
+    lam, dlam = _normal_mean(g0, x, k_n, cn_h)
+    f = x - g_free - w_eff * lam
+    lo = x - f if f > 0.0 else x
+    hi = x if f > 0.0 else x - f
+    for _ in range(60):
+        if f == 0.0 or hi - lo <= 4.0 * ROUNDOFF * max(abs(lo), abs(hi)):
+            break
+        xn = x - f / (1.0 - w_eff * dlam)
+        if not (lo < xn < hi):
+            xn = 0.5 * (lo + hi)
+        x = xn
+        lam, dlam = _normal_mean(g0, x, k_n, cn_h)
+        f = x - g_free - w_eff * lam
+        if f > 0.0:
+            hi = x
+        else:
+            lo = x
+    return x, lam
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _transition_step(jt, g, dg, W, p, wk, n_act, inv_h):
+    """Replace the Newton step dg by the exact solution for the one pair jt that opens or closes
+    within the step, the other pairs staying in their pieces (docs/plant.md 6.4).
+
+    Every pair law is affine within its piece except that pair's mean normal force Lambda_n(x) of
+    its end gap x, a hyperbola (the discrete gradient across the contact's edge) on which plain
+    Newton needs four to six iterations. With Lambda's Jacobian D at g, J = I - W D and
+    z = J^-1 W e_n (e_n: pair jt's normal gap), the exact step is dg + z psi with psi the
+    nonlinear remainder Lambda_n(x) - Lambda_n(g) - d_n (x - g_n). Eliminating the rest leaves
+    one scalar equation x = g_free + w_eff Lambda_n(x), w_eff = z_n / (1 + d_n z_n) the pair's
+    compliance with the others attached, solved by ``_transition_root``. Skipped (plain Newton
+    step kept) unless w_eff > 0. RT-safe."""
+    z, d, lam = wk.z, wk.d, wk.lam
+    m = g.shape[0]
+    n = 2 * jt
+    _jacobian_solve(W[n], z, W, wk, n_act)  # W symmetric: its row is the column W e_n
+    d_n = d[3 * jt]
+    den = 1.0 + d_n * z[n]
+    if not (den > 0.0 and z[n] > 0.0):
+        return
+    w_eff = z[n] / den
+    coef = d_n * dg[n] / den
+    lam_c = lam[n]
+    g_free = g[n] + dg[n] - z[n] * coef - w_eff * lam_c
+    _, lam_x = _transition_root(g_free, w_eff, wk.g0[n], p.k_n[jt], p.c_n[jt] * inv_h)
+    s = (lam_x - lam_c) / den - coef
+    for i in range(m):
+        dg[i] += z[i] * s
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _reversals_to_stick(g, w_old, W, p, wk):
+    """Take the stick piece for the next Newton step of every Jenkins pair whose slip reversed
+    (its step, computed with slip in one direction, landed in slip in the other).
+
+    Between slip + and slip - lies stick: a pair that reverses within the step is usually stuck
+    at its end, and Newton with the two slip pieces alternates between them (two-cycles of 4+
+    iterations, the tick's tail on the graded joint: docs/plant.md 6.4). The step is then
+    computed with the stick piece's affine law M_t = Lambda_t + 1/2 (-k_t (g_t - w_old) - lambda_t1)
+    instead of the slip linearisation: wk.r gets W e_t (M_t - Lambda_t), wk.d the stick entries
+    (dLambda_t/dg_n 0, dLambda_t/dg_t -k_t/2 plus the dashpot's), wk.code stick (1). The residual
+    and the law stay the true ones; only the step's piece changes. RT-safe."""
+    code, pattern, d, r_, lam1, k_t = wk.code, wk.pattern, wk.d, wk.r, wk.lam1, p.k_t
+    m = g.shape[0]
+    for j in range(code.shape[0]):
+        c, c_prev = code[j], pattern[j]
+        if (c == 2 and c_prev == 3) or (c == 3 and c_prev == 2):
+            dlam = 0.5 * (-k_t[j] * (g[2 * j + 1] - w_old[j]) - lam1[2 * j + 1])
+            for i in range(m):
+                r_[i] += W[2 * j + 1, i] * dlam
+            d[3 * j + 1] = 0.0
+            d[3 * j + 2] -= 0.5 * k_t[j]
+            code[j] = 1
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
 def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     """Solve g = g_pred + W Lambda(g0, g, w_old) by Newton, starting from g (updated in place);
@@ -386,6 +494,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         if res2 <= tol2:
             return it
         ma = 2 * n_act
+        if it < PLAIN_ITER and p.iwan_k.shape[0] == 1:
+            _reversals_to_stick(g, w_old, W, p, wk)
         if not same or stale[0] != 0:
             stale[0] = 0
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
@@ -401,6 +511,10 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
             for j in range(npair):
                 pattern[j] = code[j]
         _jacobian_solve(r_, dg, W, wk, n_act)
+        if it < PLAIN_ITER:
+            jt = _one_transition(code)
+            if jt >= 0:
+                _transition_step(jt, g, dg, W, p, wk, n_act, inv_h)
         for i in range(m):
             g_old[i] = g[i]
             g[i] += dg[i]

@@ -106,13 +106,11 @@ def undamped():
 
 
 @pytest.fixture(scope="module")
-def small_undamped():
-    """Five contact points (40 mm pitch) with the pair stiffness of the plant before issue 31 (1.7e9,
-    1.4e9 N/m per pair: 1.0625e12, 0.875e12 N/m^3 at 40 x 40 mm), the plain trapezoid, two substeps,
-    no interface damping: how many capped solves complete their fallback is chaotic in the design."""
-    return build_plant(load(sets=["plant.interface.pitch_m=0.04", "plant.substeps=2", "plant.interface.tau_s=0",
-                                  "plant.fallback_split=8", "plant.interface.k_n_area=1.0625e12",
-                                  "plant.interface.k_t_area=0.875e12", "plant.period_match=false"] + UNDAMPED_QS))
+def undamped_substeps():
+    """``undamped`` with two substeps per controller step: the fallback redoes one substep of
+    several (the reference cannot tell which: ``candidate_splits``)."""
+    return build_plant(load(sets=["plant.interface.tau_s=0", "plant.fallback_split=8", "plant.substeps=2"]
+                            + UNDAMPED_QS))
 
 
 def scenario(m, name, n_steps=N_STEPS):
@@ -551,16 +549,17 @@ def test_plant_step_one_step_matches_reference(request, key, name):
         assert counts[naive.STICK] > 0 and counts[naive.SLIP_POS] + counts[naive.SLIP_NEG] > 0
 
 
-@pytest.mark.parametrize("key,name,max_iter", [("undamped", "sine", 5), ("small_undamped", "sine100", 4)])
+@pytest.mark.parametrize("key,name,max_iter", [("undamped", "sine", 5), ("undamped_substeps", "sine", 4)])
 def test_plant_step_fallback_matches_reference(request, key, name, max_iter):
     """The fallback path: with p.max_iter = max_iter some substeps' contact solves give up and are
     redone as p.fine_split substeps of h / fine_split; the reference redoes the same substeps
     (with W and s2 of the fine step computed by itself) and every step the kernel completed,
     started from the kernel's state, agrees to RTOL. (A step whose fine substeps fail too reports
     -1 and is not compared.) How many solves give up depends on the last bits of the design,
-    i.e. on the CPU's BLAS kernels: completed fallback steps on an Intel Xeon 7 (undamped, 5
-    iterations) and 23 (small_undamped, 4; with 5 only 4, where an AMD EPYC had >= 5), all
-    or 95.5 % of the steps completed; at least 5 are required."""
+    i.e. on the CPU's BLAS kernels. Since the Newton solve takes a pair's transition exactly and
+    the stick piece where slip reverses (plant/newmark.py), capped solves give up rarely: on an AMD
+    EPYC 9 (undamped, 5 iterations) and 7 (undamped_substeps, 4) completed fallback steps, all
+    steps completed; at least 5 are required."""
     m = request.getfixturevalue(key)
     r = runs(m, key, name, TIGHT_TOL, max_iter=max_iter)
     ok = r["iters"] >= 0
