@@ -249,3 +249,37 @@ def test_parallel_fits_give_the_serial_result(tmp_path, capsys):
     assert main(["diagnose", str(folder), "--dask", "tcp://127.0.0.1:9"]) == 2   # before any fit runs
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "no dask scheduler" in err[1]
+
+
+def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
+    """Ctrl-C in the second structural candidate's fit (the structure fits patched: the nominal scales at once,
+    then KeyboardInterrupt): exit 130, the report folder holds calibration alone (with the actuator's c_v)
+    and the first candidate (diagnose.json as printed, model.toml the candidate's configuration), the
+    candidates' progress bar and the wall time on stderr, no traceback."""
+    import rt.discrepancy.diagnose.campaign as campaign
+    from rt.common.config import load
+    from rt.discrepancy.diagnose.structure import StructureFit, struct_cfg
+    nominal = _nominal("none")
+    folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3, cfg=nominal)[0].parent
+    struct_eff = [e for e in implemented() if e.channel == "structure"]
+
+    def at_nominal(nominal, data, effect, **kwargs):
+        if effect is not None and effect is not struct_eff[0]:
+            raise KeyboardInterrupt
+        th = {"E": 1.0, "k_t": 1.0, "mu": 1.0, "modal_damping": 1.0, "dispersion": 0.0} | (
+            {effect.name: effect.parameter.default} if effect else {})
+        run = run_shape(nominal, data)
+        return StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, effect), {})
+    monkeypatch.setattr(campaign, "fit_structure", at_nominal)
+    out = tmp_path / "report"
+    assert main(["--set", UNIFORM, "diagnose", str(folder), "--jobs", "1", "--json", "--out", str(out)]) == 130
+    printed, err = capsys.readouterr()
+    res = json.loads(printed)
+    first = struct_eff[0]
+    assert res["interrupted"] and res["input"] == "campaign" and list(res["fits"]) == ["calibration only", first.name]
+    assert "c_v" in res["fits"]["calibration only"]["fitted"]
+    assert sorted(f.name for f in out.iterdir()) == ["diagnose.json", "model.toml", "report.md"]
+    assert json.loads((out / "diagnose.json").read_text()) == res
+    assert load(out / "model.toml") == first.apply(nominal, first.parameter.default)
+    assert "candidates' fits: " in err and "the 2 fits done so far are in" in err
+    assert "Traceback" not in err and err.rstrip().splitlines()[-1].endswith(" s wall")

@@ -351,3 +351,32 @@ def test_rig_cli_writes_the_file_kinds(tmp_path, capsys):
     for argv in (["--quantity", "receptance"], ["--frf-files", "--force-scale", "0"]):
         assert main(["rig", "--effect", "none", "-o", str(tmp_path / "x")] + argv) == 2
         assert len(capsys.readouterr().err.strip().splitlines()) == 1 and not (tmp_path / "x").exists()
+
+
+def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
+    """Ctrl-C in the second candidate's fit (patched to raise it): exit 130, the report folder holds the two
+    fits done (calibration only and the first candidate; diagnose.json as printed, model.toml the candidate's
+    configuration), the fits' progress bars and the wall time are on stderr, no traceback."""
+    import rt.discrepancy.diagnose.frf as frf
+    from rt.discrepancy.diagnose.frf import _candidates
+    d = tmp_path / "c"
+    make_frf_campaign(d, "none", seed=SEED, levels_n=ONE_LEVEL)
+    first = _candidates(Config())[0][0]
+    real = frf.fit
+
+    def stopping(nominal, data, effect, *args, **kwargs):
+        if effect is not None and effect is not first:
+            raise KeyboardInterrupt
+        return real(nominal, data, effect, *args, **kwargs)
+    monkeypatch.setattr(frf, "fit", stopping)
+    out = tmp_path / "report"
+    assert main(["diagnose", str(d), "--json", "--out", str(out)]) == 130
+    printed, err = capsys.readouterr()
+    res = json.loads(printed)
+    assert res["interrupted"] and res["input"] == "frf_files" and list(res["fits"]) == ["calibration only", first.name]
+    assert sorted(f.name for f in out.iterdir()) == ["diagnose.json", "model.toml", "report.md"]
+    assert json.loads((out / "diagnose.json").read_text()) == res
+    E = res["fits"][first.name]["fitted"]["E"]
+    assert load(out / "model.toml").plant.beams[0].E == pytest.approx(E * Config().plant.beams[0].E, rel=1e-4)
+    assert "calibration only: " in err and "model" in err and "the 2 fits done so far are in" in err
+    assert "Traceback" not in err and err.rstrip().splitlines()[-1].endswith(" s wall")

@@ -116,3 +116,26 @@ def test_every_candidates_strength_at_its_bounds_is_a_valid_configuration(effect
             assert isinstance(e.apply(nominal, s), Config)
         applied += 1
     assert applied >= 2
+
+
+OPTIMISERS = ("least_squares", "lsq_linear", "minimize_scalar", "minimize", "curve_fit")
+CHECKED = {("campaign", "fit_actuator"): "actuator", ("levels", "fit_nonlinear"): "levels",
+           ("structure", "fit_frequencies"): "structure, frf", ("structure", "gauss_newton_broyden"): "structure, frf",
+           ("stepsine", "fit_shaker"): "the candidates' strengths"}
+"""Every function of the diagnosis that calls a bounded optimiser, and the fits of ``fits`` (or the candidates'
+test) that check its bounds."""
+
+
+def test_every_optimiser_of_the_diagnosis_is_a_fit_checked_here():
+    """A new fit (a call of scipy's optimisers anywhere in rt/discrepancy) must join ``fits`` above and CHECKED:
+    the bounds tests cover every fit only if they know them all."""
+    import ast
+    root = Path(__file__).resolve().parents[1] / "rt" / "discrepancy"
+    found = set()
+    for f in root.rglob("*.py"):
+        for fn in ast.walk(ast.parse(f.read_text())):
+            if isinstance(fn, ast.FunctionDef) and any(
+                    isinstance(c, ast.Call) and getattr(c.func, "id", getattr(c.func, "attr", None)) in OPTIMISERS
+                    for c in ast.walk(fn)):
+                found.add((f.stem, fn.name))
+    assert found == set(CHECKED), f"fits not checked by these tests: {found - set(CHECKED)}"

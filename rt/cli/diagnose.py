@@ -29,9 +29,12 @@ act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force a
 rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
 are calibrated on the files at those levels only and predict the others; the report gives both
 predictions' gaps around the softening mode (1-2 min); --harmonic-method aft for a joint whose contact
-opens and closes (about 2 min on configs/lap_joint_al.toml). The harmonic-balance fits show a progress
-bar on stderr (with --json too); Ctrl-C stops the diagnosis and keeps the fits done so far (printed,
-and in --out's folder; exit 130). The wall time is printed on stderr. Method: docs/discrepancy.md."""
+opens and closes (about 2 min on configs/lap_joint_al.toml). Every diagnosis shows its fits' progress
+on stderr (with --json too): a bar over each fit's model evaluations with its best cost, and one over the
+candidates' fits run in parallel. Ctrl-C stops it and keeps the fits done so far, and the best point of
+the fit it stopped (printed, and in --out's folder, written beside and renamed; exit 130). Every fit
+stays within what the configuration accepts (e.g. plant.interface.mu 0..2). The wall time is printed
+on stderr. Method: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
@@ -87,22 +90,38 @@ def cmd_diagnose(cfg, args) -> int:
 
 
 def _json(res: dict) -> str:
-    """A levels result as --json prints it: without its "_" keys (configuration, plots)."""
+    """A levels or interrupted result as --json prints it: without its "_" keys (configuration, plots)."""
     return json.dumps({k: v for k, v in res.items() if not k.startswith("_")})
+
+
+def _interrupted(part: dict, args) -> int:
+    """Ctrl-C: the fits done so far (rt.discrepancy.diagnose.watch.partial_result) printed and, with --out, in
+    its folder (written beside and renamed); a line on stderr says where; exit status INTERRUPTED."""
+    from rt.discrepancy.diagnose.watch import partial_summary, write_partial_report
+    if args.out and part["fits"]:
+        write_folder(args.out, args.force, lambda: write_partial_report(part, args.out))
+    print(_json(part) if args.json else partial_summary(part))
+    kept = (f"the {len(part['fits'])} fits done so far are in {args.out}" if args.out else "printed above"
+            ) if part["fits"] else "before the first fit ended: nothing to keep"
+    print(f"diagnose: interrupted; {kept}", file=sys.stderr)
+    return INTERRUPTED
 
 
 def _campaign_or_frf(cfg, args, say) -> int:
     """``diagnose`` of a campaign (rt.discrepancy.diagnose.campaign) or of FRF files (.frf)."""
     from rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
+    from rt.discrepancy.diagnose.watch import Interrupted
     try:
         if is_frf_folder(args.folder):
-            res = diagnose_frf(args.folder, cfg, progress=say)
+            res = diagnose_frf(args.folder, cfg, progress=say, bars=True)
         else:
-            res = diagnose(args.folder, cfg, progress=say, jobs=args.jobs, dask_address=args.dask)
+            res = diagnose(args.folder, cfg, progress=say, jobs=args.jobs, dask_address=args.dask, bars=True)
     except ConnectionError as exc:
         return fail(f"diagnose --dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
+    except Interrupted as stop:   # Ctrl-C: keep the fits done so far
+        return _interrupted(stop.partial, args)
     if args.out:
         from rt.discrepancy.diagnose import write_report
         write_folder(args.out, args.force, lambda: write_report(res, args.out))
@@ -114,9 +133,9 @@ def _levels(cfg, args, say) -> int:
     """``diagnose --calibrate-on``: rt.discrepancy.diagnose.levels."""
     from rt.cli.common import parse_list
     from rt.discrepancy.diagnose import is_frf_folder
-    from rt.discrepancy.diagnose.levels import Interrupted, diagnose_levels
-    from rt.discrepancy.diagnose.levels_report import (partial_summary, summary, write_levels_report,
-                                                       write_partial_report)
+    from rt.discrepancy.diagnose.levels import diagnose_levels
+    from rt.discrepancy.diagnose.levels_report import summary, write_levels_report
+    from rt.discrepancy.diagnose.watch import Interrupted
     try:
         levels = parse_list(args.calibrate_on, float, "diagnose --calibrate-on", "0.5,1")
     except ValueError as exc:
@@ -129,14 +148,7 @@ def _levels(cfg, args, say) -> int:
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     except Interrupted as stop:   # Ctrl-C: keep the fits done so far
-        part = stop.partial
-        if args.out and part["fits"]:
-            write_folder(args.out, args.force, lambda: write_partial_report(part, args.out))
-        print(_json(part) if args.json else partial_summary(part))
-        kept = (f"the {len(part['fits'])} fits done so far are in {args.out}" if args.out else "printed above"
-                ) if part["fits"] else "before the first fit ended: nothing to keep"
-        print(f"diagnose: interrupted; {kept}", file=sys.stderr)
-        return INTERRUPTED
+        return _interrupted(stop.partial, args)
     if args.out:
         write_folder(args.out, args.force, lambda: write_levels_report(res, args.out))
     print(_json(res) if args.json else summary(res))

@@ -6,7 +6,8 @@ ranking the other inputs share), ``structure`` (the structural fit of the impuls
 ``stepsine`` (the step-sine channel: the shaker), ``frf`` (a folder of FRF files) with
 ``frf_modes`` (measured modes paired with the model's), ``levels`` (FRFs at several levels:
 ``--calibrate-on``), ``plausible`` (the calibrated parameters' plausible ranges and the fits' penalty
-outside them), ``remainder`` (what calibration, the effect and the model form explain),
+outside them), ``remainder`` (what calibration, the effect and the model form explain), ``watch`` (the fits'
+progress bars, their parallel runs, and Ctrl-C that keeps the fits done),
 ``report`` and ``rrd`` (the report folder and its rerun file). Imports rt.discrepancy.rig (the
 FRF files' sensor points, the levels report's new folder) and the shared modules. A verb-named function
 is on this face (``rt.discrepancy.diagnose.diagnose``, defined in ``campaign``). The names below
@@ -16,7 +17,7 @@ from rt.common.face import lazy_face
 
 _EXPORTS = {
     "diagnose": "rt.discrepancy.diagnose.campaign", "load_campaign": "rt.discrepancy.diagnose.campaign",
-    "fit_in_parallel": "rt.discrepancy.diagnose.campaign", "public": "rt.discrepancy.diagnose.campaign",
+    "fit_in_parallel": "rt.discrepancy.diagnose.watch", "public": "rt.discrepancy.diagnose.campaign",
     "summary": "rt.discrepancy.diagnose.campaign",
     "diagnose_frf": "rt.discrepancy.diagnose.frf", "is_frf_folder": "rt.discrepancy.diagnose.frf",
     "diagnose_levels": "rt.discrepancy.diagnose.levels", "write_levels_report": "rt.discrepancy.diagnose.levels_report",

@@ -36,7 +36,6 @@ import math
 from pathlib import Path
 from typing import NamedTuple
 
-import joblib
 import numpy as np
 from mcap.reader import make_reader
 from scipy.optimize import least_squares
@@ -64,6 +63,7 @@ from rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
 from rt.discrepancy.effects import Effect, get, implemented
 from rt.discrepancy.diagnose.remainder import budget, verdict
 from rt.discrepancy.diagnose.plausible import summary_lines
+from rt.discrepancy.diagnose.watch import done_fit, fit_in_parallel, keeping
 from rt.log.mcap_log import read_mcap
 from rt.discrepancy.chain import measure_actuator, quiet, scale_bounds, scaled
 
@@ -232,45 +232,33 @@ def bic(channels: dict[str, np.ndarray], p: int) -> float:
 
 
 def diagnose(folder: str | Path, nominal: Config | None = None, progress=None, jobs: int | None = None,
-             dask_address: str | None = None) -> dict:
+             dask_address: str | None = None, bars: bool = False) -> dict:
     """Run the workflow on a campaign folder; the result dict (docs/discrepancy.md) with the fitted
     configuration under "_config" and the plotting data under "_plots". BLAS runs single-threaded
     meanwhile (the fit's matrices are small: threads only contend, 20x slower on a loaded machine).
     jobs: processes for the candidates' fits and the model step-sines (``fit_in_parallel``,
     ``rt.experiments.branches.run_branches``; default the number of cores). dask_address (e.g.
     "tcp://host:8786"): both on that dask cluster instead (frictionrt installed on its workers;
-    ConnectionError if no scheduler answers); the result is the same either way."""
+    ConnectionError if no scheduler answers); the result is the same either way. ``progress(msg)``: the
+    stages; ``bars``: tqdm bars on stderr over the calibration's model evaluations and the candidates' fits.
+    Ctrl-C raises Interrupted with the fits done so far (rt.discrepancy.diagnose.watch)."""
     if dask_address is not None:  # no scheduler: say so now, not after the calibration
         from rt.experiments import connect
         connect(dask_address).close()
-    with threadpool_limits(1):
-        return _diagnose(folder, nominal, progress or (lambda msg: None), jobs, dask_address)
+    with threadpool_limits(1), keeping({}, input="campaign") as done:
+        return _diagnose(folder, nominal, progress or (lambda msg: None), jobs, dask_address, bars, done)
 
 
-def fit_in_parallel(calls: list, jobs: int | None, dask_address: str | None = None) -> list:
-    """[f(*args, **kwargs) for (f, args, kwargs) in calls], in joblib (loky) worker processes when
-    jobs (default joblib.cpu_count()) > 1, or on the dask cluster at dask_address (jobs ignored;
-    ``rt.experiments.connect``): the candidates' fits are independent given the calibration, and
-    each is a pure function of its inputs, so the results are the same as in sequence (tested);
-    the workers keep their compiled kernels between calls."""
-    if dask_address is not None:
-        from rt.experiments import connect
-        with connect(dask_address) as client:
-            return client.gather([client.submit(_one_blas_thread, f, a, k, pure=False) for f, a, k in calls])
-    jobs = min(jobs or joblib.cpu_count(), len(calls))
-    if jobs <= 1:
-        return [f(*a, **k) for f, a, k in calls]
-    return joblib.Parallel(n_jobs=jobs, backend="loky")(joblib.delayed(f)(*a, **k) for f, a, k in calls)
+def with_actuator(cfg: Config, theta: dict, effect: Effect | None) -> Config:
+    """``cfg`` with the actuator fit's c_v scale and ``effect`` at its strength in ``theta`` (``fit_actuator``)."""
+    cfg = scaled(cfg, {"c_v": theta["c_v"]}) if "c_v" in theta else cfg
+    return effect.apply(cfg, theta[effect.name]) if effect is not None else cfg
 
 
-def _one_blas_thread(f, args: tuple, kwargs: dict):
-    """f(*args, **kwargs) with BLAS single-threaded, as in this process and in a loky worker (a
-    dask worker's own setting may differ)."""
-    with threadpool_limits(1):
-        return f(*args, **kwargs)
-
-
-def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_address: str | None) -> dict:
+def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_address: str | None, bars: bool,
+              done: dict) -> dict:
+    """The workflow of ``diagnose``; each fit, once done, also into ``done`` {name: ``done_fit``} (what an
+    interruption keeps: calibration alone with the actuator's c_v, each candidate's fit)."""
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_campaign(folder)
     imp = [t for t in tests if t.kind == "impulse"]
@@ -286,12 +274,24 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
     ss_tests = load_stepsine(folder)
     ss_eff = [e for e in implemented() if e.channel == "stepsine"] if ss_tests else []
     say("fit calibration only")
-    struct_fits = {None: fit_structure(nominal, data, None)}
+    struct_fits = {None: fit_structure(nominal, data, None, bars=bars)}
     act_fits = {None: fit_actuator(nominal, act, None) if act else ({}, {})}
+
+    def keep_calibration():
+        th = act_fits[None][0]
+        done["calibration only"] = done_fit(struct_fits[None].theta | th, with_actuator(struct_fits[None].cfg, th, None))
+
+    def keep(effects):      # fit_in_parallel's ``each``: effects[i]'s StructureFit or actuator fit (theta, residuals)
+        def each(i, f):
+            e = effects[i]
+            done[e.name] = (done_fit(f.theta, f.cfg) if e in struct_eff
+                            else done_fit(f[0], with_actuator(struct_fits[None].cfg, f[0], e)))
+        return each
+    keep_calibration()
     say(f"fit {', '.join(e.name for e in struct_eff + act_eff)}")
     fits = fit_in_parallel([(fit_structure, (nominal, data, e), {"calibrated": struct_fits[None]}) for e in struct_eff]
                            + [(fit_actuator, (nominal, act, e, act_fits[None]), {}) for e in act_eff if act], jobs,
-                           dask_address)
+                           dask_address, bars, keep(struct_eff + (act_eff if act else [])))
     struct_fits |= dict(zip(struct_eff, fits))
     act_fits |= dict(zip(act_eff, fits[len(struct_eff):])) if act else {e: ({}, {}) for e in act_eff}
     # calibration alone is nested in every candidate: continued from better scales, refits (docs/discrepancy.md, Method 3)
@@ -300,10 +300,11 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
         if cal is struct_fits[None]:
             break
         say("fit calibration only, continued, and again the candidates less likely than it")
-        struct_fits[None] = cal = fit_structure(nominal, data, None, start=cal.theta)
+        struct_fits[None] = cal = fit_structure(nominal, data, None, start=cal.theta, bars=bars)
+        keep_calibration()
         again = [e for e in struct_eff if bic(struct_fits[e].channels, 0) > bic(cal.channels, 0)]
         calls = [(fit_structure, (nominal, data, e), {"calibrated": cal}) for e in again]
-        struct_fits |= dict(zip(again, fit_in_parallel(calls, jobs, dask_address)))
+        struct_fits |= dict(zip(again, fit_in_parallel(calls, jobs, dask_address, bars, keep(again))))
     # ... and a candidate whose fit still ended less likely than (the continued) calibration alone is
     # scored at that nested point, its strength at nominal (seed 3 with a hidden shaker: the three
     # mass/compliance candidates had ended 10.7 % above calibration's RSS, 994 BIC points below it)
@@ -314,8 +315,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
             struct_fits[e] = StructureFit(th, cal.channels, cal.run, struct_cfg(nominal, th, e), cal.J)
     ss_data, ss_fits = None, {}
     if ss_tests:  # the model's step-sine on the calibrated structure and stack (c_v: the loop's F_N1 ramp)
-        c_v = act_fits[None][0].get("c_v")
-        cal_cfg = scaled(struct_fits[None].cfg, {"c_v": c_v}) if c_v is not None else struct_fits[None].cfg
+        cal_cfg = with_actuator(struct_fits[None].cfg, act_fits[None][0], None)
         say("model step-sine (driving point)")
         ss_data = prepare_stepsine(cal_cfg, ss_tests, jobs, dask_address)
         ss_fits[None] = ({}, stepsine_residuals(cal_cfg, ss_data))
@@ -323,6 +323,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
             say(f"fit {eff.name}")
             m, r = fit_shaker(cal_cfg, ss_data, eff)
             ss_fits[eff] = ({eff.name: m}, r)
+            done[eff.name] = done_fit({eff.name: m}, eff.apply(cal_cfg, m))
     results = []
     for eff in [None] + struct_eff + act_eff + ss_eff:
         s_fit = struct_fits[eff if eff in struct_eff else None]
@@ -333,9 +334,7 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
         channels = dict(s_fit.channels) | {f"actuator {k}": v for k, v in ares.items()}
         if sres is not None:
             channels[SS_CHANNEL] = sres
-        cfg = scaled(s_fit.cfg, {"c_v": ath["c_v"]}) if "c_v" in ath else s_fit.cfg
-        if a_eff is not None:
-            cfg = a_eff.apply(cfg, ath[a_eff.name])
+        cfg = with_actuator(s_fit.cfg, ath, a_eff)
         if eff in ss_eff:
             cfg = eff.apply(cfg, sth[eff.name])
         results.append({"effect": eff.name if eff else None, "theta": theta, "channels": channels,

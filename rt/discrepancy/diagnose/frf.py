@@ -88,6 +88,7 @@ from rt.discrepancy.diagnose.structure import (
 from rt.discrepancy.effects import EFFECTS, Effect, implemented
 from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
+from rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
 from rt.discrepancy.rig.frf import add_points, sensor_points
 from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
 
@@ -298,15 +299,22 @@ def _theta(names, x, scale) -> dict:
     return dict(zip(names, map(float, x))) | ({FORCE_SCALE: scale} if scale is not None else {})
 
 
+def fit_label(effect: Effect | None) -> str:
+    """The name of a fit of the calibration (with ``effect``) in the report and its progress bar."""
+    return effect.name if effect else "calibration only"
+
+
 def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None,
-        plausible: dict | None = None) -> Fit:
+        plausible: dict | None = None, bars: bool = False, label: str | None = None) -> Fit:
     """Stage 1 then stage 2 (module docstring) of the calibration alone (effect None) or with the
     effect; with ``calibrated`` stage 2 starts from the better of stage 1 and the calibration with
     the effect at its nominal strength, there with the calibration's Jacobian columns (so a
     candidate never fits worse than calibration alone). Stage 2 is rt.discrepancy.diagnose.structure's
     Gauss-Newton with Broyden updates (a finite-difference Jacobian only at the start and when a
     step fails) on z: ln(scale) for the LOG_SCALE parameters, the scale itself for the others. Both
-    penalised outside the ``plausible`` ranges (default: plausible.ranges; {}: let go; plausible.penalty)."""
+    penalised outside the ``plausible`` ranges (default: plausible.ranges; {}: let go; plausible.penalty).
+    ``bars``: stage 2's model evaluations on a tqdm bar on stderr named ``label`` (default ``fit_label``); Ctrl-C
+    in stage 2 raises FitInterrupted with its best point (rt.discrepancy.diagnose.watch)."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
@@ -320,25 +328,32 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     def evaluate(z):
         x = from_z(z, log)
         ch, H, scale = residuals(struct_cfg(nominal, dict(zip(names, x)), effect), data)
-        return (ch, H, scale), np.concatenate([*ch.values(), prior(names, x), pen(names, x)])
+        r = np.concatenate([*ch.values(), prior(names, x), pen(names, x)])
+        ev.seen(z, r)
+        return (ch, H, scale), r
+
+    def point(z):
+        theta = dict(zip(names, map(float, from_z(z, log))))
+        return theta, struct_cfg(nominal, theta, effect)
 
     stage1 = fit_frequencies(nominal, data, effect, frequencies=undamped_frequencies, penalty=pen)
-    z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
-    run, r = evaluate(z)
-    J = None
-    if calibrated is not None and effect is not None:
-        z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
-        x_cal = from_z(z_cal, log)
-        r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal), pen(names, x_cal)])
-        if r_cal @ r_cal < r @ r:
-            z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
-            # the calibration's columns gain the effect's penalty row, which they do not move
-            J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
-                                + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
-    z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR,
-                                                   lambda z: step_box(names, z, log, plausible, lo, hi))
-    theta = _theta(names, from_z(z, log), scale)
-    return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
+    with watch(label or fit_label(effect), bars, point) as ev:
+        z = np.clip(to_z(np.array([stage1.get(k, 1.0) for k in names]), log), lo, hi)
+        run, r = evaluate(z)
+        J = None
+        if calibrated is not None and effect is not None:
+            z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
+            x_cal = from_z(z_cal, log)
+            r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal), pen(names, x_cal)])
+            if r_cal @ r_cal < r @ r:
+                z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
+                # the calibration's columns gain the effect's penalty row, which they do not move
+                J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
+                                    + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
+        z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR,
+                                                       lambda z: step_box(names, z, log, plausible, lo, hi))
+        theta = _theta(names, from_z(z, log), scale)
+        return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
 
 def _rms_db(H: np.ndarray, Hm: np.ndarray) -> float:
@@ -426,11 +441,13 @@ def level_warning(offset_db: float, per_volt: bool) -> list[dict]:
                     "(g or m/s^2, mm or m, mV or V) and the quantity" + NO_FORCE_HINT}]
 
 
-def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=None) -> dict:
+def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=None, bars: bool = False) -> dict:
     """The workflow (module docstring) on a folder of FRF files; the result dict as rt.discrepancy.diagnose.campaign's,
-    with the fitted configuration under "_config" and the plotting data under "_plots"."""
+    with the fitted configuration under "_config" and the plotting data under "_plots". ``progress(msg)``: the
+    stages; ``bars``: tqdm bars on stderr inside the fits. Ctrl-C raises Interrupted with the fits done so far
+    (rt.discrepancy.diagnose.watch)."""
     with threadpool_limits(1):
-        return _diagnose_frf(folder, nominal, progress or (lambda msg: None))
+        return _diagnose_frf(folder, nominal, progress or (lambda msg: None), bars)
 
 
 def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
@@ -455,7 +472,7 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
     return out, why
 
 
-def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
+def _diagnose_frf(folder, nominal: Config | None, say, bars: bool) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_frf_folder(folder)                          # bad input raises before any progress line
     try:
@@ -465,13 +482,20 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
         raise ValueError(f"{folder}: {exc}") from None
     if not any(d.sel for d in data):
         raise ValueError(f"{folder}: no FRF line above the noise in any test")
+    with keeping({}, input="frf_files") as done:
+        return _fit_and_report(nominal, data, say, bars, done)
+
+
+def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done: dict) -> dict:
+    """The fits, ranking and report of ``_diagnose_frf``; each fit, once done, also into ``done``
+    {name: ``done_fit``} (what an interruption keeps)."""
     ch0, H0, scale0 = residuals(nominal, data)
-    say("fit calibration only")
-    fits = {None: fit(nominal, data, None)}
+    fits = {}
     candidates, why_not = _candidates(nominal)
-    for eff in candidates:
-        say(f"fit {eff.name}")
-        fits[eff] = fit(nominal, data, eff, calibrated=fits[None])
+    for eff in [None, *candidates]:
+        say(f"fit {fit_label(eff)}")
+        fits[eff] = fit(nominal, data, eff, calibrated=fits.get(None), bars=bars)
+        done[fit_label(eff)] = done_fit(fits[eff].theta, fits[eff].cfg)
     results = [{"effect": e.name if e else None, "theta": f.theta, "channels": f.channels,
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
     base, ranked, winner = rank(results)
@@ -479,10 +503,11 @@ def _diagnose_frf(folder, nominal: Config | None, say) -> dict:
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
     let_go = None
     if winner is None and outside(base["theta"], plausible):     # no candidate took their place: let them go
-        say("fit calibration only, the plausible ranges let go")
-        free = fit(nominal, data, None, plausible={})
-        let_go = {"fitted": {k: float(f"{v:.5g}") for k, v in free.theta.items()},
-                  "gap_db": gap_db(data, free.H)["structure_frf_db"]}
+        label = "calibration only, the plausible ranges let go"
+        say(f"fit {label}")
+        free = fit(nominal, data, None, plausible={}, bars=bars, label=label)
+        done[label] = done_fit(free.theta, free.cfg)
+        let_go = {"fitted": rounded(free.theta), "gap_db": gap_db(data, free.H)["structure_frf_db"]}
     m0 = build_plant(quiet(nominal))
     localise = {}
     for d, h in zip(data, H0):

@@ -48,7 +48,6 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
-from tqdm import tqdm
 
 from plant.harmonic_frf import METHODS, harmonic_system
 from plant.model import build_plant
@@ -61,6 +60,7 @@ from rt.discrepancy.diagnose.random_level import is_random, random_levels, sine_
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
 from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, verdict
+from rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
 from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
@@ -166,31 +166,9 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
     return out
 
 
-class FitInterrupted(KeyboardInterrupt):
-    """A harmonic-balance fit stopped by the user (Ctrl-C): ``label`` names it, ``best`` = {"fitted",
-    "evaluations", "cfg"} its best point evaluated so far."""
-
-    def __init__(self, label: str, best: dict):
-        super().__init__(label)
-        self.label, self.best = label, best
-
-
-class Interrupted(KeyboardInterrupt):
-    """The diagnosis stopped by the user (Ctrl-C); ``partial``: what it had (``partial_result``)."""
-
-    def __init__(self, partial: dict):
-        super().__init__("interrupted")
-        self.partial = partial
-
-
 def fit_label(effect: Effect | None) -> str:
     """The name of a harmonic-balance fit in the report and its progress bar."""
     return "harmonic balance" + (f" with {effect.name}" if effect else "")
-
-
-def rounded(theta: dict) -> dict:
-    """Fitted parameters as the report gives them: 5 significant digits."""
-    return {k: float(f"{v:.5g}") for k, v in theta.items()}
 
 
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
@@ -198,7 +176,8 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
     model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.
     plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model
-    evaluations, with the best cost so far. Ctrl-C raises FitInterrupted with that best point."""
+    evaluations, with the best cost so far; Ctrl-C raises FitInterrupted with that best point
+    (rt.discrepancy.diagnose.watch)."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
@@ -215,7 +194,6 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
 
-    best = {"cost": math.inf, "x": x0}
     plausible = ranges(nominal, names)
 
     def r(x):
@@ -223,20 +201,14 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
         ch, _, _ = weighted_residuals(data, H_of(theta), profile_scale=False)
         v = np.concatenate(list(ch.values()))
         v = np.concatenate([v, penalty(names, theta.values(), plausible, len(v))])
-        cost = float(v @ v)
-        if cost < best["cost"]:
-            best.update(cost=cost, x=np.array(x))
-        bar.set_postfix(cost=f"{best['cost']:.6g}", refresh=False)
-        bar.update()
+        ev.seen(x, v)
         return v
 
-    with tqdm(desc=fit_label(effect), unit="model", disable=not bars) as bar:
-        try:
-            sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
-        except KeyboardInterrupt:
-            th = theta_of(best["x"])
-            raise FitInterrupted(fit_label(effect), {"fitted": rounded(th), "evaluations": bar.n,
-                                                     "cfg": _cfg(nominal, th, effect)}) from None
+    def point(x):
+        return theta_of(x), _cfg(nominal, theta_of(x), effect)
+
+    with watch(fit_label(effect), bars, point) as ev:
+        sol = least_squares(r, x0, bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, max_nfev=60)
     theta = theta_of(sol.x)
     return {"theta": theta, "channels": weighted_residuals(data, H_of(theta), profile_scale=False)[0],
             "cfg": _cfg(nominal, theta, effect), "evaluations": int(sol.nfev)}
@@ -300,23 +272,11 @@ def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = N
     """The workflow (module docstring) on a folder of FRF files at several levels, the harmonic balance
     by ``method`` (METHODS); a JSON-ready dict with the calibrated configuration under "_config" and
     plotting data under "_plots". ``progress(msg)``: the stages; ``bars``: tqdm bars on stderr inside the
-    harmonic-balance fits. Ctrl-C raises Interrupted with the fits done so far (``partial_result``)."""
+    harmonic-balance fits. Ctrl-C raises Interrupted with the fits done so far (rt.discrepancy.diagnose.watch)."""
     if method not in METHODS:
         raise ValueError(f"harmonic-balance method {method!r}: expected one of {', '.join(METHODS)}")
     with threadpool_limits(1):
         return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method, bars)
-
-
-def partial_result(done: dict, stopped: KeyboardInterrupt, calibrate_on: list, method: str) -> dict:
-    """What an interrupted diagnosis had: {"interrupted": True, "fits": {name: {"fitted", ...}}} of the fits
-    ``done`` (and the interrupted one's best point, if ``stopped`` is a FitInterrupted), the configuration
-    of the last under "_config"."""
-    fits = dict(done)
-    if isinstance(stopped, FitInterrupted):
-        fits[f"{stopped.label} (interrupted: its best point so far)"] = stopped.best
-    out = {"input": "frf_levels", "interrupted": True, "calibrate_on_n": calibrate_on, "harmonic_method": method,
-           "fits": {k: {n: v for n, v in f.items() if n != "cfg"} for k, f in fits.items()}}
-    return out | ({"_config": list(fits.values())[-1]["cfg"]} if fits else {})
 
 
 def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str, bars: bool) -> dict:
@@ -332,11 +292,8 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
         levels = random_levels(tests, data, levels, HALF_WIDTH, nominal)
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
-    done: dict = {}
-    try:
+    with keeping({}, input="frf_levels", calibrate_on_n=[levels[i] for i in cal], harmonic_method=method) as done:
         return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done)
-    except KeyboardInterrupt as exc:
-        raise Interrupted(partial_result(done, exc, [levels[i] for i in cal], method)) from None
 
 
 def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[float], cal: list[int], say,
@@ -345,8 +302,8 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     {name: {"fitted", "cfg", ...}} (what an interruption keeps)."""
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N")
-    lin = fit(nominal, dc, None)
-    done["linear"] = {"fitted": rounded(lin.theta), "cfg": lin.cfg}
+    lin = fit(nominal, dc, None, bars=bars, label="linear")
+    done["linear"] = done_fit(lin.theta, lin.cfg)
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
     db = [mode_bands(d) for d in dc]
@@ -356,8 +313,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
         if eff is not None:
             say(fit_label(eff))
         fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars)
-        done[fit_label(eff)] = {"fitted": rounded(fits[eff]["theta"]), "evaluations": fits[eff]["evaluations"],
-                                "cfg": fits[eff]["cfg"]}
+        done[fit_label(eff)] = done_fit(fits[eff]["theta"], fits[eff]["cfg"], evaluations=fits[eff]["evaluations"])
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
     base, ranked, winner = rank(results)

@@ -1,5 +1,5 @@
 """The amplitude-dependence diagnosis' report (rt.discrepancy.diagnose.levels): the text the CLI prints,
-diagnose.json, model.toml, report.md and levels.png, and the same for an interrupted diagnosis.
+diagnose.json, model.toml, report.md and levels.png (an interrupted diagnosis': rt.discrepancy.diagnose.watch).
 Moved out of levels.py unchanged."""
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rt.discrepancy.diagnose.plausible import markdown, summary_lines
+from rt.discrepancy.diagnose.watch import write_result
 
 
 def summary(res: dict) -> str:
@@ -30,37 +31,6 @@ def summary(res: dict) -> str:
     return "\n".join(lines)
 
 
-def _write_result(folder: Path, res: dict) -> None:
-    """diagnose.json (``res`` without its "_" keys) and, if ``res`` has one, model.toml ("_config") in ``folder``."""
-    import json
-
-    from rt.common.config import dumps
-    (folder / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
-                                                     indent=1) + "\n")
-    if "_config" in res:
-        (folder / "model.toml").write_text(dumps(res["_config"]))
-
-
-def partial_summary(partial: dict) -> str:
-    """The text the CLI prints for an interrupted diagnosis (``partial_result``)."""
-    return "\n".join(["interrupted; the fits done so far:"]
-                     + [f"  {name}: {f['fitted']}" for name, f in partial["fits"].items()])
-
-
-def write_partial_report(partial: dict, out: str | Path) -> Path:
-    """The report folder of an interrupted diagnosis (written beside and renamed, as ``write_levels_report``):
-    diagnose.json (``partial_result``), model.toml (the last fit's configuration) and report.md."""
-    from rt.discrepancy.rig.campaign import new_folder
-    with new_folder(out) as tmp:
-        _write_result(tmp, partial)
-        (tmp / "report.md").write_text("\n".join(
-            ["# Amplitude dependence: interrupted", "",
-             "The diagnosis was stopped before its end; the fits done so far (model.toml: the last of them):", "",
-             "| fit | fitted |", "| --- | --- |",
-             *[f"| {name} | `{f['fitted']}` |" for name, f in partial["fits"].items()], ""]))
-    return Path(out)
-
-
 def write_levels_report(res: dict, out: str | Path) -> Path:
     """The report folder (a new folder, written beside and renamed: never half a report):
     diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
@@ -73,7 +43,7 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
 
     from rt.discrepancy.rig.campaign import new_folder
     with new_folder(out) as tmp:
-        _write_result(tmp, res)
+        write_result(tmp, res)
         plots = res["_plots"]
         fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
         for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):

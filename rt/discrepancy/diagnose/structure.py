@@ -48,6 +48,7 @@ from plant.model import build_plant, preloaded_pairs, stuck_stiffness
 from rt.common.config import Config
 from rt.discrepancy.effects import Effect
 from rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
+from rt.discrepancy.diagnose.watch import watch
 
 SENSORS = ("a_frf_meas", "a_tip_meas")
 MODES = (1, 2, 3, 4, 5, 6, 7, 8)        # bending modes whose frequencies start the fit (stage 1)
@@ -374,7 +375,7 @@ class StructureFit(NamedTuple):
 
 
 def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None,
-                  calibrated: StructureFit | None = None, start: dict | None = None) -> StructureFit:
+                  calibrated: StructureFit | None = None, start: dict | None = None, bars: bool = False) -> StructureFit:
     """Stage 1 then stage 2 (module docstring) for calibration alone (effect None) or with the
     effect. With ``calibrated`` (the calibration-only fit) stage 2 starts from the best of stage 1,
     the calibration with the effect at its nominal strength (there reusing the calibration's
@@ -383,12 +384,14 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     Gauss-Newton steps with Broyden's rank-one update of the Jacobian (recomputed by finite
     differences only when a step fails) until the cost drops by less than ``CONVERGED``
     (relative) or ``MAX_STEPS``, on z: ln(scale) for the LOG_SCALE parameters, the value itself for
-    the others (``to_z``). ``start``: stage-2 start values instead of stage 1."""
+    the others (``to_z``). ``start``: stage-2 start values instead of stage 1. ``bars``: stage 2's model
+    evaluations on a tqdm bar on stderr; Ctrl-C in it raises FitInterrupted with its best point
+    (rt.discrepancy.diagnose.watch)."""
     if start is None:
         stage1 = fit_frequencies(nominal, data, effect, step=model_step(nominal))
         start = damping_start(nominal, data, effect, stage1)
         if effect is None and start["modal_damping"] != 1.0:   # calibration alone: from both (damping_start)
-            return min((fit_structure(nominal, data, None, start=s) for s in (stage1, start)), key=fit_cost)
+            return min((fit_structure(nominal, data, None, start=s, bars=bars) for s in (stage1, start)), key=fit_cost)
     names = ["E", "k_t", "mu", "modal_damping", "dispersion"] + ([effect.name] if effect else [])
     log = np.array([k in LOG_SCALE for k in names])
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
@@ -399,29 +402,36 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
         x = from_z(z, log)
         th = dict(zip(names, x))
         run = run_shape(struct_cfg(nominal, th, effect), data, th["dispersion"])
-        return run, np.concatenate([*run.r.values(), prior(names, x)])
+        r = np.concatenate([*run.r.values(), prior(names, x)])
+        ev.seen(z, r)
+        return run, r
 
-    run, r = evaluate(z)
-    J = None
-    if calibrated is not None and effect is not None:
-        z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
-        r_cal = np.concatenate([*calibrated.run.r.values(), prior(names, from_z(z_cal, log))])
-        # the calibration with the effect at its default strength too: an effect even in its strength
-        # (micro_slip: the Iwan spread changes the loop by O(a^2)) has no gradient at the nominal
-        # strength, and stage 1 cannot see one that leaves the stuck plant alone
-        z_def = z_cal.copy()
-        z_def[-1] = effect.parameter.default
-        run_def, r_def = evaluate(z_def)
-        if r_cal @ r_cal < min(r @ r, r_def @ r_def):
-            z, run, r = z_cal, calibrated.run, r_cal
-            J = np.column_stack([calibrated.J[k] for k in names[:-1]]
-                                + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
-        elif r_def @ r_def < r @ r:
-            z, run, r = z_def, run_def, r_def
-    z, run, r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps)
-    theta = dict(zip(names, map(float, from_z(z, log))))
-    return StructureFit(theta, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, theta, effect),
-                        dict(zip(names, J.T)))
+    def point(z):
+        th = dict(zip(names, map(float, from_z(z, log))))
+        return th, struct_cfg(nominal, th, effect)
+
+    with watch(effect.name if effect else "calibration only", bars, point) as ev:
+        run, r = evaluate(z)
+        J = None
+        if calibrated is not None and effect is not None:
+            z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
+            r_cal = np.concatenate([*calibrated.run.r.values(), prior(names, from_z(z_cal, log))])
+            # the calibration with the effect at its default strength too: an effect even in its strength
+            # (micro_slip: the Iwan spread changes the loop by O(a^2)) has no gradient at the nominal
+            # strength, and stage 1 cannot see one that leaves the stuck plant alone
+            z_def = z_cal.copy()
+            z_def[-1] = effect.parameter.default
+            run_def, r_def = evaluate(z_def)
+            if r_cal @ r_cal < min(r @ r, r_def @ r_def):
+                z, run, r = z_cal, calibrated.run, r_cal
+                J = np.column_stack([calibrated.J[k] for k in names[:-1]]
+                                    + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
+            elif r_def @ r_def < r @ r:
+                z, run, r = z_def, run_def, r_def
+        z, run, r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps)
+        theta = dict(zip(names, map(float, from_z(z, log))))
+        return StructureFit(theta, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, theta, effect),
+                            dict(zip(names, J.T)))
 
 
 def fit_cost(fit: StructureFit) -> float:
