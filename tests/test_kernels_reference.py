@@ -32,8 +32,8 @@ import scipy.linalg as sla
 from plant.contact import _jenkins_pair, _normal_impulse
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from plant.newmark import ROUNDOFF, _contact_newton, _lu_factor, _lu_solve, _plant_step
-from plant.simulate import _run
+from plant.newmark import ROUNDOFF, _contact_newton, _lu_factor, _lu_solve, _plant_step, _transition_root
+from plant.simulate import _run, run
 from rt.common.clock import _now_ns
 from rt.common.config import load
 from tests import naive
@@ -602,6 +602,47 @@ def test_shipped_newton_tolerance_meets_check_8(model):
     moved = [k for k, i in enumerate(r["info_o"]) if np.any(i["moved"][0])]
     assert len(moved) > 5  # transitions are in the comparison
     compare_run(m, r["P"], r["U"], r["X"][1:], r["Y"], r["Xo"], r["Yo"], "shipped tolerance, every step")
+
+
+@pytest.mark.parametrize("g0", [-3e-9, 2e-9], ids=["opening", "closing"])
+def test_transition_root_solves_the_discrete_gradient_exactly(g0):
+    """_transition_root's x = g_free + w_eff Lambda_n(g0, x) against the closed form: across the
+    contact's edge (x on the other side of 0 from g0) the spring's mean force is the hyperbola
+    1/2 k g0^2 / (x - g0) (opening) or 1/2 k x^2 / (g0 - x) (closing), so with the dashpot's affine
+    part x solves a quadratic. Compliances and free gaps are chosen so that the root lies across
+    the edge; agreement to 1e-12 of the gaps."""
+    k, c_h = 2.0e9, 4.0e7
+    for w_eff in (1e-10, 1e-9, 5e-9):
+        g_free = 2e-9 if g0 < 0 else -2e-9   # the free gap across the edge from g0
+        x, lam = _transition_root(g_free, w_eff, g0, k, c_h)
+        if g0 < 0:   # opening, x >= 0: x - g_free = w_eff (1/2 k g0^2 / (x - g0) + c_h g0); y = x - g0
+            a0 = g_free + w_eff * c_h * g0 - g0
+            y = 0.5 * (a0 + np.sqrt(a0 * a0 + 2.0 * w_eff * k * g0 * g0))
+            x_ref = g0 + y
+            assert x_ref >= 0.0
+        else:        # closing, x < 0: x - g_free = w_eff (1/2 k x^2 / (g0 - x) - c_h x), times (g0 - x):
+            # -(1 + w_eff (k/2 + c_h)) x^2 + (g0 + g_free + w_eff c_h g0) x - g_free g0 = 0, one negative root
+            roots = np.roots([-(1.0 + w_eff * (0.5 * k + c_h)), g0 + g_free + w_eff * c_h * g0, -g_free * g0])
+            x_ref = float(min(roots.real))
+            assert x_ref < 0.0 < max(roots.real)
+        assert abs(x - x_ref) <= 1e-12 * abs(g0), (w_eff, x, x_ref)
+        lam_ref = (0.5 * k * g0 * g0 / (x_ref - g0) + c_h * g0 if g0 < 0
+                   else 0.5 * k * x_ref * x_ref / (g0 - x_ref) - c_h * x_ref)
+        assert abs(lam - lam_ref) <= 1e-9 * abs(lam_ref)
+
+
+@pytest.mark.parametrize("refinement,share_before", [(1, 3.31), (2, 2.23)], ids=["uniform", "graded"])
+def test_newton_takes_few_iterations_where_pairs_open_or_reverse(refinement, share_before):
+    """Steps of 4 or more Newton iterations on `bench plant`'s mode-3 sine (5 N, F_N1 = 100 N,
+    42000 steps): with the transition taken exactly and the stick piece where slip reverses
+    (plant/newmark.py, docs/plant.md 2.3) 0.02 % (uniform 10 mm) and 0.12 % (graded default),
+    at most 4; with plain Newton they were `share_before` %, up to 17 iterations (the tick's tail).
+    Bound: 0.5 %, a quarter of the smaller of the old shares; at most 6 iterations."""
+    from rt.loop.bench import _excitation
+    m = build_plant(load(sets=[f"plant.interface.end_refinement={refinement}"]))
+    Y, _, _ = run(m, _excitation(m, 42000), m.structure.F_N1_initial)
+    it = Y[:, m.output_index()["newton_iter"]]
+    assert 100.0 * np.mean(it >= 4) < 0.5 and it.max() <= 6, (100.0 * np.mean(it >= 4), it.max(), share_before)
 
 
 # --- the compiled loop and the clock -------------------------------------------------------
