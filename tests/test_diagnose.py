@@ -2,11 +2,7 @@
 rt.discrepancy.diagnose must name the effect, fit its strength and close the gap; --effect none names nothing;
 the files validate and do not reveal the effect. Seed 5 was not used while developing the method
 (development used seeds 3, 11 and 17; seed 5 was run once, after)."""
-import fcntl
-import hashlib
 import json
-import os
-import pickle
 
 import numpy as np
 import pytest
@@ -36,35 +32,20 @@ def _nominal(effect: str) -> Config:
 
 
 @pytest.fixture(scope="module", autouse=True)
-def shared_structure_fits(tmp_path_factory):
-    """The diagnoses here share their structure fits through a folder both xdist workers see.
-
-    The impulse tests of the campaigns none, current_limit and shaker_interaction are the same bits
-    (same seed; the effects act on the actuator ramps and the step-sine tests only), and the structure
-    fit (``fit_structure``: calibration, the structural candidates, the refits) is a pure function of
-    the nominal and those tests. Three diagnoses ran it alike (154 s of a diagnosis' 168 s, profiled on one
-    core). It is stored
-    under the hash of every argument (the nominal's repr, the prepared FRFs, the effect's name, the
-    calibrated fit, the start), so a diagnosis gets the very fit it would compute; a worker that
-    needs one being computed by the other waits for it (a lock per key)."""
-    root = tmp_path_factory.getbasetemp()
-    folder = (root.parent if os.environ.get("PYTEST_XDIST_WORKER") else root) / "structure_fits"
-    folder.mkdir(exist_ok=True)
+def shared_structure_fits(shared_results):
+    """The diagnoses here share their structure fits (conftest's ``shared_results``: once per run,
+    for both xdist workers). The impulse tests of the campaigns none, current_limit and
+    shaker_interaction are the same bits (same seed; those effects act on the actuator ramps and the
+    step-sine tests only), and the structure fit (``fit_structure``: calibration, the structural
+    candidates, the refits) is a pure function of the nominal and those tests, so three diagnoses
+    ran it alike (154 s of a diagnosis' 168 s, profiled on one core). Keyed on every argument (the
+    nominal's repr, the prepared FRFs, the effect's name, the calibrated fit, the start), a
+    diagnosis gets the very fit it would compute; a worker waits for a fit the other is computing."""
     compute = campaign_module.fit_structure
 
     def shared(nominal, data, effect, calibrated=None, start=None):
-        args = (repr(nominal), data, effect.name if effect else None, calibrated, start)
-        key = hashlib.sha256(pickle.dumps(args, protocol=5)).hexdigest()
-        path = folder / f"{key}.pickle"
-        with open(folder / f"{key}.lock", "w") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            if path.exists():
-                return pickle.loads(path.read_bytes())
-            fit = compute(nominal, data, effect, calibrated=calibrated, start=start)
-            part = path.with_suffix(".part")
-            part.write_bytes(pickle.dumps(fit, protocol=5))
-            os.replace(part, path)
-            return fit
+        key = ("fit_structure", repr(nominal), data, effect.name if effect else None, calibrated, start)
+        return shared_results(key, lambda: compute(nominal, data, effect, calibrated=calibrated, start=start))
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(campaign_module, "fit_structure", shared)
