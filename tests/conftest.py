@@ -1,5 +1,9 @@
-"""Shared fixtures: the default configuration and its built plant models (built once)."""
+"""Shared fixtures: the default configuration and its built plant models (built once), and a store
+for expensive results that both xdist workers of one run share (``shared_results``)."""
+import fcntl
+import hashlib
 import os
+import pickle
 
 import pytest
 
@@ -26,3 +30,29 @@ def reduced(cfg):
 @pytest.fixture(scope="session")
 def full(cfg):
     return build_plant(cfg, reduced=False)
+
+
+@pytest.fixture(scope="session")
+def shared_results(tmp_path_factory):
+    """``memo(key, compute)``: ``compute()``'s value, computed once per test run for ``key`` (any
+    picklable value naming every input of ``compute``) and stored in a folder both xdist workers see
+    (the parent of their base temporaries; a run without xdist has its own). A worker that asks for
+    a value the other one is computing waits for it (one lock per key) rather than computing it
+    again. Only for pure computations: the value must follow from the key alone."""
+    root = tmp_path_factory.getbasetemp()
+    folder = (root.parent if os.environ.get("PYTEST_XDIST_WORKER") else root) / "shared_results"
+    folder.mkdir(exist_ok=True)
+
+    def memo(key, compute):
+        name = hashlib.sha256(pickle.dumps(key, protocol=5)).hexdigest()
+        path = folder / f"{name}.pickle"
+        with open(folder / f"{name}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if path.exists():
+                return pickle.loads(path.read_bytes())
+            value = compute()
+            part = folder / f"{name}.part"
+            part.write_bytes(pickle.dumps(value, protocol=5))
+            os.replace(part, path)
+            return value
+    return memo

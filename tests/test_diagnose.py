@@ -9,6 +9,7 @@ import pytest
 from mcap.reader import make_reader
 
 from rt.cli import main
+import rt.discrepancy.diagnose.campaign as campaign_module
 from rt.common.config import Config, with_sets
 from rt.log.data_format import validate
 from rt.log.mcap_log import start_time_ns
@@ -28,6 +29,27 @@ UNIFORM = "plant.interface.end_refinement=1"
 def _nominal(effect: str) -> Config:
     """The nominal model of ``effect``'s campaign and diagnosis."""
     return with_sets(Config(), [] if effect == "stribeck" else [UNIFORM])
+
+
+@pytest.fixture(scope="module", autouse=True)
+def shared_structure_fits(shared_results):
+    """The diagnoses here share their structure fits (conftest's ``shared_results``: once per run,
+    for both xdist workers). The impulse tests of the campaigns none, current_limit and
+    shaker_interaction are the same bits (same seed; those effects act on the actuator ramps and the
+    step-sine tests only), and the structure fit (``fit_structure``: calibration, the structural
+    candidates, the refits) is a pure function of the nominal and those tests, so three diagnoses
+    ran it alike (154 s of a diagnosis' 168 s, profiled on one core). Keyed on every argument (the
+    nominal's repr, the prepared FRFs, the effect's name, the calibrated fit, the start), a
+    diagnosis gets the very fit it would compute; a worker waits for a fit the other is computing."""
+    compute = campaign_module.fit_structure
+
+    def shared(nominal, data, effect, calibrated=None, start=None):
+        key = ("fit_structure", repr(nominal), data, effect.name if effect else None, calibrated, start)
+        return shared_results(key, lambda: compute(nominal, data, effect, calibrated=calibrated, start=start))
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(campaign_module, "fit_structure", shared)
+        yield
 
 
 @pytest.fixture(scope="module")

@@ -147,20 +147,22 @@ THREE_SENSORS = {"v_tip_laser": ("main", 0.765), "v_mid": ("main", 0.3333), "v_r
 
 
 @pytest.fixture(scope="module")
-def one_level(tmp_path_factory):
-    """diagnose_frf result of a one-level folder per (effect, file kind), cached."""
-    cache = {}
+def one_level(tmp_path_factory, shared_results):
+    """(folder, diagnose_frf result) of a one-level folder per (effect, file kind, nominal), computed
+    once per run for both xdist workers (conftest's ``shared_results``): the reference diagnoses (no
+    effect and clamp_compliance's drive-voltage folder, each asked for by 3-7 tests) were computed on
+    each worker that ran one of their tests. Keyed on the nominal's repr (the folder and the diagnosis
+    follow from the effect, the kind, the seed and the nominal)."""
     kinds = {"accelerance": {}, "receptance": {"quantity": "receptance"},
              "mobility_sensors": {"quantity": "mobility", "sensors": THREE_SENSORS},
              "drive_voltage": {"force_scale_N_per_V": 0.37}}
 
     def get_(effect: str, kind: str, nominal: Config | None = None):
-        key = (effect, kind, None if nominal is None else id(nominal))
-        if key not in cache:
+        def compute():
             d = tmp_path_factory.mktemp(f"{effect}_{kind}") / "c"
             make_frf_campaign(d, effect, seed=SEED, levels_n=ONE_LEVEL, **kinds[kind])
-            cache[key] = (d, diagnose_frf(d, nominal))
-        return cache[key]
+            return d, diagnose_frf(d, nominal)
+        return shared_results(("one_level", effect, kind, SEED, None if nominal is None else repr(nominal)), compute)
     return get_
 
 
