@@ -43,9 +43,11 @@ def shared_structure_fits(shared_results):
     diagnosis gets the very fit it would compute; a worker waits for a fit the other is computing."""
     compute = campaign_module.fit_structure
 
-    def shared(nominal, data, effect, calibrated=None, start=None):
+    def shared(nominal, data, effect, calibrated=None, start=None, bars=False):
+        # bars (progress on stderr) does not change the fit: not part of the key
         key = ("fit_structure", repr(nominal), data, effect.name if effect else None, calibrated, start)
-        return shared_results(key, lambda: compute(nominal, data, effect, calibrated=calibrated, start=start))
+        return shared_results(key, lambda: compute(nominal, data, effect, calibrated=calibrated, start=start,
+                                                   bars=bars))
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(campaign_module, "fit_structure", shared)
