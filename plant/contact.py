@@ -170,8 +170,8 @@ def _interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
     Their work -Lambda_d . dg = (c_n/h) dp dg_n + (c_t/h) s dg_t^2 >= 0 (dp and dg_n share
     their sign). Parameters: gaps at the start and end of the step [m]; cn_h, ct_h = c/h [N/m].
     Returns (Lambda_dn, Lambda_dt [N], dLambda_dn/dg_n1, dLambda_dt/dg_n1 (0), dLambda_dt/dg_t1
-    [N/m], True while 0 < s < 1: the force law then changes from step to step, so cached
-    factors do not apply).
+    [N/m], True while 0 < s < 1: the force law then changes from step to step; the plant step
+    updates its cached factors for it, plant.newmark._fading_updates).
     """
     p0 = gn0 if gn0 < 0.0 else 0.0
     p1 = gn1 if gn1 < 0.0 else 0.0

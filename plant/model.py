@@ -94,7 +94,9 @@ class PlantModel:
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
                          ra=np.zeros(m), z=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
-                         mu_eff=self.params.mu.copy(), stale=np.zeros(2, dtype=i64))
+                         mu_eff=self.params.mu.copy(), stale=np.zeros(1, dtype=i64),
+                         d_fact=np.zeros(3 * p), upd=np.zeros(3, dtype=i64), upd_delta=np.zeros(2),
+                         Z=np.zeros((2, m)))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""
