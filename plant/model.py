@@ -95,8 +95,8 @@ class PlantModel:
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
                          ra=np.zeros(m), z=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
                          mu_eff=self.params.mu.copy(), stale=np.zeros(1, dtype=i64),
-                         d_fact=np.zeros(3 * p), upd=np.zeros(3, dtype=i64), upd_delta=np.zeros(2),
-                         Z=np.zeros((2, m)))
+                         d_fact=np.zeros(3 * p), upd=np.zeros(5, dtype=i64), upd_delta=np.zeros(2),
+                         Z=np.zeros((p, m)), z_ok=np.zeros(p, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""
