@@ -335,7 +335,7 @@ def _fading_updates(W, wk, n_act):
     Such a change is J_aa' = J_aa - u delta e_c^T with u the active rows of W's column 2j+1 and c
     the pair's tangential column: Z = J_aa^-1 u per update (``_apply_updates`` then solves with J_aa'
     by the Woodbury identity). Z depends only on the factors and W, so each pair's row is kept until
-    the factors are refreshed (wk.z_ok): the two triangular solves per update cost ~0.3 us a step.
+    the factors are refreshed (wk.z_ok): solving them in every step cost 0.49 us of the 3.30 us.
     Before, the factors were refreshed in every step with a fading pair active (95 % of the graded
     default's steps). RT-safe."""
     act, d, d_fact, upd, delta, Z, LU, piv, z_ok = (wk.act, wk.d, wk.d_fact, wk.upd, wk.upd_delta, wk.Z, wk.LU,
