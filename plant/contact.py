@@ -170,17 +170,17 @@ def _interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
     Their work -Lambda_d . dg = (c_n/h) dp dg_n + (c_t/h) s dg_t^2 >= 0 (dp and dg_n share
     their sign). Parameters: gaps at the start and end of the step [m]; cn_h, ct_h = c/h [N/m].
     Returns (Lambda_dn, Lambda_dt [N], dLambda_dn/dg_n1, dLambda_dt/dg_n1 (0), dLambda_dt/dg_t1
-    [N/m], True while 0 < s < 1: the force law then changes from step to step; the plant step
-    updates its cached factors for it, plant.newmark._fading_updates).
+    [N/m]). While 0 < s < 1 the last changes from step to step (the plant step updates its cached
+    factors for it: plant.newmark._fading_updates).
     """
     p0 = gn0 if gn0 < 0.0 else 0.0
     p1 = gn1 if gn1 < 0.0 else 0.0
     if p0 == 0.0 and p1 == 0.0:
-        return 0.0, 0.0, 0.0, 0.0, 0.0, False
+        return 0.0, 0.0, 0.0, 0.0, 0.0
     dp_dg = 1.0 if gn1 < 0.0 else 0.0
     dgt = gt1 - gt0
     x = -p0 / depth
     if x >= 1.0:
-        return -cn_h * (p1 - p0), -ct_h * dgt, -cn_h * dp_dg, 0.0, -ct_h, False
+        return -cn_h * (p1 - p0), -ct_h * dgt, -cn_h * dp_dg, 0.0, -ct_h
     s = x * x * (3.0 - 2.0 * x)
-    return -cn_h * (p1 - p0), -ct_h * s * dgt, -cn_h * dp_dg, 0.0, -ct_h * s, True
+    return -cn_h * (p1 - p0), -ct_h * s * dgt, -cn_h * dp_dg, 0.0, -ct_h * s

@@ -94,7 +94,7 @@ class PlantModel:
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
                          LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
                          ra=np.zeros(m), z=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
-                         mu_eff=self.params.mu.copy(), stale=np.zeros(1, dtype=i64),
+                         mu_eff=self.params.mu.copy(),
                          d_fact=np.zeros(3 * p), upd=np.zeros(5, dtype=i64), upd_delta=np.zeros(2),
                          Z=np.zeros((p, m)), z_ok=np.zeros(p, dtype=i64))
 

@@ -142,7 +142,6 @@ class PlantWork(NamedTuple):
     z: np.ndarray          # (2p,) J^-1 W e_n of a pair opening or closing within the step (_transition_step)
     pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
     mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
-    stale: np.ndarray      # (1,) int64: 1 if mu_eff changed since the LU was factorised
     d_fact: np.ndarray     # (3p,) the Jacobian entries wk.d the LU was factorised with
     upd: np.ndarray        # (5,) int64: rank-one updates of the factors (0..2), their columns in the active
                            # block, their pairs
@@ -288,7 +287,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
                         w_new[j] = wn
                         d[3 * j + 1] = 0.5 * dtn
                         d[3 * j + 2] = 0.0
-        ldn, ldt, ddn, ddtn, ddtt, _ = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
+        ldn, ldt, ddn, ddtn, ddtt = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
                                                                c_n[j] * inv_h, c_t[j] * inv_h, depth)
         lam[2 * j] += ldn
         lam[2 * j + 1] += ldt
@@ -437,7 +436,7 @@ def _normal_mean(g0, g1, k_n, cn_h):
     derivative in the end gap g1 [N, N/m] (``_normal_impulse`` + ``_interface_dashpot``'s normal
     part). RT-safe."""
     lam, dlam, _ = _normal_impulse(g0, g1, k_n)
-    ldn, _, ddn, _, _, _ = _interface_dashpot(g0, g1, 0.0, 0.0, cn_h, 0.0, 1.0)
+    ldn, _, ddn, _, _ = _interface_dashpot(g0, g1, 0.0, 0.0, cn_h, 0.0, 1.0)  # tangential part unused
     return lam + ldn, dlam + ddn
 
 
@@ -473,7 +472,7 @@ def _transition_root(g_free, w_eff, g0, k_n, cn_h):
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _transition_step(jt, g, dg, W, p, wk, n_act, inv_h):
     """Replace the Newton step dg by the exact solution for the one pair jt that opens or closes
-    within the step, the other pairs staying in their pieces (docs/plant.md 6.4).
+    within the step, the other pairs staying in their pieces (docs/plant.md 2.3).
 
     Every pair law is affine within its piece except that pair's mean normal force Lambda_n(x) of
     its end gap x, a hyperbola (the discrete gradient across the contact's edge) on which plain
@@ -537,18 +536,21 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         [ J_aa  0 ] [d_a]   [r_a]      J_aa d_a = r_a                 (LU, 2 n_act square)
         [ J_ia  I ] [d_i] = [r_i]      d_i = r_i - J_ia d_a           (substitution)
 
-    J_aa depends only on the pairs' states (open, stick, slip+, slip-) unless a pair opens or
-    closes within the step, so its LU factors are kept with that pattern and reused while it
-    holds (and while wk.mu_eff is unchanged: ``_stribeck_update`` sets wk.stale when it changes
-    a slipping pair's coefficient). The law is affine within one pattern, so a step taken with the factors of pattern P
-    that lands on a point whose pattern is still P is the exact solution (to round-off): the
-    residual is not evaluated again there. If plain Newton has not converged after PLAIN_ITER
-    iterations (the active set cycles), steps are shortened by backtracking on |r|^2.
+    The LU factors of J_aa are kept with the pattern of states they were built for (wk.pattern)
+    and the Jacobian entries they hold (wk.d_fact), and reused while the pattern holds: entries
+    that changed since (a fading dashpot's dLambda_t/dg_t, up to two pairs) are rank-one updates
+    (``_fading_updates``); any other change (a Stribeck coefficient, more fading pairs) refreshes
+    them. The law is affine within one pattern, so a step taken with the factors of pattern P that
+    lands on a point whose pattern is still P is the exact solution (to round-off): the residual is
+    not evaluated again there. Within the first PLAIN_ITER iterations a pair opening or closing
+    within the step is solved exactly (``_transition_step``) and a pair whose slip reversed takes
+    its stick piece (``_reversals_to_stick``); after them, if Newton has not converged (the active
+    set cycles), steps are shortened by backtracking on |r|^2.
     Converged when |r|_2 <= p.tol + ROUNDOFF max|g_pred|. Returns the iterations used, or -1
     if that was not reached within p.max_iter. RT-safe.
     """
     act, LU, d, piv, pattern, code = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code
-    r_, g_old, dg, stale, d_fact = wk.r, wk.g_old, wk.dg, wk.stale, wk.d_fact
+    r_, g_old, dg, d_fact = wk.r, wk.g_old, wk.dg, wk.d_fact
     m = g.shape[0]
     npair = m // 2
     scale = 0.0
@@ -564,9 +566,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         ma = 2 * n_act
         if it < PLAIN_ITER and p.iwan_k.shape[0] == 1:
             _reversals_to_stick(g, w_old, W, p, wk)
-        refactor = not same or stale[0] != 0 or _fading_updates(W, wk, n_act) < 0
-        if refactor:
-            stale[0] = 0
+        if not same or _fading_updates(W, wk, n_act) < 0:
             wk.upd[0] = 0
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
             for ra in range(ma):
@@ -613,20 +613,17 @@ def _stribeck_update(qd, p, wk):
     """Friction coefficient of every pair for the coming substep (Stribeck, p.static_excess > 0):
     mu_eff_j = mu(v_j) (``plant.contact._stribeck_mu``) with v_j = G_t,j qd the pair's tangential
     surface velocity at the start of the substep [m/s]. Held over the substep (lagged), so the
-    pair law stays piecewise affine and Newton exact. A changed coefficient of a pair whose cached
-    pattern slips invalidates the LU factors (wk.stale). RT-safe."""
-    G, mu, mu_eff, pattern = p.G, p.mu, wk.mu_eff, wk.pattern
+    pair law stays piecewise affine and Newton exact. A slipping pair's changed coefficient changes
+    its Jacobian entry, so the LU factors are refreshed (``_contact_newton`` compares wk.d with
+    wk.d_fact). RT-safe."""
+    G, mu, mu_eff = p.G, p.mu, wk.mu_eff
     s, v_s = p.static_excess, p.stribeck_v
     n = qd.shape[0]
     for j in range(mu.shape[0]):
         v = 0.0
         for i in range(n):
             v += G[2 * j + 1, i] * qd[i]
-        m = _stribeck_mu(mu[j], s, v, v_s)
-        if m != mu_eff[j]:
-            mu_eff[j] = m
-            if pattern[j] >= 2:  # slipping: its Jacobian column holds mu
-                wk.stale[0] = 1
+        mu_eff[j] = _stribeck_mu(mu[j], s, v, v_s)
 
 
 # inlined into _plant_step (two call sites): measured ~5 % faster per step at 9 and 33 pairs
