@@ -88,7 +88,7 @@ class PlantModel:
         n, m = self.n, 2 * self.n_pairs
         p = m // 2
         i64 = np.int64
-        return PlantWork(q_pred=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
+        return PlantWork(q_pred=np.zeros(n), q_g=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
                          g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
                          lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p * self.n_sliders), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
@@ -185,11 +185,13 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         max_iter=int(cfg.plant.newton_max_iter), static_excess=float(cfg.plant.interface.static_excess),
         stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s), **iwan_fractions(cfg),
         bolt_rows=np.ascontiguousarray(st.bolt_rows @ Phi), bolt_k=st.bolt_k.copy(), bolt_F=st.bolt_F.copy(),
-        bolt_ref=np.zeros(len(st.bolt_k)), bolt_adaptive=int(st.adaptive))
+        bolt_ref=np.zeros(len(st.bolt_k)), bolt_adaptive=int(st.adaptive),
+        n_dyn=0, gq_exc=np.zeros(0), gq_N1=np.zeros(0), gq_const=np.zeros(0))   # set last (_with_quasi_static_loads)
     model = PlantModel(cfg, st, params, Phi, omega, reduced)
     model = PlantModel(cfg, st, _with_bolt_reference(model, cfg.actuator.F0_N), Phi, omega, reduced)
     if cfg.plant.condense_quasi_static:
         model = condense_quasi_static(model)
+    model = PlantModel(cfg, st, _with_quasi_static_loads(model.params), model.Phi, model.omega, reduced)
     for a in model.params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
@@ -254,6 +256,20 @@ def _with_bolt_reference(model: PlantModel, F_N1: float) -> PlantParams:
     q, _, _ = static_equilibrium(model, F_N1, K=K_free)
     g_ref = p.bolt_rows @ q
     return p._replace(bolt_ref=g_ref, f_const=p.f_const + p.bolt_rows.T @ (p.bolt_k * g_ref))
+
+
+def _with_quasi_static_loads(p: PlantParams) -> PlantParams:
+    """p with n_dyn and the quasi-static modes' share of the step's predicted gaps per held load,
+    gq_b = G_s diag(s2_s) b_s for b = b_exc, b_N1, f_const (s: the modes with dyn = 0; their s2 =
+    (1 + theta) / omega^2 does not depend on the step, so the fallback substep shares them). The
+    step reads these instead of the quasi-static columns of G (plant.newmark._substep). The
+    modes are in ascending frequency, so the stepped ones come first."""
+    n_dyn = int((p.dyn > 0).sum())
+    if not (p.dyn[:n_dyn] > 0).all():
+        raise ValueError("the stepped modes (dyn = 1) must come before the quasi-static ones")
+    Gs = p.G[:, n_dyn:] * p.s2[n_dyn:]
+    return p._replace(n_dyn=n_dyn, gq_exc=Gs @ p.b_exc[n_dyn:], gq_N1=Gs @ p.b_N1[n_dyn:],
+                      gq_const=Gs @ p.f_const[n_dyn:])
 
 
 def iwan_fractions(cfg: Config) -> dict[str, np.ndarray]:

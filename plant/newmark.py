@@ -105,6 +105,10 @@ class PlantParams(NamedTuple):
     W_fine: np.ndarray     # (2p, 2p) W for the fallback substep h_fine
     h_fine: float          # h / fine_split [s]
     qs_theta: float        # theta of the quasi-static modes: q1 = (1 + theta) q_static - theta q0 [-]
+    n_dyn: int             # the stepped modes are the first n_dyn (dyn = 1), the quasi-static ones follow
+    gq_exc: np.ndarray     # (2p,) the quasi-static modes' share of g_pred per unit F_exc, G_s diag(s2_s) b_exc_s [m/N]
+    gq_N1: np.ndarray      # (2p,) the same per unit F_N1 [m/N]
+    gq_const: np.ndarray   # (2p,) the same of the constant screws' load [m]
     fine_split: int        # fallback substeps per failed substep
     tol: float             # Newton tolerance on |r|_2 [m]
     max_iter: int
@@ -122,6 +126,7 @@ class PlantParams(NamedTuple):
 class PlantWork(NamedTuple):
     """Scratch buffers of the plant step (preallocated once by ``PlantModel.new_work``)."""
     q_pred: np.ndarray     # (n,)
+    q_g: np.ndarray        # (n,) q_pred + theta q of the stepped modes (first p.n_dyn): their part of g_pred
     qdd_lin: np.ndarray    # (n,) modal acceleration at the end point without the contact forces
     f_c: np.ndarray        # (n,) modal contact force G^T Lambda
     g_pred: np.ndarray     # (2p,)
@@ -648,10 +653,18 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     for i in range(n):
         f = b_exc[i] * F_exc + b_N1[i] * F_N1 + f_const[i]
         q_pred[i] = q[i] + s2[i] * (f + a2 * m_step[i] * qd[i] - omega2[i] * q[i])
+    # g_pred = G q_pred. A quasi-static mode's predictor is q_pred = -theta q + s2 f (s2 omega^2 =
+    # 1 + theta), and their gaps G_s q_s are the gaps g less the stepped modes' G_d q_d (the state's
+    # g is G q to the Newton tolerance, 1e-18 m), so only the stepped modes' columns are read:
+    #     g_pred = G_d (q_pred + theta q)_d - theta g + gq_exc F_exc + gq_N1 F_N1 + gq_const
+    # (14 of the default's 61 columns; docs/plant.md 2.7)
+    n_dyn, theta, gq_exc, gq_N1, gq_const, q_g = p.n_dyn, p.qs_theta, p.gq_exc, p.gq_N1, p.gq_const, wk.q_g
+    for i in range(n_dyn):
+        q_g[i] = q_pred[i] + theta * q[i]
     for r in range(m):
-        acc = 0.0
-        for i in range(n):
-            acc += G[r, i] * q_pred[i]
+        acc = gq_exc[r] * F_exc + gq_N1[r] * F_N1 + gq_const[r] - theta * g[r]
+        for i in range(n_dyn):
+            acc += G[r, i] * q_g[i]
         g_pred[r] = acc
         g0[r] = g[r]
     if p.static_excess > 0.0:
@@ -777,6 +790,7 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         v_start = 0.0
         for i in range(n):
             a_x += out_rows[r, i] * q[i]
+        for i in range(p.n_dyn):  # the quasi-static modes have qd = qdd_lin = 0
             a_v += out_rows[r, i] * qd[i]
             a_a += out_rows[r, i] * qdd_lin[i]
             v_start += out_rows[r, i] * x[n + i]

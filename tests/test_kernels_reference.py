@@ -590,6 +590,11 @@ def test_plant_run_matches_reference(model, name):
     gs = np.max(np.abs(r["Xt"][:, model.state_slots()["g"]]))
     assert max(max(i["res"]) for i in r["info_t"]) <= 1e-13 * gs
     assert max(max(i["gq_mismatch"]) for i in r["info_t"]) <= 1e-12 * gs
+    # so does the kernel, whose predictor takes the quasi-static modes' gaps as g - G_d q_d
+    # (docs/plant.md 2.7); a mismatch would decay by -theta per step, not grow
+    sl = model.state_slots()
+    X = r["X"][1:]
+    assert np.max(np.abs(X[:, sl["g"]] - X[:, sl["q"]] @ model.params.G.T)) <= 1e-12 * gs
 
 
 def test_shipped_newton_tolerance_meets_check_8(model):
