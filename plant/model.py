@@ -16,7 +16,7 @@ import scipy.linalg as sla
 
 from plant.contact import _jenkins_pair
 from plant.craig_bampton import craig_bampton
-from plant.newmark import N_ENERGY, PlantParams, PlantWork, _plant_step
+from plant.newmark import FACTOR_SLOTS, MAX_UPDATES, N_ENERGY, PlantParams, PlantWork, _plant_step
 from plant.structure import Structure, build_structure
 from rt.common.blas import check as check_blas
 from rt.common.codegen import check as check_codegen
@@ -84,19 +84,24 @@ class PlantModel:
     def output_index(self) -> dict[str, int]:
         return {name: i for i, (name, _) in enumerate(self.output_labels())}
 
-    def new_work(self) -> PlantWork:
+    def new_work(self, factor_slots: int = FACTOR_SLOTS) -> PlantWork:
+        """Scratch buffers of the plant step, with factor_slots contact patterns' factors kept
+        (``plant.newmark._use_cached``; 1: only the last pattern's)."""
         n, m = self.n, 2 * self.n_pairs
         p = m // 2
+        K = int(factor_slots)
         i64 = np.int64
         return PlantWork(q_pred=np.zeros(n), q_g=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
                          g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),
                          lam1=np.zeros(m), lamd=np.zeros(m), w_new=np.zeros(p * self.n_sliders), d=np.zeros(3 * p),
                          code=np.zeros(p, dtype=i64), r=np.zeros(m), dg=np.zeros(m), g_old=np.zeros(m),
-                         LU=np.zeros((m, m)), piv=np.zeros(m, dtype=i64), act=np.zeros(p, dtype=i64),
-                         ra=np.zeros(m), z=np.zeros(m), pattern=np.full(p, -1, dtype=i64),
+                         LU=np.zeros((K, m, m)), piv=np.zeros((K, m), dtype=i64), act=np.zeros(p, dtype=i64),
+                         ra=np.zeros(m), z=np.zeros(m), pattern=np.full((K, p), -1, dtype=i64),
                          mu_eff=self.params.mu.copy(),
-                         d_fact=np.zeros(3 * p), upd=np.zeros(5, dtype=i64), upd_delta=np.zeros(2),
-                         Z=np.zeros((p, m)), z_ok=np.zeros(p, dtype=i64))
+                         d_fact=np.zeros((K, 3 * p)), upd=np.zeros(1 + 2 * MAX_UPDATES, dtype=i64),
+                         upd_delta=np.zeros(MAX_UPDATES), cap=np.zeros((MAX_UPDATES, MAX_UPDATES + 1)),
+                         Z=np.zeros((K, p, m)), z_ok=np.zeros((K, p), dtype=i64), slot=np.zeros(2, dtype=i64),
+                         last_use=np.zeros(K, dtype=i64), key=np.zeros(K, dtype=i64))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""

@@ -76,6 +76,8 @@ ROUNDOFF = 64 * np.finfo(np.float64).eps  # relative floor of the Newton toleran
 SLIP_TIE = 1e-13  # relative band at the friction limit in which a slipping pair stays slipping
 N_ENERGY = 4    # E_fric, E_damp, W_exc, W_screw
 TRANSITION = -2  # contact code of a pair that opens or closes within the step
+MAX_UPDATES = 4  # rank-one updates of the kept factors before they are refreshed (``_fading_updates``)
+FACTOR_SLOTS = 32  # contact patterns whose factors are kept (``_use_cached``; docs/plant.md 2.3)
 
 
 class PlantParams(NamedTuple):
@@ -140,19 +142,23 @@ class PlantWork(NamedTuple):
     r: np.ndarray          # (2p,)
     dg: np.ndarray         # (2p,) Newton step
     g_old: np.ndarray      # (2p,) iterate before the step
-    LU: np.ndarray         # (2p, 2p) LU factors of the active block of the Jacobian for `pattern`
-    piv: np.ndarray        # (2p,) int64 row pivots of LU
+    LU: np.ndarray         # (K, 2p, 2p) per slot: LU factors of the active block of the Jacobian for its `pattern`
+    piv: np.ndarray        # (K, 2p) int64 per slot: row pivots of LU
     act: np.ndarray        # (p,) int64 active pairs of the current iterate (first n_act entries)
     ra: np.ndarray         # (2p,) right-hand side / solution of the active block
     z: np.ndarray          # (2p,) J^-1 W e_n of a pair opening or closing within the step (_transition_step)
-    pattern: np.ndarray    # (p,) int64 contact state per pair the LU belongs to (-1: none yet)
+    pattern: np.ndarray    # (K, p) int64 per slot: contact state per pair its LU belongs to (-1: none)
     mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
-    d_fact: np.ndarray     # (3p,) the Jacobian entries wk.d the LU was factorised with
-    upd: np.ndarray        # (5,) int64: rank-one updates of the factors (0..2), their columns in the active
-                           # block, their pairs
-    upd_delta: np.ndarray  # (2,) their changes of dLambda_t/dg_t [N/m]
-    Z: np.ndarray          # (p, 2p) J_aa^-1 u of a pair's update, kept while the factors are (_fading_updates)
-    z_ok: np.ndarray       # (p,) int64: 1 where Z holds the pair's row for the current factors
+    d_fact: np.ndarray     # (K, 3p) per slot: the Jacobian entries wk.d its LU was factorised with
+    upd: np.ndarray        # (1 + 2 MAX_UPDATES,) int64: rank-one updates of the factors (0..MAX_UPDATES), their
+                           # columns in the active block, their pairs
+    upd_delta: np.ndarray  # (MAX_UPDATES,) their changes of dLambda_t/dg_t [N/m]
+    cap: np.ndarray        # (MAX_UPDATES, MAX_UPDATES + 1) the updates' capacitance system (``_apply_updates``)
+    Z: np.ndarray          # (K, p, 2p) per slot: J_aa^-1 u of a pair's update, kept with the factors (_fading_updates)
+    z_ok: np.ndarray       # (K, p) int64 per slot: 1 where Z holds the pair's row for its factors
+    slot: np.ndarray       # (2,) int64: the slot whose factors the step uses, and a use counter
+    last_use: np.ndarray   # (K,) int64 the counter at each slot's last use (least recently used is refactorised)
+    key: np.ndarray        # (K,) int64 per slot: a hash of its pattern, compared before the pattern itself
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -226,7 +232,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     # fields unpacked into locals: inside loops numba would reload every array pointer from
     # the NamedTuples (measured 0.29 -> 0.08 us for these 9 pair laws); likewise below
     lam, lam1, lamd, w_new, d = wk.lam, wk.lam1, wk.lamd, wk.w_new, wk.d
-    code, act, pattern = wk.code, wk.act, wk.pattern
+    code, act, pattern = wk.code, wk.act, wk.pattern[wk.slot[0]]
     g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, wk.mu_eff, p.c_n, p.c_t, p.dashpot_depth
     kf, qf = p.iwan_k, p.iwan_q
     ne = kf.shape[0]
@@ -338,34 +344,36 @@ def _contact_residual(g, g_pred, W, wk, n_act):
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _fading_updates(W, wk, n_act):
-    """Prepare rank-one updates of the cached factors for the active pairs whose only change since
-    the factorisation is dLambda_t/dg_t (a fading tangential dashpot: its weight s is its step's
-    own, 1.3), at most two; returns their number, or -1 if another entry changed or more pairs did
-    (then the factors are refreshed).
+    """Prepare rank-one updates of the current slot's factors for the active pairs whose only change
+    since the factorisation is dLambda_t/dg_t (a fading tangential dashpot: its weight s is its
+    step's own, 1.3), at most MAX_UPDATES; returns their number, or -1 if another entry changed or
+    more pairs did (then the factors are refreshed).
 
     Such a change is J_aa' = J_aa - u delta e_c^T with u the active rows of W's column 2j+1 and c
     the pair's tangential column: Z = J_aa^-1 u per update (``_apply_updates`` then solves with J_aa'
-    by the Woodbury identity). Z depends only on the factors and W, so each pair's row is kept until
-    the factors are refreshed (wk.z_ok): solving them in every step cost 0.49 us of the 3.30 us.
-    Before, the factors were refreshed in every step with a fading pair active (95 % of the graded
-    default's steps). RT-safe."""
-    act, d, d_fact, upd, delta, Z, LU, piv, z_ok = (wk.act, wk.d, wk.d_fact, wk.upd, wk.upd_delta, wk.Z, wk.LU,
-                                                    wk.piv, wk.z_ok)
+    by the Woodbury identity). Z depends only on the factors and W, so each pair's row is kept with
+    the factors (wk.z_ok): solving them in every step cost 0.49 us of the 3.30 us. Before, the
+    factors were refreshed in every step with a fading pair active (95 % of the graded default's
+    steps); with two updates at most, still in 9 % of the steps of the budget's Lyapunov run (three
+    or more pairs fading at once), with four in none. RT-safe."""
+    s = wk.slot[0]
+    act, d, d_fact, upd, delta, Z, LU, piv, z_ok = (wk.act, wk.d, wk.d_fact[s], wk.upd, wk.upd_delta, wk.Z[s],
+                                                    wk.LU[s], wk.piv[s], wk.z_ok[s])
     k = 0
     for b in range(n_act):
         j = act[b]
         if d[3 * j] != d_fact[3 * j] or d[3 * j + 1] != d_fact[3 * j + 1]:
             return -1
         if d[3 * j + 2] != d_fact[3 * j + 2]:
-            if k == 2:
+            if k == MAX_UPDATES:
                 return -1
             upd[1 + k] = 2 * b + 1
-            upd[3 + k] = j
+            upd[1 + MAX_UPDATES + k] = j
             delta[k] = d[3 * j + 2] - d_fact[3 * j + 2]
             k += 1
     ma = 2 * n_act
     for u in range(k):
-        j = upd[3 + u]
+        j = upd[1 + MAX_UPDATES + u]
         if z_ok[j] == 0:
             for ra in range(ma):
                 Z[j, ra] = W[2 * act[ra // 2] + ra % 2, 2 * j + 1]
@@ -379,28 +387,39 @@ def _fading_updates(W, wk, n_act):
 def _apply_updates(y, wk, ma):
     """y = J_aa'^-1 r from y = J_aa^-1 r (in place) for the rank-one updates J_aa' = J_aa -
     sum_k u_k delta_k e_ck^T of ``_fading_updates``, by the Woodbury identity
-    y + Z t, (I - D V^T Z) t = D V^T y (D = diag(delta_k), V = [e_ck]). RT-safe."""
-    k, upd, delta, Z = wk.upd[0], wk.upd, wk.upd_delta, wk.Z
+    y + Z t, (I - D V^T Z) t = D V^T y (D = diag(delta_k), V = [e_ck]); the k x k capacitance
+    system (k <= MAX_UPDATES) by Gaussian elimination with partial pivoting. RT-safe."""
+    k, upd, delta, Z, A = wk.upd[0], wk.upd, wk.upd_delta, wk.Z[wk.slot[0]], wk.cap
     if k == 0:
         return
-    c0, z0 = upd[1], upd[3]
-    if k == 1:
-        t0 = delta[0] * y[c0] / (1.0 - delta[0] * Z[z0, c0])
+    for a in range(k):
+        ca = upd[1 + a]
+        for b in range(k):
+            A[a, b] = (1.0 if a == b else 0.0) - delta[a] * Z[upd[1 + MAX_UPDATES + b], ca]
+        A[a, k] = delta[a] * y[ca]
+    for c in range(k):
+        pv = c
+        for r in range(c + 1, k):
+            if abs(A[r, c]) > abs(A[pv, c]):
+                pv = r
+        if pv != c:
+            for cc in range(c, k + 1):
+                tmp = A[c, cc]
+                A[c, cc] = A[pv, cc]
+                A[pv, cc] = tmp
+        for r in range(c + 1, k):
+            f = A[r, c] / A[c, c]
+            for cc in range(c, k + 1):
+                A[r, cc] -= f * A[c, cc]
+    for c in range(k - 1, -1, -1):
+        acc = A[c, k]
+        for cc in range(c + 1, k):
+            acc -= A[c, cc] * A[cc, k]
+        A[c, k] = acc / A[c, c]
+    for b in range(k):
+        zb, t = upd[1 + MAX_UPDATES + b], A[b, k]
         for i in range(ma):
-            y[i] += Z[z0, i] * t0
-        return
-    c1, z1 = upd[2], upd[4]
-    a00 = 1.0 - delta[0] * Z[z0, c0]
-    a01 = -delta[0] * Z[z1, c0]
-    a10 = -delta[1] * Z[z0, c1]
-    a11 = 1.0 - delta[1] * Z[z1, c1]
-    b0 = delta[0] * y[c0]
-    b1 = delta[1] * y[c1]
-    det = a00 * a11 - a01 * a10
-    t0 = (b0 * a11 - a01 * b1) / det
-    t1 = (a00 * b1 - a10 * b0) / det
-    for i in range(ma):
-        y[i] += Z[z0, i] * t0 + Z[z1, i] * t1
+            y[i] += Z[zb, i] * t
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
@@ -408,7 +427,7 @@ def _jacobian_solve(r_, x, W, wk, n_act):
     """x = J^-1 r_ with the factors wk.LU of the active block (``_contact_newton``'s partitioned
     solve): J_aa x_a = r_a by LU, then x_i = r_i + (W dLambda/dg)_ia x_a. r_ and x are (2p,)
     and distinct. RT-safe."""
-    act, LU, d, piv, rhs = wk.act, wk.LU, wk.d, wk.piv, wk.ra
+    act, LU, d, piv, rhs = wk.act, wk.LU[wk.slot[0]], wk.d, wk.piv[wk.slot[0]], wk.ra
     m = r_.shape[0]
     ma = 2 * n_act
     for ra in range(ma):
@@ -524,7 +543,7 @@ def _reversals_to_stick(g, w_old, W, p, wk):
     instead of the slip linearisation: wk.r gets W e_t (M_t - Lambda_t), wk.d the stick entries
     (dLambda_t/dg_n 0, dLambda_t/dg_t -k_t/2 plus the dashpot's), wk.code stick (1). The residual
     and the law stay the true ones; only the step's piece changes. RT-safe."""
-    code, pattern, d, r_, lam1, k_t = wk.code, wk.pattern, wk.d, wk.r, wk.lam1, p.k_t
+    code, pattern, d, r_, lam1, k_t = wk.code, wk.pattern[wk.slot[0]], wk.d, wk.r, wk.lam1, p.k_t
     m = g.shape[0]
     for j in range(code.shape[0]):
         c, c_prev = code[j], pattern[j]
@@ -535,6 +554,53 @@ def _reversals_to_stick(g, w_old, W, p, wk):
             d[3 * j + 1] = 0.0
             d[3 * j + 2] -= 0.5 * k_t[j]
             code[j] = 1
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _use_cached(wk):
+    """Make current the slot whose factors belong to the pattern wk.code, if one does (True), else
+    the least recently used slot, to be refactorised (False). A pattern with a pair in transition is
+    never reused (its Jacobian entry moves with the end gap). RT-safe.
+
+    A joint driven through a cycle visits the same patterns in turn: on the budget's Lyapunov run
+    (graded default, 223.6 Hz, 105000 steps) the pattern changes in 18 % of the steps, and of the
+    23400 changes to a pattern without a transition 87 % find it kept with 32 slots
+    (least-recently-used), 18 % with 16 (a cycle visits about 25). Refactorisations 40420 -> 13070
+    with MAX_UPDATES 4 (docs/plant.md 2.3)."""
+    code, pattern, last, key = wk.code, wk.pattern, wk.last_use, wk.key
+    npair = code.shape[0]
+    wk.slot[1] += 1
+    found = -1
+    h = 0
+    for j in range(npair):
+        if code[j] == TRANSITION:
+            found = -2
+            break
+        h = h * 31 + code[j] + 1   # wraps around in int64: a hash, equal patterns give equal keys
+    if found == -1:
+        for s in range(pattern.shape[0]):
+            if key[s] != h:
+                continue
+            match = True
+            for j in range(npair):
+                if pattern[s, j] != code[j]:
+                    match = False
+                    break
+            if match:
+                found = s
+                break
+    if found >= 0:
+        wk.slot[0] = found
+        last[found] = wk.slot[1]
+        return True
+    victim = 0
+    for s in range(1, last.shape[0]):
+        if last[s] < last[victim]:
+            victim = s
+    wk.slot[0] = victim
+    last[victim] = wk.slot[1]
+    key[victim] = h
+    return False
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -549,8 +615,9 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         [ J_ia  I ] [d_i] = [r_i]      d_i = r_i - J_ia d_a           (substitution)
 
     The LU factors of J_aa are kept with the pattern of states they were built for (wk.pattern)
-    and the Jacobian entries they hold (wk.d_fact), and reused while the pattern holds: entries
-    that changed since (a fading dashpot's dLambda_t/dg_t, up to two pairs) are rank-one updates
+    and the Jacobian entries they hold (wk.d_fact), FACTOR_SLOTS patterns at a time, and reused
+    while the pattern holds or when it returns (``_use_cached``): entries that changed since (a
+    fading dashpot's dLambda_t/dg_t, up to MAX_UPDATES pairs) are rank-one updates
     (``_fading_updates``); any other change (a Stribeck coefficient, more fading pairs) refreshes
     them. The law is affine within one pattern, so a step taken with the factors of pattern P that
     lands on a point whose pattern is still P is the exact solution (to round-off): the residual is
@@ -561,8 +628,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
     Converged when |r|_2 <= p.tol + ROUNDOFF max|g_pred|. Returns the iterations used, or -1
     if that was not reached within p.max_iter. RT-safe.
     """
-    act, LU, d, piv, pattern, code = wk.act, wk.LU, wk.d, wk.piv, wk.pattern, wk.code
-    r_, g_old, dg, d_fact = wk.r, wk.g_old, wk.dg, wk.d_fact
+    act, d, code = wk.act, wk.d, wk.code
+    r_, g_old, dg = wk.r, wk.g_old, wk.dg
     m = g.shape[0]
     npair = m // 2
     scale = 0.0
@@ -578,8 +645,12 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
         ma = 2 * n_act
         if it < PLAIN_ITER and p.iwan_k.shape[0] == 1:
             _reversals_to_stick(g, w_old, W, p, wk)
+        if not same:
+            same = _use_cached(wk)
         if not same or _fading_updates(W, wk, n_act) < 0:
             wk.upd[0] = 0
+            s = wk.slot[0]
+            LU, piv, d_fact, pattern, z_ok = wk.LU[s], wk.piv[s], wk.d_fact[s], wk.pattern[s], wk.z_ok[s]
             # --- J_aa = I - W_aa dLambda_a/dg_a, dLambda/dg block diagonal [[dnn, 0], [dtn, dtt]]
             for ra in range(ma):
                 i = 2 * act[ra // 2] + ra % 2
@@ -592,7 +663,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
             for j in range(3 * npair):
                 d_fact[j] = d[j]
             for j in range(npair):
-                wk.z_ok[j] = 0
+                z_ok[j] = 0
             for j in range(npair):
                 pattern[j] = code[j]
         _jacobian_solve(r_, dg, W, wk, n_act)
@@ -636,6 +707,14 @@ def _stribeck_update(qd, p, wk):
         for i in range(n):
             v += G[2 * j + 1, i] * qd[i]
         mu_eff[j] = _stribeck_mu(mu[j], s, v, v_s)
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
+def _forget_factors(pattern):
+    """Mark every slot's factors as belonging to no pattern (wk.pattern, (K, p)). RT-safe."""
+    for s in range(pattern.shape[0]):
+        for j in range(pattern.shape[1]):
+            pattern[s, j] = -1
 
 
 # inlined into _plant_step (two call sites): measured ~5 % faster per step at 9 and 33 pairs
@@ -776,14 +855,12 @@ def _plant_step(k, x, u, p, x_next, y, wk):
         it = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h, p.s2, p.W)
         if it < 0:
             fallbacks += 1
-            for j in range(npair):
-                pattern[j] = -1  # the cached factors belong to W, not W_fine
+            _forget_factors(pattern)  # the kept factors belong to W, not W_fine
             it = 0
             for _ in range(p.fine_split):
                 it_f = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h_fine, p.s2_fine, p.W_fine)
                 it = -1 if (it_f < 0 or it < 0) else it + it_f
-            for j in range(npair):
-                pattern[j] = -1
+            _forget_factors(pattern)
         iters = -1 if (it < 0 or iters < 0) else iters + it
     # --- outputs at t_{k+1}; accelerations from the equation of motion at the end point
     n_rows = p.out_rows.shape[0]
