@@ -725,7 +725,7 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     W_screw). Returns the Newton iterations, or -1 with the state untouched if the contact
     solve did not converge. RT-safe.
     """
-    b_exc, b_N1, f_const, omega2, G, c, k_t, dyn = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c_step, p.k_t, p.dyn
+    b_exc, b_N1, f_const, omega2, G, c, k_t = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c_step, p.k_t
     m_step = p.m_step
     q_pred, g_pred, g0, f_c, qdd_lin = wk.q_pred, wk.g_pred, wk.g0, wk.f_c, wk.qdd_lin
     lam1, lam, lamd, code, w_new = wk.lam1, wk.lam, wk.lamd, wk.code, wk.w_new
@@ -773,19 +773,25 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
             lt = lam[2 * j + 1]
             for i in range(n):
                 f_c[i] += G[2 * j, i] * ln + G[2 * j + 1, i] * lt
-    for i in range(n):
+    for i in range(n_dyn):  # the stepped modes
         dq = q_pred[i] - q[i] + s2[i] * f_c[i]
-        qd_new = (a2 * dq - qd[i]) * dyn[i]   # a quasi-static mode (dyn 0) keeps qd = 0
+        qd_new = a2 * dq - qd[i]
         v_mid = 0.5 * (qd[i] + qd_new)
-        # a quasi-static mode (dyn 0) steps q1 = (1 + theta) q_static - theta q0: the load does
-        # qs_loss omega^2 dq^2 more work than its potential energy gains (booked as damping, >= 0)
-        dE_damp += h * c[i] * v_mid * v_mid + (1.0 - dyn[i]) * qs_loss * omega2[i] * dq * dq
+        dE_damp += h * c[i] * v_mid * v_mid
         dW_exc += b_exc[i] * dq
         f_screw = b_N1[i] * F_N1 + f_const[i]
         dW_screw += f_screw * dq
         q[i] += dq
         qd[i] = qd_new
-        qdd_lin[i] = (b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]) * dyn[i] / m_step[i]
+        qdd_lin[i] = (b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]) / m_step[i]
+    for i in range(n_dyn, n):  # the quasi-static ones keep qd = 0 (and qdd_lin = 0: the outputs skip them)
+        dq = q_pred[i] - q[i] + s2[i] * f_c[i]
+        # q1 = (1 + theta) q_static - theta q0: the load does qs_loss omega^2 dq^2 more work than the
+        # mode's potential energy gains (booked as damping, >= 0)
+        dE_damp += qs_loss * omega2[i] * dq * dq
+        dW_exc += b_exc[i] * dq
+        dW_screw += (b_N1[i] * F_N1 + f_const[i]) * dq
+        q[i] += dq
     dE_fric = 0.0
     kf = p.iwan_k
     ne = kf.shape[0]
