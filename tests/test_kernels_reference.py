@@ -32,7 +32,8 @@ import scipy.linalg as sla
 from plant.contact import _jenkins_pair, _normal_impulse
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from plant.newmark import ROUNDOFF, _contact_newton, _lu_factor, _lu_solve, _plant_step, _transition_root
+from plant.newmark import (ROUNDOFF, _contact_newton, _inverse_solve, _lu_factor, _plant_step, _transition_root,
+                           _triangular_inverses)
 from plant.simulate import _run, run
 from rt.common.clock import _now_ns
 from rt.common.config import load
@@ -409,7 +410,7 @@ def test_normal_impulse_derivative_by_finite_differences():
     assert np.sum(moved) > 500 and np.sum(dL == -0.5 * k_n) > 200
 
 
-# --- dense LU: _lu_factor, _lu_solve -----------------------------------------------------
+# --- dense LU: _lu_factor, _triangular_inverses, _inverse_solve ------------------------
 
 def well_conditioned(rng, n):
     """U diag(s) V^T with orthogonal U, V and s in [1, 10]: cond <= 10."""
@@ -420,10 +421,13 @@ def well_conditioned(rng, n):
 
 @pytest.mark.parametrize("n", [1, 2, 3, 5, 8, 13, 18])
 def test_lu_factor_and_solve_leading_block(n):
-    """Factor the leading n x n block of a larger array and solve; the rest must be untouched.
+    """Factor the leading n x n block of a larger array, invert the factors and solve; the rest
+    must be untouched.
 
     Partial pivoting is backward stable: |x - x_ref| <= ~ n eps cond |x| ~ 18 * 2e-16 * 10 < 1e-13
-    |x| for these systems, so RTOL holds with margin. The factors themselves are compared with
+    |x| for these systems, so RTOL holds with margin. A solve with the inverted factors is no
+    longer backward stable; its error is ~ n eps cond(U) |x|, as small here (the kernel's blocks
+    have cond 1e2..3e2: its residuals are checked against the reference Newton below). The factors themselves are compared with
     LAPACK's getrf (scipy.linalg.lu_factor, same partial-pivoting rule, pivots in the same
     0-based row-interchange form) to RTOL of max|A|."""
     rng = np.random.default_rng(10 + n)
@@ -438,13 +442,21 @@ def test_lu_factor_and_solve_leading_block(n):
     assert np.all(piv[n:] == -7)
     assert np.all(np.isnan(big[n:, :])) and np.all(np.isnan(big[:, n:]))
     assert_rel(big[:n, :n], lu_ref, np.max(np.abs(A)), "LU factors")
-    # reuse of the factors for several right-hand sides (as the kernel's cached LU)
+    # the factors' inverses (L^-1 strictly below the diagonal, U^-1 on and above it), the rest untouched
+    X = np.full((N, N), np.nan)
+    _triangular_inverses(big, X, n)
+    L = np.tril(lu_ref, -1) + np.eye(n)
+    assert_rel(np.tril(X[:n, :n], -1) + np.eye(n), np.linalg.inv(L), 1.0, "L^-1")
+    assert_rel(np.triu(X[:n, :n]), np.linalg.inv(np.triu(lu_ref)), np.max(np.abs(np.linalg.inv(np.triu(lu_ref)))),
+               "U^-1")
+    assert np.all(np.isnan(X[n:, :])) and np.all(np.isnan(X[:, n:]))
+    # reuse of them for several right-hand sides (as the kernel's kept factors)
     for _ in range(3):
         b = rng.standard_normal(n)
         bb = np.concatenate([b, [11.0, 12.0, 13.0]])
-        _lu_solve(big, piv, bb, n)
+        _inverse_solve(X, piv, bb, np.zeros(N), n)
         x = np.linalg.solve(A, b)
-        assert_rel(bb[:n], x, np.max(np.abs(x)), "LU solve")
+        assert_rel(bb[:n], x, np.max(np.abs(x)), "solve")
         assert np.array_equal(bb[n:], [11.0, 12.0, 13.0])
 
 
@@ -454,9 +466,11 @@ def test_lu_needs_pivoting():
     LU = A.copy()
     piv = np.zeros(3, dtype=np.int64)
     _lu_factor(LU, piv, 3)
+    X = np.zeros((3, 3))
+    _triangular_inverses(LU, X, 3)
     b = np.array([1.0, 2.0, 3.0])
     x = b.copy()
-    _lu_solve(LU, piv, x, 3)
+    _inverse_solve(X, piv, x, np.zeros(3), 3)
     assert piv[0] == 2   # the largest entry of column 0 is in row 2
     assert_rel(x, np.linalg.solve(A, b), 1.0, "pivoted solve")
 
