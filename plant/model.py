@@ -86,10 +86,11 @@ class PlantModel:
 
     def new_work(self, factor_slots: int = FACTOR_SLOTS) -> PlantWork:
         """Scratch buffers of the plant step, with factor_slots contact patterns' factors kept
-        (``plant.newmark._use_cached``; 1: only the last pattern's)."""
+        (``plant.newmark._use_cached``; 1: only the last pattern's), plus one slot for patterns
+        with a pair in transition."""
         n, m = self.n, 2 * self.n_pairs
         p = m // 2
-        K = int(factor_slots)
+        K = int(factor_slots) + 1   # and the transitions' slot
         i64 = np.int64
         return PlantWork(q_pred=np.zeros(n), q_g=np.zeros(n), qdd_lin=np.zeros(n), f_c=np.zeros(n),
                          g_pred=np.zeros(m), g0=np.zeros(m), lam=np.zeros(m),

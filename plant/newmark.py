@@ -77,7 +77,8 @@ SLIP_TIE = 1e-13  # relative band at the friction limit in which a slipping pair
 N_ENERGY = 4    # E_fric, E_damp, W_exc, W_screw
 TRANSITION = -2  # contact code of a pair that opens or closes within the step
 MAX_UPDATES = 4  # rank-one updates of the kept factors before they are refreshed (``_fading_updates``)
-FACTOR_SLOTS = 32  # contact patterns whose factors are kept (``_use_cached``; docs/plant.md 2.3)
+FACTOR_SLOTS = 32  # contact patterns whose factors are kept (``_use_cached``; docs/plant.md 2.3), plus
+                   # one slot for a pattern with a pair in transition (used once: not inverted, not kept)
 
 
 class PlantParams(NamedTuple):
@@ -143,24 +144,25 @@ class PlantWork(NamedTuple):
     dg: np.ndarray         # (2p,) Newton step
     g_old: np.ndarray      # (2p,) iterate before the step
     LU: np.ndarray         # (2p, 2p) LU factors of the active block of the Jacobian being factorised
-    Jinv: np.ndarray       # (K, 2p, 2p) per slot: L^-1 and U^-1 of its `pattern`'s factors (_triangular_inverses)
-    piv: np.ndarray        # (K, 2p) int64 per slot: row pivots of its factors
+    Jinv: np.ndarray       # (K + 1, 2p, 2p) per slot: L^-1 and U^-1 of its `pattern`'s factors (_triangular_inverses;
+                           # not of the last slot, the transitions', which solves with LU)
+    piv: np.ndarray        # (K + 1, 2p) int64 per slot: row pivots of its factors
     act: np.ndarray        # (p,) int64 active pairs of the current iterate (first n_act entries)
     ra: np.ndarray         # (2p,) right-hand side / solution of the active block
     ry: np.ndarray         # (2p,) scratch of _inverse_solve
     z: np.ndarray          # (2p,) J^-1 W e_n of a pair opening or closing within the step (_transition_step)
-    pattern: np.ndarray    # (K, p) int64 per slot: contact state per pair its LU belongs to (-1: none)
+    pattern: np.ndarray    # (K + 1, p) int64 per slot: contact state per pair its LU belongs to (-1: none)
     mu_eff: np.ndarray     # (p,) friction coefficient of the current substep (p.mu without Stribeck)
-    d_fact: np.ndarray     # (K, 3p) per slot: the Jacobian entries wk.d its LU was factorised with
+    d_fact: np.ndarray     # (K + 1, 3p) per slot: the Jacobian entries wk.d its LU was factorised with
     upd: np.ndarray        # (1 + 2 MAX_UPDATES,) int64: rank-one updates of the factors (0..MAX_UPDATES), their
                            # columns in the active block, their pairs
     upd_delta: np.ndarray  # (MAX_UPDATES,) their changes of dLambda_t/dg_t [N/m]
     cap: np.ndarray        # (MAX_UPDATES, MAX_UPDATES + 1) the updates' capacitance system (``_apply_updates``)
-    Z: np.ndarray          # (K, p, 2p) per slot: J_aa^-1 u of a pair's update, kept with the factors (_fading_updates)
-    z_ok: np.ndarray       # (K, p) int64 per slot: 1 where Z holds the pair's row for its factors
+    Z: np.ndarray          # (K + 1, p, 2p) per slot: J_aa^-1 u of a pair's update, kept with the factors (_fading_updates)
+    z_ok: np.ndarray       # (K + 1, p) int64 per slot: 1 where Z holds the pair's row for its factors
     slot: np.ndarray       # (2,) int64: the slot whose factors the step uses, and a use counter
-    last_use: np.ndarray   # (K,) int64 the counter at each slot's last use (least recently used is refactorised)
-    key: np.ndarray        # (K,) int64 per slot: a hash of its pattern, compared before the pattern itself
+    last_use: np.ndarray   # (K + 1,) int64 the counter at each slot's last use (least recently used is refactorised)
+    key: np.ndarray        # (K + 1,) int64 per slot: a hash of its pattern, compared before the pattern itself
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -194,6 +196,29 @@ def _lu_factor(A, piv, n):
             if f != 0.0:
                 for j in range(k + one, nn):
                     A[i, j] -= f * A[k, j]
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
+def _lu_solve(LU, piv, b, n):
+    """Solve with the factors of ``_lu_factor`` (leading n x n block); b[:n] is overwritten by
+    the solution (substitution: for factors used once, where inverting them would cost more than
+    it saves). RT-safe."""
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+    for i in range(1, n):
+        acc = b[i]
+        for j in range(i):
+            acc -= LU[i, j] * b[j]
+        b[i] = acc
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= LU[i, j] * b[j]
+        b[i] = acc / LU[i, i]
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -374,6 +399,17 @@ def _contact_residual(g, g_pred, W, wk, n_act):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _factors_solve(wk, b, n):
+    """b[:n] = J_aa^-1 b[:n] with the current slot's factors: their inverses, or for the
+    transitions' slot (the last) the LU just factorised. RT-safe."""
+    s = wk.slot[0]
+    if s == wk.pattern.shape[0] - 1:
+        _lu_solve(wk.LU, wk.piv[s], b, n)
+    else:
+        _inverse_solve(wk.Jinv[s], wk.piv[s], b, wk.ry, n)
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _fading_updates(W, wk, n_act):
     """Prepare rank-one updates of the current slot's factors for the active pairs whose only change
     since the factorisation is dLambda_t/dg_t (a fading tangential dashpot: its weight s is its
@@ -388,8 +424,7 @@ def _fading_updates(W, wk, n_act):
     steps); with two updates at most, still in 9 % of the steps of the budget's Lyapunov run (three
     or more pairs fading at once), with four in none. RT-safe."""
     s = wk.slot[0]
-    act, d, d_fact, upd, delta, Z, X, piv, z_ok = (wk.act, wk.d, wk.d_fact[s], wk.upd, wk.upd_delta, wk.Z[s],
-                                                   wk.Jinv[s], wk.piv[s], wk.z_ok[s])
+    act, d, d_fact, upd, delta, Z, z_ok = wk.act, wk.d, wk.d_fact[s], wk.upd, wk.upd_delta, wk.Z[s], wk.z_ok[s]
     k = 0
     for b in range(n_act):
         j = act[b]
@@ -408,7 +443,7 @@ def _fading_updates(W, wk, n_act):
         if z_ok[j] == 0:
             for ra in range(ma):
                 Z[j, ra] = W[2 * act[ra // 2] + ra % 2, 2 * j + 1]
-            _inverse_solve(X, piv, Z[j], wk.ry, ma)
+            _factors_solve(wk, Z[j], ma)
             z_ok[j] = 1
     upd[0] = k
     return k
@@ -458,12 +493,12 @@ def _jacobian_solve(r_, x, W, wk, n_act):
     """x = J^-1 r_ with the current slot's factors of the active block (``_contact_newton``'s partitioned
     solve): J_aa x_a = r_a by LU, then x_i = r_i + (W dLambda/dg)_ia x_a. r_ and x are (2p,)
     and distinct. RT-safe."""
-    act, X, d, piv, rhs = wk.act, wk.Jinv[wk.slot[0]], wk.d, wk.piv[wk.slot[0]], wk.ra
+    act, d, rhs = wk.act, wk.d, wk.ra
     m = r_.shape[0]
     ma = 2 * n_act
     for ra in range(ma):
         rhs[ra] = r_[2 * act[ra // 2] + ra % 2]
-    _inverse_solve(X, piv, rhs, wk.ry, ma)
+    _factors_solve(wk, rhs, ma)
     _apply_updates(rhs, wk, ma)
     for i in range(m):
         x[i] = r_[i]
@@ -591,7 +626,8 @@ def _reversals_to_stick(g, w_old, W, p, wk):
 def _use_cached(wk):
     """Make current the slot whose factors belong to the pattern wk.code, if one does (True), else
     the least recently used slot, to be refactorised (False). A pattern with a pair in transition is
-    never reused (its Jacobian entry moves with the end gap). RT-safe.
+    never reused (its Jacobian entry moves with the end gap): it goes to the last slot, which is
+    solved with its LU (not inverted) and evicts none of the others. RT-safe.
 
     A joint driven through a cycle visits the same patterns in turn: on the budget's Lyapunov run
     (graded default, 223.6 Hz, 105000 steps) the pattern changes in 18 % of the steps, and of the
@@ -600,32 +636,28 @@ def _use_cached(wk):
     with MAX_UPDATES 4 (docs/plant.md 2.3)."""
     code, pattern, last, key = wk.code, wk.pattern, wk.last_use, wk.key
     npair = code.shape[0]
+    K = pattern.shape[0] - 1   # the last slot is the transitions'
     wk.slot[1] += 1
-    found = -1
     h = 0
     for j in range(npair):
         if code[j] == TRANSITION:
-            found = -2
-            break
+            wk.slot[0] = K
+            return False
         h = h * 31 + code[j] + 1   # wraps around in int64: a hash, equal patterns give equal keys
-    if found == -1:
-        for s in range(pattern.shape[0]):
-            if key[s] != h:
-                continue
-            match = True
-            for j in range(npair):
-                if pattern[s, j] != code[j]:
-                    match = False
-                    break
-            if match:
-                found = s
+    for s in range(K):
+        if key[s] != h:
+            continue
+        match = True
+        for j in range(npair):
+            if pattern[s, j] != code[j]:
+                match = False
                 break
-    if found >= 0:
-        wk.slot[0] = found
-        last[found] = wk.slot[1]
-        return True
+        if match:
+            wk.slot[0] = s
+            last[s] = wk.slot[1]
+            return True
     victim = 0
-    for s in range(1, last.shape[0]):
+    for s in range(1, K):
         if last[s] < last[victim]:
             victim = s
     wk.slot[0] = victim
@@ -691,7 +723,8 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
                     LU[ra, 2 * b + 1] = -W[i, 2 * j + 1] * d[3 * j + 2]
                 LU[ra, ra] += 1.0
             _lu_factor(LU, piv, ma)
-            _triangular_inverses(LU, wk.Jinv[s], ma)
+            if s < wk.pattern.shape[0] - 1:
+                _triangular_inverses(LU, wk.Jinv[s], ma)
             for j in range(3 * npair):
                 d_fact[j] = d[j]
             for j in range(npair):
