@@ -32,8 +32,8 @@ import scipy.linalg as sla
 from plant.contact import _jenkins_pair, _normal_impulse
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from plant.newmark import (ROUNDOFF, _contact_newton, _inverse_solve, _lu_factor, _plant_step, _transition_root,
-                           _triangular_inverses)
+from plant.newmark import (ROUNDOFF, _contact_newton, _inverse_solve, _lu_factor, _lu_solve, _plant_step,
+                           _transition_root, _triangular_inverses)
 from plant.simulate import _run, run
 from rt.common.clock import _now_ns
 from rt.common.config import load
@@ -410,7 +410,7 @@ def test_normal_impulse_derivative_by_finite_differences():
     assert np.sum(moved) > 500 and np.sum(dL == -0.5 * k_n) > 200
 
 
-# --- dense LU: _lu_factor, _triangular_inverses, _inverse_solve ------------------------
+# --- dense LU: _lu_factor, _lu_solve, _triangular_inverses, _inverse_solve -------------
 
 def well_conditioned(rng, n):
     """U diag(s) V^T with orthogonal U, V and s in [1, 10]: cond <= 10."""
@@ -450,13 +450,17 @@ def test_lu_factor_and_solve_leading_block(n):
     assert_rel(np.triu(X[:n, :n]), np.linalg.inv(np.triu(lu_ref)), np.max(np.abs(np.linalg.inv(np.triu(lu_ref)))),
                "U^-1")
     assert np.all(np.isnan(X[n:, :])) and np.all(np.isnan(X[:, n:]))
-    # reuse of them for several right-hand sides (as the kernel's kept factors)
+    # reuse of both for several right-hand sides (as the kernel's kept factors)
     for _ in range(3):
         b = rng.standard_normal(n)
+        x = np.linalg.solve(A, b)
         bb = np.concatenate([b, [11.0, 12.0, 13.0]])
         _inverse_solve(X, piv, bb, np.zeros(N), n)
-        x = np.linalg.solve(A, b)
-        assert_rel(bb[:n], x, np.max(np.abs(x)), "solve")
+        assert_rel(bb[:n], x, np.max(np.abs(x)), "solve with the inverses")
+        assert np.array_equal(bb[n:], [11.0, 12.0, 13.0])
+        bb = np.concatenate([b, [11.0, 12.0, 13.0]])
+        _lu_solve(big, piv, bb, n)
+        assert_rel(bb[:n], x, np.max(np.abs(x)), "substitution")
         assert np.array_equal(bb[n:], [11.0, 12.0, 13.0])
 
 

@@ -49,12 +49,14 @@ def test_same_inputs_give_bit_identical_outputs(cfg, reduced):
 def test_kernels_are_compiled_with_cache_and_nogil():
     from plant import contact, newmark, simulate
     for f in (contact._jenkins_pair, contact._normal_impulse, newmark._plant_step, newmark._contact_newton,
-              newmark._lu_factor, newmark._triangular_inverses, newmark._inverse_solve, simulate._run):
+              newmark._lu_factor, newmark._lu_solve, newmark._triangular_inverses, newmark._inverse_solve,
+              simulate._run):
         assert f.targetoptions.get("nogil") is True, f.__name__
         assert type(f._cache).__name__ == "FunctionCache", f.__name__
     # no reference counting in the plant kernels (half the step time at 9 pairs)
     for f in (newmark._plant_step, newmark._substep, newmark._contact_newton, newmark._contact_laws,
-              newmark._contact_residual, newmark._lu_factor, newmark._triangular_inverses, newmark._inverse_solve):
+              newmark._contact_residual, newmark._lu_factor, newmark._lu_solve, newmark._triangular_inverses,
+              newmark._inverse_solve):
         assert f.targetoptions.get("_nrt") is False, f.__name__
 
 
