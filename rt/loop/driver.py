@@ -128,8 +128,8 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     oi = plant.output_index()
     ai = actuator_output_index()
     st = initial_loop_state(loop, seed) if start is None else start.copy()
-    log = np.empty((n_rows, n_sig))
-    comp_ns = np.zeros((n_rows, len(COMPONENTS)), dtype=np.int64) if timing else np.zeros((1, 1), np.int64)
+    log = realtime.prefaulted((n_rows, n_sig))   # no page fault inside the loop
+    comp_ns = realtime.prefaulted((n_rows, len(COMPONENTS)), np.int64) if timing else np.zeros((1, 1), np.int64)
     period_ns = int(round(dt * 1e9))
     clk = np.zeros(CLK_SIZE, dtype=np.int64)
     clk[CLK_WRITTEN] = st.k if writer is not None and not paced else NO_WAIT
@@ -185,8 +185,6 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     # real-time set-up around it (rt/loop/realtime.py), entered before the writer's thread starts
     ts = np.zeros(2, dtype=np.int64)
     with realtime.session(cfg.rt, paced) as rts:
-        if paced and not rts.memory_locked:
-            log.fill(0.0)  # fault the ring's pages in now, not in the loop's first pass
         t_wall = _now_ns(ts)
         clk[CLK_DEADLINE] = t_wall + period_ns
         digest = None

@@ -34,6 +34,8 @@ import struct
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
+import numpy as np
+
 MCL_CURRENT, MCL_FUTURE = 1, 2
 PR_SET_TIMERSLACK = 29   # prctl: the thread's timer slack [ns] (default 50 us for normal threads)
 DMA_LATENCY = "/dev/cpu_dma_latency"
@@ -94,6 +96,18 @@ def check_cpu(cpu: int) -> None:
     if cpu >= 0 and cpu not in allowed:
         raise ValueError(f"rt.cpu {cpu}: this process may run on cores {', '.join(map(str, allowed))}; "
                          "give one of them (--cpu K) or -1 (not pinned)")
+
+
+def prefaulted(shape, dtype=np.float64) -> np.ndarray:
+    """A new array of zeros whose every page has been written before the loop runs. numpy's
+    ``empty`` and ``zeros`` only reserve memory: the loop's first write to each page then faults it
+    in, and with transparent huge pages the kernel zeroes 2 MiB there. In `frictionrt budget
+    --no-floor` (a 122 MB log, unlocked memory) that was one tick in ~1800 with a log component of
+    up to 4.5..6.1 ms, the ticks the p99.9 counts. What ``mlockall(MCL_FUTURE)`` gives a locked
+    process, for every run."""
+    a = np.empty(shape, dtype)
+    a.fill(0)
+    return a
 
 
 def _libc():
