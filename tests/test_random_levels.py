@@ -112,7 +112,7 @@ def test_a_pairs_rms_is_its_share_of_the_noise_bandwidth_for_one_mode(monkeypatc
         monkeypatch.setattr(rl, name, stub)
     lv = rl.random_level(t, d, 0.12, load(None))
     sigma = 3.0 / math.sqrt(1150.0) * math.sqrt(math.pi * zeta * fm) / (2.0 * zeta)
-    assert float(lv) == 3.0
+    assert float(lv) == 3.0 and lv.band_hz == (50.0, 1200.0) and lv.modes_hz.tolist() == [fm]
     np.testing.assert_allclose(lv.sigma_t_m, [sigma, 0.0, sigma], rtol=0.03)
     np.testing.assert_allclose(lv.sigma_n_m, lv.sigma_t_m / 2.0, rtol=1e-12)
 
@@ -139,22 +139,41 @@ def test_the_gaussian_stiffness_is_the_describing_function_averaged_over_a_rayle
     np.testing.assert_allclose(stuck, [k, k], rtol=1e-9)
 
 
+def test_the_marched_law_gives_the_describing_function_under_a_sine():
+    """random_level._march, the pairs' law the spectral stiffness simulates: under a cos(theta) after the first
+    period its first harmonic over whole periods is plant.describing's k_eq(a) a (a Jenkins element and a
+    4-element Iwan one, stuck and slipping), within 2e-3 of k (256 samples a period)."""
+    from plant.describing import pair_df
+    kf, qf = np.full(4, 0.25), np.array([0.1, 0.2, 0.3, 0.4])
+    k, q = 2.0e7, 4.0
+    th = 2.0 * math.pi * np.arange(256 * 6) / 256
+    for fk, fq in ((np.ones(1), np.ones(1)), (kf, qf)):
+        for a in (0.05e-6, 0.3e-6, 2e-6):
+            x = a * np.cos(th)[None, :]
+            f = np.empty_like(x)
+            rl._march(x, (fk * k)[None, :], (fq * q)[None, :], f)
+            h1 = 2.0 * np.mean((f[0] * np.exp(-1j * th))[256:]) / a
+            assert abs(h1 - pair_df(a, k, q, fk, fq)[0].item()) < 2e-3 * k, (a, h1)
+
+
 def test_a_random_level_is_the_linearised_joint():
-    """random_accelerances: at zero gap rms the stuck model's FRF (the harmonic balance at a force far below slip);
-    as the rms rises mode 2's peak (lap joint, ~129 Hz stuck) falls in frequency and height, the joint slips;
-    every line converged; level_accelerances solves a plain level at level x scale."""
+    """random_accelerances: at a level far below slip the stuck model's FRF (the harmonic balance at a force far
+    below slip); as the level rises mode 2's peak (lap joint, ~129 Hz stuck) falls in frequency and height, the
+    joint slips; every line converged; level_accelerances solves a plain level at level x scale."""
     cfg = load(LAP)
     hs = harmonic_system(build_plant(cfg), sensor_points(cfg), F_N1=0.0)
     f = np.arange(115.0, 135.0, 0.0625)
     p = len(hs.closed)
+    modes = [129.0, 374.0, 730.0]
     stuck = harmonic_accelerances(hs, 1e-6, f, method="df", branches=False)
-    r0 = rl.level_accelerances(hs, RandomLevel(5.0, np.zeros(p), np.zeros(p)), 0.37, f)
+    r0 = rl.level_accelerances(hs, RandomLevel(1e-6, np.zeros(p), np.zeros(p), (50.0, 1200.0), modes), 0.37, f)
     for s in r0.H:
         np.testing.assert_allclose(r0.H[s], stuck.H[s], rtol=1e-9)
-    assert r0.F_amp == pytest.approx(math.sqrt(2.0) * 5.0 * 0.37) and r0.converged.all()
+    assert r0.F_amp == pytest.approx(math.sqrt(2.0) * 1e-6 * 0.37) and r0.converged.all()
     peaks = []
-    for sigma in (0.0, 2e-6, 6e-6):   # the end pairs slip from a sine of 2.05 um
-        r = rl.random_accelerances(hs, RandomLevel(5.0, sigma * hs.closed, 0.1 * sigma * hs.closed), 1.0, f)
+    for rms, sigma in ((1e-6, 0.0), (20.0, 2e-6), (60.0, 6e-6)):   # the end pairs slip from a sine of 2.05 um
+        lv = RandomLevel(rms, sigma * hs.closed, 0.1 * sigma * hs.closed, (50.0, 1200.0), modes)
+        r = rl.random_accelerances(hs, lv, 1.0, f)
         h = np.abs(r.H["a_tip_meas"])
         peaks.append((f[np.argmax(h)], h.max()))
         assert (r.slip_amp_m.max() > 0.0) == (sigma > 0.0)
@@ -162,10 +181,11 @@ def test_a_random_level_is_the_linearised_joint():
     plain = rl.level_accelerances(hs, 5.0, 2.0, f, method="df", branches=False)
     np.testing.assert_array_equal(plain.H["a_tip_meas"], harmonic_accelerances(hs, 10.0, f, method="df",
                                                                               branches=False).H["a_tip_meas"])
-    lv = RandomLevel(5.0, [1e-6, 0.0], [2e-7, 0.0])
+    lv = RandomLevel(5.0, [1e-6, 0.0], [2e-7, 0.0], (50.0, 1200.0), [124.0])
     q = pickle.loads(pickle.dumps(lv))
     assert q == 5.0 and q.sigma_t_m.tolist() == [1e-6, 0.0] and q.sigma_n_m.tolist() == [2e-7, 0.0]
-    assert json.dumps(q) == "5.0"
+    assert q.band_hz == (50.0, 1200.0) and q.modes_hz.tolist() == [124.0] and json.dumps(q) == "5.0"
+    assert q.band_of(np.array([10.0, 500.0])).tolist() == [0, 0]
 
 
 def test_random_and_sine_levels_do_not_mix():
