@@ -156,6 +156,25 @@ def test_the_marched_law_gives_the_describing_function_under_a_sine():
             assert abs(h1 - pair_df(a, k, q, fk, fq)[0].item()) < 2e-3 * k, (a, h1)
 
 
+def test_the_linearised_model_is_the_pairs_law_with_its_stiffness_fixed():
+    """random_level._linearised (one eigen decomposition for every line) with a complex dk at the closed pairs
+    against (D) of plant.harmonic_frf with k_eq - k_t = dk solved line by line: (I + H_tt diag(dk)) g = H_tF,
+    the modal response d (Y_b - Y_t dk g) (df_matrices): the sensors' accelerances within 1e-9."""
+    from plant.harmonic_frf import df_matrices
+    cfg = load(LAP)
+    hs = harmonic_system(build_plant(cfg), sensor_points(cfg), F_N1=0.0)
+    f = np.array([60.0, 118.0, 124.0, 129.0, 374.0, 730.0, 1100.0])
+    ic = np.flatnonzero(hs.closed)
+    dk = hs.k_t[ic] * (-0.6 + 0.3j) * np.linspace(1.0, 0.2, len(ic))
+    w, XV = rl._linearised(hs, ic, dk, f, hs.X_s)
+    D = 1.0 / (2j * math.pi * f[:, None] - hs.lam[None, :])
+    Htt, u = df_matrices(hs, ic, D, 1.0)
+    g = np.linalg.solve(np.eye(len(ic))[None] + Htt * dk[None, None, :], u[..., None])[..., 0]
+    modal = D * (hs.Y_b - (dk * g) @ hs.Y_g[:, 2 * ic + 1].T)
+    for k in range(len(hs.names)):
+        np.testing.assert_allclose(w @ XV[k], modal @ hs.X_s[k], rtol=1e-9)
+
+
 def test_a_random_level_is_the_linearised_joint():
     """random_accelerances: at a level far below slip the stuck model's FRF (the harmonic balance at a force far
     below slip); as the level rises mode 2's peak (lap joint, ~129 Hz stuck) falls in frequency and height, the

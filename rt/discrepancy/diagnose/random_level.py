@@ -68,10 +68,9 @@ import numba
 import numpy as np
 from scipy.integrate import trapezoid
 from scipy.special import roots_laguerre
-from threadpoolctl import threadpool_limits
 
 from plant.describing import pair_df, slider_amplitude
-from plant.harmonic_frf import HarmonicFRF, HarmonicSystem, df_matrices, harmonic_accelerances, harmonic_system
+from plant.harmonic_frf import HarmonicFRF, HarmonicSystem, harmonic_accelerances, harmonic_system
 from plant.model import build_plant
 from rt.common.config import Config
 from rt.discrepancy.chain import quiet
@@ -188,41 +187,46 @@ def level_accelerances(hs: HarmonicSystem, level: float, scale: float, freq_hz: 
 
 
 def random_accelerances(hs: HarmonicSystem, level: RandomLevel, scale: float, freq_hz: np.ndarray) -> HarmonicFRF:
-    """The random test's accelerances on the lines freq_hz [Hz] (module docstring, 4.) as a
+    """The random test's accelerances on the lines freq_hz [Hz] (module docstring, 3. and 4.) as a
     plant.harmonic_frf.HarmonicFRF: H [(m/s^2)/N] of the linearised system, each line with its nearest measured
     mode's stiffnesses (``spectral_stiffness`` at the force scale ``scale`` [N/V], 1 for a force); F_amp
     sqrt(2) level x scale [N] and g_t, g_n that force's gaps as a sine [m]; normal_ratio sqrt(2) sigma_n /
     |g_n0| and slip_amp_m the sliders' amplitude at sqrt(2) sigma_t (the rms-equivalent sine's, from the
     measured rms), the same on every line; every line converged."""
     ic = np.flatnonzero(hs.closed)
-    dk = (spectral_stiffness(hs, level, scale) - hs.k_t[ic])[level.band_of(freq_hz)]
+    K = spectral_stiffness(hs, level, scale)
     F = math.sqrt(2.0) * float(level) * scale
     f = np.asarray(freq_hz, float)
-    w = 2.0 * math.pi * f
-    D = 1.0 / (1j * w[:, None] - hs.lam[None, :])
-    g = _gaps(hs, ic, D, dk) * F
-    lam_t = np.zeros((len(f), hs.X_g.shape[0]), complex)
-    lam_t[:, 2 * ic + 1] = -dk * g              # lambda_t = -(k_j - k_t) g_t, as plant.harmonic_frf's df
-    modal = D * (hs.Y_b * F + lam_t @ hs.Y_g.T)
-    g1 = modal @ hs.X_g.T
-    p, n = len(hs.closed), len(f)
+    p, n, m_s = len(hs.closed), len(f), len(hs.names)
+    H = np.empty((m_s, n), complex)
+    g1 = np.empty((n, 2 * p), complex)
+    near = level.band_of(f)
+    for b in np.unique(near):
+        m = near == b
+        w, XV = _linearised(hs, ic, K[b] - hs.k_t[ic], f[m], np.vstack([hs.X_s, hs.X_g]))
+        H[:, m] = (-((2.0 * math.pi * f[m]) ** 2)[:, None] * (w @ XV[:m_s].T)).T
+        g1[m] = F * (w @ XV[m_s:].T)
     slip, a_slip = np.zeros(p), np.full(p, np.inf)
     slip[ic] = slider_amplitude(math.sqrt(2.0) * level.sigma_t_m[ic], hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
     a_slip[ic] = [float(np.min(hs.qf * hs.q[j] / (hs.kf * hs.k_t[j]))) for j in ic]
     a_n = math.sqrt(2.0) * level.sigma_n_m / np.maximum(np.abs(hs.g0[0::2]), 1e-300)
-    return HarmonicFRF(F_amp=F, method="df", freq_hz=f, H=dict(zip(hs.names, -(w ** 2) * (modal @ hs.X_s.T).T / F)),
-                       g_t=g1[:, 1::2], g_n=g1[:, 0::2], normal_ratio=np.tile(a_n, (n, 1)),
-                       slip_amp_m=np.tile(slip, (n, 1)), open_fraction=np.tile((~hs.closed).astype(float), (n, 1)),
-                       closed=hs.closed.copy(), a_slip_m=a_slip, converged=np.ones(n, bool),
-                       iterations=np.zeros(n, np.int64), residual=np.zeros(n), n_solutions=np.ones(n, np.int64))
+    return HarmonicFRF(F_amp=F, method="df", freq_hz=f, H=dict(zip(hs.names, H)), g_t=g1[:, 1::2], g_n=g1[:, 0::2],
+                       normal_ratio=np.tile(a_n, (n, 1)), slip_amp_m=np.tile(slip, (n, 1)),
+                       open_fraction=np.tile((~hs.closed).astype(float), (n, 1)), closed=hs.closed.copy(),
+                       a_slip_m=a_slip, converged=np.ones(n, bool), iterations=np.zeros(n, np.int64),
+                       residual=np.zeros(n), n_solutions=np.ones(n, np.int64))
 
 
-def _gaps(hs: HarmonicSystem, ic: np.ndarray, D: np.ndarray, dk: np.ndarray) -> np.ndarray:
-    """The closed pairs' tangential gaps per newton [m/N], (lines, pc), on the lines of modal receptances D
-    (lines, 2n) with the pairs' stiffness k_t + dk (lines, pc): (I + H_tt diag(dk)) g = H_tF."""
-    with threadpool_limits(1):
-        Htt, u = df_matrices(hs, ic, D, 1.0)
-        return np.linalg.solve(np.eye(len(ic))[None] + Htt * dk[:, None, :], u[..., None])[..., 0]
+def _linearised(hs: HarmonicSystem, ic: np.ndarray, dk: np.ndarray, f_hz: np.ndarray,
+                X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The model whose closed pairs' tangential stiffness is k_t + dk (pc,) complex [N/m], in its own first-order
+    modes: (i w - M) z = Y_b per newton, M = diag(lam) - Y_t diag(dk) X_t (the pairs' force -dk g_t, as (D) of
+    plant.harmonic_frf), M = V diag(mu) V^-1. Returns (w, X V): w = (V^-1 Y_b) / (i w - mu) on the lines f_hz [Hz],
+    (lines, 2n), and the outputs X (rows <- the stuck model's first-order modes) in M's modes, so that the
+    outputs per newton are w @ (X V).T; one eigen decomposition for every line."""
+    t = 2 * ic + 1
+    mu, V = np.linalg.eig(np.diag(hs.lam) - (hs.Y_g[:, t] * dk) @ hs.X_g[t])
+    return np.linalg.solve(V, hs.Y_b) / (2j * math.pi * np.asarray(f_hz, float)[:, None] - mu), X @ V
 
 
 def spectral_stiffness(hs: HarmonicSystem, level: RandomLevel, scale: float) -> np.ndarray:
@@ -235,10 +239,10 @@ def spectral_stiffness(hs: HarmonicSystem, level: RandomLevel, scale: float) -> 
     ff = np.fft.rfftfreq(N_SAMPLES, 1.0 / FS_HZ)
     on = np.flatnonzero((ff >= lo) & (ff <= hi))
     near = level.band_of(ff[on])
-    D = 1.0 / (1j * 2.0 * math.pi * ff[on][:, None] - hs.lam[None, :])
     K0 = gaussian_stiffness(level.sigma_t_m[ic], hs.k_t[ic], hs.q[ic], hs.kf, hs.qf)
+    w, XV = _linearised(hs, ic, K0 - hs.k_t[ic], ff[on], hs.X_g[2 * ic + 1])
     G = np.zeros((len(ic), len(ff)))
-    G[:, on] = np.abs(_gaps(hs, ic, D, np.broadcast_to(K0 - hs.k_t[ic], (len(on), len(ic))))).T
+    G[:, on] = np.abs(w @ XV.T).T
     x = np.fft.irfft(_white(len(ic)) * (math.sqrt((float(level) * scale) ** 2 / (hi - lo) * FS_HZ / 2.0) * G),
                      n=N_SAMPLES, axis=1)
     f_t = np.empty_like(x)
