@@ -103,8 +103,8 @@ def test_an_interrupted_diagnosis_keeps_its_fits(folder, tmp_path, capsys, monke
         if len(calls) == 11:
             raise KeyboardInterrupt
         return real(*args, **kwargs)
-    real = levels.sine_accelerances
-    monkeypatch.setattr(levels, "sine_accelerances", stopping)
+    real = levels.level_accelerances
+    monkeypatch.setattr(levels, "level_accelerances", stopping)
     out = tmp_path / "report"
     assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(out)]) == 130
     printed, err = capsys.readouterr()

@@ -29,7 +29,8 @@ act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force a
 rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
 are calibrated on the files at those levels only and predict the others; the report gives both
 predictions' gaps around the softening mode (1-2 min); --harmonic-method aft for a joint whose contact
-opens and closes (about 2 min on configs/lap_joint_al.toml). Every diagnosis shows its fits' progress
+opens and closes (about 2 min on configs/lap_joint_al.toml). Random tests (rig --excitation random; a lab's
+1,600 lines a level) are the joint linearised under its random gap, about 1 min for six levels. Every diagnosis shows its fits' progress
 on stderr (with --json too): a bar over each fit's model evaluations with its best cost, and one over the
 candidates' fits run in parallel. Ctrl-C stops it and keeps the fits done so far, and the best point of
 the fit it stopped (printed, and in --out's folder, written beside and renamed; exit 130). Every fit
@@ -71,7 +72,9 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                         "exact while "
                         "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
                         "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "
-                        "overlap ends (about 4x the cost; docs/discrepancy.md \"Amplitude dependence\")")
+                        "overlap ends (about 4x the cost; docs/discrepancy.md \"Amplitude dependence\"). Random "
+                        "tests (rig --excitation random) take df only: their joint is linearised under its simulated "
+                        "random gap (rt/discrepancy/diagnose/random_level.py)")
     return p
 
 

@@ -56,7 +56,7 @@ from rt.discrepancy.chain import quiet, scale_bounds, scaled
 from rt.discrepancy.diagnose.campaign import bic, rank
 from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
-from rt.discrepancy.diagnose.random_level import is_random, random_levels, sine_accelerances
+from rt.discrepancy.diagnose.random_level import RandomLevel, is_random, level_accelerances, random_levels
 from rt.discrepancy.diagnose.structure import CAL_FAR
 from rt.discrepancy.effects import Effect, get
 from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, verdict
@@ -158,8 +158,8 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
         if key not in systems:
             systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
         g = scale if d.per_volt else 1.0
-        r = sine_accelerances(systems[key], amp, g, d.freq, method=method, branches=False,
-                              **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
+        r = level_accelerances(systems[key], amp, g, d.freq, method=method, branches=False,
+                               **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
         if details is not None:
             details.append(r)
         out.append({s: g * from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
@@ -256,12 +256,17 @@ def contact_of(r) -> dict:
             "open_fraction_max": round(float(np.nanmax(r.open_fraction[:, r.closed], initial=0.0)), 3)}
 
 
-def contact_note(pred: list[dict], method: str, unit: str) -> str | None:
+def contact_note(pred: list[dict], method: str, unit: str, random: bool = False) -> str | None:
     """The report's note for method df where the prediction rows ``pred`` (``contact_of`` keys, level_n in
-    ``unit``) have a normal ratio above 1; None for aft or a joint that stays closed."""
+    ``unit``) have a normal ratio above 1; None for aft or a joint that stays closed. ``random``: the levels are
+    random tests (rt.discrepancy.diagnose.random_level: the ratio of the normal gap's rms-equivalent sine)."""
     gaping = [g["level_n"] for g in pred if g["normal_ratio_max"] > 1.0]
     if method != "df" or not gaping:
         return None
+    if random:
+        return (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} rms a closed pair's normal gap (its rms x sqrt(2)) "
+                "swings more than its static gap: the contact opens and closes, which the random tests' "
+                "linearisation keeps linear (no method of --calibrate-on holds it for random tests yet)")
     return (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} a closed pair's normal gap swings more than its static "
             "gap (normal ratio > 1): the contact opens and closes in the cycle, which method df keeps linear; "
             "--harmonic-method aft holds it")
@@ -290,6 +295,10 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
         data = prepare(tests, nominal)
         nominal, _ = with_sensor_points(tests, nominal)
         levels = random_levels(tests, data, levels, HALF_WIDTH, nominal)
+        if method != "df" and any(isinstance(a, RandomLevel) for a in levels):
+            raise ValueError(f"--harmonic-method {method}: a random test is the joint's equivalent linearisation "
+                             "under a Gaussian gap, of the pairs' tangential law with the normal contact linear "
+                             "(rt/discrepancy/diagnose/random_level.py); give --harmonic-method df")
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     with keeping({}, input="frf_levels", calibrate_on_n=[levels[i] for i in cal], harmonic_method=method) as done:
@@ -348,7 +357,8 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
                           "evaluations": fits[None]["evaluations"],
                           "lines": {d.name: [len(b.freq), len(d.freq)] for d, b in zip(dc, db)}},
             "prediction": pred,
-            "contact_note": contact_note(pred, method, "V" if per_volt else "N"),
+            "contact_note": contact_note(pred, method, "V" if per_volt else "N",
+                                         any(isinstance(a, RandomLevel) for a in levels)),
             "plausibility": plausibility,
             "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt, nominal)]
                         + [w | {"model": "harmonic balance"} for w in bound_warnings(
