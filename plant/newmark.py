@@ -158,7 +158,8 @@ class PlantWork(NamedTuple):
                            # columns in the active block, their pairs
     upd_delta: np.ndarray  # (MAX_UPDATES,) their changes of dLambda_t/dg_t [N/m]
     cap: np.ndarray        # (MAX_UPDATES, MAX_UPDATES + 1) the updates' capacitance system (``_apply_updates``)
-    Z: np.ndarray          # (K + 1, p, 2p) per slot: J_aa^-1 u of a pair's update, kept with the factors (_fading_updates)
+    Z: np.ndarray          # (K + 1, p, 2p) per slot: J_aa^-1 u of a pair's update, kept with the factors
+                           # (_fading_updates)
     z_ok: np.ndarray       # (K + 1, p) int64 per slot: 1 where Z holds the pair's row for its factors
     slot: np.ndarray       # (2,) int64: the slot whose factors the step uses, and a use counter
     last_use: np.ndarray   # (K + 1,) int64 the counter at each slot's last use (least recently used is refactorised)

@@ -167,4 +167,4 @@ def test_prefaulted_arrays_are_resident_before_the_loop_writes():
     assert r2 - r1 >= 60 * 2**20
     assert faulted.dtype == np.float64 and not faulted.any()
     assert realtime.prefaulted((3, 2), np.int64).dtype == np.int64
-    del lazy
+    assert lazy.size == n   # kept alive until r1 was read
