@@ -57,52 +57,80 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _claims_tables(r: dict) -> list[str]:
+    """The verdicts of every estimator side by side, then each estimator's numbers."""
+    by_est = r["by_estimator"]
+    lines = ["## Claims", "", "Decided on the " + next(iter(by_est)) + "; " + ", ".join(
+             f"holds on the {e}" for e in by_est) + " side by side.", "",
+             "| claim | statement | " + " | ".join(f"holds: {e}" for e in by_est) + " |",
+             "| --- | --- |" + " --- |" * len(by_est)]
+    for c in r["claims"]:
+        lines.append(f"| {c} | {CLAIM_TEXT[c]} | " + " | ".join(
+            f"**{'yes' if v['claims'][c]['holds'] else 'NO'}**" for v in by_est.values()) + " |")
+    for e, v in by_est.items():
+        lines += ["", f"### The numbers, laws on the {e}", "", "| claim | holds | numbers |", "| --- | --- | --- |"]
+        for c, x in v["claims"].items():
+            nums = "; ".join(f"{k}: {_fmt(y)}" for k, y in x["numbers"].items())
+            note = f" ({x['note']})" if "note" in x else ""
+            lines.append(f"| {c} | {'yes' if x['holds'] else 'NO'} | {nums}{note} |")
+    return lines
+
+
 def markdown(report: dict) -> str:
-    """report.md: claims table, peak reduction, best constant F_N1, energy, impulse, plan, timing."""
+    """report.md: claims table, peak reduction, best constant F_N1, energy, impulse, plan, timing;
+    each controlled law's figures per estimator side by side (report["by_estimator"])."""
     r = jsonable(report)
-    plan = r["plan"]
+    plan, by_est = r["plan"], r["by_estimator"]
+    ests = list(by_est)
+    per = " / ".join(ests)
     lines = ["# frictionrt reproduce: Becker & Gaul's claims C1..C6 (SPEC section 6)", "",
-             f"Modes {plan['modes']}, excitation force amplitudes {plan['amps_n']} N, estimator "
-             f"{plan['estimator']}; {plan['points']} step-sine points ({plan['unsettled']} not settled), "
+             f"Modes {plan['modes']}, excitation force amplitudes {plan['amps_n']} N, the controlled laws on the "
+             f"{' and the '.join(ests)}; {plan['points']} step-sine points ({plan['unsettled']} not settled), "
              f"{plan['simulated_s']:.0f} s simulated. Peaks are the largest measured |H| = |a(0.45 m) / F_exc| "
              f"[(m/s^2)/N]; reduction = 20 log10(peak_law / peak_passive) [dB]; passive: F_N1 = "
-             f"{plan['fn1_n'][0]:g} N (F_min). How the numbers are measured: docs/experiments.md.", "",
-             "## Claims", "", "| claim | statement | holds | numbers |", "| --- | --- | --- | --- |"]
-    for c, v in r["claims"].items():
-        nums = "; ".join(f"{k}: {_fmt(x)}" for k, x in v["numbers"].items())
-        note = f" ({v['note']})" if "note" in v else ""
-        lines.append(f"| {c} | {CLAIM_TEXT[c]} | **{'yes' if v['holds'] else 'NO'}** | {nums}{note} |")
+             f"{plan['fn1_n'][0]:g} N (F_min). How the numbers are measured: docs/experiments.md.", ""]
+    lines += _claims_tables(r)
     amps = [f"{a:g}" for a in plan["amps_n"]]
     lines += ["", "## Peak reduction against passive [dB]", "",
-              f"Negative: the law's peak is lower. |x| < {TOL_DB:g} dB counts as unchanged (rt/experiments/claims.py).", "",
+              f"Negative: the law's peak is lower. |x| < {TOL_DB:g} dB counts as unchanged (rt/experiments/claims.py). "
+              f"Each cell: {per}.", "",
               "| law | mode | " + " | ".join(f"{a} N" for a in amps) + " |", "| --- | --- |" + " --- |" * len(amps)]
     for law, by_mode in r["peak_reduction_db"].items():
-        for m, by_amp in by_mode.items():
-            lines.append(f"| {law} | {m} | " + " | ".join(f"{by_amp[a]:+.2f}" for a in amps) + " |")
+        for m in by_mode:
+            lines.append(f"| {law} | {m} | " + " | ".join(
+                " / ".join(f"{by_est[e]['peak_reduction_db'][law][m][a]:+.2f}" for e in ests) for a in amps) + " |")
     lines += ["", "## Resonance peaks", "",
-              "| law | mode | amplitude [N] | peak |H| [(m/s^2)/N] | at [Hz] | acceleration [m/s^2] | mean F_N1 [N] "
-              "| actuator power [W] | settled |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-    for law, by_mode in r["peaks"].items():
-        for m, by_amp in by_mode.items():
-            for a, p in by_amp.items():
-                edge = " (band edge)" if p["at_band_edge"] else ""
-                lines.append(f"| {law} | {m} | {a} | {p['H_abs']:.4g} | {p['f_hz']:.2f}{edge} | {p['acc_m_s2']:.4g} | "
-                             f"{p['F_N1_mean_n']:.0f} | {p['power_w']:.3g} | {'yes' if p['settled'] else 'NO'} |")
+              "| law | estimator | mode | amplitude [N] | peak |H| [(m/s^2)/N] | at [Hz] | acceleration [m/s^2] "
+              "| mean F_N1 [N] | actuator power [W] | settled |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for e, v in by_est.items():
+        for law, by_mode in v["peaks"].items():
+            if law == "passive" and e != ests[0]:
+                continue  # the passive law ignores the estimate: one run
+            for m, by_amp in by_mode.items():
+                for a, p in by_amp.items():
+                    edge = " (band edge)" if p["at_band_edge"] else ""
+                    lines.append(f"| {law} | {'-' if law == 'passive' else e} | {m} | {a} | {p['H_abs']:.4g} | "
+                                 f"{p['f_hz']:.2f}{edge} | {p['acc_m_s2']:.4g} | {p['F_N1_mean_n']:.0f} | "
+                                 f"{p['power_w']:.3g} | {'yes' if p['settled'] else 'NO'} |")
     lines += ["", "## Best constant F_N1 (the fair baseline)", "",
               f"Passive law at constant F_N1 in {plan['fn1_n']} N; vs best = 20 log10(peak_law / best constant "
-              "peak) [dB] (negative: the law beats every constant force tried).", "",
+              f"peak) [dB] (negative: the law beats every constant force tried); each law's cell: {per}.", "",
               "| mode | amplitude [N] | best F_N1 [N] | its peak | hysteresis peak (vs best) | Lyapunov peak (vs best) "
               "| peak per F_N1 |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for m, by_amp in r["best_passive_fn1"].items():
         for a, d in by_amp.items():
-            per = ", ".join(f"{f} N: {p:.3g}" for f, p in d["peaks_by_fn1"].items())
-            lines.append(f"| {m} | {a} | {d['fn1_n']:g} | {d['H_abs']:.4g} | {d['hysteresis']['H_abs']:.4g} "
-                         f"({d['hysteresis']['vs_best_db']:+.2f} dB) | {d['lyapunov']['H_abs']:.4g} "
-                         f"({d['lyapunov']['vs_best_db']:+.2f} dB) | {per} |")
+            each = ", ".join(f"{f} N: {p:.3g}" for f, p in d["peaks_by_fn1"].items())
+            law_cells = [" / ".join(f"{by_est[e]['best_passive_fn1'][m][a][law]['H_abs']:.4g} "
+                                    f"({by_est[e]['best_passive_fn1'][m][a][law]['vs_best_db']:+.2f} dB)" for e in ests)
+                         for law in ("hysteresis", "lyapunov")]
+            lines.append(f"| {m} | {a} | {d['fn1_n']:g} | {d['H_abs']:.4g} | {law_cells[0]} | {law_cells[1]} | {each} |")
     lines += ["", "## Actuator energy", "", "Over the measurement blocks of every step-sine point of the law.", "",
-              "| law | energy [J] | measured time [s] | mean power [W] |", "| --- | --- | --- | --- |"]
-    for law, e in r["energy"].items():
-        lines.append(f"| {law} | {e['energy_j']:.4g} | {e['duration_s']:.3g} | {e['mean_power_w']:.3g} |")
+              "| law | estimator | energy [J] | measured time [s] | mean power [W] |", "| --- | --- | --- | --- | --- |"]
+    for e, v in by_est.items():
+        for law, x in v["energy"].items():
+            if law != "passive" or e == ests[0]:
+                lines.append(f"| {law} | {'-' if law == 'passive' else e} | {x['energy_j']:.4g} | "
+                             f"{x['duration_s']:.3g} | {x['mean_power_w']:.3g} |")
     imp = r["impulse"]
     lines += ["", f"## Impulse test at F_N1 = {imp['fn1_n']:g} N (fig5.png)", "",
               "| mode | f [Hz] | zeta [%] | bare zeta [%] (model input) |", "| --- | --- | --- | --- |"]
@@ -118,30 +146,36 @@ def markdown(report: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_laws(frfs: dict, law: str, path: str, title: str) -> None:
-    """|H| [dB re 1 (m/s^2)/N] against f [Hz], one panel per mode: the law solid, passive dashed
-    (as the paper's Figs. 7, 8), one colour per amplitude; unsettled points hollow. PNG."""
+def plot_laws(frfs_by_estimator: dict, law: str, path: str, title: str) -> None:
+    """|H| [dB re 1 (m/s^2)/N] against f [Hz], one panel per mode: the law on the first estimator
+    solid, on the others dotted, passive dashed (as the paper's Figs. 7, 8), one colour per
+    amplitude; unsettled points hollow. PNG."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    ests = list(frfs_by_estimator)
+    frfs = frfs_by_estimator[ests[0]]
     modes = sorted({k.mode for k in frfs})
     amps = sorted({k.amp_n for k in frfs})
     fig, axes = plt.subplots(1, len(modes), figsize=(3.6 * len(modes), 4.2), squeeze=False)
     for ax, m in zip(axes[0], modes):
         for c, a in enumerate(amps):
-            for name, style in (("passive", "--"), (law, "-")):
-                r = frfs[next(k for k in frfs if k.law == name and k.fn1_n is None and k.mode == m and k.amp_n == a)]
+            curves = [("passive", "passive", "--", frfs)] + [
+                (law, f"{law} ({e})", "-" if i == 0 else ":", frfs_by_estimator[e]) for i, e in enumerate(ests)]
+            for name, label, style, view in curves:
+                r = view[next(k for k in view if k.law == name and k.fn1_n is None and k.mode == m and k.amp_n == a)]
                 db = 20 * np.log10(r.H_abs)
-                ax.plot(r.freq_hz, db, style, color=f"C{c}", lw=1.0, marker=".", ms=3,
-                        label=f"{name}, {a:g} N")
+                ax.plot(r.freq_hz, db, style, color=f"C{c}", lw=1.0, marker=".", ms=3, label=f"{label}, {a:g} N")
                 if not np.all(r.settled):
                     ax.plot(r.freq_hz[~r.settled], db[~r.settled], "o", mfc="none", color=f"C{c}", ms=6)
         ax.set_title(f"mode {m}")
         ax.set_xlabel("f [Hz]")
         ax.grid(True, lw=0.3)
     axes[0][0].set_ylabel("|a(0.45 m) / F_exc| [dB re 1 (m/s^2)/N]")
-    axes[0][-1].legend(fontsize=7)
-    fig.suptitle(title + " (solid: controlled, dashed: passive F_N1 = F_min; hollow: not settled)", fontsize=10)
+    axes[0][-1].legend(fontsize=6)
+    others = f", dotted: on the {' and the '.join(ests[1:])}" if len(ests) > 1 else ""
+    fig.suptitle(f"{title}\nsolid: controlled on the {ests[0]}{others}; dashed: passive F_N1 = F_min; "
+                 "hollow: not settled", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -156,8 +190,8 @@ def write_outputs(out: Path, result: dict, f_max_hz: float) -> None:
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
         plot_frf(result["impulse"], str(tmp / "fig5.png"), f_max_hz)
-        plot_laws(result["frfs"], "hysteresis", str(tmp / "fig7.png"), "Hysteresis-optimal vs passive")
-        plot_laws(result["frfs"], "lyapunov", str(tmp / "fig8.png"), "Lyapunov vs passive")
+        plot_laws(result["frfs_by_estimator"], "hysteresis", str(tmp / "fig7.png"), "Hysteresis-optimal vs passive")
+        plot_laws(result["frfs_by_estimator"], "lyapunov", str(tmp / "fig8.png"), "Lyapunov vs passive")
         (tmp / "report.md").write_text(markdown(result["report"]))
         (tmp / "report.json").write_text(json.dumps(jsonable(result["report"]), indent=1))
         old = None
