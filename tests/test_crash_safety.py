@@ -114,7 +114,7 @@ def test_kill_9_then_recover_gives_every_complete_chunk_bit_exact(killed, tmp_pa
     meta = rec.metadata
     assert meta["seed"] == str(SEED) and float(meta["freq_hz"]) == FREQ and load_cfg(meta, tmp_path) == load()
     # same seed -> bit-identical: an in-process run of the recovered length
-    ref = run(build_loop(load(), meta["law"]), FREQ, AMP, n / RATE, seed=SEED).log
+    ref = run(build_loop(load(), meta["law"], meta["estimator"]), FREQ, AMP, n / RATE, seed=SEED).log
     assert ref.shape == rec.log.shape
     keep = np.setdiff1d(np.arange(len(rec.signals)), clock_columns(rec.signals))
     np.testing.assert_array_equal(rec.log[:, keep].view(np.uint64), ref[:, keep].view(np.uint64))

@@ -307,7 +307,7 @@ def test_frf_with_a_c_export_gives_the_numba_controllers_sweep(runs, capsys):
     """frf --controller c:DIR: the law it was exported for runs the C and each point (one here, of
     6 blocks, 0.12 s) equals the numba sweep's; an export of a law the sweep does not run exits 2
     in one line. (compare's test has a numba law beside the C one.)"""
-    exp = runs["lyapunov", "oracle"][1]
+    exp = runs["lyapunov", "observer"][1]   # frf's default estimator
     args = ("frf", "--law", "lyapunov", "--amp", "5", "--freqs", "1000", "--max-time", "0.13", "--jobs", "1")
     code, ref, err = run(capsys, *args)
     assert code == 0, err
@@ -316,14 +316,14 @@ def test_frf_with_a_c_export_gives_the_numba_controllers_sweep(runs, capsys):
     assert ref["controllers"] == {"lyapunov": "numba"} and got["controllers"] == {"lyapunov": f"c:{exp}"}
     assert got["results"] == ref["results"] and len(ref["results"]) == 1
     assert ref["results"][0]["n_blocks"] == [6]
-    code, _, err = run(capsys, *args, "--controller", f"c:{runs['lyapunov', 'observer'][1]}")
+    code, _, err = run(capsys, *args, "--controller", f"c:{runs['lyapunov', 'oracle'][1]}")
     assert code == 2 and "an export of another design" in err and len(err.strip().splitlines()) == 1, err
 
 
 def test_compare_with_a_c_export_gives_the_numba_controllers_table(runs, capsys):
-    """compare --controller c:DIR (an oracle export: compare runs the oracle): its law's row comes
-    from the C and equals the numba row; two exports for one law exit 2 in one line."""
-    exp = runs["hysteresis", "oracle"][1]
+    """compare --controller c:DIR (an observer export: compare's default estimator): its law's row
+    comes from the C and equals the numba row; two exports for one law exit 2 in one line."""
+    exp = runs["hysteresis", "observer"][1]
     args = ("compare", "--freq", "223.6", "--amp", "5", "--duration", "0.05")
     code, ref, err = run(capsys, *args)
     assert code == 0, err

@@ -22,7 +22,7 @@ F3, AMP = 223.6, 5.0
 
 @pytest.fixture(scope="module")
 def loop():
-    return build_loop(load(), "hysteresis")
+    return build_loop(load(), "hysteresis", "observer")   # simulate's default estimator
 
 
 def simulate(tmp_path, name, *extra, capsys):
@@ -67,7 +67,7 @@ def test_simulate_out_writes_mcap_and_rrd_with_every_signal(tmp_path, loop, caps
     versions = json.loads(meta["versions"])
     for p in ("numpy", "numba", "scipy", "control", "mcap", "rerun-sdk", "frictionrt"):
         assert versions[p]
-    assert (meta["seed"], meta["law"], meta["estimator"]) == ("3", "hysteresis", "oracle")
+    assert (meta["seed"], meta["law"], meta["estimator"]) == ("3", "hysteresis", "observer")
     assert float(meta["freq_hz"]) == F3 and float(meta["amp_n"]) == AMP and float(meta["duration_s"]) == 0.2
     assert meta["start_utc"].endswith("+00:00") and isinstance(json.loads(meta["command"]), list)
     # rrd: one entity per topic, a series per signal named by its field, the same values; a blueprint

@@ -79,13 +79,15 @@ def test_a_larger_hysteresis_gain_reduces_the_peak_more_and_costs_more_power(sma
 def test_cli_writes_table_plot_and_a_best_toml_that_loads(tmp_path, capsys):
     out = tmp_path / "t"
     code = main(["tune", "--law", "lyapunov", "--grid", "tracking.eps_m_s=0.003,0.03", "--modes", "3",
-                 "--points", "5", "--jobs", "1", "--out", str(out), "--json"])
+                 "--points", "5", "--jobs", "1", "--out", str(out), "--json", "--estimator", "oracle"])
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
     assert sorted(p.name for p in out.iterdir()) == ["best.toml", "pareto.png", "table.csv", "table.md", "tune.json"]
     best = doc["best"]
     assert load(out / "best.toml").tracking.eps_m_s == best["tracking.eps_m_s"]
-    # the smaller boundary layer switches harder: more reduction, more power (measured 7.9 vs 1.4 dB)
+    # the smaller boundary layer switches harder on the true v_rel: more reduction, more power (measured
+    # 7.9 vs 1.4 dB). On the observer (tune's default) the 3 mm/s layer switches on the estimate's
+    # error instead and does worse than passive: measured -2.0 against +4.4 dB (docs/experiments.md)
     rows = {r["tracking.eps_m_s"]: r for r in doc["candidates"]}
     assert rows[0.003]["reduction_db"] > rows[0.03]["reduction_db"] and rows[0.003]["power_w"] > rows[0.03]["power_w"]
     assert len((out / "table.csv").read_text().splitlines()) == 3

@@ -24,6 +24,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                          "as reproduce --quick finds its peaks (~1-2 s; compare.passive_peak_hz)")
     q.add_argument("--amp", type=float, default=5.0, metavar="N", help="force amplitude [N]")
     q.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time per law [s]")
+    q.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
+                   help="estimate of u_rel, v_rel for the laws: observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
     add_out(q, "FILE.png", "the file to write the time histories to (PNG)", dest="plot")
     add_deprecated(q, "--plot", "-o/--out", dest="plot")
     add_force(q)
@@ -49,9 +51,9 @@ def cmd_compare(cfg, args) -> int:
     if not args.amp > 0:   # the table is relative to the passive response, which 0 N leaves at 0
         return fail(f"--amp {args.amp:g} N: compare needs a finite force > 0 N, e.g. --amp 5")
     try:
-        exports = c_exports(args.controller, [(law, "oracle") for law in LAWS])   # compare runs the oracle
+        exports = c_exports(args.controller, [(law, args.estimator) for law in LAWS])
         designs = Designs()   # the plant and force-tracking designs, made once for the three laws
-        passive = build_loop(cfg, "passive", designs=designs)
+        passive = build_loop(cfg, "passive", args.estimator, designs=designs)
         if args.freq is None:
             from rt.experiments.compare import passive_peak_hz
             check_run_input(passive, 1.0, args.amp, args.duration)  # amplitude and duration before the search
@@ -59,11 +61,12 @@ def cmd_compare(cfg, args) -> int:
                 args.freq = round(passive_peak_hz(passive, args.mode, args.amp, progress=bar.update), 2)
         n = check_run_input(passive, args.freq, args.amp, args.duration)
         with tqdm(total=3 * n, unit="tick", unit_scale=True, disable=args.json, desc="compare") as bar:
-            runs = compare(cfg, args.freq, args.amp, args.duration, progress=bar.update,
+            runs = compare(cfg, args.freq, args.amp, args.duration, args.estimator, progress=bar.update,
                            controller_of=lambda loop: controller_for(exports, loop, cfg.rt.seed), designs=designs)
     except ValueError as exc:
         return fail(str(exc))
-    rows = [r | {"controller": f"c:{exports[r['law'], 'oracle']}" if (r["law"], "oracle") in exports else "numba"}
+    rows = [r | {"controller": f"c:{exports[r['law'], args.estimator]}" if (r["law"], args.estimator) in exports
+                 else "numba"}
             for r in table(runs)]
     if args.plot:
         tmp = out.with_suffix(".tmp.png")
@@ -72,7 +75,7 @@ def cmd_compare(cfg, args) -> int:
     if args.json:
         print(json.dumps(rows))
         return 0
-    print(f"{args.amp:g} N at {args.freq:g} Hz, {args.duration:g} s per law, oracle estimator")
+    print(f"{args.amp:g} N at {args.freq:g} Hz, {args.duration:g} s per law, estimator {args.estimator}")
     if exports:
         print("controller: " + ", ".join(f"{r['law']} {r['controller']}" for r in rows))
     print(f"{'law':>11} {'acc 0.45 m [m/s^2]':>19} {'vs passive':>11} {'mean F_N1 [N]':>14} {'energy [J]':>11}")

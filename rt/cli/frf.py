@@ -39,8 +39,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                               description=DESCRIPTION, epilog=EXAMPLES)
     p.add_argument("--law", nargs="+", choices=LAWS, required=True, metavar="LAW",
                    help=f"control law(s), one sweep each: {', '.join(LAWS)}")
-    p.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
-                   help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md)")
+    p.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
+                   help="observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
     p.add_argument("--amp", nargs="+", type=float, required=True, metavar="N",
                    help="excitation force amplitude(s) [N] held on the measured force, one sweep each (> 0)")
     grid = p.add_mutually_exclusive_group(required=True)

@@ -20,8 +20,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                                    "to PATH.mcap and PATH.rrd while the loop runs.")
     s.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
                    help="control law (default: tracking.law)")
-    s.add_argument("--estimator", choices=["oracle", "observer"], default="oracle",
-                   help="oracle: the plant's band-limited u_rel, v_rel; observer: the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md)")
+    s.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
+                   help="observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
     s.add_argument("--freq", type=float, required=True, metavar="HZ", help="excitation frequency [Hz]")
     s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
     s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s]")

@@ -7,16 +7,18 @@ from rt.common.config import LAWS, Config
 from rt.loop import Designs, Loop, Run, build_loop, run, summary
 
 
-def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, progress=None,
-            controller_of=None, designs: Designs | None = None) -> dict[str, Run]:
-    """One run per law (passive, hysteresis, lyapunov) with the same excitation and seed.
+def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, estimator: str = "observer",
+            progress=None, controller_of=None, designs: Designs | None = None) -> dict[str, Run]:
+    """One run per law (passive, hysteresis, lyapunov) with the same excitation and seed, the laws
+    on ``estimator`` ("observer": the paper's; "oracle": the plant's u_rel, v_rel; the passive law
+    ignores it).
     controller_of(loop): the controller of a law's built loop (``run(..., controller=)``, e.g. a
     C export; None: the numba controller), None for all numba. The laws' loops share the plant
     and force-tracking designs (``designs``, None: a fresh ``Designs``; the same bits)."""
     designs = Designs() if designs is None else designs
     runs = {}
     for law in LAWS:
-        loop = build_loop(cfg, law, designs=designs)
+        loop = build_loop(cfg, law, estimator, designs=designs)
         runs[law] = run(loop, freq_hz, amp_n, duration_s, progress=progress,
                         controller=None if controller_of is None else controller_of(loop))
     return runs
@@ -84,7 +86,8 @@ def plot(runs: dict[str, Run], path: str) -> None:
     ax_f.set_ylabel("F_N1 [N]")
     ax_f.set_xlabel("t [s]")
     r0 = next(iter(runs.values()))
-    ax_w.set_title(f"{r0.amp_n:g} N at {r0.freq_hz:g} Hz: passive vs hysteresis-optimal vs Lyapunov (oracle)")
+    ax_w.set_title(f"{r0.amp_n:g} N at {r0.freq_hz:g} Hz: passive vs hysteresis-optimal vs Lyapunov "
+                   f"({r0.loop.estimator})")
     for ax in (ax_w, ax_f):
         ax.grid(True, lw=0.3)
         ax.legend(loc="upper right", fontsize=8)
