@@ -47,11 +47,6 @@ def _both_screws(key: str, value: float) -> tuple[str, ...]:
     return tuple(f"plant.screws.{s}.{key}={value!r}" for s in ("normal", "adaptive"))
 
 
-def _cone_resolved(pitch_m: float = 0.01) -> tuple[str, ...]:
-    """--set assignments of a contact pitch of pitch_m [m] (the contact is per unit area)."""
-    return (f"plant.interface.pitch_m={pitch_m!r}", f"plant.element_length_m={min(load().plant.element_length_m, pitch_m)!r}")
-
-
 VARIANTS = (
     Variant("default", "-", (), "the configuration as it is"),
     Variant("mu_low", "mu", ("plant.interface.mu=0.25",),
@@ -62,10 +57,6 @@ VARIANTS = (
             "ISO 4017 M8 hex head, smallest bearing diameter d_w = 11.63 mm: cone radius 10.1 mm"),
     Variant("cone_large", "pressure law", _both_screws("head_diameter_m", 0.024),
             "DIN 9021 large washer (24 mm) under head and stack: cone radius 15.2 mm"),
-    Variant("cone_resolved", "pressure law",
-            _cone_resolved(),
-            "the cone resolved: pairs every 10 mm, one under each screw (weights 0.89 / 0.054 / 0.054), the "
-            "same stiffness per area (k_n, k_t per pair halved)"),
     Variant("tau_low", "tau", ("plant.interface.tau_s=1e-6",),
             "contact modes (~14 kHz) at zeta = omega tau / 2 = 0.044; below, they ring (docs/plant.md 2.6)"),
     Variant("tau_high", "tau", ("plant.interface.tau_s=4e-6",),
