@@ -97,12 +97,14 @@ def main(argv=None) -> int:
     if args.json:
         print(json.dumps(rows))
         return 0
-    print("| claim | estimator | law | mode | F [N] | f [Hz] | reduction [dB] | u0 [um] | K_f u0 / F_min | mean F_set / F_N1 [N] "
+    print("| claim | estimator | law | mode | F [N] | f [Hz] | reduction [dB] | u0 [um] | K_f u0 / F_min (hysteresis) "
+          "| mean F_set / F_N1 [N] "
           "| at F_max | 2f: F_set / F_N1 [N] (transmitted) | peak / constant clamp at mean F_N1 |")
     print("| --- " * 13 + "|")
     for r in rows:
         print(f"| {r['claim']} | {r['estimator']} | {r['law']} | {r['mode']} | {r['amp']} | {r['f_hz']:.2f} | "
-              f"{r['reduction_db']:+.2f} | {r['u0_um']:.3f} | {r['Kf_u0_over_Fmin']:.2f} | {r['F_set_mean_n']:.0f} / "
+              f"{r['reduction_db']:+.2f} | {r['u0_um']:.3f} | "
+              f"{format(r['Kf_u0_over_Fmin'], '.2f') if r['law'] == 'hysteresis' else '-'} | {r['F_set_mean_n']:.0f} / "
               f"{r['F_N1_mean_n']:.0f} | {r['at_F_max']:.2f} | {r['F_set_2f_n']:.1f} / {r['F_N1_2f_n']:.1f} "
               f"({'-' if np.isnan(r['transmitted']) else format(r['transmitted'], '.2f')}) | {r['peak']:.3g} / "
               f"{r['constant_clamp_peak']:.3g} |")
