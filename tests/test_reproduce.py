@@ -233,3 +233,20 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
     assert doc["impulse"]["zeta"]["3"] == pytest.approx(0.0119, rel=0.1)
     assert doc["peak_reduction_db"]["lyapunov"]["3"]["5"] < -3.0
     assert doc["claims"]["C6"]["holds"]  # Lyapunov switches F_N1 at twice the vibration frequency: > 10x power
+
+
+def test_one_estimator_alone_decides_its_own_claims(tmp_path):
+    """measure with the oracle alone (sensitivity's path, reproduce --estimator oracle): one view,
+    its claims the report's, the passive law run once; report.md has one verdict column."""
+    from rt.experiments.reproduce import Plan, measure
+    from rt.experiments.reproduce_report import markdown
+    from rt.experiments.stepsine import Settle
+    plan = Plan(modes=(3,), amps_n=(5.0, 20.0), n_points=3, refine_rounds=0, fn1_n=(),
+                settle=Settle(rel_tol=0.05, max_s=0.4))
+    res = measure(load(), plan, ("oracle",), jobs=1, progress=False)
+    rep = res["report"]
+    assert list(rep["by_estimator"]) == ["oracle"] and rep["plan"]["estimators"] == ["oracle"]
+    assert rep["claims"] is rep["by_estimator"]["oracle"]["claims"]
+    assert {k.law for k in res["frfs"]} == {"passive", "hysteresis", "lyapunov"} and len(res["frfs"]) == 6
+    md = markdown(rep)
+    assert "| claim | statement | holds: oracle |" in md and "holds: observer" not in md
