@@ -25,13 +25,15 @@ The candidates that no other beats on both are the Pareto front. The best (large
 Writes into --out DIR: table.csv and table.md (one row per candidate), pareto.png, best.toml, tune.json.
 Default grids: hysteresis K_f x T1 (5 x 3), lyapunov eps (5). Any numeric configuration key can be
 swept, e.g. the force-tracking loop (tracking.pid_bandwidth_hz, tracking.pid_phase_margin_deg,
-tracking.setpoint_filter_hz) or, with --estimator observer, the observer's noise covariances
-(observer.exc_noise_N, observer.fric_noise_N, observer.meas_noise_m_s)."""
+tracking.setpoint_filter_hz) or the observer's noise covariances (observer.exc_noise_N,
+observer.fric_noise_N, observer.meas_noise_m_s). The laws run on the paper's observer (the
+default) or, with --estimator oracle, on the plant's own u_rel, v_rel (the upper bound)."""
 
 EXAMPLES = """examples:
   frictionrt tune --law hysteresis --modes 3,4 --amp 5 20
   frictionrt tune --law lyapunov --grid tracking.eps_m_s=0.003,0.01,0.03 --grid tracking.pid_bandwidth_hz=150,300
-  frictionrt tune --law hysteresis --estimator observer --grid observer.fric_noise_N=100,300,1000 --out logs/tune_obs
+  frictionrt tune --law hysteresis --grid observer.fric_noise_N=100,300,1000 --out logs/tune_obs
+  frictionrt tune --law lyapunov --estimator oracle --out logs/tune_oracle
   frictionrt --config logs/tune_hysteresis/best.toml frf --law hysteresis --amp 5 --around-modes 3"""
 
 
