@@ -298,6 +298,8 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     from plant.modes import bare_beam_bending_hz
     plan.check(cfg)
     estimators = tuple(dict.fromkeys(estimators))
+    if not estimators or not set(estimators) <= set(ESTIMATORS):
+        raise ValueError(f"estimators {list(estimators)}: give one or more of {', '.join(ESTIMATORS)}")
     say = stage or (lambda text: None)
     t0 = time.perf_counter()
     say(f"impulse test at F_N1 = {plan.impulse_fn1_n:g} N")
