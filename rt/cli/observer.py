@@ -30,7 +30,8 @@ def cmd_observer(cfg, args) -> int:
         print(json.dumps(d))
         return 0
     print(f"observer: {d['n_states']} states, modes [Hz]: {', '.join(f'{f:.1f}' for f in d['modes_hz'])}")
-    print(f"  tied at x = {d['x_tied_m']} m, normal springs at x = {d['x_springs_m']} m, zeta {d['zeta']:g}, "
+    xs = lambda v: "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
+    print(f"  tied at x = {xs(d['x_tied_m'])} m, normal springs at x = {xs(d['x_springs_m'])} m, zeta {d['zeta']:g}, "
           f"static correction D_u {d['D_u_m_per_n']:.3e} m/N")
     print(f"  Kalman (dlqe): Q = diag{tuple(d['Q_n2'])} N^2, R = {d['R_m2_s2']:.3g} (m/s)^2; "
           f"|M| {d['gain_norm_filter']:.3g}, |L| {d['gain_norm_predictor']:.3g}")
