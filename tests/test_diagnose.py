@@ -3,18 +3,21 @@ rt.discrepancy.diagnose must name the effect, fit its strength and close the gap
 the files validate and do not reveal the effect. Seed 5 was not used while developing the method
 (development used seeds 3, 11 and 17; seed 5 was run once, after)."""
 import json
+import os
 
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from threadpoolctl import threadpool_limits
 
 from rt.cli import main
 import rt.discrepancy.diagnose.campaign as campaign_module
 from rt.common.config import Config, with_sets
 from rt.log.data_format import validate
 from rt.log.mcap_log import start_time_ns
-from rt.discrepancy.diagnose.campaign import MIN_RSS_REDUCTION, diagnose, fit_actuator, fit_in_parallel, load_campaign
-from rt.discrepancy.diagnose.structure import SENSORS, prepare, run_shape
+from rt.discrepancy.diagnose.campaign import (CONTINUE_ROUNDS, MIN_RSS_REDUCTION, NAME_THRESHOLD, bic, diagnose, fit_actuator,
+                                             fit_in_parallel, gaps, load_campaign)
+from rt.discrepancy.diagnose.structure import SENSORS, best_nested, fit_structure, prepare, run_shape
 from rt.discrepancy.effects import EFFECTS, get, implemented
 from rt.discrepancy.chain import scaled
 from rt.discrepancy.rig import make_campaign, scatter_sets
@@ -78,10 +81,15 @@ def diagnosed(campaigns):
     return get
 
 
-MICRO_SLIP_XFAIL = pytest.mark.xfail(strict=True, run=False, reason=(
-    "issue 31: on the 10 mm calibrated joint (9.5e12 N/m^3) micro_slip at its default spread changes the 100 N "
-    "hammer FRF by 0.11 dB rms (0.60 dB on the 20 mm joint) and is not named: the effect's default strength "
-    "or the diagnosis' thresholds are re-derived by issue 32 (not run: a diagnosis costs ~3 min)"))
+# The whole diagnosis of micro_slip passes on the converged plant (issue 32, measured once on this
+# shared 2-core machine: named, dBIC 10509, 65 % of the FRF RSS, runner-up accelerometer_mass 490 / 5 %;
+# spread 0.515 for 0.5; FRF gap 2.84 -> 0.45 dB) but takes 204 s with two processes, ~2x that serially
+# in an xdist worker: over the suite's budget, so it runs with FRICTIONRT_SLOW=1 only and the suite runs
+# test_micro_slip_fit_names_it_against_calibration_alone (its own fit against calibration alone) instead.
+# The earlier reason (0.11 dB rms at the default spread, not named) no longer holds on this plant.
+MICRO_SLIP_SLOW = pytest.mark.skipif(not os.environ.get("FRICTIONRT_SLOW"), reason=(
+    "passes (issue 32: named, dBIC 10509, 65 % RSS, spread 0.515, gap 2.84 -> 0.45 dB) but costs 204 s "
+    "(~7 min serially); FRICTIONRT_SLOW=1 runs it; the suite has test_micro_slip_fit_names_it_against_calibration_alone"))
 # One hidden effect per kind of evidence; every effect (and half strengths, other seeds) is
 # `python -m benchmarks.discrepancy 5`'s confusion table (docs/discrepancy.md): each diagnosis here
 # costs ~4-8 min on a 2-core machine with the graded joint (stop 40), and the suite's budget is ~15 min.
@@ -101,7 +109,7 @@ def assert_named_fitted_and_closed(res: dict, effect) -> None:
     assert res["gap_before"][key] >= 3.0 * res["gap_after"][key], (res["gap_before"][key], res["gap_after"][key])
 
 
-@pytest.mark.parametrize("effect", [pytest.param(get(e), marks=MICRO_SLIP_XFAIL) if e == "micro_slip" else get(e)
+@pytest.mark.parametrize("effect", [pytest.param(get(e), marks=MICRO_SLIP_SLOW) if e == "micro_slip" else get(e)
                                     for e in SUITE_EFFECTS], ids=lambda e: e.name)
 def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
     res = diagnosed(effect.name)
@@ -115,6 +123,40 @@ def test_hidden_effect_is_named_fitted_and_closes_the_gap(diagnosed, effect):
                 assert r["rss_reduction"] < MIN_RSS_REDUCTION, r
                 span = abs(other.parameter.default - other.nominal)
                 assert abs(r["fitted"][other.name] - other.nominal) < 0.05 * span, r
+
+
+def test_micro_slip_fit_names_it_against_calibration_alone(campaigns):
+    """The suite's micro_slip check (the whole diagnosis is MICRO_SLIP_SLOW above): on the seed-5 campaign
+    with micro_slip at its default spread (0.5) hidden, calibration alone and micro_slip's fit from it on
+    the impulse tests, with the diagnosis' continuation of calibration alone from the candidate's scales
+    and the refit (without the other seven candidates). micro_slip meets the naming conditions (campaign.rank:
+    more than NAME_THRESHOLD BIC points over calibration alone, MIN_RSS_REDUCTION of the FRF residual), its
+    spread within 30 % and the FRF gap closed threefold, as assert_named_fitted_and_closed. Measured (issue
+    32): the same figures as the whole diagnosis, dBIC 10509, 65 % of the RSS, spread 0.515, gap 2.84 ->
+    0.45 dB (calibration alone 0.51), 80 s on a shared 2-core machine. Without the continuation the first
+    fit ends at spread 0.857 (+71 %) against a poorer calibration (dBIC 32536): the continuation is needed."""
+    effect = get("micro_slip")
+    nominal = _nominal("micro_slip")
+    imp = [t for t in load_campaign(campaigns("micro_slip")) if t.kind == "impulse"]
+    with threadpool_limits(1):
+        data = prepare(imp, nominal)
+        cal = fit_structure(nominal, data, None)
+        fit = fit_structure(nominal, data, effect, calibrated=cal)
+        for _ in range(CONTINUE_ROUNDS):   # as the diagnosis: calibration alone continued from better scales, refitted
+            better = best_nested({None: cal, effect: fit}, [effect], nominal, data)
+            if better is cal:
+                break
+            cal = fit_structure(nominal, data, None, start=better.theta)
+            if bic(fit.channels, 0) > bic(cal.channels, 0):
+                fit = fit_structure(nominal, data, effect, calibrated=cal)
+        before = gaps(imp, [], run_shape(nominal, data), [])["structure_frf_db"]
+    after = gaps(imp, [], fit.run, [])["structure_frf_db"]
+    dbic = bic(cal.channels, len(cal.theta)) - bic(fit.channels, len(fit.theta))
+    rss = [sum(float(v @ v) for k, v in f.channels.items() if k.startswith("FRF")) for f in (fit, cal)]
+    reduction = 1.0 - rss[0] / rss[1]
+    assert dbic > NAME_THRESHOLD and reduction >= MIN_RSS_REDUCTION, (dbic, reduction, fit.theta)
+    assert abs(fit.theta["micro_slip"] / effect.parameter.default - 1.0) < 0.30, fit.theta
+    assert before >= 3.0 * after, (before, after)
 
 
 def test_suite_effects_cover_every_kind_of_evidence():

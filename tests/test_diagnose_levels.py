@@ -26,19 +26,22 @@ def folder(tmp_path_factory):
     return out
 
 
-@pytest.mark.xfail(strict=True, run=False, reason="issue 31: on the 10 mm calibrated joint the harmonic balance calibrated on 1.35 and 2.7 V predicts the 27 V FRF 7.24 dB off against the linear model's 9.86 dB (0.94 against 9.91 on the 20 mm joint): not re-derived here (issue 32; not run: it costs minutes)")
 def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys):
     """Calibrated on 1.35 and 2.7 V (0.5 and 1 N), the harmonic balance predicts the 27 V FRF at least 3x
-    closer than the linear model calibrated on the same files (measured, the whole 50-1200 Hz plan of
-    seed 3: 0.75 against 10.44 dB; mode 3's band only, here: 0.94 against 9.91 dB), with the force
-    scale within 15 % (measured +9 % on the whole plan, -0.04 % here: on the whole plan k_t, mu and the
-    damping trade with it, with method aft as well: docs/discrepancy.md), and it is the softening mode the
-    report finds; the linear model's damping ends on its bound (10) and is warned."""
+    closer than the linear model calibrated on the same files, with the force scale within 5 % (the issue's
+    figure; 15 % here until issue 32, for the whole plan's +9 % on the earlier plant), and it is
+    the softening mode the report finds; the linear model's damping ends on its bound (10) and is warned.
+    Measured on the converged plant (issue 32; mode 3's band only, 16 lines a level; 65 s on a shared
+    2-core machine): 27 V at 1.09 against 9.77 dB (9.0x), force scale 0.3662 (-1.0 %). Issue 31's 7.24
+    against 9.86 dB (measured at 76c42ef, on the uniform 10 mm default before the graded one) no longer holds. (On the earlier per-pair plant: 0.94 against 9.91 dB here, and the
+    whole 50-1200 Hz plan of seed 3 0.75 against 10.44 dB with the scale +9 %: there k_t, mu and the
+    damping trade with it, with method aft as well: docs/discrepancy.md.) The 3x and the 5 % are the
+    issue's figures, not re-tuned: the measured 9.0x and -1.0 % are well inside."""
     out = tmp_path / "report"
     assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(out)]) == 0
     res = json.loads(capsys.readouterr().out)
     assert res["softening_mode"] == 3 and res["calibrate_on_n"] == [1.35, 2.7] and res["level_unit"] == "V"
-    assert res["nonlinear"]["fitted"]["force_scale_N_per_V"] == pytest.approx(SCALE, rel=0.15)
+    assert res["nonlinear"]["fitted"]["force_scale_N_per_V"] == pytest.approx(SCALE, rel=0.05)
     assert {(w["model"], w["parameter"]) for w in res["warnings"]} >= {("linear", "modal_damping")}
     p = {x["level_n"]: x for x in res["prediction"]}
     assert not p[27.0]["calibrated_on"] and p[1.35]["calibrated_on"]

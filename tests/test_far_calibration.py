@@ -9,29 +9,47 @@ from threadpoolctl import threadpool_limits
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import scaled
 from rt.discrepancy.diagnose import load_campaign
-from rt.discrepancy.diagnose.structure import CAL_FAR, fit_structure, prepare
+from rt.discrepancy.diagnose.structure import CAL_FAR, fit_structure, prepare, run_shape
 from rt.discrepancy.rig import make_campaign, scatter_sets
 
 SEED = 3
 K_T_OFF = 0.2        # the truth's k_t against the nominal's: below the former bound 0.6
 
 
-@pytest.mark.xfail(strict=True, run=False, reason="issue 31: on the 10 mm calibrated plant k_t x 0.2 comes out 0.168 for 0.204 (-18 %) with the modal damping at 4.4 x: the far calibration is not re-validated on the new plant (issue 32; not run: it costs minutes)")
-def test_a_far_off_contact_stiffness_is_recovered(tmp_path):
-    """A campaign whose structure has k_t x 0.2 (and the seed's scatter) calibrated from the nominal:
-    k_t comes out within 5 % of the truth (measured: 0.2034 for 0.2042, -0.4 %; stage 1 alone on the
-    frequencies of the stuck test 0.1907), E within 1 % (1.0401 for 1.04), and the FRF residuals at
-    the noise's level (weighted rms < 1, measured 0.52; the nominal model's 22.6). With the former
-    bounds (k_t >= 0.6) the fit ended on the bound. BLAS single-threaded, as in diagnose (12 s)."""
+@pytest.fixture(scope="module")
+def far_fit(tmp_path_factory):
+    """A campaign whose structure has k_t x 0.2 (and the seed's scatter), calibrated from the default
+    nominal; BLAS single-threaded, as in diagnose (the fit 20 s on a shared 2-core machine)."""
     nominal = with_sets(Config(), [])
-    folder = make_campaign(tmp_path / "c", "none", seed=SEED, cfg=scaled(nominal, {"k_t": K_T_OFF}),
-                           ramps_s=())[0].parent
-    true = scatter_sets(np.random.default_rng(SEED))
+    folder = make_campaign(tmp_path_factory.mktemp("far") / "c", "none", seed=SEED,
+                           cfg=scaled(nominal, {"k_t": K_T_OFF}), ramps_s=())[0].parent
     with threadpool_limits(1):
         data = prepare([t for t in load_campaign(folder) if t.kind == "impulse"], nominal)
         fit = fit_structure(nominal, data, None)
+        r0 = np.concatenate(list(run_shape(nominal, data).r.values()))
     r = np.concatenate(list(fit.channels.values()))
+    return fit, float(np.sqrt(np.mean(r ** 2))), float(np.sqrt(np.mean(r0 ** 2)))
+
+
+def test_a_far_off_contact_stiffness_is_recovered(far_fit):
+    """From the nominal, 5x off in k_t, the calibration moves k_t by a factor 4.5 to the truth and E to
+    its scatter. Measured on the converged plant (issue 32): k_t 0.2227 for 0.2042 (+9.1 %), E 1.0411 for
+    1.04, weighted residual rms 3.57 against the nominal's 28. The k_t tolerance is the calibration's own
+    error on this campaign, not the far start's: started at the true k_t x 0.2 (near) the same fit ends at
+    +10.6 % (rms 4.43); so 15 %. (On the earlier per-pair plant: 0.2034 for 0.2042, rms 0.52.)"""
+    fit, rms, rms_nominal = far_fit
+    true = scatter_sets(np.random.default_rng(SEED))
     assert CAL_FAR["k_t"][0] < 2 * K_T_OFF
-    assert fit.theta["k_t"] == pytest.approx(K_T_OFF * true["k_t"], rel=0.05), fit.theta
+    assert fit.theta["k_t"] == pytest.approx(K_T_OFF * true["k_t"], rel=0.15), fit.theta
     assert fit.theta["E"] == pytest.approx(true["E"], rel=0.01), fit.theta
-    assert np.sqrt(np.mean(r ** 2)) < 1.0, fit.theta
+    assert rms < 0.2 * rms_nominal, (rms, rms_nominal)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 32, measured on the converged plant: the calibration stops at a "
+                   "weighted residual rms of 3.57 (modal damping 1.77x for the true 0.94, dispersion -0.081), the "
+                   "truth's parameters give 0.29 on the same files; from a near start (k_t x 0.2 told) it stops "
+                   "at 4.43 (damping 2.53x): a poor optimum of the rough cost from either start (docs/discrepancy.md "
+                   "'What remains'), not the far start's")
+def test_the_far_calibration_reaches_the_noise(far_fit):
+    """The calibrated FRF residuals at the noise's level (weighted rms < 1; the truth's own 0.29)."""
+    assert far_fit[1] < 1.0, far_fit

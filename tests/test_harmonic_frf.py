@@ -142,16 +142,18 @@ def test_stribeck_and_bad_inputs_are_refused():
 
 
 # --- the slipping levels against the nonlinear plant's step-sine --------------------------------
-# configs/lap_joint.toml, passive (F_N1 = 40 N held by the stack's voltage), mode 2 (stuck 69.45 Hz).
-# At 0.3 N the outer pairs slip and the joint's open end (pairs 3, 4, 276 nm apart under preload)
-# closes in every cycle: the response stiffens, the step-sine peaks at 69.70 Hz (37.4 (m/s^2)/N)
-# and jumps down past 69.8 Hz. Measured (benchmarks/harmonic_frf.py, docs/plant.md 10): aft with
-# three harmonics within 0.1 dB and 1.5 deg of the step-sine on these lines; df (normal contact
-# linear) 3-5 dB off, its normal-gap ratio 3.7 says why.
-LAP_LINES = [69.65, 69.70, 69.75]
+# configs/lap_joint.toml on the converged per-area contact (9 points at 5 mm, the end points at half
+# area), passive (F_N1 = 40 N held by the stack's voltage), mode 2 (stuck 69.75 Hz, 48.7 (m/s^2)/N).
+# Points 0-5 closed, 6-8 at the joint's far end open (point 8 by 196 nm). At 0.3 N the closed pairs
+# slip, point 5 lifts off for 34-66 % of the period and the open end point 8 closes for a third of
+# it: the step-sine peaks at 69.80 Hz (30.9 (m/s^2)/N), a little above the stuck peak, settled on
+# every line 69.50-70.10 Hz with no jump. Measured (13 lines 69.50-70.10 Hz at 0.05 Hz, issue 32;
+# docs/plant.md 10.1): aft with three harmonics within 0.17 dB and 1.7 deg of the step-sine on every
+# line (0.20 dB, 0.4 deg on the three lines below, swept alone); df (normal contact linear, normal ratio up to 7.8) softens instead, its peak at 69.55 Hz:
+# +6.5 / -1.2 / -4.3 dB on the three lines below (rms 4.5 dB).
+LAP_LINES = [69.55, 69.80, 70.05]
 
 
-@pytest.mark.xfail(strict=True, reason="issue 31: on the per-area contact (end points at half area) the lap joint's mode 2 softens elsewhere; LAP_LINES (69.65-69.75 Hz, the 20 mm per-pair joint's jump) no longer settle: re-derive the lines (issue 32)")
 def test_slipping_level_agrees_with_the_nonlinear_stepsine():
     from rt.experiments.stepsine import Settle, sweep
     from rt.loop import build_loop
@@ -163,10 +165,15 @@ def test_slipping_level_agrees_with_the_nonlinear_stepsine():
     aft = harmonic_accelerances(hs, 0.3, LAP_LINES)
     df = harmonic_accelerances(hs, 0.3, LAP_LINES, method="df")
     assert aft.converged.all()
+    # aft: the tolerance is 2.5x / 3x the largest deviation measured (0.20 dB here, 1.7 deg on 13 lines through the peak)
     err_db = 20 * np.log10(np.abs(aft.H["a"] / ss.H))
     err_deg = np.degrees(np.angle(aft.H["a"] / ss.H))
     assert np.max(np.abs(err_db)) < 0.5 and np.max(np.abs(err_deg)) < 5.0, (err_db, err_deg)
-    assert np.argmax(np.abs(aft.H["a"])) == np.argmax(np.abs(ss.H))
-    # the pairs' normal contact matters here: linearised, it misses by dB and says so
-    assert np.min(np.abs(20 * np.log10(np.abs(df.H["a"] / ss.H)))) > 2.0
-    assert np.max(df.normal_ratio) > 1.0 and np.max(aft.open_fraction[:, 4]) < 1.0  # pair 4 closes in the cycle
+    assert np.argmax(np.abs(aft.H["a"])) == np.argmax(np.abs(ss.H)) == 1
+    # the pairs' normal contact matters here: linearised, df softens where the joint stiffens (its peak on
+    # the line below the step-sine's) and misses by dB (measured 6.5 dB at 69.55 Hz), and its normal ratio says so
+    err_df = 20 * np.log10(np.abs(df.H["a"] / ss.H))
+    assert np.argmax(np.abs(df.H["a"])) == 0 and np.max(np.abs(err_df)) > 3.0, err_df
+    assert np.max(df.normal_ratio) > 1.0
+    # in the cycle the closed point 5 lifts off and the open end point 8 closes
+    assert np.min(aft.open_fraction[:, 5]) > 0.2 and np.max(aft.open_fraction[:, 8]) < 0.9, aft.open_fraction

@@ -30,21 +30,33 @@ def campaign(tmp_path_factory):
     return out
 
 
-@pytest.mark.xfail(strict=True, reason="issue 31: the aluminium lap joint's end points carry half their area now; the 10 N level's df/aft gaps were measured on full-stiffness end pairs: re-measure (issue 32)")
 def test_aft_holds_the_gaping_joint_that_df_does_not(campaign):
-    """At the true structure (the campaign's own scatter draw and spread 0.5), the 10 N level: "aft" is
-    within 0.3 dB rms of the time-stepped plant on mode 2's lines (measured 0.08 dB), "df" more than
-    0.8 dB off (measured 1.15 dB; it keeps the outer pairs closed, which open for up to 45 % of the
-    period here), and the df report's note names the level."""
+    """At the true structure (the campaign's own scatter draw and spread 0.5), the 10 N level on mode 2's
+    lines. Measured on the converged plant (issue 32: the end points at half their area; 16 lines
+    100-150 Hz, both sensors): where the overlap's ends gape (the peak line, 126.3 Hz, open 41 % of the
+    period) "aft" is 0.05 / 0.06 dB from the time-stepped plant and "df", which keeps them closed, 0.54 /
+    0.53 dB; on the lines where nothing opens both are the same, the campaign's scatter (up to 0.15 dB),
+    so over all lines aft 0.066 dB rms, df 0.146 dB (2.2x). On the earlier full-stiffness end pairs df was
+    1.15 dB rms off: the half-area ends carry less, so linearising their contact costs less, but only aft
+    holds it. The df report's note names the level."""
     truth = true_structure(CFG, "micro_slip", None, np.random.default_rng(3))
     tests = load_frf_folder(campaign)
     data = prepare(tests, CFG)
     truth, _ = with_sensor_points(tests, truth)
     i = [level_of(t) for t in tests].index(10.0)
     hb = {"df": [], "aft": []}
-    gaps = {m: gap_db(data[i], nonlinear_H(truth, data[i:i + 1], [10.0], method=m, details=hb[m])[0], None) for m in hb}
-    assert gaps["aft"] < 0.3 and gaps["df"] > 0.8, gaps
-    # df's report says so: the normal gap swings more than the static gap (measured 1.8), aft's pairs open (43 %)
+    H = {m: nonlinear_H(truth, data[i:i + 1], [10.0], method=m, details=hb[m])[0] for m in hb}
+    gaps = {m: gap_db(data[i], H[m], None) for m in hb}
+    # over all lines: aft at the scatter floor (measured 0.066 dB), df above it by the gaping line (2.2x)
+    assert gaps["aft"] < 0.1 and gaps["df"] > 1.5 * gaps["aft"], gaps
+    # the line where aft's ends are open longest: aft within the scatter of the lines where nothing opens
+    # (0.15 dB; measured 0.05-0.06), df beyond it by more than twice that scatter (measured 0.53-0.54)
+    r = hb["aft"][0]
+    k = int(np.argmax(np.nanmax(r.open_fraction[:, r.closed], axis=1)))
+    assert data[i].freq[k] == pytest.approx(126.3, abs=0.1) and np.max(r.open_fraction[k, r.closed]) > 0.3
+    err = {m: np.array([20 * np.log10(abs(data[i].H[s][k] / H[m][s][k])) for s in data[i].sel]) for m in hb}
+    assert np.max(np.abs(err["aft"])) < 0.2 and np.min(np.abs(err["df"])) > 0.35, err
+    # df's report says so: the normal gap swings more than the static gap (measured 3.2), aft's pairs open (41 %)
     rows = {m: [{"level_n": 10.0} | contact_of(hb[m][0])] for m in hb}
     assert rows["df"][0]["normal_ratio_max"] > 1.0 and rows["aft"][0]["open_fraction_max"] > 0.3, rows
     assert contact_note(rows["df"], "df", "N").startswith("at 10 N a closed pair's normal gap swings")
