@@ -1,11 +1,13 @@
 """Why a claim fails: the measured mechanism behind each failing cell of a reproduction (issue 32 item 4).
 
-    python -m benchmarks.claim_mechanisms REPORT.json [--duration 1.0] [--set KEY=VALUE ...] [--json]
+    python -m benchmarks.claim_mechanisms REPORT.json [--duration 1.0] [--set KEY=VALUE ...] [--cell LAW,MODE,AMP ...] [--json]
 
 The cells that make C3 or C4 fail on an estimator of ``report.json`` (``frictionrt reproduce``;
 give the same ``--set`` as the run): for C3, the cells of a law that reduces fewer than two modes
 at every amplitude where its reduction is above -0.5 dB; for C4, the cells at the smallest amplitude
-above +0.5 dB (rt.experiments.claims). Each is run once more: the law, on that estimator, at the
+above +0.5 dB (rt.experiments.claims); ``--cell`` names cells to run whatever their verdict (claim
+"-"; e.g. a sensitivity variant's cell whose verdict flipped, from ``reproduce --modes``). Each is
+run once more: the law, on that estimator, at the
 cell's peak frequency and amplitude for ``--duration`` s, steady state over the last half:
 
 * ``u0_um``: the RT1 amplitude u0 [um] (mean), and ``Kf_u0_over_Fmin`` = K_f u0 / F_min: below 1 the
@@ -87,13 +89,26 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=1.0, help="simulated time per cell [s]")
     ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE",
                     help="the --set of the reproduction (its gains)")
+    ap.add_argument("--cell", action="append", default=[], metavar="LAW,MODE,AMP",
+                    help="run this cell too, on every estimator of the report (e.g. lyapunov,5,5)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     report = json.loads(args.report.read_text())
     if "by_estimator" not in report:
         raise SystemExit(f"{args.report}: no by_estimator (a report of frictionrt reproduce before issue 32); run it again")
     cfg, designs = load(None, args.sets), Designs()
-    rows = [mechanism(cfg, designs, c, report, args.duration) for c in failing_cells(report["by_estimator"])]
+    cells = failing_cells(report["by_estimator"])
+    for text in args.cell:
+        parts = text.split(",")
+        peaks = next(iter(report["by_estimator"].values()))["peaks"]
+        try:
+            law, mode, amp = parts
+            peaks[law][mode][f"{float(amp):g}"]
+        except (ValueError, KeyError):
+            raise SystemExit(f"--cell {text}: give LAW,MODE,AMP of a cell in {args.report}, e.g. lyapunov,5,5")
+        cells += [{"estimator": est, "claim": "-", "law": law, "mode": mode, "amp": f"{float(amp):g}"}
+                  for est in report["by_estimator"]]
+    rows = [mechanism(cfg, designs, c, report, args.duration) for c in cells]
     if args.json:
         print(json.dumps(rows))
         return 0

@@ -6,6 +6,7 @@ and returns the exit code (0 done, 2 bad input with one line on stderr).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -28,6 +29,7 @@ EXAMPLES = """examples:
   frictionrt reproduce --quick
   frictionrt reproduce --out logs/reproduce_full --jobs 2
   frictionrt reproduce --quick --json --estimator observer   # the observer alone
+  frictionrt reproduce --modes 5 --amps 5,10 --out logs/reproduce_mode5   # the full plan on mode 5 only
   frictionrt reproduce --dask tcp://10.0.0.5:8786"""
 
 
@@ -48,6 +50,8 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                         "on the tip accelerometer and the force cell), oracle (the plant's own, band-limited: the "
                         "upper bound) or both (default: the claims on the observer, the oracle's beside them; the "
                         "passive runs, which ignore the estimate, are shared)")
+    p.add_argument("--modes", metavar="M1,M2", help="these bending modes of the plan only, e.g. 5 (of 2-5)")
+    p.add_argument("--amps", metavar="A1,A2", help="these excitation amplitudes [N] instead of the plan's, at least two")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
@@ -83,6 +87,13 @@ def cmd_reproduce(cfg: Config, args) -> int:
     if problem:
         return fail(problem)
     plan = QUICK if args.quick else FULL
+    try:
+        if args.modes:
+            plan = dataclasses.replace(plan, modes=tuple(int(m) for m in args.modes.split(",")))
+        if args.amps:
+            plan = dataclasses.replace(plan, amps_n=tuple(float(a) for a in args.amps.split(",")))
+    except ValueError:
+        return fail(f"--modes {args.modes} / --amps {args.amps}: give comma-separated numbers, e.g. --modes 5 --amps 5,10")
     say = (lambda text: None) if args.json else (lambda text: print(f"reproduce: {text}", file=sys.stderr))
     try:
         plan.check(cfg)
