@@ -81,6 +81,11 @@ def test_c6_lyapunov_power_higher_everywhere():
     assert claim_c6(_table(hy, {(3, 5.0): 3.0, (4, 5.0): 2.0}))["holds"]
     c = claim_c6(_table(hy, {(3, 5.0): 3.0, (4, 5.0): 0.01}))
     assert not c["holds"] and c["numbers"]["min_ratio_lyapunov_to_hysteresis"] == pytest.approx(0.5)
+    # both laws holding F_max (mode 2, 20 N: 0.0 and 3.5e-10 W, or round-off below zero) decide nothing
+    c = claim_c6(_table(hy | {(2, 20.0): 0.0}, {(3, 5.0): 3.0, (4, 5.0): 2.0, (2, 20.0): -2e-10}))
+    assert c["holds"] and c["numbers"]["held_cells"] == [(2, 20.0)]
+    # a law that moves its force is compared, however small its power
+    assert not claim_c6(_table(hy | {(2, 20.0): 2e-7}, {(3, 5.0): 3.0, (4, 5.0): 2.0, (2, 20.0): 1e-7}))["holds"]
 
 
 # --- refinement and merging ---------------------------------------------------------------------
