@@ -93,7 +93,8 @@ def model_form_refine(text: str | None, parts: tuple[str, ...]) -> int | None:
                          "element length, four times the substeps)")
     if not set(parts) & set(REFINED_PARTS):
         raise ValueError(f"refine factor {r} refines the parts {', '.join(REFINED_PARTS)}, and the model form "
-                         f"{','.join(parts) or '(none)'} has none of them; add one (or all) to --model-form, or drop --refine")
+                         f"{','.join(parts) or '(none)'} has none of them; add one (or all) to --model-form, "
+                         "or drop --refine")
     return r
 
 
