@@ -8,10 +8,11 @@ seconds), then the confusion matrix: hidden effect (rows) against named
 effect (columns), counts over seeds and strengths.
 
     .venv/bin/python -m benchmarks.discrepancy [SEED ...] [--record-s 1.0] [--effects A,B] [--jobs N] [--stepsine]
-        [--model-form [PARTS]] [--frf-files]
+        [--model-form [PARTS] [--refine R]] [--frf-files]
 
 --model-form: the truth of another model form (rig --model-form, rt.discrepancy.rig.model_form; PARTS
-a comma-separated subset of mesh,pitch,substeps,damping,beams, default all); the
+a comma-separated subset of mesh,pitch,substeps,damping,beams, default all; --refine R: its mesh,
+pitch and substeps parts at element length and pitch / R, substeps x R^2, rig --refine); the
 table then also gives the gap's budget (rt.discrepancy.diagnose.remainder: calibration / effect / remainder
 shares of the excess RSS, and whether the remainder dominates). --frf-files: linear FRF-file campaigns
 (rig --frf-files) of the structural effects they can show, diagnosed by rt.discrepancy.diagnose.frf.
@@ -30,21 +31,21 @@ from joblib import Parallel, delayed
 
 from rt.discrepancy.diagnose import diagnose, diagnose_frf
 from rt.discrepancy.effects import get, implemented
-from rt.discrepancy.rig import make_campaign, make_frf_campaign, model_form_parts
+from rt.discrepancy.rig import make_campaign, make_frf_campaign, model_form_parts, model_form_refine
 
 
 def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool, other_form: tuple[str, ...],
-         frf_files: bool) -> tuple[dict, float]:
+         frf_files: bool, refine: int | None = None) -> tuple[dict, float]:
     """(diagnose result, seconds) of one hidden case."""
     t0 = time.perf_counter()
     stepsine = stepsine or (name != "none" and get(name).channel == "stepsine")
     with tempfile.TemporaryDirectory() as d:
         if frf_files:
-            make_frf_campaign(Path(d) / "c", name, s, seed=seed, other_form=other_form)
+            make_frf_campaign(Path(d) / "c", name, s, seed=seed, other_form=other_form, refine=refine)
             r = diagnose_frf(Path(d) / "c")
         else:
             make_campaign(Path(d) / "c", name, s, seed=seed, record_s=record_s, stepsine=stepsine,
-                          other_form=other_form)
+                          other_form=other_form, refine=refine)
             r = diagnose(Path(d) / "c")
     r.pop("_config"), r.pop("_plots")
     return r, time.perf_counter() - t0
@@ -93,12 +94,20 @@ def main() -> None:
     ap.add_argument("--model-form", nargs="?", const="all", metavar="PARTS",
                     help="the truth of another model form (rig --model-form): all, or a comma-separated subset of "
                     "mesh,pitch,substeps,damping,beams")
+    ap.add_argument("--refine", metavar="R", help="with --model-form: its mesh, pitch and substeps parts refined by R "
+                    "(rig --refine)")
     ap.add_argument("--frf-files", action="store_true", help="linear FRF-file campaigns (rig --frf-files)")
     args = ap.parse_args()
     try:
         form = model_form_parts(args.model_form)
     except ValueError as exc:
         ap.error(f"--model-form: {exc}")
+    if args.refine is not None and not form:
+        ap.error(f"--refine {args.refine}: add --model-form")
+    try:
+        refine = model_form_refine(args.refine, form)
+    except ValueError as exc:
+        ap.error(f"--refine: {exc}")
     effects = [get(n) for n in args.effects.split(",")] if args.effects else implemented()
     if args.frf_files:
         effects = [e for e in effects if e.visible_in_frf_files()]
@@ -112,7 +121,7 @@ def main() -> None:
     todo = [(seed, name, s) for seed in args.seeds for name, s in cases]
     named = Counter()
     runs = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(case)(*c, args.record_s, args.stepsine,
-                                                                            form, args.frf_files)
+                                                                            form, args.frf_files, refine)
                                                               for c in todo)
     for (seed, name, s), (r, secs) in zip(todo, runs):
         print(row(seed, name, s, r, secs), flush=True)

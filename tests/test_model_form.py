@@ -12,7 +12,7 @@ from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.cli import main
 from rt.common.config import Config, to_dict, with_sets
 from rt.discrepancy.diagnose.frf import diagnose_frf
-from rt.discrepancy.rig import MODEL_FORM_PARTS, model_form
+from rt.discrepancy.rig import MODEL_FORM_PARTS, model_form, true_structure
 from rt.discrepancy.rig.frf import make_frf_campaign, sensor_points
 from rt.discrepancy.rig.levels import sweep_level
 
@@ -84,6 +84,43 @@ def test_model_form_parts_are_checked(tmp_path, capsys):
     assert main(["rig", "--effect", "none", "--model-form", "pich,mesh", "-o", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip()
     assert "'pich'" in err and "mesh, pitch, substeps, damping, beams" in err and "\n" not in err, err
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_refined_model_form_refines_the_discretisation_parts(nominal):
+    """``rig --model-form PARTS --refine R`` (issue 32 item 5): mesh and pitch / R, substeps x R^2 (R = 2:
+    half the pitch and element length, four times the substeps), the other parts as without it; only the
+    discretisation parts it is given change; without R the form stays issue 18's, bit for bit."""
+    p = nominal.plant
+    for r in (2, 3):
+        true = model_form(nominal, MODEL_FORM_PARTS, r)
+        assert (true.plant.element_length_m, true.plant.interface.pitch_m, true.plant.substeps) == (
+            p.element_length_m / r, p.interface.pitch_m / r, p.substeps * r * r)
+        rest = model_form(nominal, ("damping", "beams"))
+        assert _changed(true, rest) == {"plant.element_length_m", "plant.interface.pitch_m", "plant.substeps"}
+    assert _changed(model_form(nominal, ("pitch", "beams"), 2), nominal) == (
+        _changed(model_form(nominal, ("pitch", "beams")), nominal))
+    assert model_form(nominal, ("substeps",), 2).plant.substeps == 4
+    assert model_form(nominal, ("substeps",)).plant.substeps == 2
+    assert to_dict(model_form(nominal, MODEL_FORM_PARTS, None)) == to_dict(model_form(nominal))
+    rng = lambda: np.random.default_rng(3)   # noqa: E731
+    assert to_dict(true_structure(nominal, "stribeck", None, rng(), MODEL_FORM_PARTS, 2)) == to_dict(
+        true_structure(model_form(nominal, MODEL_FORM_PARTS, 2), "stribeck", None, rng()))
+
+
+def test_the_refine_factor_is_checked(tmp_path, capsys):
+    """A refine factor that is not a whole number >= 2, one without --model-form, one for parts that
+    have nothing to refine, one that makes an invalid truth: one line naming the value and the fix,
+    exit 2, no folder."""
+    for argv, words in ((["--model-form", "--refine", "1"], ("'1'", "whole number >= 2", "give e.g. 2")),
+                        (["--model-form", "--refine", "1.5"], ("'1.5'", "whole number >= 2")),
+                        (["--model-form", "--refine", "two"], ("'two'", "give e.g. 2")),
+                        (["--refine", "2"], ("--refine 2", "add --model-form")),
+                        (["--model-form", "damping,beams", "--refine", "2"], ("damping,beams", "drop --refine")),
+                        (["--model-form", "--refine", "17"], ("--refine 17", "substeps", "smaller factor"))):
+        assert main(["rig", "--effect", "none", *argv, "-o", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert all(w in err for w in words) and "\n" not in err and "Traceback" not in err, err
     assert not (tmp_path / "x").exists()
 
 

@@ -40,7 +40,10 @@ analyser exports them (rt/discrepancy/rig/random_excitation.py).
 contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
 so that no calibration of the nominal model fits it exactly, as with a real structure;
 --model-form PARTS takes only these of its parts (mesh, pitch, substeps, damping, beams), to find
-which part hides an effect (docs/discrepancy.md, "Which part of the model form hides an effect")."""
+which part hides an effect (docs/discrepancy.md, "Which part of the model form hides an effect").
+--refine R (with --model-form) refines its discretisation parts as a convergence study does: element
+length and contact pitch / R, substeps x R^2 (R = 2: half the pitch and element length, four times
+the substeps, the default plant's converged reference); without it they are halved, halved and doubled."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
@@ -54,7 +57,8 @@ EXAMPLES = """examples:
   frictionrt rig --effect micro_slip --frf-files --levels 0.5,1,2,5,10,20 -o logs/frf_levels
   frictionrt rig --effect micro_slip --frf-files --levels 1,2,5,10,20 --excitation random -o logs/frf_random
   frictionrt rig --effect moving_mass --model-form -o logs/campaign_form && frictionrt diagnose logs/campaign_form
-  frictionrt rig --effect micro_slip --model-form damping,beams -o logs/campaign_form2"""
+  frictionrt rig --effect micro_slip --model-form damping,beams -o logs/campaign_form2
+  frictionrt rig --effect stribeck --model-form all --refine 2 --seed 3 -o logs/campaign_refined"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -87,6 +91,9 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="the truth of another model form: finer mesh and contact pitch, substeps, other interface "
                    "damping, beams not copies of the nominal's (rt.discrepancy.rig.model_form); PARTS: all "
                    "(without PARTS) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
+    p.add_argument("--refine", metavar="R", help="with --model-form: its mesh, pitch and substeps parts refine the "
+                   "nominal's by a whole number R >= 2 (element length and pitch / R, substeps x R^2; 2 is the "
+                   "converged reference of the default plant); default: / 2, / 2 and x 2 (issue 18's form)")
     add_out(p, "DIR", "a folder it creates for the campaign's files; an existing one (not empty) is refused, or "
                       "with --force replaced as a whole")
     add_force(p, "an existing folder as a whole")
@@ -145,24 +152,36 @@ def cmd_rig(cfg, args) -> int:
             levels = parse_list(args.levels, float, "rig --levels", "0.5,1,2,5")
         except ValueError as exc:
             return fail(str(exc))
-    from rt.discrepancy.rig import make_campaign, model_form_parts
+    from rt.discrepancy.rig import make_campaign, model_form, model_form_parts, model_form_refine
     try:
         form = model_form_parts(args.model_form)
     except ValueError as exc:
         return fail(f"rig --model-form: {exc}")
+    if args.refine is not None and not form:
+        return fail(f"rig --refine {args.refine}: it refines the truth's model form; add --model-form (all or PARTS)")
+    try:
+        refine = model_form_refine(args.refine, form)
+    except ValueError as exc:
+        return fail(f"rig --refine {args.refine}: {exc}")
+    if refine is not None:
+        try:
+            model_form(cfg, form, refine)
+        except ValueError as exc:
+            return fail(f"rig --refine {refine}: the refined truth is not a valid configuration ({exc}); "
+                        "give a smaller factor")
     from rt.discrepancy.rig import make_frf_campaign, make_level_campaign
 
     def write():   # the campaign into the new folder out (moved in once complete; rt.discrepancy.rig.new_folder)
         if levels is not None:
             return make_level_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, force_levels_n=levels,
                                        other_form=form, force_scale_N_per_V=args.force_scale,
-                                       excitation=args.excitation,
+                                       excitation=args.excitation, refine=refine,
                                        progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
         if args.frf_files:
             return make_frf_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, quantity=args.quantity,
-                                     force_scale_N_per_V=args.force_scale, other_form=form)
+                                     force_scale_N_per_V=args.force_scale, other_form=form, refine=refine)
         return make_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s,
-                             stepsine=args.stepsine, other_form=form)
+                             stepsine=args.stepsine, other_form=form, refine=refine)
 
     try:
         files = write_folder(out, args.force, write)

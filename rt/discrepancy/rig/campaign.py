@@ -39,7 +39,7 @@ import numpy as np
 
 from plant.impulse import hammer_force
 from plant.model import build_plant
-from rt.common.config import Config, require_adaptive_screw, with_sets
+from rt.common.config import Config, refined_sets, require_adaptive_screw, with_sets
 from rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
                                   measure_impulse, scaled)
 from rt.discrepancy.effects import get
@@ -59,6 +59,8 @@ MODEL_FORM_BEAMS = (1.005, 0.995)     # beam k's height and density x these in t
 MODEL_FORM_TAU = 2.0                  # interface dashpot time constant x this
 MODEL_FORM_PARTS = ("mesh", "pitch", "substeps", "damping", "beams")
 """The parts of ``model_form``, each selectable alone (``rig --model-form PARTS``)."""
+REFINED_PARTS = ("mesh", "pitch", "substeps")
+"""The parts that ``model_form``'s ``refine`` factor sets (the discretisation's)."""
 
 
 def model_form_parts(text: str | None) -> tuple[str, ...]:
@@ -76,22 +78,40 @@ def model_form_parts(text: str | None) -> tuple[str, ...]:
     return parts
 
 
-def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS) -> Config:
+def model_form_refine(text: str | None, parts: tuple[str, ...]) -> int | None:
+    """The refinement factor of ``rig --model-form PARTS --refine R`` (``model_form``'s ``refine``) from
+    ``text`` (None: none given, today's form). ValueError naming the value and the fix when it is not a
+    whole number of at least 2, or when ``parts`` hold none of ``REFINED_PARTS`` (nothing to refine)."""
+    if text is None:
+        return None
+    try:
+        r = int(text.strip())
+    except ValueError:
+        r = None
+    if r is None or r < 2:
+        raise ValueError(f"refine factor {text!r} is not a whole number >= 2; give e.g. 2 (half the pitch and "
+                         "element length, four times the substeps)")
+    if not set(parts) & set(REFINED_PARTS):
+        raise ValueError(f"refine factor {r} refines the parts {', '.join(REFINED_PARTS)}, and the model form "
+                         f"{','.join(parts) or '(none)'} has none of them; add one (or all) to --model-form, "
+                         "or drop --refine")
+    return r
+
+
+def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS, refine: int | None = None) -> Config:
     """A truth of another model form than ``cfg`` (``rig --model-form``, docs/discrepancy.md "Model
-    form"), made of ``parts`` (``MODEL_FORM_PARTS``): "mesh" half the element length, "pitch" half
-    the contact pitch (the contact is per unit area: the same physical joint, sampled twice as
-    finely), "substeps" two plant substeps per one of ``cfg``'s, "damping" the interface dashpots'
-    tau_s x ``MODEL_FORM_TAU``, "beams" beams that are not the nominal's copies: beam k's height and
-    density x ``MODEL_FORM_BEAMS[k % 2]`` (so that one scale of E or of the density cannot absorb
-    them). Everything else (points, screws, actuator, sensors) is ``cfg``'s."""
+    form"), made of ``parts`` (``MODEL_FORM_PARTS``): "mesh" a finer element length, "pitch" a finer
+    contact pitch (the contact is per unit area: the same physical joint, sampled more finely),
+    "substeps" more plant substeps per one of ``cfg``'s, "damping" the interface dashpots' tau_s x
+    ``MODEL_FORM_TAU``, "beams" beams that are not the nominal's copies: beam k's height and density
+    x ``MODEL_FORM_BEAMS[k % 2]`` (so that one scale of E or of the density cannot absorb them).
+    ``refine`` (an integer >= 2, ``model_form_refine``) sets how much finer the discretisation
+    parts are: element length and pitch / refine, substeps x refine^2 (``refined_sets``, the
+    convergence study's refinement: the slipping joint's step error falls at first order;
+    refine 2 is SPEC 2's "same model refined"); None (the default) is the form of issue 18: element
+    length and pitch / 2, substeps x 2. Everything else (points, screws, actuator, sensors) is ``cfg``'s."""
     p, itf = cfg.plant, cfg.plant.interface
-    sets = []
-    if "mesh" in parts:
-        sets.append(f"plant.element_length_m={p.element_length_m / 2!r}")
-    if "pitch" in parts:
-        sets.append(f"plant.interface.pitch_m={itf.pitch_m / 2!r}")
-    if "substeps" in parts:
-        sets.append(f"plant.substeps={2 * p.substeps}")
+    sets = [s for part, s in zip(REFINED_PARTS, _refined_sets(cfg, refine)) if part in parts]
     if "damping" in parts:
         sets.append(f"plant.interface.tau_s={itf.tau_s * MODEL_FORM_TAU!r}")
     if "beams" in parts:
@@ -99,6 +119,18 @@ def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS) -> Config
             f = MODEL_FORM_BEAMS[k % len(MODEL_FORM_BEAMS)]
             sets += [f"plant.beams.{b.name}.height_m={b.height_m * f!r}", f"plant.beams.{b.name}.rho={b.rho * f!r}"]
     return with_sets(cfg, sets)
+
+
+def _refined_sets(cfg: Config, refine: int | None) -> list[str]:
+    """--set assignments of the element length, the contact pitch and the plant substeps (in the
+    order of ``REFINED_PARTS``) of ``model_form``'s truth: refined by ``refine`` as
+    ``rt.common.config.refined_sets`` does, or (None) halved, halved and doubled (issue 18's form)."""
+    p = cfg.plant
+    if refine is None:
+        return [f"plant.element_length_m={p.element_length_m / 2!r}",
+                f"plant.interface.pitch_m={p.interface.pitch_m / 2!r}", f"plant.substeps={2 * p.substeps}"]
+    pitch, mesh, substeps = refined_sets(cfg, refine)
+    return [mesh, pitch, substeps]
 
 
 def scatter_sets(rng: np.random.Generator) -> dict[str, float]:
@@ -140,18 +172,20 @@ def write_measurement(path: Path, cfg: Config, columns: dict[str, np.ndarray], t
 
 def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None, seed: int = 0,
                   cfg: Config | None = None, record_s: float = 1.0, levels_n=FN1_LEVELS_N,
-                  ramps_s=RAMPS_S, stepsine: bool = False, other_form: tuple[str, ...] = ()) -> list[Path]:
+                  ramps_s=RAMPS_S, stepsine: bool = False, other_form: tuple[str, ...] = (),
+                  refine: int | None = None) -> list[Path]:
     """Write a campaign into the new folder ``out_dir`` (written as a temporary folder beside it,
     then renamed: never half a campaign). ``effect``: a name of rt.discrepancy.effects or "none";
     ``strength`` [the effect's unit] defaults to its moderate strength. Returns the files written.
     ValueError for an unknown or unimplemented effect, a strength out of bounds, or an existing
     non-empty ``out_dir``, or an effect that shows only in step-sine tests without ``stepsine``.
     ``stepsine``: also the step-sine FRF tests of rt.discrepancy.rig.stepsine (CSV + sidecar);
-    ``other_form``: the truth of another model form made of these parts (``model_form``; () the nominal's)."""
+    ``other_form``: the truth of another model form made of these parts (``model_form``; () the nominal's),
+    its discretisation parts refined by ``refine`` (``model_form``; None: issue 18's form)."""
     if effect != "none" and get(effect).channel == "stepsine" and not stepsine:
         raise ValueError(f"effect {effect!r} shows only in step-sine tests (the shaker's force ratio); add --stepsine")
     rng = np.random.default_rng(seed)
-    true = true_structure(cfg, effect, strength, rng, other_form)
+    true = true_structure(cfg, effect, strength, rng, other_form, refine)
     dt = true.dt_s
     model = build_plant(true)
     with new_folder(out_dir) as tmp:
@@ -188,12 +222,13 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
 
 
 def true_structure(cfg: Config | None, effect: str, strength: float | None, rng: np.random.Generator,
-                   other_form: tuple[str, ...] = ()) -> Config:
+                   other_form: tuple[str, ...] = (), refine: int | None = None) -> Config:
     """The campaign's true structure: ``cfg`` (default: the defaults) with one draw of the scatter
     from ``rng`` and the effect (a name of rt.discrepancy.effects or "none") at ``strength`` (default: its
-    moderate strength); of another model form made of the parts ``other_form`` (``model_form``), if any."""
+    moderate strength); of another model form made of the parts ``other_form`` refined by ``refine``
+    (``model_form``), if any."""
     nominal = cfg if cfg is not None else with_sets(Config(), [])
-    true = scaled(model_form(nominal, other_form) if other_form else nominal, scatter_sets(rng))
+    true = scaled(model_form(nominal, other_form, refine) if other_form else nominal, scatter_sets(rng))
     if effect != "none":
         eff = get(effect)
         true = eff.apply(true, eff.parameter.default if strength is None else strength)

@@ -77,7 +77,7 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
                       seed: int = 0, cfg: Config | None = None, levels_n=FN1_LEVELS_N, quantity: str = "accelerance",
                       force_scale_N_per_V: float | None = None,
                       sensors: dict[str, tuple[str, float]] | None = None,
-                      other_form: tuple[str, ...] = ()) -> list[Path]:
+                      other_form: tuple[str, ...] = (), refine: int | None = None) -> list[Path]:
     """Write the FRF tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed). Arguments as rt.discrepancy.rig.campaign.make_campaign; ``quantity`` of the files,
     ``force_scale_N_per_V`` (given: the excitation is a drive voltage, H per volt = s H per
@@ -88,7 +88,7 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
                          "(it acts through slip or the actuator), so linear FRF files cannot show it; write FRFs "
                          "at several force levels (--levels) or a time-series campaign (rig without --frf-files)")
     rng = np.random.default_rng(seed)
-    true = true_structure(cfg, effect, strength, rng, other_form)
+    true = true_structure(cfg, effect, strength, rng, other_form, refine)
     held = adaptive_screw(true) is not None
     names = []
     true = add_points(true, sensors or {})

@@ -187,10 +187,11 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
 def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: float | None = None,
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N,
                         other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ,
-                        force_scale_N_per_V: float | None = None, excitation: str = "stepsine") -> list[Path]:
+                        force_scale_N_per_V: float | None = None, excitation: str = "stepsine",
+                        refine: int | None = None) -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed), from the true structure of rt.discrepancy.rig.campaign.true_structure (the same scatter draw and
-    hidden effect for the seed; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
+    hidden effect for the seed, ``other_form`` refined by ``refine``; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
     levels are drive voltages, as write_level_tests; ``excitation``: "stepsine" or "random", as there); returns the
     data files written. ValueError for an effect of the actuator or the shaker (FRF files of the structure do not
     record them), an unknown excitation or a level that is not a positive finite force."""
@@ -204,7 +205,7 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
         raise ValueError(f"levels {list(force_levels_n)}: give positive amplitudes (N, or V with a force scale), "
                          "e.g. 0.5,1,2,5")
     rng = np.random.default_rng(seed)
-    true = true_structure(cfg, effect, strength, rng, other_form)
+    true = true_structure(cfg, effect, strength, rng, other_form, refine)
     with new_folder(out_dir) as tmp:
         names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz, force_scale_N_per_V, excitation)
     return [Path(out_dir) / n for n in names]
