@@ -1,6 +1,7 @@
 """Why a claim fails: the measured mechanism behind each failing cell of a reproduction (issue 32 item 4).
 
-    python -m benchmarks.claim_mechanisms REPORT.json [--duration 1.0] [--set KEY=VALUE ...] [--cell LAW,MODE,AMP ...] [--json]
+    python -m benchmarks.claim_mechanisms REPORT.json [--duration 1.0] [--set KEY=VALUE ...]
+                                          [--cell LAW,MODE,AMP ...] [--json]
 
 The cells that make C3 or C4 fail on an estimator of ``report.json`` (``frictionrt reproduce``;
 give the same ``--set`` as the run): for C3, the cells of a law that reduces fewer than two modes
@@ -74,7 +75,8 @@ def mechanism(cfg, designs: Designs, cell: dict, report: dict, duration_s: float
     u0 = float(np.mean(r.signal("u0")[-n:]))
     F_N1 = float(np.mean(r.signal("F_N1")[-n:]))
     best = report["best_passive_fn1"][cell["mode"]][cell["amp"]]
-    return cell | {"f_hz": f, "peak": pk["H_abs"], "reduction_db": v["peak_reduction_db"][cell["law"]][cell["mode"]][cell["amp"]],
+    reduction = v["peak_reduction_db"][cell["law"]][cell["mode"]][cell["amp"]]
+    return cell | {"f_hz": f, "peak": pk["H_abs"], "reduction_db": reduction,
                    "u0_um": 1e6 * u0, "Kf_u0_over_Fmin": t.K_f * u0 / t.F_min_N,
                    "F_set_mean_n": float(np.mean(X[:, 0])), "F_N1_mean_n": F_N1,
                    "at_F_max": float(np.mean(X[:, 0] >= t.F_max_N * (1 - 1e-9))),
@@ -95,7 +97,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     report = json.loads(args.report.read_text())
     if "by_estimator" not in report:
-        raise SystemExit(f"{args.report}: no by_estimator (a report of frictionrt reproduce before issue 32); run it again")
+        raise SystemExit(f"{args.report}: no by_estimator (a report of frictionrt reproduce before issue 32); "
+                         "run the reproduction again")
     cfg, designs = load(None, args.sets), Designs()
     cells = failing_cells(report["by_estimator"])
     for text in args.cell:

@@ -34,7 +34,7 @@ from rt.discrepancy.diagnose.campaign import load_campaign
 from rt.discrepancy.diagnose.structure import SENSORS, fit_cost, fit_structure, prepare, run_shape, struct_cfg
 from rt.discrepancy.effects import get
 from rt.discrepancy.rig import make_campaign, model_form_parts, model_form_refine
-from rt.discrepancy.rig.campaign import model_form, scatter_sets
+from rt.discrepancy.rig.campaign import REFINED_PARTS, model_form, scatter_sets
 
 HIGH_HZ = (800.0, 1600.0)   # the band of modes 7-9, where the model form's remainder lies (docs/discrepancy.md)
 
@@ -57,7 +57,8 @@ def told_fits(nominal: Config, imp, told: tuple[str, ...], truth: dict, eff, sta
               refine: int | None = None) -> dict:
     """Calibration alone and with ``eff`` (from ``strength``) on the model in the form made of ``told``
     refined by ``refine`` (module docstring)."""
-    model = model_form(nominal, told, refine if set(told) & {"mesh", "pitch", "substeps"} else None) if told else nominal
+    refine = refine if set(told) & set(REFINED_PARTS) else None   # the told parts may have nothing to refine
+    model = model_form(nominal, told, refine) if told else nominal
     data = prepare(imp, model)
     cals = [fit_structure(model, data, None, start=truth)]
     if stage1:

@@ -60,8 +60,7 @@ def _fmt(v) -> str:
 def _claims_tables(r: dict) -> list[str]:
     """The verdicts of every estimator side by side, then each estimator's numbers."""
     by_est = r["by_estimator"]
-    lines = ["## Claims", "", "Decided on the " + next(iter(by_est)) + "; " + ", ".join(
-             f"holds on the {e}" for e in by_est) + " side by side.", "",
+    lines = ["## Claims", "", f"Decided on the {next(iter(by_est))}; each estimator's verdict side by side.", "",
              "| claim | statement | " + " | ".join(f"holds: {e}" for e in by_est) + " |",
              "| --- | --- |" + " --- |" * len(by_est)]
     for c in r["claims"]:

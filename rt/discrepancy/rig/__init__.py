@@ -12,7 +12,8 @@ from rt.common.face import lazy_face
 
 _EXPORTS = {
     "make_campaign": "rt.discrepancy.rig.campaign", "model_form": "rt.discrepancy.rig.campaign",
-    "model_form_parts": "rt.discrepancy.rig.campaign", "model_form_refine": "rt.discrepancy.rig.campaign", "MODEL_FORM_PARTS": "rt.discrepancy.rig.campaign",
+    "model_form_parts": "rt.discrepancy.rig.campaign", "model_form_refine": "rt.discrepancy.rig.campaign",
+    "MODEL_FORM_PARTS": "rt.discrepancy.rig.campaign",
     "true_structure": "rt.discrepancy.rig.campaign", "scatter_sets": "rt.discrepancy.rig.campaign",
     "new_folder": "rt.discrepancy.rig.campaign", "FN1_LEVELS_N": "rt.discrepancy.rig.campaign",
     "HAMMER_PEAK_N": "rt.discrepancy.rig.campaign", "HAMMER_CONTACT_S": "rt.discrepancy.rig.campaign",
