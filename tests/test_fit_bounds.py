@@ -120,7 +120,7 @@ def test_every_candidates_strength_at_its_bounds_is_a_valid_configuration(effect
 
 OPTIMISERS = ("least_squares", "lsq_linear", "minimize_scalar", "minimize", "curve_fit")
 CHECKED = {("campaign", "fit_actuator"): "actuator", ("levels", "fit_nonlinear"): "levels",
-           ("structure", "fit_frequencies"): "structure, frf", ("structure", "gauss_newton_broyden"): "structure, frf",
+           ("structure", "fit_frequencies"): "structure, frf", ("gauss_newton", "gauss_newton_broyden"): "structure, frf",
            ("stepsine", "fit_shaker"): "the candidates' strengths"}
 """Every function of the diagnosis that calls a bounded optimiser, and the fits of ``fits`` (or the candidates'
 test) that check its bounds."""

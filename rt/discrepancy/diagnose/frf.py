@@ -69,6 +69,7 @@ from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
 from rt.common.config import Config, with_sets
 from rt.discrepancy.chain import quiet
 from rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
+from rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
 from rt.discrepancy.diagnose.structure import (
     CAL_FAR,
     FLOOR,
@@ -79,8 +80,6 @@ from rt.discrepancy.diagnose.structure import (
     fd_steps,
     fit_frequencies,
     from_z,
-    gauss_newton_broyden,
-    jacobian_column,
     prior,
     struct_cfg,
     to_z,

@@ -41,13 +41,14 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import least_squares, lsq_linear
+from scipy.optimize import least_squares
 
 from plant.impulse import accelerance_frf, identify
 from plant.model import build_plant, preloaded_pairs, stuck_stiffness
 from rt.common.config import Config
 from rt.discrepancy.effects import Effect
 from rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
+from rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
 from rt.discrepancy.diagnose.watch import watch
 
 SENSORS = ("a_frf_meas", "a_tip_meas")
@@ -63,8 +64,6 @@ PULSE_MARGIN_S = 0.5e-3                 # [s] force window margin around the pul
 SIGMA_F = 1e-4                          # stage-1 relative frequency residual scale
 SLIP_MU = 0.9                           # stuck test: stuck also at this mu scale ...
 SLIP_TOL = 2e-3                         # ... modes 2-5 within this of the stuck model
-MAX_STEPS = 10                          # stage-2 steps at most
-CONVERGED = 1e-3                        # stage 2 stops when the cost drops by less (relative)
 CAL_FAR = {"E": (0.5, 2.0, 0.3, 1e-3), "k_t": (0.01, 100.0, math.log(10.0), 0.02),
            "mu": (0.5, 2.0, 0.3, 0.02), "modal_damping": (0.1, 10.0, math.log(10.0), 0.02)}
 """Calibration scales around 1: (lower, upper bound, prior sigma, finite-difference step), of the
@@ -386,8 +385,8 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     with the effect on, its strength and the damping scale from a joint grid (``joint_start``; its
     point x 1 and the default strength is the start it replaced). Stage 2 iterates
     Gauss-Newton steps with Broyden's rank-one update of the Jacobian (recomputed by finite
-    differences only when a step fails) until the cost drops by less than ``CONVERGED``
-    (relative) or ``MAX_STEPS``, on z: ln(scale) for the LOG_SCALE parameters, the value itself for
+    differences only when a step fails) until the cost drops by less than ``gauss_newton.CONVERGED``
+    (relative) or ``gauss_newton.MAX_STEPS``, on z: ln(scale) for the LOG_SCALE parameters, the value itself for
     the others (``to_z``). ``start``: stage-2 start values instead of stage 1. ``bars``: stage 2's model
     evaluations on a tqdm bar on stderr; Ctrl-C in it raises FitInterrupted with its best point
     (rt.discrepancy.diagnose.watch)."""
@@ -475,50 +474,3 @@ def best_nested(struct_fits: dict, struct_eff: list, nominal: Config, data: list
         if sum(v @ v for v in run.r.values()) < fit_cost(cal):
             cal = StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, None), cal.J)
     return cal
-
-
-def jacobian_column(evaluate, x: np.ndarray, r: np.ndarray, j: int, steps: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """d(model)/d(theta_j) by a forward difference of ``steps[j]`` (backward at the upper bound);
-    ``evaluate(x) -> (run, r)`` with r = measurement - model."""
-    xj = x.copy()
-    h = steps[j] if x[j] + steps[j] <= hi[j] else -steps[j]
-    xj[j] += h
-    return -(evaluate(xj)[1] - r) / h
-
-
-def gauss_newton_broyden(evaluate, x, run, r, J, lo, hi, steps, max_steps: int = MAX_STEPS, box=None):
-    """Bounded Gauss-Newton steps (scipy.optimize.lsq_linear) from x (``run``, residuals r, the
-    Jacobian J or None: computed) with Broyden's rank-one update of J after each step (in units of
-    ``steps``), recomputed by finite differences only when a step fails; a fresh Jacobian's step is
-    halved up to twice. Stops when the cost drops by less than ``CONVERGED`` (relative), after
-    ``max_steps`` (default MAX_STEPS) or when a fresh Jacobian's step fails. ``box(x) -> (lo, hi)``: the
-    bounds of one step from x (within lo, hi; default lo, hi themselves). Returns (x, run, r, J)."""
-    def column(x, r, j):
-        return jacobian_column(evaluate, x, r, j, steps, hi)
-
-    fresh = J is None
-    if J is None:
-        J = np.column_stack([column(x, r, j) for j in range(len(x))])
-    for _ in range(max_steps):
-        lo_x, hi_x = box(x) if box else (lo, hi)
-        dx = lsq_linear(J, r, bounds=(lo_x - x, hi_x - x)).x
-        cost = float(r @ r)
-        for _ in range(3 if fresh else 1):             # a fresh Jacobian's step is halved up to twice
-            run1, r1 = evaluate(x + dx)
-            cost1 = float(r1 @ r1)
-            if cost1 < cost:
-                break
-            dx = dx / 2
-        if cost1 < cost:
-            dz = dx / steps                                 # Broyden's update in step units
-            J = J + np.outer(-(r1 - r) - J @ dx, dz / steps) / (dz @ dz)
-            x, run, r = x + dx, run1, r1
-            fresh = False
-            if cost - cost1 < CONVERGED * cost:
-                break
-            continue
-        if fresh:
-            break
-        J = np.column_stack([column(x, r, j) for j in range(len(x))])
-        fresh = True
-    return x, run, r, J
