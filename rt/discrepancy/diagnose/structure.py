@@ -84,7 +84,7 @@ STAGE1_LOG_STEP = 0.01                  # their finite-difference step in stage 
 EFFECT_STEP = 0.05                      # finite-difference step / the effect's default strength
 DAMPING_GRID = tuple(np.geomspace(0.1, 10.0, 7))   # modal damping scales tried for stage 2's start
                                         # (CAL_FAR's range; the frequencies of stage 1 do not see it)
-JOINT_DAMPING = tuple(2.0 ** (np.arange(-4, 3) / 4))   # a candidate's joint start: the calibration's
+JOINT_DAMPING = tuple(2.0 ** (np.arange(-4, 3) / 4))   # a slip candidate's joint start: the calibration's
 JOINT_STRENGTH = (0.25, 0.5, 0.75, 1.0)  # damping scale times these, the effect at these x its default
                                         # (``joint_start``: 28 models; 0.5-1.41 in steps of 2^(1/4))
 DISPERSION = (-1.0, 2.0, 0.02)          # bounds and finite-difference step of the dispersion c (``warp``)
@@ -382,8 +382,9 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
     effect. With ``calibrated`` (the calibration-only fit) stage 2 starts from the best of stage 1,
     the calibration with the effect at its nominal strength (there reusing the calibration's
     Jacobian columns, so a candidate never fits worse than calibration alone) and the calibration
-    with the effect on, its strength and the damping scale from a joint grid (``joint_start``; its
-    point x 1 and the default strength is the start it replaced). Stage 2 iterates
+    with the effect on: at its default strength, or for an effect that acts through slip only
+    (``Effect.stuck_linear`` False) its strength and the damping scale from a joint grid
+    (``joint_start``). Stage 2 iterates
     Gauss-Newton steps with Broyden's rank-one update of the Jacobian (recomputed by finite
     differences only when a step fails) until the cost drops by less than ``gauss_newton.CONVERGED``
     (relative) or ``gauss_newton.MAX_STEPS``, on z: ln(scale) for the LOG_SCALE parameters, the value itself for
@@ -419,12 +420,14 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
         if calibrated is not None and effect is not None:
             z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
             r_cal = np.concatenate([*calibrated.run.r.values(), prior(names, from_z(z_cal, log))])
-            # the calibration with the effect on, its strength and the damping scale from a joint grid: an
-            # effect even in its strength (micro_slip: the Iwan spread changes the loop by O(a^2)) has no
-            # gradient at the nominal strength, stage 1 cannot see one that leaves the stuck plant alone,
-            # and the calibration's damping scale has taken a dissipative effect's share
+            # the calibration with the effect on: an effect even in its strength (micro_slip: the Iwan
+            # spread changes the loop by O(a^2)) has no gradient at the nominal strength, and stage 1
+            # cannot see one that leaves the stuck plant alone; one that acts through slip only
+            # (stuck_linear False: micro_slip, stribeck) changes the friction damping, which the
+            # calibration's damping scale has taken, so its strength and that scale from a joint grid
+            grid = (JOINT_DAMPING, JOINT_STRENGTH) if not effect.stuck_linear else ((1.0,), (1.0,))
             z_def, run_def, r_def = joint_start(evaluate, z_cal, names.index("modal_damping"),
-                                                effect.parameter.default, lo, hi)
+                                                effect.parameter.default, lo, hi, *grid)
             if r_cal @ r_cal < min(r @ r, r_def @ r_def):
                 z, run, r = z_cal, calibrated.run, r_cal
                 J = np.column_stack([calibrated.J[k] for k in names[:-1]]
@@ -437,18 +440,20 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
                             dict(zip(names, J.T)))
 
 
-def joint_start(evaluate, z_cal: np.ndarray, j_damping: int, default: float, lo: np.ndarray, hi: np.ndarray):
+def joint_start(evaluate, z_cal: np.ndarray, j_damping: int, default: float, lo: np.ndarray, hi: np.ndarray,
+                damping=JOINT_DAMPING, strength=JOINT_STRENGTH):
     """The calibration's point ``z_cal`` (the optimiser's variables, ``to_z``; the effect's strength
-    last, index ``j_damping`` the ln modal damping scale) with the damping scale x ``JOINT_DAMPING``
-    and the strength ``JOINT_STRENGTH`` x ``default`` whose residuals are least, clipped to (lo, hi):
-    (z, run, r). A dissipative effect (micro_slip, stribeck) shares its damping with the calibration's
-    scale, which took all of it: its valley lies at a lower damping than the calibration's, along a
-    line the effect at the calibration's damping does not meet (docs/discrepancy.md, Method 3; the
-    rig's own form, micro_slip 0.3, seed 3: at the continued calibration RSS 2725, the effect at 0.5
-    3187, the grid's best 1874 at damping x 0.84 and strength 0.375). ``evaluate(z) -> (run, r)``."""
+    last, index ``j_damping`` the ln modal damping scale) with the damping scale x ``damping`` and
+    the strength ``strength`` x ``default`` whose residuals are least, clipped to (lo, hi):
+    (z, run, r). An effect that acts through slip (micro_slip, stribeck) changes the friction
+    damping, which the calibration's scale took: its valley lies at another damping than the
+    calibration's (lower for micro_slip's added micro-slip damping), along a line the effect at the
+    calibration's damping does not meet (docs/discrepancy.md, Method 3; the rig's own form,
+    micro_slip 0.3, seed 3: at the continued calibration RSS 2725, the effect at 0.5 3187, the
+    grid's best 1874 at damping x 0.84 and strength 0.375). ``evaluate(z) -> (run, r)``."""
     best = None
-    for g in JOINT_DAMPING:
-        for s in JOINT_STRENGTH:
+    for g in damping:
+        for s in strength:
             z = z_cal.copy()
             z[j_damping] += math.log(g)
             z[-1] = s * default
