@@ -6,8 +6,8 @@
 The passive law (the stack held at the voltage of ``tracking.F_passive_N``) at each constant F_N1
 of ``FORCES`` (40..600 N, F_min = the configured F_passive_N included), modes 2..5, excitation force
 amplitudes 5, 10, 20 N: the step-sine FRFs, grids, refinement and peaks of ``frictionrt reproduce``
-(``rt.experiments.reproduce.measure`` with the full plan's grid and ``Plan.fn1_n`` = the forces, so the loops
-at other forces are ``rt.experiments.reproduce.loop_at_fn1``; the controlled laws run too, and are compared
+(``frictionrt.rt.experiments.reproduce.measure`` with the full plan's grid and ``Plan.fn1_n`` = the forces, so the loops
+at other forces are ``frictionrt.rt.experiments.reproduce.loop_at_fn1``; the controlled laws run too, and are compared
 with the best force). ``--quick``: the reproduction's quick plan (modes 3, 4 at 5 and 20 N, coarse
 grid) over the same forces.
 
@@ -30,10 +30,10 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from rt.experiments.claims import TOL_DB
-from rt.common.config import load
-from rt.experiments.reproduce import FULL, QUICK, measure, peak
-from rt.experiments.reproduce_report import jsonable
+from frictionrt.rt.experiments.claims import TOL_DB
+from frictionrt.rt.common.config import load
+from frictionrt.rt.experiments.reproduce import FULL, QUICK, measure, peak
+from frictionrt.rt.experiments.reproduce_report import jsonable
 from benchmarks.entry import run_main
 
 # constant F_N1 [N] besides the configured F_passive_N (F_min = 40 N): from F_min to F_max = 600 N,
@@ -79,7 +79,7 @@ def one_minimum(fn1_n: Sequence[float], peaks: Sequence[float], tol_db: float = 
 def baseline(result: dict, dt: float, tol_db: float = TOL_DB) -> dict:
     """mode -> amplitude -> {peaks_by_fn1: F_N1 [N] -> peak [(m/s^2)/N], settled_by_fn1 and
     edge_by_fn1: F_N1 -> whether that peak's point settled / lies at the grid's edge, the
-    ``one_minimum`` check, and per controlled law {H_abs, vs_best_db}} from ``rt.experiments.reproduce.measure``'s
+    ``one_minimum`` check, and per controlled law {H_abs, vs_best_db}} from ``frictionrt.rt.experiments.reproduce.measure``'s
     result (its passive FRFs, dt [s] the controller step, and the report's ``best_passive_fn1``)."""
     fn1_passive = result["report"]["plan"]["fn1_n"][0]   # the passive law as configured: F_passive_N
     out: dict = {}

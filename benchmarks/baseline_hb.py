@@ -8,7 +8,7 @@ band ~0.15 Hz at 71 Hz against the reproduction's 1.2 Hz grid, decay time 1 / (z
 the harmonic balance (plant.harmonic_frf, "aft", H = 3: the plant's own pair law, contact that
 opens and closes) has neither limit, but holds every slider's mean at its static value and keeps
 three harmonics (docs/experiments.md compares the two). Per mode, with
-(f_slip, f_stuck) of ``rt.experiments.stepsine.mode_bands_hz`` (the plant's own modes), amplitude
+(f_slip, f_stuck) of ``frictionrt.rt.experiments.stepsine.mode_bands_hz`` (the plant's own modes), amplitude
 and constant F_N1 of ``benchmarks.baseline_curve`` (F_min and ``FORCES``):
 
 1. "df" on ``N_DF`` lines over [0.9 f_slip, 1.01 f_stuck], up in frequency: where the peak is;
@@ -36,10 +36,10 @@ from tqdm import tqdm
 
 from benchmarks.baseline_curve import FORCES, one_minimum, plot, print_table
 from benchmarks.harmonic_frf import peak
-from plant.harmonic_frf import harmonic_accelerances, harmonic_system
-from rt.common.config import load
-from rt.experiments.stepsine import mode_bands_hz
-from rt.loop import build_loop
+from frictionrt.plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from frictionrt.rt.common.config import load
+from frictionrt.rt.experiments.stepsine import mode_bands_hz
+from frictionrt.rt.loop import build_loop
 from benchmarks.entry import run_main
 
 N_DF, N_AFT, MOVES = 301, 17, 3

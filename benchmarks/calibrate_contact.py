@@ -16,9 +16,9 @@ import argparse
 
 import numpy as np
 
-from plant.impulse import impulse_test
-from plant.model import build_plant
-from rt.common.config import load
+from frictionrt.plant.impulse import impulse_test
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import load
 from benchmarks.entry import run_main
 
 MINDLIN = 2 * (1 - 0.3) / (2 - 0.3)   # k_t / k_n for nu = 0.3

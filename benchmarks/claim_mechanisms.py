@@ -31,10 +31,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.entry import run_main
-from rt.common.config import load
-from rt.experiments.claims import TOL_DB
-from rt.experiments.stepsine import harmonics_of_columns
-from rt.loop import Designs, build_loop, run
+from frictionrt.rt.common.config import load
+from frictionrt.rt.experiments.claims import TOL_DB
+from frictionrt.rt.experiments.stepsine import harmonics_of_columns
+from frictionrt.rt.loop import Designs, build_loop, run
 
 
 def failing_cells(by_est: dict) -> list[dict]:

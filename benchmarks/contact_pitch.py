@@ -33,13 +33,13 @@ import time
 
 import numpy as np
 
-from plant.impulse import impulse_test
-from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-from plant.simulate import run
-from plant.structure import interface_width
-from rt.common.config import Config, load, with_sets
-from rt.discrepancy.effects import get
-from rt.discrepancy.rig import sweep_level
+from frictionrt.plant.impulse import impulse_test
+from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.plant.simulate import run
+from frictionrt.plant.structure import interface_width
+from frictionrt.rt.common.config import Config, load, with_sets
+from frictionrt.rt.discrepancy.effects import get
+from frictionrt.rt.discrepancy.rig import sweep_level
 from benchmarks.entry import run_main
 
 F_N1 = 100.0

@@ -11,8 +11,8 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from rt.common.config import load
-from rt.loop import build_loop, run, summary
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run, summary
 
 LAWS = ("passive", "hysteresis", "lyapunov")
 AMPS_N = (5.0, 10.0, 20.0, 40.0)

@@ -15,10 +15,10 @@ import argparse
 
 import numpy as np
 
-from plant.impulse import hammer_force
-from plant.model import build_plant
-from plant.simulate import run
-from rt.common.config import load
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.model import build_plant
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import load
 from benchmarks.entry import run_main
 
 K_N = (2.5e11, 1.25e12, 1.25e13)   # [N/m^3]

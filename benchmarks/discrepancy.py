@@ -29,9 +29,9 @@ from pathlib import Path
 
 from joblib import Parallel, delayed
 
-from rt.discrepancy.diagnose import diagnose, diagnose_frf
-from rt.discrepancy.effects import get, implemented
-from rt.discrepancy.rig import make_campaign, make_frf_campaign, model_form_parts, model_form_refine
+from frictionrt.rt.discrepancy.diagnose import diagnose, diagnose_frf
+from frictionrt.rt.discrepancy.effects import get, implemented
+from frictionrt.rt.discrepancy.rig import make_campaign, make_frf_campaign, model_form_parts, model_form_refine
 
 
 def case(seed: int, name: str, s: float | None, record_s: float, stepsine: bool, other_form: tuple[str, ...],

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import NoReturn
 
-from rt.common.config import ConfigError
+from frictionrt.rt.common.config import ConfigError
 
 
 def run_main(main: Callable[[], int]) -> NoReturn:

@@ -23,10 +23,10 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.harmonic_frf import harmonic_accelerances, harmonic_system
-from rt.common.config import load
-from rt.experiments.stepsine import Settle, sweep
-from rt.loop import build_loop
+from frictionrt.plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from frictionrt.rt.common.config import load
+from frictionrt.rt.experiments.stepsine import Settle, sweep
+from frictionrt.rt.loop import build_loop
 from benchmarks.entry import run_main
 
 METHODS = (("df", 1), ("aft", 1), ("aft", 3))

@@ -19,9 +19,9 @@ import json
 
 import numpy as np
 
-from plant.structure import adaptive_cone_pairs
-from rt.common.config import load
-from rt.loop import build_loop, run
+from frictionrt.plant.structure import adaptive_cone_pairs
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run
 from benchmarks.entry import run_main
 
 
@@ -67,7 +67,7 @@ def fit(cfg, F_N1: float, amp: float, freq: float) -> dict:
 
 
 def main(argv=None) -> int:
-    from rt.common.config import with_sets
+    from frictionrt.rt.common.config import with_sets
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--freq", type=float, required=True, help="excitation frequency [Hz] (a resonance)")
     ap.add_argument("--forces", type=float, nargs="+", default=[40.0, 100.0, 300.0])

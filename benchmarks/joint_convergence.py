@@ -26,9 +26,9 @@ import time
 import numpy as np
 
 from benchmarks.entry import run_main
-from plant.impulse import impulse_test
-from plant.model import build_plant
-from rt.common.config import Config, load, with_sets
+from frictionrt.plant.impulse import impulse_test
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import Config, load, with_sets
 
 BAND_HZ = (50.0, 1200.0)
 DEFAULT_GRID = ("20:10:1", "10:5:1", "5:2.5:1", "2.5:2.5:1")

@@ -22,10 +22,10 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 def benchmark(seconds: float, block: int, out: Path) -> dict:
     """Figures per simulated second: sim_s, {mcap,rrd}_write_s, {mcap,rrd}_write_cpu_s, {mcap,rrd}_MB,
     mcap_read_s."""
-    from rt.common.config import load
-    from rt.loop import build_loop, run
-    from rt.log.mcap_log import McapLogWriter, read_mcap
-    from rt.log.rrd_log import RrdLogWriter
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.loop import build_loop, run
+    from frictionrt.rt.log.mcap_log import McapLogWriter, read_mcap
+    from frictionrt.rt.log.rrd_log import RrdLogWriter
 
     cfg = load(None)
     loop = build_loop(cfg, "lyapunov")

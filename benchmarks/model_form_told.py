@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from rt.common.config import Config, with_sets
-from rt.discrepancy.diagnose.campaign import load_campaign
-from rt.discrepancy.diagnose.structure import SENSORS, fit_cost, fit_structure, prepare, run_shape, struct_cfg
-from rt.discrepancy.effects import get
-from rt.discrepancy.rig import make_campaign, model_form_parts, model_form_refine
-from rt.discrepancy.rig.campaign import REFINED_PARTS, model_form, scatter_sets
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.diagnose.campaign import load_campaign
+from frictionrt.rt.discrepancy.diagnose.structure import SENSORS, fit_cost, fit_structure, prepare, run_shape, struct_cfg
+from frictionrt.rt.discrepancy.effects import get
+from frictionrt.rt.discrepancy.rig import make_campaign, model_form_parts, model_form_refine
+from frictionrt.rt.discrepancy.rig.campaign import REFINED_PARTS, model_form, scatter_sets
 
 HIGH_HZ = (800.0, 1600.0)   # the band of modes 7-9, where the model form's remainder lies (docs/discrepancy.md)
 

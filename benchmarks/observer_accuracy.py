@@ -17,9 +17,9 @@ from pathlib import Path
 
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
-from rt.common.config import load  # noqa: E402
-from plant.modes import passive_resonance_hz  # noqa: E402
-from rt.loop import build_loop, run, summary  # noqa: E402
+from frictionrt.rt.common.config import load  # noqa: E402
+from frictionrt.plant.modes import passive_resonance_hz  # noqa: E402
+from frictionrt.rt.loop import build_loop, run, summary  # noqa: E402
 
 MODES_HZ = {m: passive_resonance_hz(load(), m) for m in (2, 3, 4, 5)}
 AMPS_N = (5.0, 10.0)

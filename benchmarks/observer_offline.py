@@ -1,6 +1,6 @@
 """Where the real-time observer stands against an unconstrained estimator of the same model
 (issue 4): closed-loop runs with the observer, then filterpy's UKF and its RTS smoother
-(``observer.offline``) on each run's logged tip velocity and force-cell reading.
+(``frictionrt.observer.offline``) on each run's logged tip velocity and force-cell reading.
 
     python benchmarks/observer_offline.py [--freqs 196 378] [--amp 5] [--duration 0.5]
                                           [--laws hysteresis lyapunov] [--json]
@@ -8,7 +8,7 @@
 NRMSE of v_rel and u_rel against the band-limited plant truth over the last 20 % of each run,
 for the real-time observer (rt), the UKF (causal) and the UKF + RTS smoother (non-causal); first
 row by row as ``frictionrt simulate`` reports it, then with the truth at the estimates' instant,
-then the error of the first harmonic alone (``observer.offline.compare_on_run``). Slow: the UKF
+then the error of the first harmonic alone (``frictionrt.observer.offline.compare_on_run``). Slow: the UKF
 is plain Python (0.4..1 ms per tick, about as much again for the smoother): 10..20 s per 0.5 s
 run, plus the run itself.
 """
@@ -35,10 +35,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--laws", nargs="+", default=["hysteresis", "lyapunov"])
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     a = ap.parse_args(argv)
-    from observer.kalman import design_observer  # after the sys.path fix above
-    from observer.offline import compare_on_run
-    from rt.common.config import load
-    from rt.loop import build_loop, run
+    from frictionrt.observer.kalman import design_observer  # after the sys.path fix above
+    from frictionrt.observer.offline import compare_on_run
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.loop import build_loop, run
 
     cfg = load()
     design = design_observer(cfg)

@@ -1,13 +1,13 @@
 """Observer robustness table (docs/observer.md section 6): the plant changed, the observer still
-designed from the nominal configuration (``rt.loop.build_loop(..., observer_cfg=nominal)``).
+designed from the nominal configuration (``frictionrt.rt.loop.build_loop(..., observer_cfg=nominal)``).
 
     python -m benchmarks.observer_robustness [--duration S] [--jobs 2]
 
 Per case of ``CASES`` (mu -/+30 %, the frequencies -/+2 % through E x 0.98^2 / 1.02^2 on both
 beams, the accelerometer noise x 3): mode 3 near its passive resonance
-(``plant.modes.passive_resonance_hz`` of the nominal plant, times the case's frequency factor),
+(``frictionrt.plant.modes.passive_resonance_hz`` of the nominal plant, times the case's frequency factor),
 5 N, ``--duration`` s (default 1): the hysteresis law's NRMSE of v_rel on the observer (against the
-plant's band-limited truth, ``rt.loop.summary``) and the first-harmonic acceleration at 0.45 m
+plant's band-limited truth, ``frictionrt.rt.loop.summary``) and the first-harmonic acceleration at 0.45 m
 with the passive law and with the Lyapunov law on the observer.
 """
 from __future__ import annotations
@@ -15,9 +15,9 @@ from __future__ import annotations
 import argparse
 from multiprocessing import Pool
 
-from plant.modes import passive_resonance_hz
-from rt.common.config import load
-from rt.loop import build_loop, run, summary
+from frictionrt.plant.modes import passive_resonance_hz
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run, summary
 from benchmarks.entry import run_main
 
 AMP_N = 5.0

@@ -4,7 +4,7 @@
 """
 import sys
 
-from rt.cli import main
+from frictionrt.rt.cli import main
 
 if __name__ == "__main__":
     sys.exit(main(["bench", "plant", *sys.argv[1:]]))

@@ -15,8 +15,8 @@ import json
 
 import numpy as np
 
-from rt.common.config import load
-from rt.loop import build_loop, run
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run
 from benchmarks.entry import run_main
 
 HARMONICS = 10      # the excitation frequency and its first 9 harmonics

@@ -6,7 +6,7 @@
 One at a time, each input of ``VARIANTS`` at a low and a high plausible value (the reason for the
 range is the variant's ``why``), everything else at the configuration (``--set`` changes the base
 for all runs, the default among them): the reproduction of ``frictionrt reproduce --quick`` (the
-full one with ``--full``) through ``rt.experiments.reproduce.measure``, the controlled laws on the
+full one with ``--full``) through ``frictionrt.rt.experiments.reproduce.measure``, the controlled laws on the
 paper's observer (``--estimator``), the claims C1..C6 (rt.experiments.claims) and the
 peak reductions [dB]. The contact calibration (k_n, docs/plant.md 6) is not redone for a variant;
 each row reports the impulse test's mode-3 frequency and damping at F_N1 = 100 N, so one sees
@@ -27,10 +27,10 @@ from pathlib import Path
 from typing import NamedTuple
 
 from benchmarks.report_diff import cells
-from rt.experiments.claims import TOL_DB
-from rt.common.config import load
-from rt.experiments.reproduce import FULL, QUICK, measure
-from rt.experiments.reproduce_report import jsonable
+from frictionrt.rt.experiments.claims import TOL_DB
+from frictionrt.rt.common.config import load
+from frictionrt.rt.experiments.reproduce import FULL, QUICK, measure
+from frictionrt.rt.experiments.reproduce_report import jsonable
 from benchmarks.entry import run_main
 
 

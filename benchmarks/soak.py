@@ -44,7 +44,7 @@ def _scan_mcap(path: Path) -> dict:
     """Chunk-by-chunk check of a (large) run log: ticks increasing, values finite, late_ns stats."""
     from mcap.reader import make_reader
 
-    from rt.log.mcap_log import chunk_messages, file_topics, payload_rows
+    from frictionrt.rt.log.mcap_log import chunk_messages, file_topics, payload_rows
     late, n_msgs, last_k, bad_ticks, nonfinite = [], 0, {}, 0, 0
     with open(path, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
@@ -72,7 +72,7 @@ def _scan_mcap(path: Path) -> dict:
 def soak(minutes: float, law: str, out: Path, rrd: bool, rt_sets: list[str], null_s: float) -> dict:
     duration = 60.0 * minutes
     sets = [a for s in rt_sets for a in ("--set", s)]
-    cmd = [sys.executable, "-m", "rt.cli", *sets, "simulate", "--paced", "--law", law, "--freq", "223.6", "--amp", "5",
+    cmd = [sys.executable, "-m", "frictionrt.rt.cli", *sets, "simulate", "--paced", "--law", law, "--freq", "223.6", "--amp", "5",
            "--duration", str(duration), "--out", str(out), "--json"] + ([] if rrd else ["--no-rrd"])
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     samples: list[tuple[float, float]] = []
@@ -98,8 +98,8 @@ def soak(minutes: float, law: str, out: Path, rrd: bool, rt_sets: list[str], nul
     rss = np.array([s[1] for s in samples])
     t0 = time.perf_counter()
     scan = _scan_mcap(Path(run["mcap"]))
-    from rt.common.config import load
-    from rt.loop.floor import null_loop
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.loop.floor import null_loop
     cfg = load(sets=rt_sets)
     null = null_loop(cfg.rt, cfg.dt_s, null_s) if null_s > 0 else None
     res = {"minutes": minutes, "law": law, "ticks": run["ticks"], "overruns": run["overruns"],

@@ -24,12 +24,12 @@ import time
 import numpy as np
 
 from benchmarks.entry import run_main
-from plant.impulse import hammer_force
-from plant.model import build_plant
-from plant.simulate import run
-from rt.common.config import Config, load, with_sets
-from rt.discrepancy.effects import get
-from rt.discrepancy.rig import FN1_LEVELS_N, HAMMER_CONTACT_S, HAMMER_PEAK_N
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.model import build_plant
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import Config, load, with_sets
+from frictionrt.rt.discrepancy.effects import get
+from frictionrt.rt.discrepancy.rig import FN1_LEVELS_N, HAMMER_CONTACT_S, HAMMER_PEAK_N
 
 BAND_HZ = (50.0, 1200.0)
 RECORD_S = 1.0

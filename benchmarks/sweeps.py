@@ -2,9 +2,9 @@
 
     python -m benchmarks.sweeps [--repeat N] [--jobs J] [--only quick,full,tune] [--json]
 
-Each study runs as a user runs it, one fresh ``python -m rt.cli ... --json`` process per run
+Each study runs as a user runs it, one fresh ``python -m frictionrt.rt.cli ... --json`` process per run
 (worker start-up, design and result transfer included), and reports what its JSON says
-(``rt.experiments.branches.sweep_timing``): simulated seconds, ticks, wall time [s], the ticks'
+(``frictionrt.rt.experiments.branches.sweep_timing``): simulated seconds, ticks, wall time [s], the ticks'
 own time inside the compiled loop [s], the cores and the ratio wall / (tick time / cores).
 With --repeat N the table gives the medians over N runs (and each run's ratio); the load
 average before each run is printed beside it, since a loaded machine slows the ticks and the
@@ -22,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-STUDIES = {  # name -> (command line after `python -m rt.cli`, where its JSON keeps the timing)
+STUDIES = {  # name -> (command line after `python -m frictionrt.rt.cli`, where its JSON keeps the timing)
     "quick": (["reproduce", "--quick"], ("timing_s", "sweeps")),
     "full": (["reproduce"], ("timing_s", "sweeps")),
     "tune": (["tune", "--law", "hysteresis"], ("timing",)),  # the default grid: 15 candidates, modes 3, 4 at 5 N
@@ -35,7 +35,7 @@ def run_study(name: str, jobs: int, work: Path) -> dict:
     argv, path = STUDIES[name]
     out = work / f"{name}_{len(list(work.iterdir()))}"
     load = os.getloadavg()[0]
-    r = subprocess.run([sys.executable, "-m", "rt.cli", *argv, "--json", "--jobs", str(jobs), "--out", str(out)],
+    r = subprocess.run([sys.executable, "-m", "frictionrt.rt.cli", *argv, "--json", "--jobs", str(jobs), "--out", str(out)],
                        capture_output=True, text=True)
     if r.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({r.returncode}):\n{r.stderr[-2000:]}")

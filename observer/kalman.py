@@ -19,7 +19,7 @@ already contains the measurement of tick k (no extra tick of delay, 3.5 deg at 2
 
     M = P C^T (C P C^T + R)^-1,   L = A_d M   (checked at design time)
 
-Friction in the run-time step (``observer.step``) is implicit in v_rel (backward Euler on the
+Friction in the run-time step (``frictionrt.observer.step``) is implicit in v_rel (backward Euler on the
 friction term, ZOH otherwise): f_r is stiff for large alpha F_N (its slope mu F_N (2/pi) alpha
 at v = 0 reaches 1.5e5 N s/m at F_max and alpha = 2000 s/m), and an explicit ZOH of it would be
 unstable. ``discrete_eigenvalues`` gives the linearised discrete observer's eigenvalues with
@@ -34,12 +34,12 @@ import control
 import numpy as np
 from scipy.signal import cont2discrete
 
-from observer.model import ObserverModel, build_observer_model
-from rt.common.config import Config
+from frictionrt.observer.model import ObserverModel, build_observer_model
+from frictionrt.rt.common.config import Config
 
 
 class ObserverParams(NamedTuple):
-    """Constant arrays of the run-time observer step (``observer.step._observer_step``)."""
+    """Constant arrays of the run-time observer step (``frictionrt.observer.step._observer_step``)."""
     A_d: np.ndarray      # (n, n)
     B_dT: np.ndarray     # (n,) friction input over a tick
     M: np.ndarray        # (n,) filter-form Kalman gain [per m/s]
@@ -96,7 +96,7 @@ def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
 
 def design_observer(cfg: Config, plant=None) -> ObserverDesign:
     """Model, exact discretisation at cfg.dt_s, Kalman gain (module docstring); ``plant``: the
-    plant built from cfg, if at hand (``observer.model.build_observer_model``).
+    plant built from cfg, if at hand (``frictionrt.observer.model.build_observer_model``).
 
     Raises ValueError if the error dynamics would not be stable, without friction or linearised
     with it at any F_N in [0, F_max] (``discrete_eigenvalues``), or if the friction path has the

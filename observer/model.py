@@ -1,7 +1,7 @@
 """The observer's linear model (SPEC section 5, paper Eq. 5-7), built at design time from the
 same configuration as the plant.
 
-The simplified structure: the plant's FE beams (``plant.structure``, unreduced) with
+The simplified structure: the plant's FE beams (``frictionrt.plant.structure``, unreduced) with
 
 * the damper tied at the normal screw: the interface under that screw's pressure cone
   (|x - x_s| <= R_c, plant/bolts.py) gets the plant's stuck contact stiffnesses per unit area
@@ -32,7 +32,7 @@ static compliance minus the part of the kept modes,
     D_u = -(t K^-1 t^T - sum_i (t phi_i)^2 / omega_i^2)   [m/N]   (sign: the force is -t^T f_r).
 
 The excitation force is unknown to the observer: B_F only carries process noise in the
-Kalman design (``observer.kalman``).
+Kalman design (``frictionrt.observer.kalman``).
 """
 from __future__ import annotations
 
@@ -41,10 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from plant.bolts import cone_footprint
-from plant.model import PlantModel, build_plant, preloaded_pairs
-from plant.structure import build_structure, interface_rows, interface_width, screw_cone_radius
-from rt.common.config import Config, require_adaptive_screw
+from frictionrt.plant.bolts import cone_footprint
+from frictionrt.plant.model import PlantModel, build_plant, preloaded_pairs
+from frictionrt.plant.structure import build_structure, interface_rows, interface_width, screw_cone_radius
+from frictionrt.rt.common.config import Config, require_adaptive_screw
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,8 @@
 """Offline reference estimator (issue 4): filterpy's unscented Kalman filter and its RTS smoother
 on the observer's own discrete model, run on a logged run.
 
-The real-time observer (``observer.step``) is a constant-gain filter: its gain M is the steady
-state of the linear Kalman filter at v_rel = 0, F_N = 0 (``observer.kalman``). This module runs the
+The real-time observer (``frictionrt.observer.step``) is a constant-gain filter: its gain M is the steady
+state of the linear Kalman filter at v_rel = 0, F_N = 0 (``frictionrt.observer.kalman``). This module runs the
 same nonlinear model without that restriction, as a reference of what an unconstrained estimator
 achieves on the same data:
 
@@ -25,7 +25,7 @@ hardly matters to any of the three: the friction input's process noise (observer
 close to the linear Kalman filter and close to the real-time observer.
 
 Model (per tick k, dt = 1/21000 s; the same discrete model and the same friction treatment as
-``observer.step``; state z = [q; q'], 2N = 14 modal states):
+``frictionrt.observer.step``; state z = [q; q'], 2N = 14 modal states):
 
     z_k+1 = f(z_k, F_N,k) + w_k,       w_k ~ N(0, Q_d)
     f(z, F_N) = A_d z + B_dT f_r(v_next, F_N),
@@ -56,9 +56,9 @@ import scipy.linalg as sla
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from tqdm import tqdm
 
-from observer.accuracy import TAIL, band_limited_truth, nrmse
-from observer.kalman import ObserverDesign, design_observer, zoh
-from observer.step import _friction, _implicit_v
+from frictionrt.observer.accuracy import TAIL, band_limited_truth, nrmse
+from frictionrt.observer.kalman import ObserverDesign, design_observer, zoh
+from frictionrt.observer.step import _friction, _implicit_v
 
 PROGRESS_MIN_STEPS = 2000  # show a progress bar (on a terminal) from this many ticks on
 # Merwe's scaled sigma points: alpha = 1, kappa = 0 put the 2n points at +-sqrt(n) sigma with a
@@ -85,7 +85,7 @@ class OfflineEstimate(NamedTuple):
 def process_noise(design: ObserverDesign) -> np.ndarray:
     """Q_d = G diag(Q) G^T, G = [B_dF, B_dT] (ZOH of the excitation and friction inputs) [modal^2].
 
-    The covariance per tick of the process noise that ``observer.kalman`` designs the gain for
+    The covariance per tick of the process noise that ``frictionrt.observer.kalman`` designs the gain for
     (``control.dlqe(A_d, G, C, Q, R)``): rank 2."""
     m = design.model
     _, B_d = zoh(m.A, np.column_stack([m.B_F, m.B_T]), design.dt)
@@ -107,7 +107,7 @@ def _psd_sqrt(P: np.ndarray) -> np.ndarray:
 @numba.njit(cache=True)
 def _transition(z, F_N, A_d, B_dT, CvA, beta, mu, alpha):
     """f(z, F_N) = A_d z + B_dT f_r(v_next, F_N) (module docstring), with the real-time step's
-    implicit friction (``observer.step._implicit_v``). Allocates its result: offline only."""
+    implicit friction (``frictionrt.observer.step._implicit_v``). Allocates its result: offline only."""
     v_next = _implicit_v(CvA @ z, beta, F_N, mu, alpha)
     f_next, _ = _friction(v_next, F_N, mu, alpha)
     return A_d @ z + B_dT * f_next
@@ -170,7 +170,7 @@ def ukf_run(design: ObserverDesign, v_meas, F_N, *, smooth: bool = True, P0: np.
 
     Parameters
     ----------
-    design : the observer's design (``observer.kalman.design_observer``): model, noise covariances
+    design : the observer's design (``frictionrt.observer.kalman.design_observer``): model, noise covariances
     v_meas : (n,) measured tip velocity y_k [m/s] (the loop's ``v_tip_meas``)
     F_N : (n,) or scalar normal force F_N,k [N] (the loop's ``F_cell``, as the real-time observer)
     smooth : also run the RTS smoother backwards over the filtered states
@@ -256,7 +256,7 @@ def fundamental_error(x_hat: np.ndarray, x_true: np.ndarray, freq_hz: float, dt:
 
 def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, design: ObserverDesign | None = None,
                    progress: bool | None = None) -> dict:
-    """NRMSE of v_rel and u_rel on a closed-loop Run (``rt.loop.driver.run``) for
+    """NRMSE of v_rel and u_rel on a closed-loop Run (``frictionrt.rt.loop.driver.run``) for
 
     * ``rt``: the real-time observer's logged estimates (``v_rel_hat``, ``u_rel_hat``; needs a
       run with ``--estimator observer``),
@@ -265,16 +265,16 @@ def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, desig
     * ``rts``: its RTS smoother (if smooth),
 
     all against the plant's v_rel, u_rel low-passed without phase at
-    ``observer.oracle_bandwidth_hz`` (``observer.accuracy.band_limited_truth``) over the same last
+    ``observer.oracle_bandwidth_hz`` (``frictionrt.observer.accuracy.band_limited_truth``) over the same last
     `tail` share of the run.
 
     Two alignments of the truth:
 
-    * ``v_rel_nrmse``, ``u_rel_nrmse``: row by row, as ``rt.loop.results.summary`` reports the estimation
+    * ``v_rel_nrmse``, ``u_rel_nrmse``: row by row, as ``frictionrt.rt.loop.results.summary`` reports the estimation
       error (comparable with ``frictionrt simulate``);
     * ``v_rel_nrmse_aligned``, ``u_rel_nrmse_aligned``: at the same instant. Row k of a run's
       log holds the estimates at t_k but the plant's outputs after its step, at t_k+1
-      (``rt.loop.tick``, ``plant.newmark._plant_step``): the estimate of row k+1 is compared with
+      (``frictionrt.rt.loop.tick``, ``frictionrt.plant.newmark._plant_step``): the estimate of row k+1 is compared with
       the truth of row k. The row-by-row figures carry one tick of lag (3.4 deg at 196 Hz,
       6.5 deg at 378 Hz): a perfect estimate of a sine would show 2 sin(pi f dt) (0.06 at
       196 Hz, 0.11 at 378 Hz).

@@ -3,7 +3,7 @@
     z' = A z + B_T f_r(v_rel_hat, F_N) + L (y_meas - C_meas z),   u_rel_hat = C_u z + D_u f_r
     f_r(v, F_N) = mu F_N (2/pi) arctan(alpha v)                    regularised Coulomb [N]
 
-discretised (``observer.kalman``) as, per tick k with the a-priori state z_k|k-1 (state slots):
+discretised (``frictionrt.observer.kalman``) as, per tick k with the a-priori state z_k|k-1 (state slots):
 
     e      = y_k - C_meas z_k|k-1                         innovation [m/s]
     z_k|k  = z_k|k-1 + M e                                measurement update (filter form)
@@ -31,7 +31,7 @@ import math
 
 import numba
 
-from observer.atan import _atan
+from frictionrt.observer.atan import _atan
 
 OBSERVER_OUTPUTS = (("u_rel_hat", "m"), ("v_rel_hat", "m/s"), ("innovation", "m/s"), ("f_r_hat", "N"))
 NEWTON_MAX = 60  # safeguarded Newton on a monotone scalar function: 3..8 iterations in practice

@@ -9,19 +9,19 @@ linear reference), ``harmonic_frf`` (the amplitude-dependent FRF by harmonic bal
 kernel (``_plant_step``): kernels are imported from their modules. The names below are imported
 on first use (rt/common/face.py).
 """
-import rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)
-from rt.common.face import lazy_face  # noqa: E402
+import frictionrt.rt.common  # noqa: F401  (numba's code-generation target and source-keyed cache, before any kernel compiles)
+from frictionrt.rt.common.face import lazy_face  # noqa: E402
 
 _EXPORTS = {
-    "PlantModel": "plant.model", "build_plant": "plant.model", "preloaded_pairs": "plant.model", "stuck_frequencies_hz": "plant.model", "stuck_stiffness": "plant.model",
-    "build_structure": "plant.structure",
-    "impulse_test": "plant.impulse",
-    "modes_summary": "plant.modes", "passive_resonance_hz": "plant.modes", "sliding_joint_hz": "plant.modes",
-    "stuck_model": "plant.linear_frf", "point_accelerances": "plant.linear_frf",
-    "harmonic_system": "plant.harmonic_frf", "harmonic_accelerances": "plant.harmonic_frf",
-    "build_actuator": "plant.actuator",
-    "build_sensors": "plant.sensors",
-    "build_shaker": "plant.shaker",
+    "PlantModel": "frictionrt.plant.model", "build_plant": "frictionrt.plant.model", "preloaded_pairs": "frictionrt.plant.model", "stuck_frequencies_hz": "frictionrt.plant.model", "stuck_stiffness": "frictionrt.plant.model",
+    "build_structure": "frictionrt.plant.structure",
+    "impulse_test": "frictionrt.plant.impulse",
+    "modes_summary": "frictionrt.plant.modes", "passive_resonance_hz": "frictionrt.plant.modes", "sliding_joint_hz": "frictionrt.plant.modes",
+    "stuck_model": "frictionrt.plant.linear_frf", "point_accelerances": "frictionrt.plant.linear_frf",
+    "harmonic_system": "frictionrt.plant.harmonic_frf", "harmonic_accelerances": "frictionrt.plant.harmonic_frf",
+    "build_actuator": "frictionrt.plant.actuator",
+    "build_sensors": "frictionrt.plant.sensors",
+    "build_shaker": "frictionrt.plant.shaker",
 }
 __all__ = list(_EXPORTS)
 __getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

@@ -106,7 +106,7 @@ import numba
 import numpy as np
 import scipy.linalg as sla
 
-from rt.common.config import Config
+from frictionrt.rt.common.config import Config
 
 # Substeps per controller step and fine substeps per regime change (module docstring). The
 # linear, slewing and held regimes are exact at any n_sub; n_sub and N_FINE set how finely the
@@ -142,7 +142,7 @@ ACTUATOR_OUTPUTS = (("F_stack", "N"), ("V_dac", "V"), ("v_f", "V"), ("V_a", "V")
 screw's force F0 + k_screw x with the beams' separation at zero, the input of the plant's bolt,
 which adds k (g - g_ref): plant output F_N1, docs/plant.md 1.4; V_dac: held over
 [t_k, t_{k+1}); i, P: means over the last substep; F_strain_a, F_cell_a: the force sensors'
-analog outputs, before their noise and ADC in ``plant.sensors``)."""
+analog outputs, before their noise and ADC in ``frictionrt.plant.sensors``)."""
 
 N_STATE = 7  # continuous states without creep (all slots but E, h, q_j)
 Q0 = 9       # slot of q_0

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 import scipy.linalg as sla
 
-from plant.contact import _iwan_pair
+from frictionrt.plant.contact import _iwan_pair
 
 
 @numba.njit(cache=True, nogil=True)

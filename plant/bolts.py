@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from plant.tributary import hat_integrals
+from frictionrt.plant.tributary import hat_integrals
 
 
 def vdi_cone_tan(d_w: float, l_K: float, D_A: float) -> float:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant.model import PlantModel
+from frictionrt.plant.model import PlantModel
 
 
 def mechanical_energy(model: PlantModel, x: np.ndarray) -> tuple[float, float]:

@@ -64,10 +64,10 @@ import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.aft import AftLine, continued, newton, newton_compiled, ramped
-from plant.describing import _pairs_df, slider_amplitude
-from plant.linear_frf import stuck_model
-from plant.model import PlantModel, contact_forces, preloaded_pairs
+from frictionrt.plant.aft import AftLine, continued, newton, newton_compiled, ramped
+from frictionrt.plant.describing import _pairs_df, slider_amplitude
+from frictionrt.plant.linear_frf import stuck_model
+from frictionrt.plant.model import PlantModel, contact_forces, preloaded_pairs
 
 
 class HarmonicSystem(NamedTuple):

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.model import PlantModel, preloaded_pairs, stuck_frequencies_hz
-from plant.simulate import run
+from frictionrt.plant.model import PlantModel, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.plant.simulate import run
 
 MODES = (2, 3, 4, 5)  # bending modes identified (mode 1 is not excited in the experiments)
 

@@ -4,7 +4,7 @@ While no pair slips and no closed pair opens, the plant is linear. In the modal 
 of the plant (mass-normalised, M = I), about the static equilibrium under the screws:
 
     q'' + C q' + K q = b_exc F_exc,
-    K = diag(omega^2) + G^T K_c G      (``plant.model.stuck_stiffness``; k_n, k_t at the closed pairs)
+    K = diag(omega^2) + G^T K_c G      (``frictionrt.plant.model.stuck_stiffness``; k_n, k_t at the closed pairs)
     C = diag(2 zeta omega) + G^T C_c G (the interface dashpots c_n, s c_t of the closed pairs,
                                         s = S(min(1, penetration / depth)), plant.contact)
 
@@ -50,7 +50,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from plant.model import PlantModel, preloaded_pairs, stuck_stiffness
+from frictionrt.plant.model import PlantModel, preloaded_pairs, stuck_stiffness
 
 
 def stuck_damping(model: PlantModel, pairs: np.ndarray, penetration_m: np.ndarray) -> np.ndarray:

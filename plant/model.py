@@ -14,13 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from plant.contact import _jenkins_pair
-from plant.craig_bampton import craig_bampton
-from plant.newmark import FACTOR_SLOTS, MAX_UPDATES, N_ENERGY, PlantParams, PlantWork, _plant_step
-from plant.structure import Structure, build_structure
-from rt.common.blas import check as check_blas
-from rt.common.codegen import check as check_codegen
-from rt.common.config import Config
+from frictionrt.plant.contact import _jenkins_pair
+from frictionrt.plant.craig_bampton import craig_bampton
+from frictionrt.plant.newmark import FACTOR_SLOTS, MAX_UPDATES, N_ENERGY, PlantParams, PlantWork, _plant_step
+from frictionrt.plant.structure import Structure, build_structure
+from frictionrt.rt.common.blas import check as check_blas
+from frictionrt.rt.common.codegen import check as check_codegen
+from frictionrt.rt.common.config import Config
 
 RIGID_BODY_RAD_S = 2 * np.pi * 0.1  # below 0.1 Hz a substructure mode is a rigid-body mode
 
@@ -86,7 +86,7 @@ class PlantModel:
 
     def new_work(self, factor_slots: int = FACTOR_SLOTS) -> PlantWork:
         """Scratch buffers of the plant step, with factor_slots contact patterns' factors kept
-        (``plant.newmark._use_cached``; 1: only the last pattern's), plus one slot for patterns
+        (``frictionrt.plant.newmark._use_cached``; 1: only the last pattern's), plus one slot for patterns
         with a pair in transition."""
         n, m = self.n, 2 * self.n_pairs
         p = m // 2

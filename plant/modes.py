@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from plant.fe_beam import U, W
-from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
-from plant.structure import adaptive_cone_pairs
-from rt.common.config import Config, adaptive_screw, with_sets
+from frictionrt.plant.fe_beam import U, W
+from frictionrt.plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
+from frictionrt.plant.structure import adaptive_cone_pairs
+from frictionrt.rt.common.config import Config, adaptive_screw, with_sets
 
 N_BARE = 6  # bending modes of the bare cantilever reported
 REDUCTION_TOL = 5e-3  # SPEC 2 "Reduction": reduced vs full stuck eigenfrequencies below 2 kHz

@@ -32,7 +32,7 @@ and the contact gaps g1 = G q1 obey the small system of the contact pairs only
 solved by Newton (Jacobian I - W dLambda/dg1, LU cached per contact pattern).
 
 Lambda is the mean contact force over the step: for the normal spring its discrete gradient
-(``plant.contact._normal_impulse``), for the Jenkins element (or each element of an Iwan
+(``frictionrt.plant.contact._normal_impulse``), for the Jenkins element (or each element of an Iwan
 element) the mean of its end-point forces (the trapezoid). Both are what average acceleration
 gives while no pair changes state; across an impact the discrete gradient keeps the contact's
 work equal to its energy change, so the energy balance holds to round-off (no energy pumped by
@@ -41,7 +41,7 @@ chatter).
 Inputs are held over the step (zero-order hold), so f_mean is the held value and the input
 work over a step is F * (b . dq).
 
-State vector x (see ``plant.model.PlantModel.state_slots``): q, qd (n each), sliders w (p N:
+State vector x (see ``frictionrt.plant.model.PlantModel.state_slots``): q, qd (n each), sliders w (p N:
 N = 1 Jenkins element per pair, or the N elements of an Iwan element, pair-major),
 gaps g (2p), then E_fric, E_damp, W_exc, W_screw [J].
 
@@ -56,7 +56,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.contact import (
+from frictionrt.plant.contact import (
     _interface_dashpot,
     _iwan_pair,
     _jenkins_pair,
@@ -82,7 +82,7 @@ FACTOR_SLOTS = 32  # contact patterns whose factors are kept (``_use_cached``; d
 
 
 class PlantParams(NamedTuple):
-    """Constant arrays of the plant step (built by ``plant.model.build_plant``)."""
+    """Constant arrays of the plant step (built by ``frictionrt.plant.model.build_plant``)."""
     omega2: np.ndarray     # (n,) omega^2 [1/s^2]
     dyn: np.ndarray        # (n,) 1.0 for a mode stepped by Newmark, 0.0 for a quasi-static one (no inertia)
     c: np.ndarray          # (n,) 2 zeta omega [1/s] (the model's damping)
@@ -280,7 +280,7 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     Fills wk.lam, wk.lam1, wk.w_new, wk.d (Jacobian entries), wk.code and the active pairs
     wk.act[:n_act] (closed at the end of the step, or opening/closing within it; all others
     have Lambda = 0). The tangential law is the Jenkins element (p.iwan_k of length 1) or the
-    Iwan element (``plant.contact._iwan_pair``; code 1 + sum_i s_i 3^i over its elements), with
+    Iwan element (``frictionrt.plant.contact._iwan_pair``; code 1 + sum_i s_i 3^i over its elements), with
     the friction coefficient wk.mu_eff of the substep. Returns (n_act, True if every pair's state
     equals wk.pattern and none opens or closes). A pair whose tangential dashpot is fading in
     (0 < s < 1) keeps its code: its law is affine within the step, s being lagged, but its Jacobian
@@ -759,7 +759,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _stribeck_update(qd, p, wk):
     """Friction coefficient of every pair for the coming substep (Stribeck, p.static_excess > 0):
-    mu_eff_j = mu(v_j) (``plant.contact._stribeck_mu``) with v_j = G_t,j qd the pair's tangential
+    mu_eff_j = mu(v_j) (``frictionrt.plant.contact._stribeck_mu``) with v_j = G_t,j qd the pair's tangential
     surface velocity at the start of the substep [m/s]. Held over the substep (lagged), so the
     pair law stays piecewise affine and Newton exact. A slipping pair's changed coefficient changes
     its Jacobian entry, so the LU factors are refreshed (``_contact_newton`` compares wk.d with

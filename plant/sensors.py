@@ -9,7 +9,7 @@
 
 Three input forms (the kernel tells them apart by len(u)):
     u = (a_tip, a_frf, F_strain_a, F_cell_a, dF_N1)   the loop's: the force sensors' analog
-        outputs of the stack force, integrated exactly with the piezo stack by ``plant.actuator``,
+        outputs of the stack force, integrated exactly with the piezo stack by ``frictionrt.plant.actuator``,
         plus the bolt's response to the beams' separation dF_N1 = F_N1 - F_stack (a plant
         output, docs/plant.md 1.4), filtered here on its samples and added, so that the sensors
         measure the bolt force and see the structure's vibration;
@@ -27,7 +27,7 @@ Continuous filters (y output, u input):
     leaky integr. v' = a - w_c v                               (v/a = 1/(s + w_c))
 
 Discretisation: exact for an input that is linear between samples (first-order hold), from
-one matrix exponential (``plant.actuator.discretise``):  z_k = Phi z_{k-1} + G0 u_{k-1} +
+one matrix exponential (``frictionrt.plant.actuator.discretise``):  z_k = Phi z_{k-1} + G0 u_{k-1} +
 G1 (u_k - u_{k-1}). The plant gives its outputs at the sample instants only; joining them by
 straight lines keeps the analog sensor's phase, whereas a zero-order hold would shift the signal
 by half a sample (23.8 us: 2.0 deg at 230 Hz, 3.4 deg at 400 Hz), four times the phase the
@@ -44,10 +44,10 @@ and the smallest -acc_range (0). NaN stays NaN (a broken plant must stay visible
 integrator takes a non-finite reading as 0 m/s^2 (``_tip_velocity``).
 
 Noise: zero-mean Gaussian of the configured rms, added before the ADC, drawn from the seeded
-generator of ``rt.common.noise``: four normals per tick, always in the order (acc tip, acc frf) from
+generator of ``frictionrt.rt.common.noise``: four normals per tick, always in the order (acc tip, acc frf) from
 one Box-Muller pair, then (strain, cell) from the next, also when an rms is zero, so that the
 sequence never depends on the configuration. The generator state is NOT a slot of the float64
-state vector: it is its own (4,) uint64 array argument ``rng`` (``rt.common.noise.new_rng(cfg.rt.seed)``),
+state vector: it is its own (4,) uint64 array argument ``rng`` (``frictionrt.rt.common.noise.new_rng(cfg.rt.seed)``),
 advanced in place by each step (arbitrary uint64 words are not meaningful floats and some are
 NaN payloads, which logging or NaN checks of the state must never see).
 """
@@ -59,10 +59,10 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.actuator import discretise
-from rt.common.config import Config
-from rt.common.noise import _check as _check_rng
-from rt.common.noise import _normal_pair
+from frictionrt.plant.actuator import discretise
+from frictionrt.rt.common.config import Config
+from frictionrt.rt.common.noise import _check as _check_rng
+from frictionrt.rt.common.noise import _normal_pair
 
 SENSOR_SLOTS = ("acc_tip_y", "acc_tip_r", "acc_frf_y", "acc_frf_r", "a_tip_in", "a_frf_in",
                 "v_tip", "a_tip_meas_in", "F_strain_y", "F_cell_y", "F_N1_in")
@@ -174,7 +174,7 @@ def _adc(v, inv_lsb, lsb, n_lo, n_hi):
 def _sensors_step(k, x, u, p, x_next, y, rng):
     """Sensor readings at t_k from the plant/actuator samples at t_k: ``_sensors_read`` (the
     ADC readings) then ``_tip_velocity`` (the controller's integrator). The loop calls the two
-    itself, with fault injection between them (``rt.loop.supervisor``). Arguments as
+    itself, with fault injection between them (``frictionrt.rt.loop.supervisor``). Arguments as
     ``_sensors_read``. RT-safe."""
     _sensors_read(k, x, u, p, x_next, y, rng)
     _tip_velocity(x, p, x_next, y)
@@ -212,7 +212,7 @@ def _sensors_read(k, x, u, p, x_next, y, rng):
     x_next : (11,) state at t_k (written; slots v_tip, a_tip_meas_in by ``_tip_velocity``)
     y : (5,) ``SENSOR_OUTPUTS`` (written): a_tip_meas, a_frf_meas [m/s^2], F_strain, F_cell [N];
         y[2] = v_tip_meas [m/s] is ``_tip_velocity``'s
-    rng : (4,) uint64 generator state (``rt.common.noise.new_rng``), advanced by four normals
+    rng : (4,) uint64 generator state (``frictionrt.rt.common.noise.new_rng``), advanced by four normals
 
     Each filter: z_k = Phi z_{k-1} + G0 u_{k-1} + G1 (u_k - u_{k-1}) (exact first-order hold);
     readings = ADC(filter output + sigma N(0, 1)).

@@ -19,10 +19,10 @@ integral, ``build_shaker``), so one tick is a 3 x 5 matrix-vector product (``_sh
 Stability (``coupled_spectral_radius``): a one-tick lag on a stiff spring feeds energy in, as a
 negative damping of about k_s dt / 2 at the stinger mode for a zero-order lag, much less with the
 linear extrapolation. At design time the coupled linear map (the stuck plant's exact one-tick map
-of ``plant.linear_frf.discrete_map``, the stage, the lag) is formed and its spectral radius
+of ``frictionrt.plant.linear_frf.discrete_map``, the stage, the lag) is formed and its spectral radius
 checked: ``build_shaker`` refuses a shaker whose coupled loop would not be stable with a margin.
 
-Defaults (``rt.common.config.Shaker``, a small modal shaker, 45-100 N class): flexure resonance 20 Hz,
+Defaults (``frictionrt.rt.common.config.Shaker``, a small modal shaker, 45-100 N class): flexure resonance 20 Hz,
 5 % damping (k_a = m (2 pi 20 Hz)^2: 1.6e3 N/m at 0.1 kg; given as a frequency, so that the whole
 shaker vanishes continuously as m -> 0: the ratio below -> 1 / (1 + 0) ); stinger 5e6 N/m (a 2 mm
 steel rod, ~130 mm long: E A / L = 210e9 * 3.14e-6 / 0.13) and 20 N s/m (~1.4 % of critical at
@@ -44,7 +44,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from rt.common.config import Config
+from frictionrt.rt.common.config import Config
 
 N_IN = 5  # x_a, x_a', drive, w_exc, w_exc' at t_k
 
@@ -133,14 +133,14 @@ def force_ratio(cfg: Config, freq_hz, R) -> np.ndarray:
 
 def coupled_spectral_radius(cfg: Config, model=None, F_N1: float | None = None) -> float:
     """Spectral radius of the loop's linear one-tick map with the shaker coupled as the loop couples
-    it, on the plant linearised stuck at F_N1 [N] (``plant.linear_frf.stuck_model`` at the
+    it, on the plant linearised stuck at F_N1 [N] (``frictionrt.plant.linear_frf.stuck_model`` at the
     excitation point): the plant's exact tick map s' = Phi s + Gam F (s = [q, q'] modal), the
     shaker's P on [x_a, x_a', 0, r.q, r.q'] of t_k. < 1: the coupled loop is stable (the linear
     part; the contact's slip only adds dissipation). 0 with the shaker off."""
     if not cfg.shaker.on:
         return 0.0
-    from plant.linear_frf import discrete_map, stuck_model
-    from plant.model import build_plant
+    from frictionrt.plant.linear_frf import discrete_map, stuck_model
+    from frictionrt.plant.model import build_plant
     model = build_plant(cfg) if model is None else model
     lin = stuck_model(model, cfg.plant.excitation_point, F_N1)
     Phi, Gam = discrete_map(lin, cfg.dt_s, cfg.plant.substeps)

@@ -8,9 +8,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from plant.model import PlantModel
-from plant.newmark import _plant_step
-from rt.common.clock import _now_ns
+from frictionrt.plant.model import PlantModel
+from frictionrt.plant.newmark import _plant_step
+from frictionrt.rt.common.clock import _now_ns
 
 
 @numba.njit(cache=True, nogil=True)

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
-from plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, frame_shape, mesh_nodes
-from plant.tributary import tributary_lengths
-from rt.common.config import Beam, Config, adaptive_screw
+from frictionrt.plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
+from frictionrt.plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, frame_shape, mesh_nodes
+from frictionrt.plant.tributary import tributary_lengths
+from frictionrt.rt.common.config import Beam, Config, adaptive_screw
 
 
 @dataclass(frozen=True)

@@ -7,11 +7,11 @@ import time
 # installs no KeyboardInterrupt handler and the test's Ctrl-C would do nothing (it happened in a
 # backgrounded `make test`): the child installs Python's handler itself, then runs the CLI
 _CLI_WITH_CTRL_C = ("import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
-                    "runpy.run_module('rt.cli', run_name='__main__')")
+                    "runpy.run_module('frictionrt.rt.cli', run_name='__main__')")
 
 
 def start_cli(*args) -> subprocess.Popen:
-    """``python -m rt.cli ARGS`` with Ctrl-C delivered as in a terminal; text pipes."""
+    """``python -m frictionrt.rt.cli ARGS`` with Ctrl-C delivered as in a terminal; text pipes."""
     return subprocess.Popen([sys.executable, "-c", _CLI_WITH_CTRL_C, *map(str, args)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 

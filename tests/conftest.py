@@ -7,8 +7,8 @@ import pickle
 
 import pytest
 
-from plant.model import build_plant
-from rt.common.config import load
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import load
 
 # `make test` runs two xdist workers, which already fill two cores; the diagnosis's own process
 # pool (joblib, default jobs = its cpu count) would oversubscribe them, so each worker fits serially

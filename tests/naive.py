@@ -5,7 +5,7 @@ Written from the equations in the docstrings of ``plant/contact.py`` and ``plant
 mathematically equal) formulas where a choice exists, a dense Newton on the full contact
 system instead of the kernel's partitioned solve with cached LU, and the outputs filled by
 label from ``PlantModel.output_labels()``/``state_slots()`` rather than by index arithmetic.
-Nothing here imports from ``plant.contact`` or ``plant.newmark``; the references are slow and
+Nothing here imports from ``frictionrt.plant.contact`` or ``frictionrt.plant.newmark``; the references are slow and
 allocate freely.
 """
 from __future__ import annotations

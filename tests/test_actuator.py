@@ -15,7 +15,7 @@ import scipy.signal as ss
 from scipy.integrate import solve_ivp
 
 from tests.nrt_probe import assert_no_allocation_per_step
-from plant.actuator import (
+from frictionrt.plant.actuator import (
     ACTUATOR_OUTPUTS,
     ACTUATOR_SLOTS,
     _actuator_run,
@@ -29,7 +29,7 @@ from plant.actuator import (
     run_actuator,
     stack_constants,
 )
-from rt.common.config import load
+from frictionrt.rt.common.config import load
 
 RTOL = 1e-12   # kernel vs NumPy reference, relative to each quantity's scale
 OUT = output_index()
@@ -616,7 +616,7 @@ def test_checked_wrapper_and_slots(p):
 
 
 def test_kernels_are_cached_nogil_without_refcounting():
-    from plant import actuator
+    from frictionrt.plant import actuator
     for f in (actuator._actuator_step, actuator._actuator_fine, actuator._dac, actuator._energy):
         assert f.targetoptions.get("nogil") is True, f.__name__
         assert f.targetoptions.get("_nrt") is False, f.__name__
@@ -628,8 +628,8 @@ def test_actuator_step_does_not_allocate():
     # 10 vs 3000 compiled steps under numba's allocation counters (tests/nrt_probe.py)
     assert_no_allocation_per_step("""
         import numba, numpy as np
-        from plant.actuator import _actuator_step, build_actuator, initial_state
-        from rt.common.config import load
+        from frictionrt.plant.actuator import _actuator_step, build_actuator, initial_state
+        from frictionrt.rt.common.config import load
 
         @numba.njit
         def many(x, xn, V, p, y, u):
@@ -654,7 +654,7 @@ def test_step_time(p):
     # docs/actuator_sensors.md
     import numba
 
-    from rt.common.clock import _now_ns
+    from frictionrt.rt.common.clock import _now_ns
 
     @numba.njit
     def timed(x, xn, V, p, y, u, ns, ts):
@@ -736,7 +736,7 @@ def test_creep_after_a_step_follows_the_log_law():
     # Tolerance 0.03 decade of c F_step over 3 ms .. 2 s (3 decades): the one-state-per-decade
     # Prony series is within 0.024 decade of the log law (plant.actuator.creep_weights, largest at
     # the first decade's edge, 6 ms); the stack's ringing has decayed to ~1e-3 of its 50 N by 3 ms.
-    from plant.actuator import CREEP_TAU0_S
+    from frictionrt.plant.actuator import CREEP_TAU0_S
     for c in (0.02, 0.1):
         cfg, p, t, Va, F, _ = _creep_step(c, 8)
         k = np.argmax(Va >= 75.0)

@@ -13,13 +13,16 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("rt.common", "rt.log", "rt.loop", "rt.experiments", "rt.export", "rt.discrepancy", "rt.discrepancy.rig",
-            "rt.discrepancy.diagnose", "rt.cli", "plant", "observer", "tracking")
+PACKAGES = ("frictionrt.rt.common", "frictionrt.rt.log", "frictionrt.rt.loop", "frictionrt.rt.experiments",
+            "frictionrt.rt.export", "frictionrt.rt.discrepancy", "frictionrt.rt.discrepancy.rig",
+            "frictionrt.rt.discrepancy.diagnose", "frictionrt.rt.cli", "frictionrt.plant", "frictionrt.observer",
+            "frictionrt.tracking")
 MAX_LINES = 500  # the guide; a longer module gives its reason in a "Length:" paragraph of its docstring
 
 
@@ -30,30 +33,61 @@ def _lint_imports() -> str:
     return exe
 
 
-def test_import_contracts_hold():
+def _package_dirs() -> dict[str, str]:
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+
+
+def _installed_tree(dest: Path) -> Path:
+    """The packages as a wheel installs them (pyproject's package-dir: rt/ -> frictionrt/rt/, ...)
+    under ``dest``. import-linter's graph builder walks a root package's folder on disk, and in
+    the clone frictionrt.rt lives beside frictionrt/, not in it."""
+    for name, folder in sorted(_package_dirs().items()):
+        target = dest.joinpath(*name.split("."))
+        shutil.copytree(ROOT / folder, target, dirs_exist_ok=True,
+                        ignore=shutil.ignore_patterns("__pycache__", "templates"))
+    shutil.copy(ROOT / "pyproject.toml", dest)
+    return dest
+
+
+def _run_lint(tree: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([_lint_imports(), "--no-cache"], cwd=tree, capture_output=True, text=True,
+                          env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin", "COLUMNS": "1000"})
+
+
+def test_packages_listed_in_pyproject_are_the_folders():
+    # pyproject lists the installed packages by hand (the package-dir mapping rules out
+    # packages.find): a new sub-package must be added there, or a wheel would leave it out
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {"frictionrt"}
+    for name, folder in _package_dirs().items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / folder)
+            found.add(".".join([name, *rel.parts]))
+    assert listed == found, f"pyproject's [tool.setuptools] packages differ: missing {sorted(found - listed)}, extra {sorted(listed - found)}"
+
+
+def test_import_contracts_hold(tmp_path):
     # higher layers import lower ones only, and no two sibling packages or modules import each
     # other (cycles); output names the offending import chain
-    r = subprocess.run([_lint_imports()], cwd=ROOT, capture_output=True, text=True)
+    r = _run_lint(_installed_tree(tmp_path))
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
     assert "3 kept, 0 broken" in r.stdout
 
 
 @pytest.mark.parametrize("module, line, message", [
     # the log package importing the loop (the writer's old CLK_* import)
-    ("rt/log/writer.py", "from rt.loop.driver import run", "rt.log is not allowed to import rt.loop"),
+    ("frictionrt/rt/log/writer.py", "from frictionrt.rt.loop.driver import run",
+     "frictionrt.rt.log is not allowed to import frictionrt.rt.loop"),
     # the rig importing the diagnosis (rt.discrepancy's sub-packages)
-    ("rt/discrepancy/rig/frf.py", "from rt.discrepancy.diagnose.campaign import bic",
-     "rt.discrepancy.rig is not allowed to import rt.discrepancy.diagnose"),
+    ("frictionrt/rt/discrepancy/rig/frf.py", "from frictionrt.rt.discrepancy.diagnose.campaign import bic",
+     "frictionrt.rt.discrepancy.rig is not allowed to import frictionrt.rt.discrepancy.diagnose"),
 ], ids=["log-loop", "rig-diagnose"])
 def test_a_layer_violation_breaks_the_contract(tmp_path, module, line, message):
     # the contracts can fail
-    for pkg in ("rt", "plant", "observer", "tracking"):
-        shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copy(ROOT / "pyproject.toml", tmp_path)
-    path = tmp_path / module
+    tree = _installed_tree(tmp_path)
+    path = tree / module
     path.write_text(path.read_text() + f"\n{line}  # noqa\n")
-    r = subprocess.run([_lint_imports()], cwd=tmp_path, capture_output=True, text=True,
-                       env={"PYTHONPATH": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    r = _run_lint(tree)
     assert r.returncode != 0 and message in r.stdout, r.stdout[-2000:]
 
 
@@ -71,7 +105,7 @@ def test_every_face_name_resolves_and_shadows_no_module(package):
 
 
 def _modules():
-    for pkg in ("rt", "plant", "observer", "tracking"):
+    for pkg in ("frictionrt", "rt", "plant", "observer", "tracking"):
         yield from sorted((ROOT / pkg).rglob("*.py"))
 
 

@@ -7,8 +7,8 @@ import pytest
 
 from benchmarks.baseline_curve import baseline, main, one_minimum, plot
 from benchmarks.entry import run_main
-from rt.experiments.reproduce import Plan, measure
-from rt.experiments.stepsine import Settle
+from frictionrt.rt.experiments.reproduce import Plan, measure
+from frictionrt.rt.experiments.stepsine import Settle
 
 F = [40.0, 80.0, 120.0, 160.0, 240.0, 320.0, 450.0, 600.0]
 
@@ -75,10 +75,10 @@ def test_the_harmonic_balance_peak_of_a_stuck_joint_is_the_linear_peak(cfg):
     import numpy as np
 
     from benchmarks.baseline_hb import hb_peak
-    from plant.harmonic_frf import harmonic_system
-    from plant.linear_frf import point_accelerances
-    from rt.experiments.stepsine import mode_bands_hz
-    from rt.loop import build_loop
+    from frictionrt.plant.harmonic_frf import harmonic_system
+    from frictionrt.plant.linear_frf import point_accelerances
+    from frictionrt.rt.experiments.stepsine import mode_bands_hz
+    from frictionrt.rt.loop import build_loop
     model = build_loop(cfg, "passive").plant
     f_slip, f_stuck = mode_bands_hz(cfg, (3,))[3]
     band = (0.9 * f_slip, 1.01 * f_stuck)

@@ -13,8 +13,8 @@ import warnings
 
 import pytest
 
-import rt.common.blas as blas
-from rt.log.design_record import environment_changes
+import frictionrt.rt.common.blas as blas
+from frictionrt.rt.log.design_record import environment_changes
 
 # numpy's SIMD levels above its x86-64-v2 baseline (numpy >= 2.4 names; unknown names are ignored)
 # and glibc's libm without its AVX/AVX2/FMA/AVX-512 variants: what an older CPU would run
@@ -25,9 +25,9 @@ OTHER_CPU = {"NPY_DISABLE_CPU_FEATURES": "X86_V3 X86_V4 AVX512_ICL AVX512_SPR AV
 
 def design_digest() -> str:
     """sha256 over every array the compiled loop reads (Lyapunov law, observer) and its initial state."""
-    from rt.common.config import load
-    from rt.log.design_record import design_arrays
-    from rt.loop.build import build_loop, initial_loop_state
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.log.design_record import design_arrays
+    from frictionrt.rt.loop.build import build_loop, initial_loop_state
     loop = build_loop(load(), "lyapunov", "observer")
     arrays = design_arrays(loop, initial_loop_state(loop, 1))
     h = hashlib.sha256()
@@ -89,6 +89,6 @@ def test_replay_names_another_blas():
 
 
 def test_a_run_log_records_the_blas_it_ran_on(cfg):
-    from rt.log.writer import run_metadata
+    from frictionrt.rt.log.writer import run_metadata
     meta = run_metadata(cfg, "passive", "oracle", 1, 200.0, 5.0, 0.1, False)
     assert json.loads(meta["blas"]) == blas.state() != []

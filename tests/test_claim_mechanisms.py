@@ -4,8 +4,8 @@ re-runs themselves are measured in docs/experiments.md, "Why each failing claim 
 import pytest
 
 from benchmarks.claim_mechanisms import constant_clamp_peak, failing_cells
-from rt.experiments.claims import claim_c3, claim_c4
-from rt.experiments.reproduce_report import jsonable
+from frictionrt.rt.experiments.claims import claim_c3, claim_c4
+from frictionrt.rt.experiments.reproduce_report import jsonable
 
 
 def _view(reduction: dict) -> dict:

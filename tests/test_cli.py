@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rt.cli import main
+from frictionrt.rt.cli import main
 
 
 def _run(args, capsys):
@@ -40,7 +40,7 @@ def test_modes_table_warns_when_the_reduction_misses_spec():
     mode and tells the reduction's error (fix: cb_cutoff_hz or the full model) from the eigensolver's
     round-off on a fine mesh (docs/plant.md 6: at a 1.25 mm pitch mode 1 is resolved to ~0.6 % only,
     fix: coarser elements); silent at 0.4 %."""
-    from plant.modes import format_summary
+    from frictionrt.plant.modes import format_summary
     s = {"bare_cantilever_hz": [11.13], "full_stuck_hz": [9.76, 74.07], "reduced_stuck_hz": [9.70, 74.07],
          "eig_resolution_rel": [6.2e-3, 1e-4], "preloaded_stuck_hz": [9.69, 73.79], "sliding_joint_hz": None,
          "n_dof_full": 2247, "n_dof_reduced": 794, "n_stepped": 285, "n_pairs": 129, "closed_pairs": [0],
@@ -122,15 +122,15 @@ def test_bad_input_exit_2_one_line(args, words, capsys):
 
 
 def test_help_gives_units():
-    out = subprocess.run([sys.executable, "-m", "rt.cli", "impulse", "--help"], capture_output=True, text=True)
+    out = subprocess.run([sys.executable, "-m", "frictionrt.rt.cli", "impulse", "--help"], capture_output=True, text=True)
     assert out.returncode == 0
     assert "[N]" in out.stdout and "[Hz]" in out.stdout
-    top = subprocess.run([sys.executable, "-m", "rt.cli", "--help"], capture_output=True, text=True)
+    top = subprocess.run([sys.executable, "-m", "frictionrt.rt.cli", "--help"], capture_output=True, text=True)
     assert "SI" in top.stdout and "modes" in top.stdout
 
 
 def test_version_names_the_log_format(capsys):
-    from rt.log.mcap_log import FORMAT_VERSION
+    from frictionrt.rt.log.mcap_log import FORMAT_VERSION
     with pytest.raises(SystemExit) as e:
         main(["--version"])
     assert e.value.code == 0 and capsys.readouterr().out.strip().endswith(f"(log format {FORMAT_VERSION})")
@@ -138,7 +138,7 @@ def test_version_names_the_log_format(capsys):
 
 def _writers():
     """{verb: its parser} of every verb with -o/--out."""
-    from rt.cli.app import build_parser
+    from frictionrt.rt.cli.app import build_parser
     sub = next(a for a in build_parser()._actions if a.dest == "command").choices
     return {name: p for name, p in sub.items() if any("--out" in a.option_strings for a in p._actions)}
 
@@ -200,7 +200,7 @@ def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args,
 
 
 def test_force_replaces_a_folder_as_a_whole_and_keeps_it_when_the_verb_fails(tmp_path):
-    from rt.cli.common import write_folder
+    from frictionrt.rt.cli.common import write_folder
     out = tmp_path / "campaign"
     out.mkdir()
     (out / "old.mcap").write_text("old")
@@ -227,7 +227,7 @@ def test_force_replaces_a_folder_as_a_whole_and_keeps_it_when_the_verb_fails(tmp
     (["inspect", "x.mcap", "--output", "a.rrd"], ("out", "a.rrd")),
 ])
 def test_old_spellings_work_for_one_release_with_a_one_line_note(old, new, capsys):
-    from rt.cli.app import build_parser
+    from frictionrt.rt.cli.app import build_parser
     args = build_parser().parse_args(old)
     assert getattr(args, new[0]) == new[1]
     err = capsys.readouterr().err.strip().splitlines()
@@ -255,8 +255,8 @@ def test_an_existing_output_is_refused_unless_force_and_errors_are_json_with_jso
 def test_help_shows_defaults_one_way_for_every_verb():
     # one formatter for all verbs (rt.cli.common.HelpFormatter): a default is "(default: VALUE)" at the
     # end of its option's help, never "(default 5)" or "(5)"; examples keep their lines
-    from rt.cli.app import build_parser
-    from rt.cli.common import HelpFormatter
+    from frictionrt.rt.cli.app import build_parser
+    from frictionrt.rt.cli.common import HelpFormatter
     ap = build_parser()
     sub = next(a for a in ap._actions if a.dest == "command").choices
     for name, p in sub.items():

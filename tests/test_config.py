@@ -5,7 +5,7 @@ import warnings
 
 import pytest
 
-from rt.common.config import ConfigError, dumps, load, loads, to_dict
+from frictionrt.rt.common.config import ConfigError, dumps, load, loads, to_dict
 
 
 def test_defaults_are_the_spec_values():

@@ -5,11 +5,11 @@ Golden values are the laws' closed forms; with the options off the plant is the 
 import numpy as np
 import pytest
 
-from plant.contact import _jenkins_pair, _stribeck_mu
-from plant.energy import balance
-from plant.impulse import hammer_force
-from plant.model import build_plant
-from rt.common.config import load
+from frictionrt.plant.contact import _jenkins_pair, _stribeck_mu
+from frictionrt.plant.energy import balance
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import load
 
 S, V_S, MU_K = 0.3, 1e-3, 0.4
 
@@ -70,8 +70,8 @@ def test_stribeck_plant_slides_on_the_lagged_coefficient_and_balances_energy():
 def _iwan_cycle_energy(x0, f_n, a, N, k_t=8e8, mu=MU_K, k_n=1e9, n=20000):
     """Imposed g_t = x0 sin(2 pi t) on one Iwan pair (kernel law, the previous step's code as the
     cached pattern): loop area of f_t over g_t in the second cycle [J], and the element arrays."""
-    from plant.contact import _iwan_pair
-    from plant.model import iwan_fractions
+    from frictionrt.plant.contact import _iwan_pair
+    from frictionrt.plant.model import iwan_fractions
     fr = iwan_fractions(load(sets=[f"plant.interface.iwan_spread={a}", f"plant.interface.iwan_elements={N}"]))
     kf, qf = fr["iwan_k"], fr["iwan_q"]
     t = np.linspace(0.0, 2.0, 2 * n + 1)
@@ -114,8 +114,8 @@ def test_iwan_plant_matches_the_sum_of_jenkins_elements_and_balances_energy():
     plain _jenkins_pair per element) at the step's gaps and start sliders (measured 1e-13 N,
     1e-21 m); the state holds 6 sliders per pair; the energy balance closes (measured 4e-14 J of
     0.039 J) and the pairs dissipate."""
-    from plant.model import contact_forces
-    from plant.simulate import run
+    from frictionrt.plant.model import contact_forces
+    from frictionrt.plant.simulate import run
     cfg = load(sets=["plant.interface.iwan_spread=0.5"])
     m = build_plant(cfg)
     sl, idx = m.state_slots(), m.output_index()

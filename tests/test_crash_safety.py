@@ -13,14 +13,14 @@ from mcap.reader import make_reader
 from mcap.records import Chunk
 from mcap.stream_reader import StreamReader
 
-from rt.cli import main
-from rt.common.config import load
-from rt.loop import build_loop, run
-from rt.log.mcap_log import CHUNK_BYTES, read_mcap, topics_of
-from rt.log.recover import scan
-from rt.log.writer import INTERRUPT_DRAIN_S
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run
+from frictionrt.rt.log.mcap_log import CHUNK_BYTES, read_mcap, topics_of
+from frictionrt.rt.log.recover import scan
+from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S
 from tests.cli_process import start_cli, wait_for_chunks
-from rt.cli.recover import RECOVER
+from frictionrt.rt.cli.recover import RECOVER
 from tests.test_logfiles import rrd_column
 from tests.test_logging_loop import clock_columns
 from tests.test_replay import _sensors_only_file
@@ -242,7 +242,7 @@ def test_inspect_converts_a_measurement_with_a_gap(recovered, tmp_path, capsys):
     entities at exactly those ticks, and only the setpoint and sensors views."""
     from rerun.chunk import RrdReader
 
-    from rt.log.mcap_log import McapLog
+    from frictionrt.rt.log.mcap_log import McapLog
     rec = read_mcap(recovered)
     rows = np.r_[0:1000, 1500:2000]   # within the 3 chunks the kill leaves at least
     part = McapLog(rec.path, rec.signals, rec.log[rows], rec.k[rows], rec.rate_hz, rec.metadata, rec.topics)

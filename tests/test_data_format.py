@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from mcap.writer import CompressionType, Writer
 
-from rt.cli import main
-from rt.log.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_table, signal_table,
+from frictionrt.rt.cli import main
+from frictionrt.rt.log.data_format import (REQUIRED, SETPOINTS, SIGNALS, entry_of, required_table, signal_table,
                             keys_table, validate)
-from rt.loop import loop_signals
-from rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
-from rt.log.registry import field_type, ros2_field
-from tracking.force_tracking import design_force_tracking
+from frictionrt.rt.loop import loop_signals
+from frictionrt.rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
+from frictionrt.rt.log.registry import field_type, ros2_field
+from frictionrt.tracking.force_tracking import design_force_tracking
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
 
@@ -64,7 +64,7 @@ def test_doc_tables_are_the_generated_ones(marker, table):
     text = DOC.read_text()
     m = re.search(rf"<!-- {marker}[^>]*-->\n(.*?)<!-- /{marker} -->", text, re.S)
     assert m, f"docs/data-format.md lacks the {marker} block"
-    assert m.group(1) == table(), f"regenerate the {marker} of docs/data-format.md: python -m rt.log.data_format"
+    assert m.group(1) == table(), f"regenerate the {marker} of docs/data-format.md: python -m frictionrt.rt.log.data_format"
 
 
 def test_doc_required_fields_exist_in_the_loop(reduced):

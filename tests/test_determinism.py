@@ -15,10 +15,10 @@ import sys
 
 import pytest
 
-from rt.common.codegen import compiled_target
-from rt.log.mcap_log import read_mcap
-from rt.loop.replay import replay
-from rt.loop.replay_plant import replay_plant
+from frictionrt.rt.common.codegen import compiled_target
+from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.rt.loop.replay import replay
+from frictionrt.rt.loop.replay_plant import replay_plant
 from tests.fixtures.make_fixtures import FIXTURE
 
 # another code generation: each /plant and /actuator signal within this fraction of its range over
@@ -49,7 +49,7 @@ def replay_in_subprocess(env_extra: dict, plant: bool) -> dict:
     env = dict(os.environ, **env_extra)
     if env.get("FRICTIONRT_CPU") == "host":
         env.pop("NUMBA_CPU_NAME", None)   # rt/common/codegen.py put it into this process's environment
-    cmd = [sys.executable, "-m", "rt.cli", "replay", str(FIXTURE), "--json"] + (["--plant"] if plant else [])
+    cmd = [sys.executable, "-m", "frictionrt.rt.cli", "replay", str(FIXTURE), "--json"] + (["--plant"] if plant else [])
     p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
     assert p.returncode in (0, 1), p.stderr
     return json.loads(p.stdout)

@@ -10,17 +10,17 @@ import pytest
 from mcap.reader import make_reader
 from threadpoolctl import threadpool_limits
 
-from rt.cli import main
-import rt.discrepancy.diagnose.campaign as campaign_module
-from rt.common.config import Config, with_sets
-from rt.log.data_format import validate
-from rt.log.mcap_log import start_time_ns
-from rt.discrepancy.diagnose.campaign import (CONTINUE_ROUNDS, MIN_RSS_REDUCTION, NAME_THRESHOLD, bic, diagnose, fit_actuator,
+from frictionrt.rt.cli import main
+import frictionrt.rt.discrepancy.diagnose.campaign as campaign_module
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.log.data_format import validate
+from frictionrt.rt.log.mcap_log import start_time_ns
+from frictionrt.rt.discrepancy.diagnose.campaign import (CONTINUE_ROUNDS, MIN_RSS_REDUCTION, NAME_THRESHOLD, bic, diagnose, fit_actuator,
                                              fit_in_parallel, gaps, load_campaign)
-from rt.discrepancy.diagnose.structure import SENSORS, best_nested, fit_structure, prepare, run_shape
-from rt.discrepancy.effects import EFFECTS, get, implemented
-from rt.discrepancy.chain import scaled
-from rt.discrepancy.rig import make_campaign, scatter_sets
+from frictionrt.rt.discrepancy.diagnose.structure import SENSORS, best_nested, fit_structure, prepare, run_shape
+from frictionrt.rt.discrepancy.effects import EFFECTS, get, implemented
+from frictionrt.rt.discrepancy.chain import scaled
+from frictionrt.rt.discrepancy.rig import make_campaign, scatter_sets
 
 SEED = 5
 # The workflow's tests run on the uniform 10 mm joint (end_refinement = 1: the same physical model
@@ -316,7 +316,7 @@ def test_list_json_shows_every_effect(capsys):
 def test_stepsine_files_read_back_and_do_not_reveal_the_shaker(campaigns):
     """rig --stepsine: six FRF files (2 amplitudes x 3 F_N1 levels) with measured force and drive
     amplitudes, readable by rt.log.frf_files; the shaker shows only as F_amp_N != drive_amp_N."""
-    from rt.log.frf_files import load_frf_folder
+    from frictionrt.rt.log.frf_files import load_frf_folder
     folder = campaigns("shaker_interaction")
     tests = load_frf_folder(folder)
     assert len(tests) == 6 and all(t.meta["kind"] == "stepsine" and len(t.freq_hz) >= 10 for t in tests)
@@ -355,9 +355,9 @@ def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
     then KeyboardInterrupt): exit 130, the report folder holds calibration alone (with the actuator's c_v)
     and the first candidate (diagnose.json as printed, model.toml the candidate's configuration), the
     candidates' progress bar and the wall time on stderr, no traceback."""
-    import rt.discrepancy.diagnose.campaign as campaign
-    from rt.common.config import load
-    from rt.discrepancy.diagnose.structure import StructureFit, struct_cfg
+    import frictionrt.rt.discrepancy.diagnose.campaign as campaign
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.discrepancy.diagnose.structure import StructureFit, struct_cfg
     nominal = _nominal("none")
     folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3, cfg=nominal)[0].parent
     struct_eff = [e for e in implemented() if e.channel == "structure"]

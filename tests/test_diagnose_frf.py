@@ -10,17 +10,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from plant.linear_frf import continuous_accelerance, stuck_model
-from plant.model import build_plant
-from rt.cli import main
-from rt.common.config import Config, load, with_sets
-from rt.discrepancy.diagnose.frf import diagnose_frf, prepare, residuals
-from rt.discrepancy.effects import get, implemented
-from rt.log.frf_files import load_frf_folder
-from plant.linear_frf import modal_accelerance
-from rt.discrepancy.chain import scaled
-from rt.discrepancy.rig import scatter_sets
-from rt.discrepancy.rig.frf import FREQ_HZ, make_frf_campaign
+from frictionrt.plant.linear_frf import continuous_accelerance, stuck_model
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import Config, load, with_sets
+from frictionrt.rt.discrepancy.diagnose.frf import diagnose_frf, prepare, residuals
+from frictionrt.rt.discrepancy.effects import get, implemented
+from frictionrt.rt.log.frf_files import load_frf_folder
+from frictionrt.plant.linear_frf import modal_accelerance
+from frictionrt.rt.discrepancy.chain import scaled
+from frictionrt.rt.discrepancy.rig import scatter_sets
+from frictionrt.rt.discrepancy.rig.frf import FREQ_HZ, make_frf_campaign
 
 SEED = 5
 LAP_JOINT = Path(__file__).resolve().parents[1] / "configs" / "lap_joint.toml"
@@ -39,7 +39,7 @@ def campaigns(tmp_path_factory):
 
 
 def test_modal_accelerance_is_the_linear_frf():
-    """plant.linear_frf.modal_accelerance (one eigen decomposition) against plant.linear_frf's per-line solve, at a
+    """frictionrt.plant.linear_frf.modal_accelerance (one eigen decomposition) against plant.linear_frf's per-line solve, at a
     low and a high F_N1 (other pairs closed), both accelerometer points."""
     model = build_plant(with_sets(Config(), []))
     f = FREQ_HZ[::97]
@@ -185,7 +185,7 @@ def test_mobility_of_any_sensors_paired_by_shape(one_level, tmp_path):
     there): moving_mass named, every sensor in the gap over the whole band, the modes paired by
     shape (three sensors: MAC > 0.9 for all eight modes of the linear model); the report plots
     each sensor in its quantity."""
-    from rt.discrepancy.diagnose.report import write_report
+    from frictionrt.rt.discrepancy.diagnose.report import write_report
     d, res = one_level("moving_mass", "mobility_sensors")
     assert res["named_effect"] == "moving_mass", res["ranking"]
     assert res["sensors"]["v_mid"] == {"point": "v_mid", "quantity": "mobility", "unit": "(m/s)/N"}
@@ -223,7 +223,7 @@ def test_position_off_every_beam_is_refused(tmp_path):
 def test_drive_voltage_force_scale(one_level, tmp_path):
     """H per volt = 0.37 N/V x H per newton, no force: the scale fitted within 1 % (measured 0.01 %),
     the effect named as with a force, the JSON and report say the data have no force."""
-    from rt.discrepancy.diagnose.report import write_report
+    from frictionrt.rt.discrepancy.diagnose.report import write_report
     _, ref = one_level("clamp_compliance", "accelerance")
     d, res = one_level("clamp_compliance", "drive_voltage")
     assert json.loads((d / "frf_01.json").read_text())["excitation"] == "drive_voltage"
@@ -234,7 +234,7 @@ def test_drive_voltage_force_scale(one_level, tmp_path):
     assert res["fitted_parameters"]["E"] == pytest.approx(ref["fitted_parameters"]["E"], rel=1e-4)
     md = (write_report(res, tmp_path / "rep") / "report.md").read_text()
     assert "## Excitation: drive voltage, no force" in md and "cannot be separated" in md
-    from rt.discrepancy.diagnose import summary
+    from frictionrt.rt.discrepancy.diagnose import summary
     assert "no force in the data: fitted force scale 0.37" in summary(res)
 
 
@@ -294,7 +294,7 @@ def test_contact_stiffness_a_decade_off(one_level, k_nominal):
 def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
     """A nominal modal damping 20 x too high: the fit needs a scale ~0.05, below the bound 0.1, and
     ends on it: a warning in the JSON (parameter, value, bound, fix) and in report.md."""
-    from rt.discrepancy.diagnose.report import write_report
+    from frictionrt.rt.discrepancy.diagnose.report import write_report
     nominal = with_sets(Config(), ["plant.modal_damping=0.02"])
     _, res = one_level("none", "accelerance", nominal)
     w = [x for x in res["warnings"] if x["parameter"] == "modal_damping"]
@@ -302,14 +302,14 @@ def test_parameter_on_a_bound_is_a_warning(one_level, tmp_path):
     assert "check the nominal plant.modal_damping" in w[0]["fix"] and "drive_voltage" in w[0]["fix"]
     md = (write_report(res, tmp_path / "rep") / "report.md").read_text()
     assert "## Warnings: parameters on a bound, level" in md and "| modal_damping | 0.1 | 0.1 |" in md
-    from rt.discrepancy.diagnose import summary
+    from frictionrt.rt.discrepancy.diagnose import summary
     assert "warning: modal_damping = 0.1 on its bound 0.1: check the nominal" in summary(res)   # the CLI's text
 
 
 def test_bound_warnings_by_scale():
     """Within 0.5 % of a bound: relative to it, on ln for the log-scale ones, relative to the range
     for a bound 0; the fix of a level-like parameter hints at missing force unless per volt."""
-    from rt.discrepancy.diagnose.frf import bound_warnings
+    from frictionrt.rt.discrepancy.diagnose.frf import bound_warnings
     eff = get("clamp_compliance")
     w = bound_warnings({"E": 1.995, "k_t": 0.01004, "modal_damping": 9.9, "clamp_compliance": 1e-6,
                         "force_scale_N_per_V": 999.0}, eff, True, Config())
@@ -342,7 +342,7 @@ def test_rig_cli_writes_the_file_kinds(tmp_path, capsys):
     """rig --frf-files --quantity mobility --force-scale 0.37: sidecars say so, the data are the
     accelerance campaign's (same seed, same noise draws) / (i w) x 0.37 to the CSV's bits; the
     options without --frf-files or a scale <= 0 are refused in one line."""
-    from rt.log.frf_files import read_frf
+    from frictionrt.rt.log.frf_files import read_frf
     for extra, d in (([], tmp_path / "a"), (["--quantity", "mobility", "--force-scale", "0.37"], tmp_path / "v")):
         assert main(["rig", "--effect", "none", "--frf-files", "--seed", "1", "-o", str(d)] + extra) == 0
     capsys.readouterr()
@@ -359,8 +359,8 @@ def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
     """Ctrl-C in the second candidate's fit (patched to raise it): exit 130, the report folder holds the two
     fits done (calibration only and the first candidate; diagnose.json as printed, model.toml the candidate's
     configuration), the fits' progress bars and the wall time are on stderr, no traceback."""
-    import rt.discrepancy.diagnose.frf as frf
-    from rt.discrepancy.diagnose.frf import _candidates
+    import frictionrt.rt.discrepancy.diagnose.frf as frf
+    from frictionrt.rt.discrepancy.diagnose.frf import _candidates
     d = tmp_path / "c"
     make_frf_campaign(d, "none", seed=SEED, levels_n=ONE_LEVEL)
     first = _candidates(Config())[0][0]

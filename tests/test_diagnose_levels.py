@@ -7,10 +7,10 @@ import json
 
 import pytest
 
-from rt.cli import main
-from rt.discrepancy.diagnose.levels import diagnose_levels, split
-from rt.discrepancy.rig.levels import make_level_campaign
-from rt.log.frf_files import load_frf_folder
+from frictionrt.rt.cli import main
+from frictionrt.rt.discrepancy.diagnose.levels import diagnose_levels, split
+from frictionrt.rt.discrepancy.rig.levels import make_level_campaign
+from frictionrt.rt.log.frf_files import load_frf_folder
 
 SCALE = 0.37                  # [N/V] the shaker's force per drive volt
 LEVELS = (1.35, 2.7, 27.0)    # [V]: 0.5, 1, 10 N
@@ -66,7 +66,7 @@ def test_levels_are_checked(folder, tmp_path, capsys):
     with pytest.raises(ValueError, match="no test at that level"):
         diagnose_levels(folder, [3.0])
     # a drive-voltage sidecar's level is in V and only with that excitation
-    from rt.log.frf_files import check_meta
+    from frictionrt.rt.log.frf_files import check_meta
     meta = dict(tests[0].meta) | {"excitation": "force"}
     with pytest.raises(ValueError, match="drive_amplitude_v is given, but the excitation is a force"):
         check_meta(meta)
@@ -78,8 +78,8 @@ def test_the_fit_uses_the_modes_bands_each_weighted_alike():
     w = sigma_k^2 / sigma_k'^2 sum to n / B = 55 (the sparse band's lines weigh 10x the dense band's)."""
     import numpy as np
 
-    from rt.discrepancy.diagnose.frf import FRFData
-    from rt.discrepancy.diagnose.levels import mode_bands
+    from frictionrt.rt.discrepancy.diagnose.frf import FRFData
+    from frictionrt.rt.discrepancy.diagnose.levels import mode_bands
     freq = np.concatenate([np.linspace(46.0, 54.0, 10), np.linspace(100.0, 150.0, 20), 180.2 + 0.4 * np.arange(100)])
     H = {"v": np.ones(len(freq)) + 0j}
     sel = {"v": np.ones(len(freq), bool)}
@@ -97,8 +97,8 @@ def test_an_interrupted_diagnosis_keeps_its_fits(folder, tmp_path, capsys, monke
     calibration levels): exit 130, the report folder holds the linear fit and the interrupted fit's best
     point (diagnose.json as printed, model.toml that point's configuration), the fit's progress bar and
     the wall time are on stderr."""
-    import rt.discrepancy.diagnose.levels as levels
-    from rt.common.config import load
+    import frictionrt.rt.discrepancy.diagnose.levels as levels
+    from frictionrt.rt.common.config import load
     calls = []
 
     def stopping(*args, **kwargs):

@@ -7,9 +7,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import rt.discrepancy.diagnose.stepsine as ds
-from rt.common.config import Config, with_sets
-from rt.log.frf_files import FRFTest
+import frictionrt.rt.discrepancy.diagnose.stepsine as ds
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.log.frf_files import FRFTest
 
 FREQ = np.array([120.0, 212.0, 500.0])
 H_FRF = np.array([2.0 + 1.0j, -3.0 + 0.5j, 1.5 - 2.0j])       # the model's accelerance at a_frf [(m/s^2)/N]

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rt.common.config import Config, with_sets
-from rt.discrepancy.diagnose import load_campaign
-from rt.discrepancy.diagnose.structure import (
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.diagnose import load_campaign
+from frictionrt.rt.discrepancy.diagnose.structure import (
     fit_frequencies,
     force_window,
     model_frf,
@@ -23,7 +23,7 @@ from rt.discrepancy.diagnose.structure import (
     warp,
     windowed_frf,
 )
-from rt.discrepancy.rig import make_campaign
+from frictionrt.rt.discrepancy.rig import make_campaign
 
 H = 1.0 / 21000.0           # the rig's tick [s]
 
@@ -124,7 +124,7 @@ def test_stage1_finds_the_datas_time_step(stage1_by_substeps):
 
 def test_report_says_what_the_dispersion_means():
     """report.md turns c into the data's step: c = 0.75 is half the plant's step, c = 1 continuous time."""
-    from rt.discrepancy.diagnose.report import dispersion_note
+    from frictionrt.rt.discrepancy.diagnose.report import dispersion_note
     assert "0.50 x the model's plant step" in dispersion_note(0.75)
     assert "0.00 x the model's plant step" in dispersion_note(1.0)
     assert "beyond continuous time" in dispersion_note(1.2)

@@ -13,10 +13,10 @@ import subprocess
 import numpy as np
 import pytest
 
-from rt.cli import main
-from rt.export.cbuild import OUTPUTS
-from rt.export.replay_c import READINGS, replay_c
-from rt.log.mcap_log import read_mcap
+from frictionrt.rt.cli import main
+from frictionrt.rt.export.cbuild import OUTPUTS
+from frictionrt.rt.export.replay_c import READINGS, replay_c
+from frictionrt.rt.log.mcap_log import read_mcap
 
 LAWS = ("passive", "hysteresis", "lyapunov")
 ESTIMATORS = ("oracle", "observer")
@@ -193,8 +193,8 @@ def test_bench_controller_times_numba_and_the_c_on_the_same_readings(runs, capsy
 def test_overruns_of_a_paced_log_give_the_c_the_numba_replays_outputs(runs, tmp_path):
     """The supervisor's overrun check (a burst of 60 overrunning ticks: overrun_burst), which only
     paced runs reach: a log marked paced with long tick_ns, replayed through numba and the C."""
-    from rt.log.writer import McapBlockWriter
-    from rt.loop.replay import replay_outputs
+    from frictionrt.rt.log.writer import McapBlockWriter
+    from frictionrt.rt.loop.replay import replay_outputs
     log, exp = runs["lyapunov", "observer"]
     rec = read_mcap(log)
     data = rec.log.copy()
@@ -213,9 +213,9 @@ def test_overruns_of_a_paced_log_give_the_c_the_numba_replays_outputs(runs, tmp_
 def test_the_loop_with_the_c_controller_writes_the_numba_loops_log(runs, law, estimator):
     """Software in the loop (rt/export/sil.py): the C export called from the compiled loop through a
     ctypes function argument gives the simulate log's every signal bit for bit (timing columns aside)."""
-    from rt.common.config import load
-    from rt.export.sil import run_sil
-    from rt.loop import build_loop
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.export.sil import run_sil
+    from frictionrt.rt.loop import build_loop
     log, exp = runs[law, estimator]
     rec = read_mcap(log)
     loop = build_loop(load(), law, estimator)
@@ -237,9 +237,9 @@ def test_a_c_controller_run_ends_in_the_numba_runs_state(runs, law, estimator):
     and the summary simulate prints equal the numba run's, so a run continued from it is the
     same whichever controller ran before: C then numba, numba then C and C then C each equal one
     numba run (0.05 s, split at 0.025 s)."""
-    from rt.common.config import load
-    from rt.export.sil import CController
-    from rt.loop import build_loop, run as run_loop, summary
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.export.sil import CController
+    from frictionrt.rt.loop import build_loop, run as run_loop, summary
     loop = build_loop(load(), law, estimator)
     c = CController(loop, runs[law, estimator][1], loop.cfg.rt.seed)
     ref, sil = run_loop(loop, 223.6, 5.0, 0.05), run_loop(loop, 223.6, 5.0, 0.05, controller=c)
@@ -288,10 +288,10 @@ def test_a_paced_run_with_the_c_controller_replays_bit_exact(runs, capsys, tmp_p
     replay rebuilds them from tick_ns + late_ns. The run is as long as the writer's ring (0.1 s, one
     block), the case in which the paced writer used to drop the only block (rt/log/writer.py
     ``_overwritten``; forced deterministically in tests/test_logging_loop.py)."""
-    from rt.common.config import load
-    from rt.export.sil import CController
-    from rt.log.writer import open_run_log, run_metadata
-    from rt.loop import build_loop, run as run_loop
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.export.sil import CController
+    from frictionrt.rt.log.writer import open_run_log, run_metadata
+    from frictionrt.rt.loop import build_loop, run as run_loop
     cfg = load()
     loop = build_loop(cfg, "lyapunov", "observer")
     meta = run_metadata(cfg, "lyapunov", "observer", cfg.rt.seed, 223.6, 5.0, 0.1, True) | {"faults": "[]"}
@@ -340,9 +340,9 @@ def test_a_c_controller_pickles_and_its_copy_loads_the_library_by_path(runs, tmp
     library the original built, by its path, or builds the export again where that path does not
     exist; each runs as the original."""
     import pickle
-    from rt.common.config import load
-    from rt.export.sil import CController
-    from rt.loop import build_loop, run as run_loop
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.export.sil import CController
+    from frictionrt.rt.loop import build_loop, run as run_loop
     loop = build_loop(load(), "lyapunov", "observer")
     c = CController(loop, runs["lyapunov", "observer"][1], loop.cfg.rt.seed)
     copy = pickle.loads(pickle.dumps(c))

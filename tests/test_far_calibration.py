@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
 
-from rt.common.config import Config, with_sets
-from rt.discrepancy.chain import scaled
-from rt.discrepancy.diagnose import load_campaign
-from rt.discrepancy.diagnose.structure import CAL_FAR, fit_structure, prepare, run_shape
-from rt.discrepancy.rig import make_campaign, scatter_sets
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.chain import scaled
+from frictionrt.rt.discrepancy.diagnose import load_campaign
+from frictionrt.rt.discrepancy.diagnose.structure import CAL_FAR, fit_structure, prepare, run_shape
+from frictionrt.rt.discrepancy.rig import make_campaign, scatter_sets
 
 SEED = 3
 K_T_OFF = 0.2        # the truth's k_t against the nominal's: below the former bound 0.6

@@ -7,15 +7,15 @@ from pathlib import Path
 
 import pytest
 
-from rt.common.config import Config, ConfigError, dumps, key_range, load, loads, with_sets
-from rt.discrepancy.chain import FIT_MARGIN, scale_bounds, scaled
-from rt.discrepancy.diagnose.campaign import ACT_CAL
-from rt.discrepancy.diagnose.frf import CAL_NAMES as FRF_NAMES
-from rt.discrepancy.diagnose.frf import bound_warnings
-from rt.discrepancy.diagnose.levels import fit_bounds
-from rt.discrepancy.diagnose.plausible import CLAMP, ranges
-from rt.discrepancy.diagnose.structure import CAL_FAR, bounds
-from rt.discrepancy.effects import get, implemented
+from frictionrt.rt.common.config import Config, ConfigError, dumps, key_range, load, loads, with_sets
+from frictionrt.rt.discrepancy.chain import FIT_MARGIN, scale_bounds, scaled
+from frictionrt.rt.discrepancy.diagnose.campaign import ACT_CAL
+from frictionrt.rt.discrepancy.diagnose.frf import CAL_NAMES as FRF_NAMES
+from frictionrt.rt.discrepancy.diagnose.frf import bound_warnings
+from frictionrt.rt.discrepancy.diagnose.levels import fit_bounds
+from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, ranges
+from frictionrt.rt.discrepancy.diagnose.structure import CAL_FAR, bounds
+from frictionrt.rt.discrepancy.effects import get, implemented
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 EDGE = ["plant.interface.mu=1.5", "plant.modal_damping=0.5"]

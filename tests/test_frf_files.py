@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rt.log.frf_files import (
+from frictionrt.rt.log.frf_files import (
     FORMAT,
     FRFTest,
     load_frf_folder,
@@ -247,7 +247,7 @@ def test_quantities_and_sensor_names_round_trip(tmp_path, quantity, spec, excita
 
 def test_from_accelerance_is_the_time_integral():
     """H_v = H_a / (i w), H_x = H_a / (i w)^2: a mass m (H_a = 1/m) has the receptance -1/(m w^2)."""
-    from rt.log.frf_files import from_accelerance
+    from frictionrt.rt.log.frf_files import from_accelerance
     f = np.array([1.0, 10.0, 100.0])
     w = 2 * np.pi * f
     Ha = np.full(3, 0.5 + 0j)

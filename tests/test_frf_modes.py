@@ -3,7 +3,7 @@ offset that pairs most modes at one frequency ratio, by shape (MAC) with three o
 no window around the model's frequencies, so a model 33 % off still pairs every mode."""
 import numpy as np
 
-from rt.discrepancy.diagnose.frf_modes import Measured, ModelModes, mac, pair
+from frictionrt.rt.discrepancy.diagnose.frf_modes import Measured, ModelModes, mac, pair
 
 F_MODEL = np.array([9.7, 74.4, 230.7, 416.2, 634.7, 1049.7, 1420.7, 1547.9])   # the benchmark's stuck modes [Hz]
 

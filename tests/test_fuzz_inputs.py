@@ -56,9 +56,9 @@ from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from rt.cli import main
-from rt.common.config import LAWS, Config, dumps, load, to_dict
-from rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import LAWS, Config, dumps, load, to_dict
+from frictionrt.rt.log.mcap_log import read_mcap, signals_record, stamps_ns, topics_of
 
 # --- settings ---------------------------------------------------------------------------------
 
@@ -232,7 +232,7 @@ def cfg_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def warm():
     """Import what ``simulate`` imports once, outside the per-example deadline."""
-    for name in ("rt.loop.driver", "rt.log.writer", "tqdm"):
+    for name in ("frictionrt.rt.loop.driver", "frictionrt.rt.log.writer", "tqdm"):
         importlib.import_module(name)
 
 
@@ -616,7 +616,7 @@ def test_log_file_crafted(data, cmd, kind, real_log, dirs, capfd):
 def frf_sources(tmp_path_factory):
     """{suffix: (data bytes, sidecar bytes)} of a 40-line test of both accelerometers, CSV and UFF,
     whose sidecar places the excitation 0.1 m from the model's (a valid file stops at that check)."""
-    from rt.log.frf_files import FORMAT, FRFTest, sidecar_path, write_frf_csv, write_frf_uff
+    from frictionrt.rt.log.frf_files import FORMAT, FRFTest, sidecar_path, write_frf_csv, write_frf_uff
     d = tmp_path_factory.mktemp("frf_src")
     f = 100.0 + 0.25 * np.arange(40)
     H = {s: (1.0 + 0.1j) * f / (s.startswith("a_tip") + 1.0) for s in ("a_frf_meas", "a_tip_meas")}
@@ -716,7 +716,7 @@ def _bad_kind(data, suffix: str) -> tuple[dict, str, str]:
 def test_frf_sidecar_crafted(data, suffix, dirs, capfd):
     """diagnose on an FRF file whose sidecar's issue-18 keys are bad (or its sensor is off every
     beam): exit 2, one line naming the folder and the problem, nothing written."""
-    from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
+    from frictionrt.rt.log.frf_files import FORMAT, FRFTest, write_frf_csv, write_frf_uff
     changes, name, words = _bad_kind(data, suffix)
     COUNT[f"frf crafted:{suffix}"] += 1
     src_dir, out = dirs

@@ -5,12 +5,12 @@ benchmarks/harmonic_frf.py, docs/plant.md 10)."""
 import numpy as np
 import pytest
 
-from plant.contact import _iwan_pair, _jenkins_pair
-from plant.describing import jenkins_df, pair_df, slider_amplitude
-from plant.harmonic_frf import harmonic_accelerances, harmonic_system
-from plant.linear_frf import point_accelerances
-from plant.model import build_plant, iwan_fractions
-from rt.common.config import load
+from frictionrt.plant.contact import _iwan_pair, _jenkins_pair
+from frictionrt.plant.describing import jenkins_df, pair_df, slider_amplitude
+from frictionrt.plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from frictionrt.plant.linear_frf import point_accelerances
+from frictionrt.plant.model import build_plant, iwan_fractions
+from frictionrt.rt.common.config import load
 
 K_T, Q = 1.32e9, 40.0          # a pair's k_t [N/m] and mu f_n [N]: slip from a_s = Q / K_T = 30 nm
 A_S = Q / K_T
@@ -84,7 +84,7 @@ def test_describing_function_derivative_is_its_finite_difference():
 
 
 def test_compiled_describing_function_is_the_numpy_reference():
-    """plant.describing's kernel (over pairs and elements) against tests/naive.py's NumPy formulas,
+    """frictionrt.plant.describing's kernel (over pairs and elements) against tests/naive.py's NumPy formulas,
     Jenkins and Iwan, stuck and slipping, per pair its own k_t and q: equal to round-off (1e-13
     relative: arccos near theta* = pi and the sums of N elements)."""
     from tests import naive
@@ -155,8 +155,8 @@ LAP_LINES = [69.55, 69.80, 70.05]
 
 
 def test_slipping_level_agrees_with_the_nonlinear_stepsine():
-    from rt.experiments.stepsine import Settle, sweep
-    from rt.loop import build_loop
+    from frictionrt.rt.experiments.stepsine import Settle, sweep
+    from frictionrt.rt.loop import build_loop
     cfg = load("configs/lap_joint.toml")
     loop = build_loop(cfg, "passive")
     ss = sweep(loop, LAP_LINES, 0.3, settle=Settle(max_s=8.0))

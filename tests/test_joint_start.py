@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from rt.discrepancy.diagnose.structure import JOINT_DAMPING, JOINT_STRENGTH, joint_start
+from frictionrt.rt.discrepancy.diagnose.structure import JOINT_DAMPING, JOINT_STRENGTH, joint_start
 
 
 def quadratic(target: np.ndarray):

@@ -29,14 +29,14 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from plant.contact import _jenkins_pair, _normal_impulse
-from plant.impulse import hammer_force
-from plant.model import build_plant
-from plant.newmark import (ROUNDOFF, _contact_newton, _inverse_solve, _lu_factor, _lu_solve, _plant_step,
+from frictionrt.plant.contact import _jenkins_pair, _normal_impulse
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.model import build_plant
+from frictionrt.plant.newmark import (ROUNDOFF, _contact_newton, _inverse_solve, _lu_factor, _lu_solve, _plant_step,
                            _transition_root, _triangular_inverses)
-from plant.simulate import _run, run
-from rt.common.clock import _now_ns
-from rt.common.config import load
+from frictionrt.plant.simulate import _run, run
+from frictionrt.rt.common.clock import _now_ns
+from frictionrt.rt.common.config import load
 from tests import naive
 
 RTOL = 1e-12          # issue check 8
@@ -661,7 +661,7 @@ def test_newton_takes_few_iterations_where_pairs_open_or_reverse(refinement, sha
     (plant/newmark.py, docs/plant.md 2.3) 0.02 % (uniform 10 mm) and 0.12 % (graded default),
     at most 4; with plain Newton they were `share_before` %, up to 17 iterations (the tick's tail).
     Bound: 0.5 %, a quarter of the smaller of the old shares; at most 6 iterations."""
-    from rt.loop.bench import _excitation
+    from frictionrt.rt.loop.bench import _excitation
     m = build_plant(load(sets=[f"plant.interface.end_refinement={refinement}"]))
     Y, _, _ = run(m, _excitation(m, 42000), m.structure.F_N1_initial)
     it = Y[:, m.output_index()["newton_iter"]]
@@ -676,9 +676,9 @@ def test_kept_factors_belong_to_their_pattern():
     FACTOR_SLOTS must agree to round-off (`bench plant`'s mode-3 sine at the graded default, 10000
     steps; measured 1e-11 of each output's range). The run does return to kept patterns: it fills more
     than 8 slots (measured: all 32)."""
-    from rt.loop.bench import _excitation
-    from plant.newmark import FACTOR_SLOTS
-    from plant.simulate import _run
+    from frictionrt.rt.loop.bench import _excitation
+    from frictionrt.plant.newmark import FACTOR_SLOTS
+    from frictionrt.plant.simulate import _run
     m = build_plant(load())
     U = np.column_stack([_excitation(m, 10000), np.full(10000, m.structure.F_N1_initial)])
     x0 = m.initial_state(float(U[0, 1]))

@@ -7,15 +7,15 @@ docs/discrepancy.md "Amplitude dependence")."""
 import numpy as np
 import pytest
 
-from plant.harmonic_frf import harmonic_accelerances, harmonic_system
-from plant.model import build_plant
-from rt.common.config import load
-from rt.discrepancy.chain import quiet
-from rt.discrepancy.diagnose.frf import prepare, with_sensor_points
-from rt.discrepancy.diagnose.levels import contact_note, contact_of, diagnose_levels, gap_db, level_of, nonlinear_H
-from rt.discrepancy.rig import true_structure
-from rt.discrepancy.rig.levels import make_level_campaign
-from rt.log.frf_files import load_frf_folder
+from frictionrt.plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import load
+from frictionrt.rt.discrepancy.chain import quiet
+from frictionrt.rt.discrepancy.diagnose.frf import prepare, with_sensor_points
+from frictionrt.rt.discrepancy.diagnose.levels import contact_note, contact_of, diagnose_levels, gap_db, level_of, nonlinear_H
+from frictionrt.rt.discrepancy.rig import true_structure
+from frictionrt.rt.discrepancy.rig.levels import make_level_campaign
+from frictionrt.rt.log.frf_files import load_frf_folder
 
 CFG = load("configs/lap_joint_al.toml")
 LEVELS = (1.0, 10.0)            # [N]: the outer pairs slip (1 N); the overlap's ends gape (10 N)

@@ -12,10 +12,10 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from rt.cli import main
-from rt.log.data_format import validate
-from rt.log.mcap_log import FORMAT_VERSION, read_mcap, tick_time_ns, topics_of
-from rt.log.registry import field_names
+from frictionrt.rt.cli import main
+from frictionrt.rt.log.data_format import validate
+from frictionrt.rt.log.mcap_log import FORMAT_VERSION, read_mcap, tick_time_ns, topics_of
+from frictionrt.rt.log.registry import field_names
 
 FIXTURE_V0 = Path(__file__).parent / "fixtures" / "log_v0.mcap"
 """420 ticks of `frictionrt simulate --law lyapunov --freq 196 --amp 5 --duration 0.02 --seed 1
@@ -89,8 +89,8 @@ def test_simulate_logs_decode_with_the_ros2_decoder(run_log, capsys):
 
 
 def test_rig_campaign_and_recovered_logs_decode_with_the_ros2_decoder(tmp_path, capsys, run_log):
-    from rt.common.config import load
-    from rt.discrepancy.rig import make_campaign
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.discrepancy.rig import make_campaign
     files = make_campaign(tmp_path / "camp", record_s=0.01, levels_n=(100.0,), ramps_s=(3e-3,), cfg=load())
     assert files and all(check_ros2_decode(f) > 0 for f in files)
     code, _, err = cli(capsys, "recover", run_log, "-o", tmp_path / "rec.mcap")
@@ -167,9 +167,9 @@ def test_a_file_written_with_mcap_ros2_is_validated_and_replayed(run_log, tmp_pa
 
 
 def test_diagnose_reads_a_campaign_written_with_mcap_ros2(tmp_path):
-    from rt.common.config import load
-    from rt.discrepancy.diagnose import load_campaign
-    from rt.discrepancy.rig import make_campaign
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.discrepancy.diagnose import load_campaign
+    from frictionrt.rt.discrepancy.rig import make_campaign
     files = make_campaign(tmp_path / "camp", record_s=0.01, levels_n=(100.0,), ramps_s=(3e-3,), cfg=load())
     (tmp_path / "lab").mkdir()
     for p in files:
@@ -243,8 +243,8 @@ def test_every_log_the_project_writes_starts_after_2020(tmp_path, capsys, run_lo
     """Real UTC stamps, so that Foxglove and rerun show real dates: the first log time of simulate's
     MCAP and .rrd, a rig campaign's measurements, a recovered log and inspect's .rrd of a campaign
     file (its UTC from the file) are all after 2020-01-01."""
-    from rt.common.config import load
-    from rt.discrepancy.rig import make_campaign
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.discrepancy.rig import make_campaign
     logs = {"simulate mcap": _first_mcap_time_ns(run_log), "simulate rrd": _first_rrd_time_ns(run_log.with_suffix(".rrd"))}
     files = make_campaign(tmp_path / "camp", record_s=0.01, levels_n=(100.0,), ramps_s=(3e-3,), cfg=load())
     logs |= {f"rig {f.name}": _first_mcap_time_ns(f) for f in files if f.suffix == ".mcap"}

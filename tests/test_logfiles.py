@@ -9,11 +9,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
-from rt.loop import loop_signals
-from rt.log.mcap_log import (CDR_LE, FORMAT_VERSION, McapLogWriter, read_mcap, signals_record, stamps_ns, tick_time_ns,
+from frictionrt.rt.loop import loop_signals
+from frictionrt.rt.log.mcap_log import (CDR_LE, FORMAT_VERSION, McapLogWriter, read_mcap, signals_record, stamps_ns, tick_time_ns,
                          topics_of)
-from rt.log.registry import FIELD_RE, field_names, field_type, ros2_field, signal_name
-from rt.log.rrd_log import RrdLogWriter, write_rrd
+from frictionrt.rt.log.registry import FIELD_RE, field_names, field_type, ros2_field, signal_name
+from frictionrt.rt.log.rrd_log import RrdLogWriter, write_rrd
 
 RATE = 21000
 META = {"config": "[rt]\nrate_hz = 21000.0  # Hz\n", "versions": "numpy 2.4, mcap 1.6.0", "seed": "7",
@@ -75,7 +75,7 @@ def test_round_trip_is_bit_exact(tmp_path, signals):
 def test_chunk_reader_equals_the_mcap_library_reader(tmp_path, signals, monkeypatch):
     # read_mcap's numpy chunk walk (rt.log.mcap_log.chunk_messages) against the library's own
     # message iteration on the same file: bit-identical values and ticks, several chunks
-    import rt.log.mcap_log as mcap_log
+    import frictionrt.rt.log.mcap_log as mcap_log
     log = special_log(12000, signals, seed=3)
     write(tmp_path / "a.mcap", signals, log, block=997)
     with open(tmp_path / "a.mcap", "rb") as f:

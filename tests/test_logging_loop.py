@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from rt.cli import main
-from rt.common.config import load
-from rt.loop import build_loop, run
-from rt.log.mcap_log import McapLogWriter, read_mcap
-from rt.log.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run
+from frictionrt.rt.log.mcap_log import McapLogWriter, read_mcap
+from frictionrt.rt.log.writer import BLOCK_TICKS, LogWriter, McapBlockWriter
 from tests.test_logfiles import META, RATE, START_NS, raw_messages, special_log
 
 F3, AMP = 223.6, 5.0
@@ -199,7 +199,7 @@ def test_a_paced_run_as_long_as_its_ring_keeps_its_block_when_the_writer_looks_b
     look). The loop begins no further tick, so the block is intact and written; the writer used to
     take a count of one ring for a loop still running and drop it (an MCAP without messages in
     about 1 of 10 short paced runs with the C controller)."""
-    from rt.common.clock import CLK_TICKS
+    from frictionrt.rt.common.clock import CLK_TICKS
     sink = SlowSink()
     w = LogWriter([sink], ring_s=0.1)
     looked = threading.Event()
@@ -225,9 +225,9 @@ def test_ring_run_allocates_the_ring_and_writes_every_tick(tmp_path, loop):
     """5 s offline with a 0.2 s ring: the loop's log is 4200 rows (not 105000), the MCAP file
     holds every tick and equals the file of the same run without a ring (but the wall clock),
     and the summary's whole-run figures come out as without a ring."""
-    from rt.loop.faults import schedule
-    from rt.loop import summary
-    from rt.log.writer import open_run_log
+    from frictionrt.rt.loop.faults import schedule
+    from frictionrt.rt.loop import summary
+    from frictionrt.rt.log.writer import open_run_log
 
     faults = schedule(["sensor_bias/F_strain@1.0"], loop.cfg)   # latched at 1.002 s: force_disagree
     runs = {}
@@ -285,7 +285,7 @@ def test_writer_thread_is_not_a_daemon_and_finish_is_idempotent(tmp_path, loop):
 def test_an_exception_in_the_main_thread_stops_the_loop_and_closes_the_files(tmp_path, loop):
     """Ctrl-C outside the loop's own handler (here: raised by the progress callback) propagates,
     but only after the loop has stopped and the writer has closed valid files."""
-    from rt.log.writer import open_run_log
+    from frictionrt.rt.log.writer import open_run_log
 
     def progress(_):
         raise KeyboardInterrupt
@@ -337,8 +337,8 @@ def test_a_ctrl_c_during_the_wait_never_ends_it_before_the_loop_ends(ctrl_c_rais
     Ctrl-C itself (so it reaches ``watch`` while it waits), waits for the stop request and runs
     0.3 s more: ``watch`` returns after it, interrupted, the stop flag set, the thread gone (the
     join-based wait returned at once)."""
-    from rt.common.clock import CLK_SIZE, CLK_STOP
-    from rt.loop.driver import watch
+    from frictionrt.rt.common.clock import CLK_SIZE, CLK_STOP
+    from frictionrt.rt.loop.driver import watch
     clk = np.zeros(CLK_SIZE, np.int64)
     ended = []
 
@@ -367,7 +367,7 @@ def test_a_ctrl_c_during_finish_returns_after_the_files_are_closed(ctrl_c_raises
     """The writer's ``finish`` waits for its thread the same way (cpython#90882): a Ctrl-C while
     the sink takes the last, partial block (written only once ``finish`` asked for it) cuts
     nothing short; the sink is closed and the block written on return."""
-    from rt.common.clock import CLK_SIZE, CLK_TICKS
+    from frictionrt.rt.common.clock import CLK_SIZE, CLK_TICKS
     sink = CtrlCSink(delay=0.3)
     w = LogWriter([sink], block_ticks=20, ring_s=None)
     sink.writer = w

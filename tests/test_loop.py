@@ -4,11 +4,11 @@ import json
 import numpy as np
 import pytest
 
-from rt.cli import main
-from rt.common.config import load
-from rt.loop import COMPONENTS, build_loop, run, summary
-from rt.log.mcap_log import read_mcap
-from rt.log.writer import BLOCK_TICKS
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import COMPONENTS, build_loop, run, summary
+from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.rt.log.writer import BLOCK_TICKS
 
 BUDGET_US = 1e6 / 21000
 F3, AMP = 223.6, 5.0  # an excitation near mode 3 and a moderate force (the physics tests place their own)
@@ -93,7 +93,7 @@ def test_laws_reduce_the_mode3_peak_at_5N(loops, capsys):
     energy (C6). Measured: peaks 32.3 / 23.8 / 15.6 m/s^2 (passive / hysteresis / Lyapunov), i.e.
     -27 % and -52 %, energy 0.55 J against 7.6 mJ. The margins below are what the model must
     keep, not the figures."""
-    from plant.modes import passive_resonance_hz
+    from frictionrt.plant.modes import passive_resonance_hz
     f3 = passive_resonance_hz(next(iter(loops.values())).cfg, 3)
     freqs = np.arange(f3 - 12.0, f3 + 3.5, 3.0)
     peak, energy = {}, {}
@@ -157,10 +157,10 @@ def test_compare_places_the_laws_at_the_passive_step_sine_peak():
     picture of the sliding joint 1.8 % above it. Measured at 5 N, mode 3: |H| 6.64 at 201.64 Hz,
     6.52 / 5.05 at -/+1 %, 3.87 at the linear 205.2 Hz; there the hysteresis law came out 6.5 %
     above passive, at the peak it is 31 % below and Lyapunov 56 % (docs/loop.md)."""
-    from plant.modes import passive_resonance_hz
-    from rt.experiments.compare import compare, passive_peak_hz, table
-    from rt.experiments.reproduce import QUICK
-    from rt.experiments.stepsine import sweep
+    from frictionrt.plant.modes import passive_resonance_hz
+    from frictionrt.rt.experiments.compare import compare, passive_peak_hz, table
+    from frictionrt.rt.experiments.reproduce import QUICK
+    from frictionrt.rt.experiments.stepsine import sweep
     cfg = load()
     passive = build_loop(cfg, "passive")
     f = passive_peak_hz(passive, 3, AMP)

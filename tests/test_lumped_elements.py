@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from plant.fe_beam import DOFS_PER_NODE, W
-from plant.model import build_plant
-from plant.modes import bare_beam_bending_hz
-from rt.common.config import load
+from frictionrt.plant.fe_beam import DOFS_PER_NODE, W
+from frictionrt.plant.model import build_plant
+from frictionrt.plant.modes import bare_beam_bending_hz
+from frictionrt.rt.common.config import load
 
 E, B, H, RHO, L = 210e9, 0.04, 0.008, 7850.0, 0.775   # the main beam (SPEC 1)
 EI, MU = E * B * H**3 / 12, RHO * B * H

@@ -7,14 +7,14 @@ import json
 import numpy as np
 import pytest
 
-from plant.linear_frf import point_accelerances
-from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-from rt.cli import main
-from rt.common.config import Config, to_dict, with_sets
-from rt.discrepancy.diagnose.frf import diagnose_frf
-from rt.discrepancy.rig import MODEL_FORM_PARTS, model_form, true_structure
-from rt.discrepancy.rig.frf import make_frf_campaign, sensor_points
-from rt.discrepancy.rig.levels import sweep_level
+from frictionrt.plant.linear_frf import point_accelerances
+from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import Config, to_dict, with_sets
+from frictionrt.rt.discrepancy.diagnose.frf import diagnose_frf
+from frictionrt.rt.discrepancy.rig import MODEL_FORM_PARTS, model_form, true_structure
+from frictionrt.rt.discrepancy.rig.frf import make_frf_campaign, sensor_points
+from frictionrt.rt.discrepancy.rig.levels import sweep_level
 
 F_N1 = 100.0
 

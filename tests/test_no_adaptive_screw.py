@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from plant.structure import build_structure
-from rt.cli.app import main
-from rt.common.config import ConfigError, adaptive_screw, dumps, load, loads
+from frictionrt.plant.structure import build_structure
+from frictionrt.rt.cli.app import main
+from frictionrt.rt.common.config import ConfigError, adaptive_screw, dumps, load, loads
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 BARE = CONFIGS / "bare_beam.toml"
@@ -191,8 +191,8 @@ def test_every_output_is_written_without_an_adaptive_screw(path):
     """The plant step writes every output row, dF_N1 (0) included, where there is no adaptive screw:
     an unwritten row held whatever np.empty left there, and plant.simulate.run refused the run as
     NaN in about one of three processes (the row prefilled with NaN catches it every time)."""
-    from plant.model import build_plant
-    from plant.newmark import _plant_step
+    from frictionrt.plant.model import build_plant
+    from frictionrt.plant.newmark import _plant_step
     model = build_plant(load(path))
     x = model.initial_state(0.0)
     x_next, y = np.full_like(x, np.nan), np.full(len(model.output_labels()), np.nan)

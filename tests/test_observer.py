@@ -9,13 +9,13 @@ import pytest
 import scipy.linalg as sla
 import scipy.optimize as so
 
-from observer.kalman import design_observer, discrete_eigenvalues
-from observer.model import build_observer_model
-from observer.step import _observer_step
-from plant.structure import build_structure, interface_rows
-from plant.modes import passive_resonance_hz
-from rt.common.config import load
-from rt.loop import COMPONENTS, build_loop, run, summary
+from frictionrt.observer.kalman import design_observer, discrete_eigenvalues
+from frictionrt.observer.model import build_observer_model
+from frictionrt.observer.step import _observer_step
+from frictionrt.plant.structure import build_structure, interface_rows
+from frictionrt.plant.modes import passive_resonance_hz
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import COMPONENTS, build_loop, run, summary
 
 BUDGET_US = 1e6 / 21000
 

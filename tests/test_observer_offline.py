@@ -1,4 +1,4 @@
-"""The offline reference estimator (issue 4, ``observer.offline``): filterpy's UKF and its RTS
+"""The offline reference estimator (issue 4, ``frictionrt.observer.offline``): filterpy's UKF and its RTS
 smoother on the observer's model. Linear cases against independent references (python-control's
 stationary Riccati covariance, a plain NumPy Kalman filter and RTS smoother, a known true state),
 the nonlinear model on data it generated itself, and a closed-loop run against the real-time
@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import scipy.optimize as so
 
-from observer.kalman import design_observer, zoh
-from observer.offline import compare_on_run, outputs, process_noise, ukf_estimate, ukf_run
-from observer.step import _observer_step
-from rt.common.config import load
-from rt.loop import build_loop, run
+from frictionrt.observer.kalman import design_observer, zoh
+from frictionrt.observer.offline import compare_on_run, outputs, process_noise, ukf_estimate, ukf_run
+from frictionrt.observer.step import _observer_step
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, run
 
 
 @pytest.fixture(scope="module")

@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from observer.oracle import ORACLE_SLOTS, build_oracle
-from tracking.lowpass import _biquad_step as _oracle_step
-from tracking.lowpass import rest_state
-from rt.common.config import load
+from frictionrt.observer.oracle import ORACLE_SLOTS, build_oracle
+from frictionrt.tracking.lowpass import _biquad_step as _oracle_step
+from frictionrt.tracking.lowpass import rest_state
+from frictionrt.rt.common.config import load
 
 
 def test_oracle_equals_scipy_sosfilt():

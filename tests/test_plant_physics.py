@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from plant.contact import _jenkins_pair
-from plant.energy import balance
-from plant.impulse import MODES, accelerance_frf, fit_mode, hammer_force, impulse_test, identify
-from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
-from plant.modes import bare_beam_bending_hz
-from plant.simulate import run
-from rt.common.config import load, with_sets
+from frictionrt.plant.contact import _jenkins_pair
+from frictionrt.plant.energy import balance
+from frictionrt.plant.impulse import MODES, accelerance_frf, fit_mode, hammer_force, impulse_test, identify
+from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
+from frictionrt.plant.modes import bare_beam_bending_hz
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import load, with_sets
 
 # Euler-Bernoulli cantilever, L = 0.775 m, h = 8 mm, steel (issue 2, check 1)
 ANALYTIC_BARE_HZ = np.array([11.13, 69.74, 195.28, 382.67, 632.58, 944.97])
@@ -340,7 +340,7 @@ def test_one_substep_is_converged_with_interface_damping():
     substeps with every mode stepped within 2 % (measured 1.3 %: the quasi-static modes' h/2 lag,
     docs/plant.md 2.6), and the acceleration is not swamped by unresolved modes (without
     interface damping 97 % of its energy lay above 5 kHz and the run was not converged)."""
-    from rt.loop import first_harmonic_amplitude
+    from frictionrt.rt.loop import first_harmonic_amplitude
     res = {}
     for sub in (1, 16):
         cfg = load(sets=[f"plant.substeps={sub}"] + (["plant.quasi_static_hz=1e9"] if sub > 1 else []))
@@ -405,7 +405,7 @@ def test_hammer_test_step_error_after_period_matching():
     strength (0.16 dB measured; 2 x required): the step's error, not the effect, is what a diagnosis
     at one substep sees first."""
     from benchmarks.substep_convergence import accelerance, rms_db
-    from rt.discrepancy.effects import get
+    from frictionrt.rt.discrepancy.effects import get
     base = load()
 
     def errors(cfg, F_N1):

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rt.common.config import Config, ConfigError, load, with_sets
-from rt.discrepancy.diagnose.frf import diagnose_frf
-from rt.discrepancy.diagnose import summary
-from rt.discrepancy.diagnose.plausible import AT_EDGE_LN, EDGE_LN, clamp_range, markdown, outside, penalty, ranges
-from rt.discrepancy.rig import scatter_sets
-from rt.discrepancy.rig.frf import make_frf_campaign
+from frictionrt.rt.common.config import Config, ConfigError, load, with_sets
+from frictionrt.rt.discrepancy.diagnose.frf import diagnose_frf
+from frictionrt.rt.discrepancy.diagnose import summary
+from frictionrt.rt.discrepancy.diagnose.plausible import AT_EDGE_LN, EDGE_LN, clamp_range, markdown, outside, penalty, ranges
+from frictionrt.rt.discrepancy.rig import scatter_sets
+from frictionrt.rt.discrepancy.rig.frf import make_frf_campaign
 
 LAP_JOINT_AL = Path(__file__).resolve().parents[1] / "configs" / "lap_joint_al.toml"
 NAMES = ["E", "k_t", "mu", "modal_damping", "clamp_compliance"]
@@ -121,7 +121,7 @@ def test_a_modulus_really_off_is_reported_and_let_go(tmp_path):
 def test_the_verdict_in_words():
     """The note for each case: all inside; the calibration outside and a candidate taking its place; a named
     candidate with a parameter still outside; nothing taking its place."""
-    from rt.discrepancy.diagnose.plausible import verdict
+    from frictionrt.rt.discrepancy.diagnose.plausible import verdict
     r = {"E": (0.95, 1.05), "mu": (0.25, 3.75)}
     inside, out = {"E": 1.0, "mu": 1.0}, {"E": 0.8, "mu": 1.0}
     assert verdict(r, inside, inside, None, ["x"])["note"] == "every calibrated parameter lies within its plausible range"

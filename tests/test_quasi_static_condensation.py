@@ -3,10 +3,10 @@ docs/plant.md 2.7): the same plant, fewer coordinates."""
 import numpy as np
 import pytest
 
-from plant.modes import adaptive_screw_k_T
-from plant.model import build_plant, stuck_frequencies_hz
-from plant.simulate import run
-from rt.common.config import load
+from frictionrt.plant.modes import adaptive_screw_k_T
+from frictionrt.plant.model import build_plant, stuck_frequencies_hz
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import load
 
 DT = 1 / 21000
 

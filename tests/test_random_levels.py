@@ -12,18 +12,18 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from plant.harmonic_frf import harmonic_accelerances, harmonic_system
-from plant.model import build_plant
-from rt.cli import main
-from rt.common.config import load
-from rt.discrepancy.diagnose.frf import FRFData
-import rt.discrepancy.diagnose.random_level as rl
-from rt.discrepancy.diagnose.random_level import RandomLevel
-from rt.discrepancy.rig import random_excitation as rx
-from rt.discrepancy.rig.frf import sensor_points
-from rt.discrepancy.rig.levels import make_level_campaign, sensor_columns, settle_line
-from rt.experiments.stepsine import Settle
-from rt.log.frf_files import FRFTest, check_meta, load_frf_folder
+from frictionrt.plant.harmonic_frf import harmonic_accelerances, harmonic_system
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import load
+from frictionrt.rt.discrepancy.diagnose.frf import FRFData
+import frictionrt.rt.discrepancy.diagnose.random_level as rl
+from frictionrt.rt.discrepancy.diagnose.random_level import RandomLevel
+from frictionrt.rt.discrepancy.rig import random_excitation as rx
+from frictionrt.rt.discrepancy.rig.frf import sensor_points
+from frictionrt.rt.discrepancy.rig.levels import make_level_campaign, sensor_columns, settle_line
+from frictionrt.rt.experiments.stepsine import Settle
+from frictionrt.rt.log.frf_files import FRFTest, check_meta, load_frf_folder
 
 LAP = "configs/lap_joint_al.toml"
 
@@ -123,7 +123,7 @@ def test_the_gaussian_stiffness_is_the_describing_function_averaged_over_a_rayle
     (a Jenkins element and a 4-element Iwan one, below, at and beyond the slip onset q / k): within 5e-5 of
     k; sigma 0 and a gap far below the onset stay stuck (k_t)."""
     from scipy.integrate import quad
-    from plant.describing import pair_df
+    from frictionrt.plant.describing import pair_df
     kf, qf = np.asarray(kf, float), np.asarray(qf, float)
     k, q = 2.0e7, 4.0
     for sigma in (0.05e-6, 0.2e-6, 1e-6, 5e-6):
@@ -143,7 +143,7 @@ def test_the_marched_law_gives_the_describing_function_under_a_sine():
     """random_level._march, the pairs' law the spectral stiffness simulates: under a cos(theta) after the first
     period its first harmonic over whole periods is plant.describing's k_eq(a) a (a Jenkins element and a
     4-element Iwan one, stuck and slipping), within 2e-3 of k (256 samples a period)."""
-    from plant.describing import pair_df
+    from frictionrt.plant.describing import pair_df
     kf, qf = np.full(4, 0.25), np.array([0.1, 0.2, 0.3, 0.4])
     k, q = 2.0e7, 4.0
     th = 2.0 * math.pi * np.arange(256 * 6) / 256
@@ -160,7 +160,7 @@ def test_the_linearised_model_is_the_pairs_law_with_its_stiffness_fixed():
     """random_level._linearised (one eigen decomposition for every line) with a complex dk at the closed pairs
     against (D) of plant.harmonic_frf with k_eq - k_t = dk solved line by line: (I + H_tt diag(dk)) g = H_tF,
     the modal response d (Y_b - Y_t dk g) (df_matrices): the sensors' accelerances within 1e-9."""
-    from plant.harmonic_frf import df_matrices
+    from frictionrt.plant.harmonic_frf import df_matrices
     cfg = load(LAP)
     hs = harmonic_system(build_plant(cfg), sensor_points(cfg), F_N1=0.0)
     f = np.array([60.0, 118.0, 124.0, 129.0, 374.0, 730.0, 1100.0])

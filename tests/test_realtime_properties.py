@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.impulse import hammer_force
-from plant.simulate import run
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.simulate import run
 from tests.nrt_probe import assert_no_allocation_per_step
 
 
@@ -14,10 +14,10 @@ def test_plant_step_does_not_allocate():
     # 10 vs 2000 compiled steps (impacts, stick-slip) under numba's allocation counters
     assert_no_allocation_per_step("""
         import numba, numpy as np
-        from plant.impulse import hammer_force
-        from plant.model import build_plant
-        from plant.newmark import _plant_step
-        from rt.common.config import load
+        from frictionrt.plant.impulse import hammer_force
+        from frictionrt.plant.model import build_plant
+        from frictionrt.plant.newmark import _plant_step
+        from frictionrt.rt.common.config import load
 
         @numba.njit
         def many(x, x_next, U, p, y, wk):
@@ -47,7 +47,7 @@ def test_same_inputs_give_bit_identical_outputs(cfg, reduced):
 
 
 def test_kernels_are_compiled_with_cache_and_nogil():
-    from plant import contact, newmark, simulate
+    from frictionrt.plant import contact, newmark, simulate
     for f in (contact._jenkins_pair, contact._normal_impulse, newmark._plant_step, newmark._contact_newton,
               newmark._lu_factor, newmark._lu_solve, newmark._triangular_inverses, newmark._inverse_solve,
               simulate._run):
@@ -78,8 +78,8 @@ def test_numba_cache_is_keyed_on_the_kernel_sources():
     # numba only re-checks a cached function's own file; a source-hash directory makes an
     # edit to any kernel source start a fresh cache (rt/common/jit_cache.py); CLI and logging
     # modules are not kernel sources, so editing them keeps the compiled kernels
-    from plant import newmark, simulate
-    from rt.common import jit_cache
+    from frictionrt.plant import newmark, simulate
+    from frictionrt.rt.common import jit_cache
     names = {f.relative_to(jit_cache.ROOT).as_posix() for f in jit_cache.kernel_sources()}
     assert {"plant/newmark.py", "rt/loop/tick.py", "rt/loop/pacing.py", "rt/loop/replay.py", "rt/common/config.py", "rt/common/noise.py",
             "tracking/laws.py"} <= names
@@ -94,7 +94,7 @@ def test_numba_cache_is_keyed_on_the_kernel_sources():
 def test_editing_a_kernel_in_a_sub_package_changes_the_cache_key(tmp_path):
     # the key must see kernels below rt/'s sub-packages (rt/loop/, rt/common/), not only
     # top-level files: a copy of the tree, one kernel file edited, gives another key
-    from rt.common import jit_cache
+    from frictionrt.rt.common import jit_cache
     for pkg in jit_cache.PACKAGES:
         shutil.copytree(jit_cache.ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     key = jit_cache.source_hash(tmp_path)

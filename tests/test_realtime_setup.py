@@ -15,12 +15,12 @@ import time
 import numpy as np
 import pytest
 
-from rt.cli import main
-from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, _now_ns
-from rt.common.config import load, with_sets
-from rt.loop import realtime
-from rt.loop.floor import cyclictest, null_loop, parse_histogram
-from rt.loop.pacing import _next_deadline, _wait_for_deadline
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, _now_ns
+from frictionrt.rt.common.config import load, with_sets
+from frictionrt.rt.loop import realtime
+from frictionrt.rt.loop.floor import cyclictest, null_loop, parse_histogram
+from frictionrt.rt.loop.pacing import _next_deadline, _wait_for_deadline
 
 PERIOD = 47_619
 

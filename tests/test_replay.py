@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pytest
 
-from rt.cli import main
-from rt.log.mcap_log import read_mcap
-from rt.loop.replay import COMMANDED, replay_outputs
-from rt.log.writer import McapBlockWriter
+from frictionrt.rt.cli import main
+from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.rt.loop.replay import COMMANDED, replay_outputs
+from frictionrt.rt.log.writer import McapBlockWriter
 
 F3, AMP = 223.6, 5.0
 
@@ -80,7 +80,7 @@ def _sensors_only_file(path, rec):
     measurement converter would)."""
     from mcap.writer import CompressionType, Writer
 
-    from rt.log.mcap_log import signals_record, stamps_ns, topics_of
+    from frictionrt.rt.log.mcap_log import signals_record, stamps_ns, topics_of
     tp = next(t for t in topics_of(rec.signals) if t.name == "/sensors")
     with open(path, "wb") as f:
         w = Writer(f, compression=CompressionType.ZSTD)

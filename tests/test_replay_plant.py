@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from plant.actuator import ACTUATOR_OUTPUTS
-from rt.cli import main
-from rt.common.config import adaptive_screw, load
-from rt.log.mcap_log import read_mcap
-from rt.loop.replay_plant import replay_plant_outputs
-from rt.log.writer import McapBlockWriter
+from frictionrt.plant.actuator import ACTUATOR_OUTPUTS
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import adaptive_screw, load
+from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.rt.loop.replay_plant import replay_plant_outputs
+from frictionrt.rt.log.writer import McapBlockWriter
 
 DURATION = "0.1"  # 2100 ticks
 

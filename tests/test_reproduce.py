@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from rt.experiments.claims import (claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db)
-from rt.cli import main
-from rt.common.config import load
-from rt.experiments.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
+from frictionrt.rt.experiments.claims import (claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db)
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import load
+from frictionrt.rt.experiments.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
 
 
 # --- claims on synthetic numbers ----------------------------------------------------------------
@@ -141,7 +141,7 @@ def test_a_lopsided_top_is_refined_on_its_wide_side():
 
 
 def test_merge_sorts_the_points_of_several_sweeps():
-    from rt.experiments.stepsine import Settle, StepSineResult
+    from frictionrt.rt.experiments.stepsine import Settle, StepSineResult
     def res(freqs):
         n = len(freqs)
         z = np.zeros(n)
@@ -155,7 +155,7 @@ def test_merge_sorts_the_points_of_several_sweeps():
 
 
 def test_loop_at_fn1_is_the_loop_built_for_that_constant_force():
-    from rt.loop import build_loop
+    from frictionrt.rt.loop import build_loop
     cfg = load()
     ref = build_loop(with_constant_fn1(cfg, 250.0), "passive")
     got = loop_at_fn1(build_loop(cfg, "passive"), 250.0)
@@ -243,9 +243,9 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
 def test_one_estimator_alone_decides_its_own_claims(tmp_path):
     """measure with the oracle alone (sensitivity's path, reproduce --estimator oracle): one view,
     its claims the report's, the passive law run once; report.md has one verdict column."""
-    from rt.experiments.reproduce import Plan, measure
-    from rt.experiments.reproduce_report import markdown
-    from rt.experiments.stepsine import Settle
+    from frictionrt.rt.experiments.reproduce import Plan, measure
+    from frictionrt.rt.experiments.reproduce_report import markdown
+    from frictionrt.rt.experiments.stepsine import Settle
     plan = Plan(modes=(3,), amps_n=(5.0, 20.0), n_points=3, refine_rounds=0, fn1_n=(),
                 settle=Settle(rel_tol=0.05, max_s=0.4))
     res = measure(load(), plan, ("oracle",), jobs=1, progress=False)

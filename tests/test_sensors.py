@@ -15,10 +15,10 @@ import pytest
 import scipy.signal as ss
 import scipy.stats as st
 
-from rt.common.config import load, with_sets
+from frictionrt.rt.common.config import load, with_sets
 from tests.nrt_probe import assert_no_allocation_per_step
-from rt.common.noise import _fill_u64, new_rng, normals, splitmix64
-from plant.sensors import (
+from frictionrt.rt.common.noise import _fill_u64, new_rng, normals, splitmix64
+from frictionrt.plant.sensors import (
     SENSOR_OUTPUTS,
     SENSOR_SLOTS,
     _sensors_run,
@@ -277,9 +277,9 @@ def test_force_sensors_from_the_actuator_vs_sampled_F_N1(cfg):
     # noise. (b) u = (.., F_N1): the same filters on the 21 kHz samples of F_N1 miss the ringing
     # between samples: measured 0.59 N (strain) and 0.71 N (cell) rms error after the start;
     # asserted > 0.2 N, i.e. 4x the cell's 0.05 N noise: why the loop should pass (a).
-    from plant.actuator import build_actuator, run_actuator
-    from plant.actuator import initial_state as act_initial
-    from plant.actuator import output_index as act_index
+    from frictionrt.plant.actuator import build_actuator, run_actuator
+    from frictionrt.plant.actuator import initial_state as act_initial
+    from frictionrt.plant.actuator import output_index as act_index
     c = quiet()
     ps = build_sensors(c)
     pa = build_actuator(c)
@@ -504,8 +504,8 @@ def test_checked_wrapper(p):
 
 
 def test_kernels_are_cached_nogil_without_refcounting():
-    from plant import sensors
-    from rt.common import noise
+    from frictionrt.plant import sensors
+    from frictionrt.rt.common import noise
     for f in (sensors._sensors_step, sensors._adc, noise._next_u64, noise._uniform, noise._normal_pair,
               noise._fill_normal, noise._fill_u64):
         assert f.targetoptions.get("nogil") is True, f.__name__
@@ -518,9 +518,9 @@ def test_sensor_step_does_not_allocate():
     # 10 vs 3000 compiled steps under numba's allocation counters (tests/nrt_probe.py)
     assert_no_allocation_per_step("""
         import numba, numpy as np
-        from rt.common.config import load
-        from rt.common.noise import new_rng
-        from plant.sensors import _sensors_step, build_sensors, initial_state
+        from frictionrt.rt.common.config import load
+        from frictionrt.rt.common.noise import new_rng
+        from frictionrt.plant.sensors import _sensors_step, build_sensors, initial_state
 
         @numba.njit
         def many(x, xn, U, p, y, rng):
@@ -543,7 +543,7 @@ def test_step_time(p):
     # loose bound (noisy shared machine); measured figure in docs/actuator_sensors.md
     import numba
 
-    from rt.common.clock import _now_ns
+    from frictionrt.rt.common.clock import _now_ns
 
     @numba.njit
     def timed(x, xn, U, p, y, rng, ns, ts):

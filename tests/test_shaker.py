@@ -6,13 +6,13 @@ refusal of a coupling that would be unstable."""
 import numpy as np
 import pytest
 
-from plant.linear_frf import continuous_accelerance, stuck_model
-from plant.model import build_plant
-from plant.modes import sliding_joint_hz
-from rt.common.config import Config, with_sets
-from rt.loop import build_loop, run
-from plant.shaker import coupled_spectral_radius, force_ratio
-from rt.experiments.stepsine import settle_point
+from frictionrt.plant.linear_frf import continuous_accelerance, stuck_model
+from frictionrt.plant.model import build_plant
+from frictionrt.plant.modes import sliding_joint_hz
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.loop import build_loop, run
+from frictionrt.plant.shaker import coupled_spectral_radius, force_ratio
+from frictionrt.rt.experiments.stepsine import settle_point
 
 # every mode stepped: the driving point is then the stuck model's at the trapezoid's warped frequency
 STUCK = ["shaker.armature_mass_kg=0.1", "tracking.F_passive_N=300.0", "plant.screws.adaptive.F_N=300.0",

@@ -7,15 +7,15 @@ import json
 import numpy as np
 import pytest
 
-from plant.linear_frf import continuous_accelerance, discrete_accelerance, stuck_model
-from plant.model import build_plant
-from rt.cli.common import add_common
-from rt.cli.frf import add_parser, cmd_frf
-from plant.modes import passive_resonance_hz
-from rt.common.config import load
-from rt.loop import build_loop, first_harmonic_amplitude, run
-from rt.experiments.branches import Branch, build_loops, expected_ticks, run_branches, sweep_timing
-from rt.experiments.stepsine import Settle, harmonics, harmonics_of_columns, phase_continuous_step, resonance_grid, settle_point, slow_sweep, steady, sweep, sweep_direction, update_amplitude
+from frictionrt.plant.linear_frf import continuous_accelerance, discrete_accelerance, stuck_model
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.cli.common import add_common
+from frictionrt.rt.cli.frf import add_parser, cmd_frf
+from frictionrt.plant.modes import passive_resonance_hz
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop import build_loop, first_harmonic_amplitude, run
+from frictionrt.rt.experiments.branches import Branch, build_loops, expected_ticks, run_branches, sweep_timing
+from frictionrt.rt.experiments.stepsine import Settle, harmonics, harmonics_of_columns, phase_continuous_step, resonance_grid, settle_point, slow_sweep, steady, sweep, sweep_direction, update_amplitude
 
 DT = 1.0 / 21000
 AMP = 5.0

@@ -3,11 +3,11 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.energy import balance
-from plant.impulse import hammer_force
-from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-from plant.simulate import run
-from rt.common.config import load
+from frictionrt.plant.energy import balance
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import load
 
 LAP_JOINT = Path(__file__).resolve().parents[1] / "configs" / "lap_joint.toml"
 MOVED_DAMPER = ["plant.beams.damper.x0_m=0.30", "plant.interface.x_start_m=0.30", "plant.interface.x_end_m=0.46",
@@ -50,8 +50,8 @@ def test_contact_points_between_nodes_read_the_elements_interpolation():
     gaps are the frame elements' own fields there (u linear, w cubic Hermite, theta = dw/dx), so a
     field the elements represent exactly (u linear, w cubic, zero at the main beam's clamp) gives
     the exact gaps at every point, and only the nodes around the points become boundary DOFs."""
-    from plant.fe_beam import DOFS_PER_NODE, THETA, U, W
-    from plant.structure import build_structure, node_pairs
+    from frictionrt.plant.fe_beam import DOFS_PER_NODE, THETA, U, W
+    from frictionrt.plant.structure import build_structure, node_pairs
 
     cfg = load(sets=["plant.interface.pitch_m=0.0025", "plant.interface.end_refinement=1",
                      "plant.element_length_m=0.01"])
@@ -79,7 +79,7 @@ def test_the_default_layout_refines_the_contact_pitch_at_both_ends():
     160 mm interface halved (end_refinement 2, end_zone_m 30 mm): 23 points; a zone is rounded up to
     whole pitches (25 mm gives the same points), zones that meet refine the whole interface (33
     points, 5 mm everywhere), and end_refinement 1 is the uniform 10 mm grid (17 points)."""
-    from plant.structure import build_structure
+    from frictionrt.plant.structure import build_structure
 
     def spacing_mm(sets):
         return np.round(np.diff(build_structure(load(sets=sets)).x_pairs) * 1e3, 9)

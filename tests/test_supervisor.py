@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from rt.cli import main
-from plant.modes import passive_resonance_hz
-from rt.common.config import load
-from rt.loop.faults import schedule
-from rt.loop import build_loop, first_harmonic_amplitude, run, summary
-from rt.loop.supervisor import FAULT_CODES
+from frictionrt.rt.cli import main
+from frictionrt.plant.modes import passive_resonance_hz
+from frictionrt.rt.common.config import load
+from frictionrt.rt.loop.faults import schedule
+from frictionrt.rt.loop import build_loop, first_harmonic_amplitude, run, summary
+from frictionrt.rt.loop.supervisor import FAULT_CODES
 
 T, K0 = 0.6, 4200          # run length [s]; faults injected at 0.2 s = tick 4200
 MARGIN = 0.05              # response over the fault window at most 5 % above passive F_min's

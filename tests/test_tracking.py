@@ -28,10 +28,10 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from rt.common.config import load
-from tracking import force_tracking as ft
-from tracking.laws import LAW_CODES, LAWS_SLOTS, _laws_step, build_laws, laws_step
-from tracking.rt1 import RT1_SLOTS, _rt1_step, build_rt1, rt1_step
+from frictionrt.rt.common.config import load
+from frictionrt.tracking import force_tracking as ft
+from frictionrt.tracking.laws import LAW_CODES, LAWS_SLOTS, _laws_step, build_laws, laws_step
+from frictionrt.tracking.rt1 import RT1_SLOTS, _rt1_step, build_rt1, rt1_step
 
 RTOL = 1e-12
 CL_RTOL = 1e-9

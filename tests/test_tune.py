@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 
-from rt.cli import main
-from rt.common.config import ConfigError, load, with_sets
-from rt.experiments.tune import candidates, pareto_front, parse_grid, select_best, tune
-from rt.loop import Designs, build_loop
+from frictionrt.rt.cli import main
+from frictionrt.rt.common.config import ConfigError, load, with_sets
+from frictionrt.rt.experiments.tune import candidates, pareto_front, parse_grid, select_best, tune
+from frictionrt.rt.loop import Designs, build_loop
 
 
 def test_pareto_front_and_best_on_known_points():
@@ -41,7 +41,7 @@ def test_grid_parsing_and_candidates():
 
 
 def test_candidates_share_the_plant_and_the_force_tracking_design_built_alone():
-    """rt.loop.Designs: a law gain leaves the plant and the force-tracking design shared, a
+    """frictionrt.rt.loop.Designs: a law gain leaves the plant and the force-tracking design shared, a
     tracking.pid_* key gets its own design; every shared loop equals the loop built alone."""
     base = load()
     designs = Designs()

@@ -45,7 +45,7 @@ import numba
 import numpy as np
 import scipy.optimize as so
 
-from rt.common.config import Config
+from frictionrt.rt.common.config import Config
 
 FORCE_TRACKING_SLOTS = ("integ", "deriv", "F_meas_prev")
 FORCE_TRACKING_INPUTS = (("F_set", "N"), ("F_meas", "N"))

@@ -11,11 +11,11 @@ All three laws saturate to [F_min, F_max] (``cfg.tracking.F_min_N``, ``F_max_N``
 
 One kernel for all three: the law is an integer code in the parameters (``LAW_CODES``), so the
 loop compiles one call and never branches in Python. The RT1 state is advanced whatever the
-law (its u0 is logged), by the RT1 step itself (``tracking.rt1._rt1_step``).
+law (its u0 is logged), by the RT1 step itself (``frictionrt.tracking.rt1._rt1_step``).
 
 State slots ``LAWS_SLOTS`` = ``RT1_SLOTS`` = (u0 [m],). Inputs u = (u_rel [m], v_rel [m/s]).
 Outputs y = (F_set [N], u0 [m]); u0 is the RT1 value at t_{k+1}, i.e. after u_rel,k
-(``tracking.rt1``).
+(``frictionrt.tracking.rt1``).
 """
 from __future__ import annotations
 
@@ -24,8 +24,8 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from rt.common.config import LAWS, Config
-from tracking.rt1 import RT1_SLOTS, RT1Params, _rt1_step, build_rt1
+from frictionrt.rt.common.config import LAWS, Config
+from frictionrt.tracking.rt1 import RT1_SLOTS, RT1Params, _rt1_step, build_rt1
 
 LAW_CODES = {name: i for i, name in enumerate(LAWS)}  # passive 0, hysteresis 1, lyapunov 2
 PASSIVE, HYSTERESIS, LYAPUNOV = LAW_CODES["passive"], LAW_CODES["hysteresis"], LAW_CODES["lyapunov"]

@@ -9,12 +9,12 @@ structure (v_rel 1.4 m/s RMS against a 1 mm/s first harmonic). The prefilter at
 ``tracking.setpoint_filter_hz`` removes that content (1 kHz: -34 dB at 7 kHz) and delays a
 230 Hz setpoint by ~0.3 ms.
 
-Kernel: ``tracking.lowpass._biquad_step`` with one channel, input F* [N], output the filtered F* [N].
+Kernel: ``frictionrt.tracking.lowpass._biquad_step`` with one channel, input F* [N], output the filtered F* [N].
 """
 from __future__ import annotations
 
-from tracking.lowpass import BiquadParams, build_butter2
-from rt.common.config import Config
+from frictionrt.tracking.lowpass import BiquadParams, build_butter2
+from frictionrt.rt.common.config import Config
 
 PREFILTER_SLOTS = ("s1", "s2")
 PREFILTER_OUTPUTS = (("F_set_filtered", "N"),)

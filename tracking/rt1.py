@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from rt.common.config import Config
+from frictionrt.rt.common.config import Config
 
 RT1_SLOTS = ("u0",)
 HALF_PI = 0.5 * math.pi

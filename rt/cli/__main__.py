@@ -1,6 +1,6 @@
-"""``python -m rt.cli ARGS``: the same as ``frictionrt ARGS``."""
+"""``python -m frictionrt.rt.cli ARGS``: the same as ``frictionrt ARGS``."""
 import sys
 
-from rt.cli import main
+from frictionrt.rt.cli import main
 
 sys.exit(main())

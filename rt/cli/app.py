@@ -2,7 +2,7 @@
 
 Only the assembly: each verb is a module of rt.cli that owns its parser (``add_parser(sub, parents)``)
 and its command (``cmd_VERB(cfg, args)``, the exit code); ``VERBS`` lists them in --help's order,
-``rt.cli.common`` holds what they share.
+``frictionrt.rt.cli.common`` holds what they share.
 
 Every subcommand takes ``--config FILE`` and ``--set KEY=VALUE`` (repeatable); quantities
 are SI (m, s, N, Hz, Pa, kg) everywhere. Bad input ends with exit code 2 and one message
@@ -15,10 +15,10 @@ import sys
 
 import shtab
 
-from rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, inspect, modes, observer,
+from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, inspect, modes, observer,
                     recover, replay, reproduce, rig, simulate, tune, validate)
-from rt.cli.common import Parser, actuator_verb, add_common, fail, json_errors, realtime_sets
-from rt.common.config import ConfigError, load, require_adaptive_screw
+from frictionrt.rt.cli.common import Parser, actuator_verb, add_common, fail, json_errors, realtime_sets
+from frictionrt.rt.common.config import ConfigError, load, require_adaptive_screw
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
 examples:
@@ -35,7 +35,7 @@ def version_text() -> str:
     """frictionrt's version and the log format it writes."""
     from importlib.metadata import version
 
-    from rt.log.mcap_log import FORMAT_VERSION
+    from frictionrt.rt.log.mcap_log import FORMAT_VERSION
     return f"frictionrt {version('frictionrt')} (log format {FORMAT_VERSION})"
 
 

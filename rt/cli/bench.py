@@ -8,7 +8,7 @@ from pathlib import Path
 
 import shtab
 
-from rt.cli.common import fail
+from frictionrt.rt.cli.common import fail
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -34,7 +34,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_bench(cfg, args) -> int:
-    from rt.loop.bench import bench_loop, bench_plant, format_loop, format_table
+    from frictionrt.rt.loop.bench import bench_loop, bench_plant, format_loop, format_table
     if args.target == "controller":
         return cmd_bench_controller(cfg, args)
     if args.target == "loop":
@@ -57,9 +57,9 @@ def cmd_bench(cfg, args) -> int:
 
 def cmd_bench_controller(cfg, args) -> int:
     """``bench controller``: per-tick figures [us] of numba and the C export (rt/export/bench.py)."""
-    from rt.export.bench import bench_controller, format_bench
-    from rt.export.generate import read_manifest
-    from rt.loop import build_loop, initial_loop_state
+    from frictionrt.rt.export.bench import bench_controller, format_bench
+    from frictionrt.rt.export.generate import read_manifest
+    from frictionrt.rt.loop import build_loop, initial_loop_state
     if args.steps < 1000:
         return fail(f"--steps {args.steps}: need at least 1000 steps")
     try:

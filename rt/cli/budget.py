@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from rt.cli.common import add_realtime, fail, realtime_notes
+from frictionrt.rt.cli.common import add_realtime, fail, realtime_notes
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -27,7 +27,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_budget(cfg, args) -> int:
-    from rt.loop.budget import budget, format_budget
+    from frictionrt.rt.loop.budget import budget, format_budget
     if args.ticks < 1000 or args.paced_s <= 0:
         return fail(f"--ticks {args.ticks} / --paced-s {args.paced_s}: need >= 1000 ticks and a positive paced time")
     try:

@@ -149,7 +149,7 @@ def c_exports(specs, runs) -> dict[tuple[str, str], Path]:
     none) by the (law, estimator) each was exported for, among ``runs``, the (law, estimator) pairs
     the verb runs. ValueError in one line for another form, a folder that is no export, an export
     of a law and estimator the verb does not run ("an export of another design"), two for one."""
-    from rt.export.generate import read_manifest
+    from frictionrt.rt.export.generate import read_manifest
     specs = [] if specs is None else [specs] if isinstance(specs, str) else list(specs)
     out: dict[tuple[str, str], Path] = {}
     for spec in specs:
@@ -170,13 +170,13 @@ def c_exports(specs, runs) -> dict[tuple[str, str], Path]:
 
 
 def controller_for(exports: dict, loop, seed: int):
-    """The controller of ``loop`` (``rt.loop.driver.run(..., controller=)``): the C export among
-    ``exports`` (``c_exports``) for its law and estimator (``rt.export.sil.CController``: ValueError
+    """The controller of ``loop`` (``frictionrt.rt.loop.driver.run(..., controller=)``): the C export among
+    ``exports`` (``c_exports``) for its law and estimator (``frictionrt.rt.export.sil.CController``: ValueError
     for an export of another design), else None (the numba controller)."""
     folder = exports.get((loop.law, loop.estimator))
     if folder is None:
         return None
-    from rt.export.sil import CController
+    from frictionrt.rt.export.sil import CController
     return CController(loop, folder, seed)
 
 
@@ -197,7 +197,7 @@ def actuator_verb(args) -> str | None:
     if verb == "rig" and not (args.list or args.frf_files):
         return "rig (the time-series campaign; --frf-files writes FRF files without it)"
     if verb == "diagnose" and Path(args.folder).is_dir():   # a missing folder: diagnose's own message
-        from rt.discrepancy.diagnose import is_frf_folder
+        from frictionrt.rt.discrepancy.diagnose import is_frf_folder
         if not is_frf_folder(args.folder):
             return "diagnose of a time-series campaign"
     return None

@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import (add_controller, add_deprecated, add_force, add_out, c_exports, controller_for, fail,
+from frictionrt.rt.cli.common import (add_controller, add_deprecated, add_force, add_out, c_exports, controller_for, fail,
                            refuse_existing)
 
 
@@ -37,9 +37,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 def cmd_compare(cfg, args) -> int:
     from tqdm import tqdm
 
-    from rt.common.config import LAWS
-    from rt.experiments.compare import compare, plot, table
-    from rt.loop import Designs, build_loop, check_run_input
+    from frictionrt.rt.common.config import LAWS
+    from frictionrt.rt.experiments.compare import compare, plot, table
+    from frictionrt.rt.loop import Designs, build_loop, check_run_input
     if args.plot:
         out = Path(args.plot)
         if out.suffix.lower() != ".png" or not out.parent.exists():
@@ -55,7 +55,7 @@ def cmd_compare(cfg, args) -> int:
         designs = Designs()   # the plant and force-tracking designs, made once for the three laws
         passive = build_loop(cfg, "passive", args.estimator, designs=designs)
         if args.freq is None:
-            from rt.experiments.compare import passive_peak_hz
+            from frictionrt.rt.experiments.compare import passive_peak_hz
             check_run_input(passive, 1.0, args.amp, args.duration)  # amplitude and duration before the search
             with tqdm(unit="point", disable=args.json, desc=f"passive peak of mode {args.mode}") as bar:
                 args.freq = round(passive_peak_hz(passive, args.mode, args.amp, progress=bar.update), 2)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from rt.common.config import dumps, to_dict
+from frictionrt.rt.common.config import dumps, to_dict
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:

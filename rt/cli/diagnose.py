@@ -9,7 +9,7 @@ import time
 
 import shtab
 
-from rt.cli.common import add_force, add_out, fail, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail, write_folder
 
 INTERRUPTED = 130       # exit status after Ctrl-C (128 + SIGINT), the fits done so far kept
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
@@ -100,7 +100,7 @@ def _json(res: dict) -> str:
 def _interrupted(part: dict, args) -> int:
     """Ctrl-C: the fits done so far (rt.discrepancy.diagnose.watch.partial_result) printed and, with --out, in
     its folder (written beside and renamed); a line on stderr says where; exit status INTERRUPTED."""
-    from rt.discrepancy.diagnose.watch import partial_summary, write_partial_report
+    from frictionrt.rt.discrepancy.diagnose.watch import partial_summary, write_partial_report
     if args.out and part["fits"]:
         write_folder(args.out, args.force, lambda: write_partial_report(part, args.out))
     print(_json(part) if args.json else partial_summary(part))
@@ -112,8 +112,8 @@ def _interrupted(part: dict, args) -> int:
 
 def _campaign_or_frf(cfg, args, say) -> int:
     """``diagnose`` of a campaign (rt.discrepancy.diagnose.campaign) or of FRF files (.frf)."""
-    from rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
-    from rt.discrepancy.diagnose.watch import Interrupted
+    from frictionrt.rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
+    from frictionrt.rt.discrepancy.diagnose.watch import Interrupted
     try:
         if is_frf_folder(args.folder):
             res = diagnose_frf(args.folder, cfg, progress=say, bars=True)
@@ -126,7 +126,7 @@ def _campaign_or_frf(cfg, args, say) -> int:
     except Interrupted as stop:   # Ctrl-C: keep the fits done so far
         return _interrupted(stop.partial, args)
     if args.out:
-        from rt.discrepancy.diagnose import write_report
+        from frictionrt.rt.discrepancy.diagnose import write_report
         write_folder(args.out, args.force, lambda: write_report(res, args.out))
     print(json.dumps(public(res)) if args.json else summary(res))
     return 0
@@ -134,11 +134,11 @@ def _campaign_or_frf(cfg, args, say) -> int:
 
 def _levels(cfg, args, say) -> int:
     """``diagnose --calibrate-on``: rt.discrepancy.diagnose.levels."""
-    from rt.cli.common import parse_list
-    from rt.discrepancy.diagnose import is_frf_folder
-    from rt.discrepancy.diagnose.levels import diagnose_levels
-    from rt.discrepancy.diagnose.levels_report import summary, write_levels_report
-    from rt.discrepancy.diagnose.watch import Interrupted
+    from frictionrt.rt.cli.common import parse_list
+    from frictionrt.rt.discrepancy.diagnose import is_frf_folder
+    from frictionrt.rt.discrepancy.diagnose.levels import diagnose_levels
+    from frictionrt.rt.discrepancy.diagnose.levels_report import summary, write_levels_report
+    from frictionrt.rt.discrepancy.diagnose.watch import Interrupted
     try:
         levels = parse_list(args.calibrate_on, float, "diagnose --calibrate-on", "0.5,1")
     except ValueError as exc:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import shtab
 
-from rt.cli.common import add_force, add_out, fail, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail, write_folder
 
 DESCRIPTION = """Write the controller of the resolved configuration (or, with --from-log, of the design a run
 log carries) as self-contained C99 into the folder DIR: frictionrt_ctrl.h / .c (ctrl_init, ctrl_step on plain
@@ -49,7 +49,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_export_c(cfg, args) -> int:
-    from rt.export.generate import MANIFEST, export_c
+    from frictionrt.rt.export.generate import MANIFEST, export_c
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
         return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
@@ -57,11 +57,11 @@ def cmd_export_c(cfg, args) -> int:
         return fail(f"--out {out}: folder {out.parent} does not exist")
     try:
         if args.from_log:
-            from rt.export.replay_c import log_design
+            from frictionrt.rt.export.replay_c import log_design
             _, _, _, loop, st, report = log_design(Path(args.from_log), cfg, args.sets)
             source = f"the log {args.from_log} ({report['why']})"
         else:
-            from rt.loop import build_loop, initial_loop_state
+            from frictionrt.rt.loop import build_loop, initial_loop_state
             loop = build_loop(cfg, args.law, args.estimator)
             st = initial_loop_state(loop, cfg.rt.seed)
             source = "the resolved configuration"

@@ -11,8 +11,8 @@ import math
 import sys
 from pathlib import Path
 
-from rt.common.config import LAWS, Config, dumps
-from rt.cli.common import (add_common, add_controller, add_force, add_out, c_exports, controller_for, fail,
+from frictionrt.rt.common.config import LAWS, Config, dumps
+from frictionrt.rt.cli.common import (add_common, add_controller, add_force, add_out, c_exports, controller_for, fail,
                            parse_list, refuse_existing)
 
 DESCRIPTION = """Step-sine accelerance FRF H = a(x = 0.45 m) / F_exc [(m/s^2)/N] of the closed loop, as the
@@ -82,7 +82,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 def _frequencies(cfg: Config, args) -> list[float]:
     """The sweep's frequencies [Hz], in sweep order; ValueError naming the option."""
-    from rt.experiments.stepsine import mode_bands_hz, resonance_grid
+    from frictionrt.rt.experiments.stepsine import mode_bands_hz, resonance_grid
     nyq = 0.5 / cfg.dt_s
     if args.freqs is not None:
         freqs = parse_list(args.freqs, float, "--freqs", "190,195,200")
@@ -122,8 +122,8 @@ def cmd_frf(cfg: Config, args) -> int:
     """Run ``frictionrt frf``: validate, sweep every (law, amplitude) in parallel, print or write
     (JSON: dt_s, the resolved configuration as TOML, the controller of each law (c:DIR or numba),
     one ``StepSineResult.to_dict()`` per sweep)."""
-    from rt.experiments.branches import Branch, run_branches
-    from rt.experiments.stepsine import Settle, plot_frfs
+    from frictionrt.rt.experiments.branches import Branch, run_branches
+    from frictionrt.rt.experiments.stepsine import Settle, plot_frfs
     for a in args.amp:
         if not (math.isfinite(a) and a > 0.0):
             return fail(f"--amp {a:g} N: an FRF needs a finite force amplitude > 0 N")
@@ -162,7 +162,7 @@ def cmd_frf(cfg: Config, args) -> int:
         exports = c_exports(args.controller, [(law, args.estimator) for law in dict.fromkeys(args.law)])
         if exports:   # each law with a C export runs it (its worker processes load the library by path)
             from dataclasses import replace
-            from rt.experiments.branches import build_loops
+            from frictionrt.rt.experiments.branches import build_loops
             loops = build_loops(branches)
             ctrl = {id(lp): controller_for(exports, lp, cfg.rt.seed) for lp in loops}
             branches = [replace(b, controller=ctrl[id(lp)]) for b, lp in zip(branches, loops)]
@@ -184,7 +184,7 @@ def cmd_frf(cfg: Config, args) -> int:
         plot_frfs(results, str(tmp))
         tmp.replace(paths["--plot"])
     if "--rrd" in paths:
-        from rt.log.rrd_log import write_frf_rrd
+        from frictionrt.rt.log.rrd_log import write_frf_rrd
         write_frf_rrd(paths["--rrd"], results, {"config": dumps(cfg)})
     unsettled = sum(int((~r.settled).sum()) for r in results)
     if unsettled:

@@ -5,8 +5,8 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import add_deprecated, add_force, add_out, fail, refuse_existing
-from rt.common.config import adaptive_screw
+from frictionrt.rt.cli.common import add_deprecated, add_force, add_out, fail, refuse_existing
+from frictionrt.rt.common.config import adaptive_screw
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -27,8 +27,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_impulse(cfg, args) -> int:
-    from plant.impulse import impulse_test, plot_frf
-    from plant.model import build_plant
+    from frictionrt.plant.impulse import impulse_test, plot_frf
+    from frictionrt.plant.model import build_plant
     screw = adaptive_screw(cfg)
     if screw is None and args.fn1 is not None:
         return fail(f"--fn1 {args.fn1:g} N: this structure has no adaptive screw (no plant.screws entry with "

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import shtab
 
-from rt.cli.common import add_deprecated, add_force, add_out, fail
+from frictionrt.rt.cli.common import add_deprecated, add_force, add_out, fail
 
 INSPECT = """Convert an MCAP run log or measurement (an MCAP file with some of the topics /rt, /sensors,
 /observer, /tracking, /actuator, /plant and the "signals" record, e.g. /sensors only) to a rerun
@@ -44,7 +44,7 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
 
 
 def cmd_inspect(cfg, args) -> int:
-    from rt.log.rrd_log import mcap_to_rrd
+    from frictionrt.rt.log.rrd_log import mcap_to_rrd
     src = Path(args.log)
     dst = Path(args.out) if args.out else src.with_suffix(".rrd")
     if dst.suffix != ".rrd":

@@ -17,7 +17,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_modes(cfg, args) -> int:
-    from plant.modes import format_summary, modes_summary
+    from frictionrt.plant.modes import format_summary, modes_summary
     s = modes_summary(cfg)
     print(json.dumps(s) if args.json else format_summary(s))
     return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from rt.cli.common import fail
+from frictionrt.rt.cli.common import fail
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -21,7 +21,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_observer(cfg, args) -> int:
-    from observer.kalman import design_observer
+    from frictionrt.observer.kalman import design_observer
     try:
         d = design_observer(cfg).summary(cfg.tracking.F_max_N)
     except ValueError as exc:

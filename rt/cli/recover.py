@@ -10,7 +10,7 @@ import json
 
 import shtab
 
-from rt.cli.common import add_deprecated, add_force, add_out, fail
+from frictionrt.rt.cli.common import add_deprecated, add_force, add_out, fail
 
 RECOVER = """Recover a run log whose writer was killed (kill -9, power loss): `frictionrt simulate --out
 NAME` leaves NAME.mcap.part. Every complete chunk (each CRC-checked) is written to a new, finished
@@ -43,7 +43,7 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
 
 
 def cmd_recover(cfg, args) -> int:
-    from rt.log.recover import recover
+    from frictionrt.rt.log.recover import recover
     if not args.out:   # not required by argparse: the old spelling --output gives it too
         return fail("recover: give -o FIXED.mcap, the file to write the recovered log to")
     try:

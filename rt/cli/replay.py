@@ -8,7 +8,7 @@ import json
 
 import shtab
 
-from rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
+from frictionrt.rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
 
 GAP = " (dropped blocks): the states differ after a gap"   # a log's missing ticks, to a controller replay
 
@@ -60,7 +60,7 @@ def cmd_replay(cfg, args) -> int:
 
 
 def _replay(cfg, args) -> dict:
-    from rt.loop.replay import replay
+    from frictionrt.rt.loop.replay import replay
     if msg := unpaced_realtime(args):
         raise ValueError(msg)
     return replay(args.log, paced=args.paced, fallback_cfg=cfg, sets=args.sets)
@@ -80,7 +80,7 @@ def _print_comparison(res, gap: str, unrecorded: str, width: int, over: str, wor
     nothing recorded to compare, ``unrecorded`` and the replayed signals' min / mean / max (names
     ``width`` wide); else bit-exact or DIFFERS with the largest difference over ``over`` and, when
     they differ, the first differing tick and ``worst`` ((signal, |diff|) pairs) as ``worst_label``."""
-    from rt.log.design_record import describe
+    from frictionrt.rt.log.design_record import describe
     if res["missing_ticks"]:
         print(f"  the log misses {res['missing_ticks']} ticks{gap}")
     print(describe(res["design"]))
@@ -97,7 +97,7 @@ def _print_comparison(res, gap: str, unrecorded: str, width: int, over: str, wor
 
 def _replay_plant(cfg, args) -> dict:
     """``replay --plant``: the log's V_cmd and F_exc into actuator and plant, their outputs compared."""
-    from rt.loop.replay_plant import replay_plant
+    from frictionrt.rt.loop.replay_plant import replay_plant
     if args.paced:
         raise ValueError("--plant with --paced: the plant replay runs offline only; drop --paced")
     return replay_plant(args.log, fallback_cfg=cfg, sets=args.sets)
@@ -115,7 +115,7 @@ def _show_plant(res) -> None:
 
 def _replay_c(cfg, args) -> dict:
     """``replay --c DIR``: the log through the C export in DIR (rt.export.replay_c)."""
-    from rt.export.replay_c import replay_c
+    from frictionrt.rt.export.replay_c import replay_c
     if args.plant or args.paced:
         raise ValueError("--c replays the controller offline: drop --plant / --paced")
     return replay_c(args.log, args.c, cc=args.cc, opt=args.c_opt, fallback_cfg=cfg, sets=args.sets)[0]

@@ -11,8 +11,8 @@ import json
 import sys
 from pathlib import Path
 
-from rt.common.config import Config
-from rt.cli.common import add_force, add_out, fail, refuse_existing
+from frictionrt.rt.common.config import Config
+from frictionrt.rt.cli.common import add_force, add_out, fail, refuse_existing
 
 DESCRIPTION = """Reproduce Becker & Gaul's experiments (SPEC section 6) and decide their claims C1..C6 on the
 numbers measured: an impulse test at F_N1 = 100 N (identified modal damping), amplitude-controlled
@@ -77,9 +77,9 @@ def _check_out(out: Path) -> str | None:
 
 def cmd_reproduce(cfg: Config, args) -> int:
     """Run ``frictionrt reproduce``: validate, measure, evaluate, write (rt.experiments.reproduce_report)."""
-    from rt.experiments.reproduce import ESTIMATORS, FULL, QUICK, measure
-    from rt.experiments.branches import sweeps_line
-    from rt.experiments.reproduce_report import CLAIM_TEXT, jsonable, write_outputs
+    from frictionrt.rt.experiments.reproduce import ESTIMATORS, FULL, QUICK, measure
+    from frictionrt.rt.experiments.branches import sweeps_line
+    from frictionrt.rt.experiments.reproduce_report import CLAIM_TEXT, jsonable, write_outputs
     if args.jobs is not None and args.jobs < 1:
         return fail(f"--jobs {args.jobs}: must be >= 1 (local worker processes)")
     out = Path(args.out)

@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from rt.cli.common import add_force, add_out, fail, parse_list, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, write_folder
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
@@ -102,7 +102,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 
 def cmd_rig(cfg, args) -> int:
-    from rt.discrepancy.effects import EFFECTS, get
+    from frictionrt.rt.discrepancy.effects import EFFECTS, get
     if args.list:
         rows = [e.to_json() for e in EFFECTS.values()]
         if args.json:
@@ -152,7 +152,7 @@ def cmd_rig(cfg, args) -> int:
             levels = parse_list(args.levels, float, "rig --levels", "0.5,1,2,5")
         except ValueError as exc:
             return fail(str(exc))
-    from rt.discrepancy.rig import make_campaign, model_form, model_form_parts, model_form_refine
+    from frictionrt.rt.discrepancy.rig import make_campaign, model_form, model_form_parts, model_form_refine
     try:
         form = model_form_parts(args.model_form)
     except ValueError as exc:
@@ -169,7 +169,7 @@ def cmd_rig(cfg, args) -> int:
         except ValueError as exc:
             return fail(f"rig --refine {refine}: the refined truth is not a valid configuration ({exc}); "
                         "give a smaller factor")
-    from rt.discrepancy.rig import make_frf_campaign, make_level_campaign
+    from frictionrt.rt.discrepancy.rig import make_frf_campaign, make_level_campaign
 
     def write():   # the campaign into the new folder out (moved in once complete; rt.discrepancy.rig.new_folder)
         if levels is not None:

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rt.cli.common import (add_controller, add_force, add_out, add_realtime, c_exports, controller_for, deprecated,
+from frictionrt.rt.cli.common import (add_controller, add_force, add_out, add_realtime, c_exports, controller_for, deprecated,
                            fail, realtime_notes, refuse_existing, unpaced_realtime)
 
 
@@ -49,11 +49,11 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 def cmd_simulate(cfg, args) -> int:
     from tqdm import tqdm
 
-    from rt.log.data_format import run_test_record
-    from rt.loop.faults import schedule, to_json
-    from rt.log.design_record import DESIGN_ATTACHMENT, MEDIA_TYPE, design_arrays, to_npz
-    from rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
-    from rt.log.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
+    from frictionrt.rt.log.data_format import run_test_record
+    from frictionrt.rt.loop.faults import schedule, to_json
+    from frictionrt.rt.log.design_record import DESIGN_ATTACHMENT, MEDIA_TYPE, design_arrays, to_npz
+    from frictionrt.rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
+    from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
     if args.seed is not None and args.seed < 0:
         return fail(f"--seed {args.seed}: must be a non-negative integer")
     if msg := unpaced_realtime(args):
@@ -142,6 +142,6 @@ def cmd_simulate(cfg, args) -> int:
 def design_hash_of(loop, seed: int) -> str:
     """The design hash of the controller of a run of ``loop`` (``simulate --out`` stores it in the
     log's "frictionrt" record as "controller_design")."""
-    from rt.export.record import controller_record, design_hash
-    from rt.loop import initial_loop_state
+    from frictionrt.rt.export.record import controller_record, design_hash
+    from frictionrt.rt.loop import initial_loop_state
     return design_hash(controller_record(loop, initial_loop_state(loop, seed)))

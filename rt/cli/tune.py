@@ -12,8 +12,8 @@ import os
 import tempfile
 from pathlib import Path
 
-from rt.common.config import Config, ConfigError
-from rt.cli.common import add_force, add_out, fail, parse_list, refuse_existing
+from frictionrt.rt.common.config import Config, ConfigError
+from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, refuse_existing
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
 each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
@@ -94,7 +94,7 @@ def _csv(rows: list[dict], keys) -> str:
 
 def _write_outputs(res, out: Path) -> None:
     """Write the files into a temporary folder beside out, then move them in (never half-written)."""
-    from rt.experiments.tune import best_toml, plot_pareto
+    from frictionrt.rt.experiments.tune import best_toml, plot_pareto
     out.mkdir(parents=True, exist_ok=True)
     rows = res.rows()
     with tempfile.TemporaryDirectory(dir=out, prefix=".tune-") as tmp:
@@ -112,8 +112,8 @@ def _write_outputs(res, out: Path) -> None:
 
 
 def cmd_tune(cfg: Config, args) -> int:
-    from rt.experiments.branches import sweeps_line
-    from rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
+    from frictionrt.rt.experiments.branches import sweeps_line
+    from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
         return fail(f"--out {out}: exists and is not a folder")

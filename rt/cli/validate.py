@@ -11,7 +11,7 @@ import json
 
 import shtab
 
-from rt.cli.common import fail
+from frictionrt.rt.cli.common import fail
 
 DESCRIPTION = """Check an MCAP run log or measurement against the measurement format (docs/data-format.md):
 the metadata records "signals" (layout, rate [Hz]), "test" (kind, excitation point x [m], sensor positions
@@ -38,7 +38,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 
 def cmd_validate(cfg, args) -> int:
-    from rt.log.data_format import validate
+    from frictionrt.rt.log.data_format import validate
     try:
         problems = validate(args.file)
     except ValueError as exc:

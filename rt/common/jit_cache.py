@@ -1,14 +1,14 @@
 """Numba's on-disk cache, keyed on the source of every kernel.
 
-Numba invalidates a cached function only when its own file changes: ``plant.simulate._run``
-keeps the machine code of an old ``plant.newmark._plant_step`` after newmark.py is edited
+Numba invalidates a cached function only when its own file changes: ``frictionrt.plant.simulate._run``
+keeps the machine code of an old ``frictionrt.plant.newmark._plant_step`` after newmark.py is edited
 (it happened). The cache directory is therefore named after a hash of the kernel sources, so
 any edit to them starts a fresh cache. Kernel sources are every .py file of plant/,
 observer/ and tracking/ (sub-packages included), those of rt/ and its sub-packages that define
 an njit function, and rt/common/config.py (whose constants kernels may capture); rt's
 command-line, logging and experiment modules are left out, so editing them does not cost a
 recompile. ``configure`` must run before the first ``numba.njit(cache=True)`` decorator
-executes; ``rt.common``'s ``__init__`` calls it, and every package imports ``rt.common``
+executes; ``frictionrt.rt.common``'s ``__init__`` calls it, and every package imports ``frictionrt.rt.common``
 first. A user's own NUMBA_CACHE_DIR is respected (and then invalidation is theirs to manage).
 """
 from __future__ import annotations

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant.actuator import build_actuator, initial_state, output_index, run_actuator
-from plant.model import PlantModel
-from plant.sensors import build_sensors, run_sensors
-from plant.simulate import run
-from rt.common.config import Config, key_range, with_sets
-from rt.common.noise import new_rng
+from frictionrt.plant.actuator import build_actuator, initial_state, output_index, run_actuator
+from frictionrt.plant.model import PlantModel
+from frictionrt.plant.sensors import build_sensors, run_sensors
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import Config, key_range, with_sets
+from frictionrt.rt.common.noise import new_rng
 
 FORCE_NOISE_N = 0.02                  # [N] rms, hammer force transducer
 V_NOISE_V = 0.02                      # [V] rms, stack voltage monitor

@@ -18,7 +18,7 @@ import functools
 from collections.abc import Callable
 from typing import NamedTuple
 
-from rt.common.config import Config, adaptive_screw, with_sets
+from frictionrt.rt.common.config import Config, adaptive_screw, with_sets
 
 
 class Parameter(NamedTuple):

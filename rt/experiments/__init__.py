@@ -5,16 +5,16 @@ Modules: ``stepsine`` (the step-sine method), ``branches`` (sweeps in processes 
 ``reproduce`` (what the reproduction runs and measures), ``claims`` (C1..C6 as pure
 functions), ``reproduce_report`` (figures and report files), ``tune`` (grid search of gains),
 ``compare`` (the three laws at one excitation). A verb-named function lives in its module
-(``rt.experiments.tune.tune``). The names below are imported on first use (rt/common/face.py).
+(``frictionrt.rt.experiments.tune.tune``). The names below are imported on first use (rt/common/face.py).
 """
-from rt.common.face import lazy_face
+from frictionrt.rt.common.face import lazy_face
 
 _EXPORTS = {
-    "Branch": "rt.experiments.branches", "connect": "rt.experiments.branches", "Settle": "rt.experiments.stepsine", "StepSineResult": "rt.experiments.stepsine", "run_branches": "rt.experiments.branches", "resonance_grid": "rt.experiments.stepsine", "mode_bands_hz": "rt.experiments.stepsine",
-    "FULL": "rt.experiments.reproduce", "QUICK": "rt.experiments.reproduce", "measure": "rt.experiments.reproduce", "loop_at_fn1": "rt.experiments.reproduce",
-    "write_outputs": "rt.experiments.reproduce_report",
-    "peak_reduction_db": "rt.experiments.claims",
-    "DEFAULT_GRIDS": "rt.experiments.tune", "parse_grid": "rt.experiments.tune", "best_toml": "rt.experiments.tune",
+    "Branch": "frictionrt.rt.experiments.branches", "connect": "frictionrt.rt.experiments.branches", "Settle": "frictionrt.rt.experiments.stepsine", "StepSineResult": "frictionrt.rt.experiments.stepsine", "run_branches": "frictionrt.rt.experiments.branches", "resonance_grid": "frictionrt.rt.experiments.stepsine", "mode_bands_hz": "frictionrt.rt.experiments.stepsine",
+    "FULL": "frictionrt.rt.experiments.reproduce", "QUICK": "frictionrt.rt.experiments.reproduce", "measure": "frictionrt.rt.experiments.reproduce", "loop_at_fn1": "frictionrt.rt.experiments.reproduce",
+    "write_outputs": "frictionrt.rt.experiments.reproduce_report",
+    "peak_reduction_db": "frictionrt.rt.experiments.claims",
+    "DEFAULT_GRIDS": "frictionrt.rt.experiments.tune", "parse_grid": "frictionrt.rt.experiments.tune", "best_toml": "frictionrt.rt.experiments.tune",
 }
 __all__ = list(_EXPORTS)
 __getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

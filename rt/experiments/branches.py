@@ -15,9 +15,9 @@ import threading
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from rt.common.config import Config, dumps
-from rt.experiments.stepsine import Settle, StepSineResult, check_sweep, slow_sweep, sweep
-from rt.loop import Designs, Loop, build_loop
+from frictionrt.rt.common.config import Config, dumps
+from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, check_sweep, slow_sweep, sweep
+from frictionrt.rt.loop import Designs, Loop, build_loop
 
 PROGRESS_TOPIC = "frictionrt-frf-point"  # dask event topic: one message per finished point
 
@@ -260,7 +260,7 @@ def start_workers(n_jobs: int | None = None):
 
 def _import_loop() -> None:
     """A worker's start-up: import what a branch runs (``start_workers``)."""
-    import rt.loop.tick  # noqa: F401  (the compiled loop, loaded from numba's cache on its first call)
+    import frictionrt.rt.loop.tick  # noqa: F401  (the compiled loop, loaded from numba's cache on its first call)
 
 
 def _run_pickled(branch: Branch, loop: bytes, progress) -> StepSineResult:

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.common.config import LAWS, Config
-from rt.loop import Designs, Loop, Run, build_loop, run, summary
+from frictionrt.rt.common.config import LAWS, Config
+from frictionrt.rt.loop import Designs, Loop, Run, build_loop, run, summary
 
 
 def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, estimator: str = "observer",
@@ -31,13 +31,13 @@ def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None) -> fl
     then rounds of ``refine_points`` (at most QUICK.refine_rounds), each point settled as QUICK
     settles it. progress(1) after each point.
 
-    The linear picture (``plant.modes.passive_resonance_hz``, the adaptive joint sliding) lies a few
+    The linear picture (``frictionrt.plant.modes.passive_resonance_hz``, the adaptive joint sliding) lies a few
     per cent above the friction-damped peak (mode 3, 5 N: 205.2 Hz against 201.6 Hz found here and
     200.55 Hz by the full reproduction), more than the peak is wide: there the laws' stiffer joints
     move their own peaks toward the excitation, and ``compare`` placed there showed the hysteresis
     law 6.5 % above passive where at 201.6 Hz it is 31 % below (1 s runs)."""
-    from rt.experiments.reproduce import HALF_WIDTH, QUICK, merge, refine_points
-    from rt.experiments.stepsine import mode_bands_hz, resonance_grid, sweep
+    from frictionrt.rt.experiments.reproduce import HALF_WIDTH, QUICK, merge, refine_points
+    from frictionrt.rt.experiments.stepsine import mode_bands_hz, resonance_grid, sweep
     lo, hi = mode_bands_hz(passive.cfg, (mode,))[mode]
     r = sweep(passive, resonance_grid([0.5 * (lo + hi)], HALF_WIDTH.get(mode, 0.15), QUICK.n_points), amp_n,
               settle=QUICK.settle, progress=progress)

@@ -45,11 +45,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db
-from rt.common.config import Config
-from rt.loop import Designs, Loop, build_loop
-from rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
-from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
+from frictionrt.rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db
+from frictionrt.rt.common.config import Config
+from frictionrt.rt.loop import Designs, Loop, build_loop
+from frictionrt.rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
+from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
 ESTIMATORS = ("observer", "oracle")
@@ -112,7 +112,7 @@ class Key(tuple):
 def mode_grids(cfg: Config, modes: Sequence[int], n_points: int,
                designs: Designs | None = None) -> dict[int, np.ndarray]:
     """mode -> coarse frequencies [Hz], increasing (module docstring); designs: the study's
-    shared plant (``rt.loop.Designs``)."""
+    shared plant (``frictionrt.rt.loop.Designs``)."""
     bands = mode_bands_hz(cfg, modes, designs)
     return {m: resonance_grid([0.5 * (lo + hi)], HALF_WIDTH[m], n_points) for m, (lo, hi) in bands.items()}
 
@@ -190,7 +190,7 @@ def with_constant_fn1(cfg: Config, fn1_n: float) -> Config:
 
 def loop_at_fn1(passive: Loop, fn1_n: float) -> Loop:
     """A built passive loop at another constant F_N1 [N]: only the law's constants change."""
-    from tracking.laws import build_laws
+    from frictionrt.tracking.laws import build_laws
     cfg = with_constant_fn1(passive.cfg, fn1_n)
     return dataclasses.replace(passive, cfg=cfg, law_params=build_laws(cfg, "passive"))
 
@@ -293,9 +293,9 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     holds claims, peak_reduction_db, best_passive_fn1, peaks and energy of the first estimator (the
     one the claims are decided on), the same per estimator under "by_estimator", and impulse,
     timing, plan. stage(text) is called before each stage."""
-    from plant.impulse import impulse_test
-    from plant.model import build_plant
-    from plant.modes import bare_beam_bending_hz
+    from frictionrt.plant.impulse import impulse_test
+    from frictionrt.plant.model import build_plant
+    from frictionrt.plant.modes import bare_beam_bending_hz
     plan.check(cfg)
     estimators = tuple(dict.fromkeys(estimators))
     if not estimators or not set(estimators) <= set(ESTIMATORS):

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.experiments.branches import sweeps_line
-from rt.experiments.claims import TOL_DB
+from frictionrt.rt.experiments.branches import sweeps_line
+from frictionrt.rt.experiments.claims import TOL_DB
 
 CLAIM_TEXT = {
     "C1": "bare structure damping < 0.15 %",
@@ -183,7 +183,7 @@ def plot_laws(frfs_by_estimator: dict, law: str, path: str, title: str) -> None:
 def write_outputs(out: Path, result: dict, f_max_hz: float) -> None:
     """fig5.png (impulse FRF), fig7.png (hysteresis vs passive), fig8.png (Lyapunov vs passive),
     report.md and report.json into out, all at once (module docstring)."""
-    from plant.impulse import plot_frf
+    from frictionrt.plant.impulse import plot_frf
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))

@@ -52,7 +52,7 @@ Defaults (``Settle``) and why:
   structure with more than twice the force.
 
 Sweeps (``sweep``; ``run_branch`` checks the input and builds the loop) run the points in the
-given order, each from the previous point's final state (``rt.loop.driver.run(..., start=...)``: ticks
+given order, each from the previous point's final state (``frictionrt.rt.loop.driver.run(..., start=...)``: ticks
 and every state continue). The excitation is F_cmd sin(2 pi f k dt) at the absolute tick k, so
 its phase jumps at a frequency step, as in a step-sine without phase continuity; the detector
 waits the transient out.
@@ -83,9 +83,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from plant.actuator import output_index as actuator_output_index
-from rt.common.config import LAWS, Config
-from rt.loop import ESTIMATORS, Designs, Loop, LoopState, run
+from frictionrt.plant.actuator import output_index as actuator_output_index
+from frictionrt.rt.common.config import LAWS, Config
+from frictionrt.rt.loop import ESTIMATORS, Designs, Loop, LoopState, run
 
 WINDOWS = ("rect", "hann")
 SENSOR_READINGS = ("a_frf_meas", "a_tip_meas")  # accelerometer readings (plant.sensors) whose FRFs a point also gives
@@ -320,7 +320,7 @@ def settle_point(loop: Loop, freq_hz: float, amp_n: float, *, start: LoopState |
     steady (module docstring); returns the point and the final loop state (the next point's start).
 
     start: the state to continue from (None: at rest, noise seeded with seed or rt.seed).
-    controller: the loop's controller (``rt.loop.driver.run``'s; None: the numba controller)."""
+    controller: the loop's controller (``frictionrt.rt.loop.driver.run``'s; None: the numba controller)."""
     dt = loop.cfg.dt_s
     n = settle.block_ticks(freq_hz, dt)
     N = settle.n_blocks
@@ -556,16 +556,16 @@ def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5),
     """Per bending mode (1 = first): (f_slip, f_stuck) [Hz], the eigenfrequencies of the plant
     linearised about its preloaded state (the pairs the screws close, at the configured F_N1)
 
-    * f_stuck: those pairs stuck (``plant.model.stuck_frequencies_hz(model, preloaded_pairs)``;
+    * f_stuck: those pairs stuck (``frictionrt.plant.model.stuck_frequencies_hz(model, preloaded_pairs)``;
       index i is mode i + 1),
     * f_slip: the same with the pairs in the adaptive screw's pressure cone free to slide
-      tangentially (normal contact kept; ``plant.modes.sliding_joint_hz``).
+      tangentially (normal contact kept; ``frictionrt.plant.modes.sliding_joint_hz``).
 
     A friction-affected resonance lies near f_slip or between the two (docs/experiments.md).
-    designs: the study's shared designs (``rt.loop.Designs``: the plant its loops use; None:
+    designs: the study's shared designs (``frictionrt.rt.loop.Designs``: the plant its loops use; None:
     built here)."""
-    from plant.model import preloaded_pairs, stuck_frequencies_hz
-    from plant.modes import sliding_joint_hz
+    from frictionrt.plant.model import preloaded_pairs, stuck_frequencies_hz
+    from frictionrt.plant.modes import sliding_joint_hz
     model = (Designs() if designs is None else designs).plant(cfg)
     f_stuck = stuck_frequencies_hz(model, preloaded_pairs(model))
     f_slip = sliding_joint_hz(model)

@@ -28,10 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rt.common.config import Config, ConfigError, check_key, dumps, with_sets
-from rt.experiments.branches import Branch, build_loops, run_branches, start_workers, sweep_timing
-from rt.loop import Designs
-from rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
+from frictionrt.rt.common.config import Config, ConfigError, check_key, dumps, with_sets
+from frictionrt.rt.experiments.branches import Branch, build_loops, run_branches, start_workers, sweep_timing
+from frictionrt.rt.loop import Designs
+from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 TUNED_LAWS = ("hysteresis", "lyapunov")
 

@@ -7,11 +7,11 @@ sensor stream through the compiled C, compared bit for bit), ``bench`` (``bench 
 ``sil`` (the C as the numba loop's controller). The names below are imported on
 first use (rt/common/face.py).
 """
-from rt.common.face import lazy_face
+from frictionrt.rt.common.face import lazy_face
 
 _EXPORTS = {
-    "controller_record": "rt.export.record", "design_hash": "rt.export.record",
-    "export_c": "rt.export.generate", "read_manifest": "rt.export.generate",
+    "controller_record": "frictionrt.rt.export.record", "design_hash": "frictionrt.rt.export.record",
+    "export_c": "frictionrt.rt.export.generate", "read_manifest": "frictionrt.rt.export.generate",
 }
 __all__ = list(_EXPORTS)
 __getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

@@ -1,7 +1,7 @@
 """``frictionrt bench controller [--c DIR]``: the whole controller's time per tick, numba and C.
 
 The controller of one tick as the exported C has it (rt/export/templates): the tip integrator
-(``plant.sensors._tip_velocity``) and ``rt.loop.tick._controller_tick`` / ``_controller_done``:
+(``frictionrt.plant.sensors._tip_velocity``) and ``frictionrt.rt.loop.tick._controller_tick`` / ``_controller_done``:
 estimator (the observer with its Newton step, or the oracle), law, supervisor, prefilter, force
 tracking. ``bench loop``'s controller part leaves the observer and the supervisor out; this one
 does not. Both run over the same readings, those of a closed-loop run of the configuration at
@@ -20,14 +20,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from plant.sensors import SENSOR_OUTPUTS, _tip_velocity
-from rt.common.clock import _now_ns
-from rt.export.cbuild import BASE_FLAGS, build, compiler
-from rt.export.generate import check_design
-from rt.export.record import controller_record, design_hash
-from rt.loop.bench import _stats_us
-from rt.loop.build import controller_stages
-from rt.loop.tick import _controller_done, _controller_tick
+from frictionrt.plant.sensors import SENSOR_OUTPUTS, _tip_velocity
+from frictionrt.rt.common.clock import _now_ns
+from frictionrt.rt.export.cbuild import BASE_FLAGS, build, compiler
+from frictionrt.rt.export.generate import check_design
+from frictionrt.rt.export.record import controller_record, design_hash
+from frictionrt.rt.loop.bench import _stats_us
+from frictionrt.rt.loop.build import controller_stages
+from frictionrt.rt.loop.tick import _controller_done, _controller_tick
 
 SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
 READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
@@ -53,8 +53,8 @@ def _timed_ticks(ks, sens, uv, out, ns, force_col, observe, faults, ts, yc, tip,
 
 def _inputs(loop, n: int):
     """(k, readings (n, 5), uv (n, 2)) of a closed-loop run of n ticks at the budget's excitation."""
-    from rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
-    from rt.loop.driver import run
+    from frictionrt.rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
+    from frictionrt.rt.loop.driver import run
     r = run(loop, EXC_FREQ_HZ, EXC_AMP_N, n * loop.cfg.dt_s)
     sens = np.ascontiguousarray(r.log[:, [loop.column(c) for c in SENSORS]])
     uv = np.zeros((len(sens), 2))

@@ -3,7 +3,7 @@
 The C sources are templates in rt/export/templates (readable, commented C99: frictionrt_ctrl.h,
 frictionrt_ctrl.c, the batch entry ctrl_batch.c, the harness ctrl_harness.c, the Makefile),
 copied as they are. Only the numbers are generated, from the controller's design record
-(``rt.export.record``):
+(``frictionrt.rt.export.record``):
 
     ctrl_config.h       the estimator, the observer's size, the Newton bound, the design hash
     ctrl_design.h       every parameter as a C99 designated initializer of the template's
@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from observer.step import NEWTON_MAX
-from rt.common.config import dumps
-from rt.export.record import controller_record, design_hash
+from frictionrt.observer.step import NEWTON_MAX
+from frictionrt.rt.common.config import dumps
+from frictionrt.rt.export.record import controller_record, design_hash
 
 TEMPLATES = Path(__file__).with_name("templates")
 TEMPLATE_FILES = ("frictionrt_ctrl.h", "frictionrt_ctrl.c", "ctrl_batch.c", "ctrl_harness.c", "Makefile")

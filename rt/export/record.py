@@ -1,7 +1,7 @@
 """The controller's design record: every number the exported C controller reads, and its hash.
 
 ``controller_record(loop, state)`` selects, from the arrays a run log carries
-(``rt.log.design_record.design_arrays``: the kernels' parameter tuples and the initial state),
+(``frictionrt.rt.log.design_record.design_arrays``: the kernels' parameter tuples and the initial state),
 exactly what the controller tick uses (rt/loop/tick.py ``_controller_tick``, the tip integrator
 of plant/sensors.py ``_tip_velocity``):
 
@@ -23,8 +23,8 @@ import hashlib
 
 import numpy as np
 
-from plant.sensors import output_index
-from rt.log.design_record import design_arrays
+from frictionrt.plant.sensors import output_index
+from frictionrt.rt.log.design_record import design_arrays
 
 STAGES = ("law", "prefilter", "tracking", "supervisor")
 TIP_SLOTS = slice(6, 8)  # plant.sensors.SENSOR_SLOTS v_tip, a_tip_meas_in

@@ -1,14 +1,14 @@
 """``frictionrt replay LOG.mcap --c DIR``: the back-to-back test of an exported C controller.
 
-The log's sensor stream goes through the compiled C (``rt.export.cbuild``) as it goes through
-the numba controller in ``rt.loop.replay``: the ADC readings a_tip_meas, a_frf_meas, F_strain,
+The log's sensor stream goes through the compiled C (``frictionrt.rt.export.cbuild``) as it goes through
+the numba controller in ``frictionrt.rt.loop.replay``: the ADC readings a_tip_meas, a_frf_meas, F_strain,
 F_cell of each tick (the C integrates a_tip_meas itself), the oracle's u_rel, v_rel of the tick
 before (test builds), the overrun flags of a paced run and the fault schedule. Every output,
 v_tip_meas and the ``COMMANDED`` signals, is compared with the recorded one bit for bit; the
 first differing tick and signal are named.
 
 The export must be of the log's design: the hash of the log's controller record (from the design
-the log carries, ``rt.log.design_record.use_logged``) must equal the export's, otherwise the
+the log carries, ``frictionrt.rt.log.design_record.use_logged``) must equal the export's, otherwise the
 replay refuses, naming both; it must also equal the hash the log states in its "frictionrt"
 record ("controller_design", written by ``simulate --out``), when it states one. Unlike the numba replay, readings that are NaN (logged sensor
 dropouts) are fed as they are: the C, like the loop, sanitises them.
@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.export.cbuild import OUTPUTS, build
-from rt.export.generate import check_design, read_manifest
-from rt.export.record import controller_record, design_hash
-from rt.log.design_record import use_logged
-from rt.loop.build import initial_loop_state
-from rt.loop.replay import _overran, compare_bits, logged_faults, open_controller_log, oracle_inputs, seed_of
+from frictionrt.rt.export.cbuild import OUTPUTS, build
+from frictionrt.rt.export.generate import check_design, read_manifest
+from frictionrt.rt.export.record import controller_record, design_hash
+from frictionrt.rt.log.design_record import use_logged
+from frictionrt.rt.loop.build import initial_loop_state
+from frictionrt.rt.loop.replay import _overran, compare_bits, logged_faults, open_controller_log, oracle_inputs, seed_of
 
 READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
 
@@ -43,7 +43,7 @@ def log_design(path: Path, fallback_cfg=None, sets=()):
 
 def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, sets=()) -> tuple[dict, np.ndarray]:
     """Replay the log at ``path`` through the C export in ``folder`` (module docstring), built
-    with ``cc`` ``opt`` ``extra`` (``rt.export.cbuild.build``). Returns (summary, outputs): the
+    with ``cc`` ``opt`` ``extra`` (``frictionrt.rt.export.cbuild.build``). Returns (summary, outputs): the
     JSON summary ``file``, ``export``, ``design_hash``, ``law``, ``estimator``, ``ticks``,
     ``bit_exact``, ``signals_compared``, ``max_abs_diff_by_signal``, ``first_mismatch_tick``,
     ``first_mismatch_signals``, ``build`` (the compile command), ``wall_s``; outputs (ticks, 13).

@@ -1,7 +1,7 @@
 """Software in the loop: the compiled C export as the controller of the numba loop
 (``frictionrt simulate --controller c:DIR``).
 
-``CController(loop, folder, seed)`` is a controller for ``rt.loop.driver.run(..., controller=)``:
+``CController(loop, folder, seed)`` is a controller for ``frictionrt.rt.loop.driver.run(..., controller=)``:
 the loop's ticks as rt/loop/tick.py ``_run_ticks`` runs them offline (sensors, actuator, shaker,
 plant in numba; ring rows, the writer's pace, stop requests, the deadlines of a paced run and its
 overruns, which the C's supervisor reads as the numba one does), with stages 2-4 (estimator, law,
@@ -22,13 +22,13 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from rt.common.clock import CLK_TICKS
-from rt.export.cbuild import N_OUTPUTS, OUTPUTS, build, load
-from rt.export.generate import check_design, read_manifest
-from rt.export.record import TIP_SLOTS, controller_record, design_hash
-from rt.loop.build import controller_stages, initial_loop_state
-from rt.loop.driver import run
-from rt.loop.tick import _put, _tick_begin, _tick_done, _tick_log, _tick_plant
+from frictionrt.rt.common.clock import CLK_TICKS
+from frictionrt.rt.export.cbuild import N_OUTPUTS, OUTPUTS, build, load
+from frictionrt.rt.export.generate import check_design, read_manifest
+from frictionrt.rt.export.record import TIP_SLOTS, controller_record, design_hash
+from frictionrt.rt.loop.build import controller_stages, initial_loop_state
+from frictionrt.rt.loop.driver import run
+from frictionrt.rt.loop.tick import _put, _tick_begin, _tick_done, _tick_log, _tick_plant
 
 STATE_PARTS = ("xs", "x_est", "xl", "xq", "xf", "sv")
 """ctrl_state's members in order (frictionrt_ctrl.h; ctrl_batch.c ``ctrl_state_offsets``): the tip
@@ -38,7 +38,7 @@ _F_SET, _V_CMD = OUTPUTS.index("F_set"), OUTPUTS.index("V_cmd")   # the law's, t
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
 def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols, log):
-    """Ticks k0 <= k < k1 of the loop (``rt.loop.tick._run_ticks``, untimed: its ``_tick_begin``,
+    """Ticks k0 <= k < k1 of the loop (``frictionrt.rt.loop.tick._run_ticks``, untimed: its ``_tick_begin``,
     ``_tick_plant``, ``_tick_log``, ``_tick_done``) with the C controller cstep
     (``ctrl_step_flat``) in place of ``_controller_tick``; ctl = (its state buffer, input (8,),
     output (13,)). Log row (k - k0) mod len(log) receives the tick's signals. Returns failed plant
@@ -79,13 +79,13 @@ def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols
 
 
 class CController:
-    """The C export in ``folder`` as the controller of runs of ``loop`` (``rt.loop.driver.run(...,
+    """The C export in ``folder`` as the controller of runs of ``loop`` (``frictionrt.rt.loop.driver.run(...,
     controller=)``), checked against the design of ``loop`` started at rest with ``seed``.
     ValueError for a folder that is no export, an export of another design (both hashes named),
     a missing compiler.
 
     The C's state (ctrl_state) is the run's: before its ticks it is loaded from the run's
-    controller states (``rt.loop.build.controller_stages``: estimator, RT1, prefilter, PID,
+    controller states (``frictionrt.rt.loop.build.controller_stages``: estimator, RT1, prefilter, PID,
     supervisor; the tip integrator's slots of the sensors' state), after them it is stored back,
     with the law's and the force tracking's last outputs (yl, yf), so that ``Run.final`` is the
     numba controller's and a run continued from it, with either controller, is the same. One
@@ -114,7 +114,7 @@ class CController:
                              "export it again")
 
     def _link(self, ctrl) -> None:
-        """Set up the calls into the loaded build ``ctrl`` (``rt.export.cbuild.Controller``) and
+        """Set up the calls into the loaded build ``ctrl`` (``frictionrt.rt.export.cbuild.Controller``) and
         the buffers it steps on."""
         self.build = ctrl
         lib = ctrl.lib
@@ -154,7 +154,7 @@ class CController:
         return [sens[0][TIP_SLOTS], est[5] if self.observe else est[0], law[0], trk[0], trk[5], sup[0]]
 
     def __call__(self, k0, k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt, shk, cols, log) -> int:
-        """Ticks k0 <= k < k1 (``rt.loop.tick._run_ticks``' arguments but force_col, observe and
+        """Ticks k0 <= k < k1 (``frictionrt.rt.loop.tick._run_ticks``' arguments but force_col, observe and
         comp_ns) with the C controller, its state loaded from the loop's controller states and
         stored back after (class docstring). Returns the failed plant solves."""
         clk = pace[4]

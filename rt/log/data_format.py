@@ -1,16 +1,16 @@
 """The measurement format (docs/data-format.md): what a run log or a measurement must carry, and
 a validator that names what is missing or wrong.
 
-A file is an MCAP log in the layout of ``rt.log.mcap_log`` (ROS 2 profile, topics per owning
+A file is an MCAP log in the layout of ``frictionrt.rt.log.mcap_log`` (ROS 2 profile, topics per owning
 package, ros2msg schemas of stamp, tick and the signals' ROS 2 fields, CDR messages, one message
 per tick at log_time = start_ns + (k 10^9) // rate_hz ns) with the metadata records "signals"
 (the layout; optional, with defaults), "test" (what was done: ``TEST_KEYS``) and, for the
 project's own runs, "frictionrt" (configuration, law, estimator, seed, versions, command line).
 
-``SIGNALS`` (``rt.log.registry``) is the registry of every signal the format knows.
-tests/test_data_format.py checks it against the loop's own signal list (``rt.loop.build.loop_signals``)
+``SIGNALS`` (``frictionrt.rt.log.registry``) is the registry of every signal the format knows.
+tests/test_data_format.py checks it against the loop's own signal list (``frictionrt.rt.loop.build.loop_signals``)
 in both directions and checks that the tables of docs/data-format.md are ``signal_table()``,
-``required_table()`` and ``keys_table()`` verbatim (``python -m rt.log.data_format`` prints them).
+``required_table()`` and ``keys_table()`` verbatim (``python -m frictionrt.rt.log.data_format`` prints them).
 
 ``validate(path)`` returns the list of ``Problem`` s (empty: valid) and raises ValueError only
 for a file that cannot be read at all (not MCAP, truncated, corrupt).
@@ -28,10 +28,10 @@ import zstandard
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from rt.common.config import require_adaptive_screw
-from rt.log.mcap_log import (MAX_TICK, Topic, check_framing, chunk_messages, iter_messages, file_topics,
+from frictionrt.rt.common.config import require_adaptive_screw
+from frictionrt.rt.log.mcap_log import (MAX_TICK, Topic, check_framing, chunk_messages, iter_messages, file_topics,
                          parse_schema, payload_rows, tick_time_ns, ticks_of_times)
-from rt.log.registry import SIGNALS, entry_of, field_type, lower_rule, ros2_field
+from frictionrt.rt.log.registry import SIGNALS, entry_of, field_type, lower_rule, ros2_field
 
 
 
@@ -295,7 +295,7 @@ def _check_run(meta: dict, rate: int | None, plant_present: bool, problems: list
             if key not in rec:
                 problems.append(Problem(f"metadata frictionrt.{key}", "missing", "required in a simulation log"))
     if "config" in rec:
-        from rt.common.config import ConfigError, loads   # not via rt.loop.replay: that imports the compiled loop (2 s)
+        from frictionrt.rt.common.config import ConfigError, loads   # not via rt.loop.replay: that imports the compiled loop (2 s)
         try:
             cfg = loads(rec["config"], (), source="the stored configuration", stored=True)
         except ConfigError as exc:

@@ -182,10 +182,10 @@ def environment_changes(meta: dict[str, str]) -> list[str]:
     (docs/determinism.md)."""
     import json
 
-    from rt.common.blas import state as blas_state
-    from rt.common.codegen import compiled_target
-    from rt.common.jit_cache import source_hash
-    from rt.log.writer import package_versions
+    from frictionrt.rt.common.blas import state as blas_state
+    from frictionrt.rt.common.codegen import compiled_target
+    from frictionrt.rt.common.jit_cache import source_hash
+    from frictionrt.rt.log.writer import package_versions
     out = []
     try:
         then = json.loads(meta.get("versions", "{}"))
@@ -232,7 +232,7 @@ def use_logged(path, loop, state, sets=(), parts=None, meta=None) -> tuple:
     or the log has none or it does not fit. report = {"source": "log" | "rebuilt", "why": str,
     "rebuilt_identical": bool or None, "max_rel_diff": float or None, "worst": key or None,
     "environment": ``environment_changes(meta)``}."""
-    from rt.log.mcap_log import read_attachment
+    from frictionrt.rt.log.mcap_log import read_attachment
     report = {"source": "rebuilt", "why": "", "rebuilt_identical": None, "max_rel_diff": None, "worst": None,
               "environment": environment_changes(meta or {})}
     data = read_attachment(path, DESIGN_ATTACHMENT)

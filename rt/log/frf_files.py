@@ -53,8 +53,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.log.data_format import ACCELEROMETER_POINTS
-from rt.log.registry import FIELD_RE, RESERVED
+from frictionrt.rt.log.data_format import ACCELEROMETER_POINTS
+from frictionrt.rt.log.registry import FIELD_RE, RESERVED
 
 FORMAT = "frictionrt-frf/1"
 KINDS = ("stepsine", "frf")

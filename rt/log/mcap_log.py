@@ -2,7 +2,7 @@
 numpy in blocks. Log format version ``FORMAT_VERSION`` (docs/data-format.md).
 
 A run's log is a float64 array (ticks, n_sig) whose columns are ``signals`` = (name, unit, owner)
-(``rt.loop.build.loop_signals``), named by the paper's symbols. The file holds:
+(``frictionrt.rt.loop.build.loop_signals``), named by the paper's symbols. The file holds:
 
     header     profile "ros2", library "frictionrt"
     topics     /rt /sensors /observer /tracking /actuator /plant (those owning a column), in that
@@ -10,7 +10,7 @@ A run's log is a float64 array (ticks, n_sig) whose columns are ``signals`` = (n
     schema     per topic, encoding "ros2msg", name "frictionrt/msg/<Owner>" (e.g.
                frictionrt/msg/Plant): "builtin_interfaces/Time stamp", "int64 tick", then one
                "TYPE FIELD" per signal of the owner in column order, FIELD = the signal's ROS 2
-               name (``rt.log.registry.ros2_field``: F_N1 -> f_n1), TYPE its registry type (float64,
+               name (``frictionrt.rt.log.registry.ros2_field``: F_N1 -> f_n1), TYPE its registry type (float64,
                or int64/int32/int8/bool for counts, codes and flags), then the definition of
                builtin_interfaces/Time (int32 sec, uint32 nanosec) as rosbag2 writes it
     message    encoding "cdr", little endian: the encapsulation header 00 01 00 00, then the
@@ -38,7 +38,7 @@ Reading (``read_mcap``) is driven by each topic's schema, so it also reads:
   k mod 2**32 give the tick;
 - files other tools wrote (e.g. ``mcap_ros2``'s writer) without the "signals" record: the
   signals are then the fields of the known topics in schema order, named back with
-  ``rt.log.registry.signal_name``, their units the registry's ("" for a field it does not know),
+  ``frictionrt.rt.log.registry.signal_name``, their units the registry's ("" for a field it does not know),
   the rate ``DEFAULT_RATE_HZ``; any integer, float or bool field type is read.
 
 Nothing is half-written: the writer writes ``NAME.mcap.part`` and renames it onto ``NAME.mcap``
@@ -72,7 +72,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
-from rt.log.registry import RESERVED, entry_of, field_names, field_type, signal_name
+from frictionrt.rt.log.registry import RESERVED, entry_of, field_names, field_type, signal_name
 
 FORMAT_VERSION = 1             # of the log format (metadata signals.format_version; none: version 0)
 PROFILE = "ros2"               # the MCAP header's profile (MCAP's well-known ROS 2 profile)
@@ -142,7 +142,7 @@ def utc_now() -> str:
 
 def start_time_ns(metadata: dict[str, str]) -> int:
     """A run's UTC start [ns since 1970-01-01] from the metadata's "start_utc" (ISO 8601 with a
-    zone, as ``rt.log.writer.run_metadata`` writes it); 0 if there is none. ValueError if unreadable."""
+    zone, as ``frictionrt.rt.log.writer.run_metadata`` writes it); 0 if there is none. ValueError if unreadable."""
     text = metadata.get("start_utc")
     if text is None:
         return 0
@@ -291,7 +291,7 @@ def check_owners(path: Path, signals) -> None:
 
 def topics_of(signals, fields=None, types=None, stamped: bool = True) -> tuple[Topic, ...]:
     """The topics of a signal layout, in OWNERS order; fields and types per signal default to
-    the registry's rule (``rt.log.registry``; ValueError for a signal without a valid field)."""
+    the registry's rule (``frictionrt.rt.log.registry``; ValueError for a signal without a valid field)."""
     fields = field_names(signals) if fields is None else tuple(fields)
     types = tuple(field_type(n, o) for n, _, o in signals) if types is None else tuple(types)
     owners = [o for _, _, o in signals]
@@ -535,7 +535,7 @@ def record_layout(rec: dict[str, str]):
     if [r["column"] for r in rows] != list(range(len(rows))) or \
             (version >= 1 and fields != field_names(signals)) or any(t not in CDR_TYPES for t in types):
         raise ValueError("the 'signals' record's columns, field names or types are inconsistent (fields: "
-                         "rt.log.registry.ros2_field)")
+                         "frictionrt.rt.log.registry.ros2_field)")
     try:
         rate = float(rec["rate_hz"])
         start = int(rec.get("start_ns", "0"))
@@ -549,7 +549,7 @@ def record_layout(rec: dict[str, str]):
 def schema_layout(schemas: dict[str, object]):
     """(signals, fields, types) of a file without the "signals" record, from the schemas of the
     known topics (``schemas``: topic -> mcap Schema): each must start with stamp and tick; the
-    other fields are the signals (``rt.log.registry.signal_name``; units the registry's, "" if it
+    other fields are the signals (``frictionrt.rt.log.registry.signal_name``; units the registry's, "" if it
     does not know one). ValueError saying what is wrong."""
     signals, fields, types = [], [], []
     for owner in OWNERS:

@@ -17,7 +17,7 @@ file and cannot be recovered.
    ``end`` is the offset just after the last good record.
 2. copies bytes ``[0, end)`` to a temporary file and closes it with a data end record, a
    summary holding only metadata indexes, and a footer (a valid MCAP file without chunk
-   indexes), so ``rt.log.mcap_log.read_mcap`` reads and
+   indexes), so ``frictionrt.rt.log.mcap_log.read_mcap`` reads and
    checks it exactly as it reads any log (schemas against the "signals" record, the tick grid,
    CDR); its errors name the source file.
 3. writes the ticks to ``dst`` with ``McapBlockWriter`` (schemas, channels, chunks, indexes and
@@ -46,8 +46,8 @@ from mcap.opcode import Opcode
 from mcap.records import Attachment, Chunk, DataEnd, Footer, Metadata, MetadataIndex
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
 
-from rt.log.mcap_log import MAGIC, check_conversion, read_mcap, tick_runs, topics_of
-from rt.log.writer import McapBlockWriter
+from frictionrt.rt.log.mcap_log import MAGIC, check_conversion, read_mcap, tick_runs, topics_of
+from frictionrt.rt.log.writer import McapBlockWriter
 
 CHUNK_HEAD = struct.Struct("<BQQQ")  # opcode, record length, message start time, message end time [ns]
 

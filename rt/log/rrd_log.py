@@ -5,7 +5,7 @@ The recording (its own ``rr.RecordingStream``, never the global one; nothing is 
     /<owner>          one entity per topic of the MCAP log (/rt, /sensors, ..., /plant), its
                       signals as one multi-series ``rr.Scalars`` row per tick in column order; a
                       static ``rr.SeriesLines`` names the series by their ROS 2 fields (the MCAP
-                      field names, ``rt.log.registry.ros2_field``: /plant f_n1) and a static
+                      field names, ``frictionrt.rt.log.registry.ros2_field``: /plant f_n1) and a static
                       ``unit`` (AnyValues, one unit per series) gives their units
     /hysteresis       ``rr.Points2D`` per tick at (u_rel [um], -F_t [N]) where
                       F_t = sum_j f_t_j is the interface's total tangential (friction) force: the
@@ -22,7 +22,7 @@ One entity per topic, not per signal: each entity costs its own row ids and time
 so 85 entities made the .rrd 43.5 MB per simulated second (3.3 times the MCAP file); 6 make it
 about as large as the MCAP file (docs/data-format.md).
 
-The default blueprint (embedded with ``blueprint=True``) has the panels of ``rt.log.views``: a
+The default blueprint (embedded with ``blueprint=True``) has the panels of ``frictionrt.rt.log.views``: a
 "damper" tab with "F_N1 setpoint vs measured" (the other series of its entities hidden) above
 the friction hysteresis, and one time-series tab per owner.
 
@@ -43,10 +43,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.log.mcap_log import (check_block, check_owners, check_rate, part_path, start_time_ns, tick_runs,
+from frictionrt.rt.log.mcap_log import (check_block, check_owners, check_rate, part_path, start_time_ns, tick_runs,
                              tick_time_ns)
-from rt.log.registry import field_names
-from rt.log.views import HYSTERESIS_WINDOW_S, SETPOINT_SIGNALS, SETPOINT_TITLE, hysteresis_columns, topic_columns
+from frictionrt.rt.log.registry import field_names
+from frictionrt.rt.log.views import HYSTERESIS_WINDOW_S, SETPOINT_SIGNALS, SETPOINT_TITLE, hysteresis_columns, topic_columns
 
 def default_blueprint(signals) -> rrb.Blueprint:
     """Setpoint vs measured F_N1 and the friction hysteresis, then one time-series tab per owner."""
@@ -165,7 +165,7 @@ def layout_path(rrd: str | os.PathLike) -> Path:
 
 
 def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bool = False) -> dict:
-    """Convert an MCAP log or measurement (``rt.log.mcap_log.read_mcap``) to an .rrd recording with
+    """Convert an MCAP log or measurement (``frictionrt.rt.log.mcap_log.read_mcap``) to an .rrd recording with
     the default blueprint, as ``simulate --out`` writes it: the columns of the topics present in
     the file only (a measurement with /sensors alone gets /sensors entities and tab), ticks and
     gaps as in the file, the file's UTC start (timeline "utc"), the "frictionrt" metadata record as
@@ -176,8 +176,8 @@ def mcap_to_rrd(src: str | os.PathLike, dst: str | os.PathLike, *, overwrite: bo
     ``dst`` (or layout) is replaced only if ``overwrite``, never left half-written. ValueError naming
     the file on any problem. Returns {input, output, foxglove_layout, ticks, first_tick, last_tick,
     topics, entities}."""
-    from rt.log.mcap_log import check_conversion, read_mcap
-    from rt.log.views import write_foxglove_layout
+    from frictionrt.rt.log.mcap_log import check_conversion, read_mcap
+    from frictionrt.rt.log.views import write_foxglove_layout
     src, dst = Path(src), Path(dst)
     hint = None if overwrite else "give another name with -o or pass --force to replace it"
     check_conversion(src, dst, hint)
@@ -238,7 +238,7 @@ def freq_index(freq_hz: np.ndarray) -> rr.TimeColumn:
 
 
 def write_frf_rrd(path: str | os.PathLike, results, metadata: dict[str, str] | None = None) -> None:
-    """Step-sine or sweep FRFs (``rt.experiments.stepsine.StepSineResult``) as an .rrd with its blueprint:
+    """Step-sine or sweep FRFs (``frictionrt.rt.experiments.stepsine.StepSineResult``) as an .rrd with its blueprint:
     per result, /frf/<law>_<amp>N_<dir>/magnitude_dB (20 log10 |H| [dB re 1 (m/s^2)/N]) and
     /phase_deg on the timeline "freq_mHz" (the frequency in whole mHz, so rerun's time-series
     views plot them against frequency), and /force_N (the measured force amplitude, to see the

@@ -8,7 +8,7 @@
     one tab per     every signal of the topic against time
     topic
 
-``rt.log.rrd_log.default_blueprint`` builds them as a rerun blueprint (the hysteresis as points of
+``frictionrt.rt.log.rrd_log.default_blueprint`` builds them as a rerun blueprint (the hysteresis as points of
 (u_rel [um], -sum_j f_t_j [N])); ``foxglove_layout`` as a Foxglove layout (JSON, Plot panels with
 message paths such as ``/plant.f_n1``; the hysteresis as one x-y curve per contact pair j,
 f_t_j [N] against u_rel [m], since a layout cannot sum fields). ``frictionrt simulate --out BASE``
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.log.mcap_log import OWNERS, part_path
-from rt.log.registry import field_names
+from frictionrt.rt.log.mcap_log import OWNERS, part_path
+from frictionrt.rt.log.registry import field_names
 
 SETPOINT_SIGNALS = ("F_set", "F_set_filtered", "F_N1", "F_strain", "F_cell")
 SETPOINT_TITLE = "F_N1 setpoint vs measured"

@@ -1,12 +1,12 @@
 """The log writer of a run: a thread that drains the loop's log in blocks to MCAP and .rrd.
 
-The loop (``rt.loop.driver.run``) writes tick k into row (k - k0) mod R of its log and then
+The loop (``frictionrt.rt.loop.driver.run``) writes tick k into row (k - k0) mod R of its log and then
 increments ``clk[CLK_TICKS]``; ticks below k0 + that counter are complete. The writer thread
 (``LogWriter``, started by ``run(..., writer=...)``) polls the counter every ``POLL_S``, copies
 complete rows out in blocks of ``block_ticks`` (default 2100 ticks = 0.1 s simulated), folds
-each block into the run's digest (``rt.loop.digest``: the summary's whole-run figures) and hands it
+each block into the run's digest (``frictionrt.rt.loop.digest``: the summary's whole-run figures) and hands it
 to its sinks: an MCAP file (``McapBlockWriter``) and, unless left out, an .rrd recording
-(``rt.log.rrd_log.RrdLogWriter``, fed in batches of ``RRD_BATCH_TICKS`` because each rerun call has
+(``frictionrt.rt.log.rrd_log.RrdLogWriter``, fed in batches of ``RRD_BATCH_TICKS`` because each rerun call has
 a fixed cost per entity). It never touches the loop's state, and the loop never reads anything
 the writer writes but the count below (STYLE.md section 3).
 
@@ -19,7 +19,7 @@ writer sets ``clk[CLK_WRITTEN]`` to the tick after it (the rows before may be ov
   (nogil, re-reading the count around a clock call) while k - ``clk[CLK_WRITTEN]`` >= R, so an
   offline run proceeds at the writer's pace once it is R ticks ahead; when the loop is done the
   writer writes the rest before ``finish()`` returns. A writer that stops (an error, the end of
-  its thread) sets the count to ``rt.common.clock.NO_WAIT`` so that the loop never waits for it again.
+  its thread) sets the count to ``frictionrt.rt.common.clock.NO_WAIT`` so that the loop never waits for it again.
 - paced: a real-time loop never waits. Row i is overwritten once the loop has begun tick
   i + R; a block whose first row is (the loop's count - i >= R, or R + 1 once the loop has
   ended: ``finish()`` was called, or the count has reached the run's length, which ``run``
@@ -47,7 +47,7 @@ writing, closes what it can and is kept in ``error``; the loop runs on. A killed
 (``kill -9``) leaves ``NAME.mcap.part``: ``frictionrt recover`` (rt/log/recover.py) salvages its
 complete chunks.
 
-**Why ``McapBlockWriter`` and not ``rt.log.mcap_log.McapLogWriter``.** Both write the same MCAP
+**Why ``McapBlockWriter`` and not ``frictionrt.rt.log.mcap_log.McapLogWriter``.** Both write the same MCAP
 content (topics, schemas, channels, messages with their times and sequence numbers, the
 "frictionrt" and "signals" metadata records, zstd chunks of ~1 MiB; checked by
 tests/test_logging_loop.py against McapLogWriter, mcap's own reader with CRC validation and
@@ -56,7 +56,7 @@ rerun's MCAP reader). McapLogWriter passes each message through mcap's Python ``
 CPU per simulated second), 15 times the loop's own cost. McapBlockWriter builds a chunk's
 records with numpy: a template of one tick's 6 message records (opcode, length, channel:
 constant) is repeated over the chunk's rows once, then each block only copies its sequence
-numbers, log/publish times and the topics' CDR messages (``rt.log.mcap_log.Topic.encode``, one
+numbers, log/publish times and the topics' CDR messages (``frictionrt.rt.log.mcap_log.Topic.encode``, one
 numpy structured array per topic and block) into place; the chunk is
 compressed with zstd at the fast level -1 (files 2 % larger than at levels 1-3 on this float64
 data, 2-4x faster) and its message indexes are numpy arrays as well: 0.05-0.06 s CPU per
@@ -89,7 +89,7 @@ from mcap.opcode import Opcode
 from mcap.records import (Attachment, AttachmentIndex, Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
-from rt.log.mcap_log import (CHUNK_BYTES, MAGIC, PROFILE, check_block, checked_layout, encode_block, part_path,
+from frictionrt.rt.log.mcap_log import (CHUNK_BYTES, MAGIC, PROFILE, check_block, checked_layout, encode_block, part_path,
                          signals_record, stamps_ns, utc_now)
 
 BLOCK_TICKS = 2100        # rows per block handed to the sinks (0.1 s simulated at 21 kHz)
@@ -104,7 +104,7 @@ _MSG_HEAD = 1 + 8 + 2 + 4 + 8 + 8   # opcode, record length, channel id, sequenc
 
 
 class McapBlockWriter:
-    """Writes a run's log to ``path`` as MCAP, the layout of ``rt.log.mcap_log`` (module docstring
+    """Writes a run's log to ``path`` as MCAP, the layout of ``frictionrt.rt.log.mcap_log`` (module docstring
     there), encoded with numpy per chunk (this module's docstring).
 
     Same interface as ``McapLogWriter``: ``write_block(k0, block)``, ``close()``, context manager;
@@ -347,7 +347,7 @@ class LogWriter:
         ``frictionrt.writer`` (dropped blocks, block and ring size, ticks written, ticks left
         unwritten after a Ctrl-C).
 
-    ``rt.loop.driver.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced, digest, ticks)`` before the loop and
+    ``frictionrt.rt.loop.driver.run(..., writer=w)`` calls ``w.start(log, clk, k0, paced, digest, ticks)`` before the loop and
     ``w.finish()`` after it in every case; ``finish()`` is idempotent and also closes the sinks
     of a writer that never started.
     """
@@ -378,7 +378,7 @@ class LogWriter:
               ticks: int | None = None) -> None:
         """Start draining ``log`` (tick k0 + i in row i mod len(log); ticks below k0 +
         clk[CLK_TICKS] complete); each block taken out is also folded into ``digest``
-        (``rt.loop.digest.RunDigest``) if given. ``ticks``: the run's length, if known; a loop
+        (``frictionrt.rt.loop.digest.RunDigest``) if given. ``ticks``: the run's length, if known; a loop
         whose count has reached it has ended (paced: it overwrites no more rows), before
         ``finish()`` says so."""
         self._log, self._clk, self._k0 = log, clk, int(k0)
@@ -394,7 +394,7 @@ class LogWriter:
         close the sinks, wait for the thread. After a Ctrl-C (the loop's stop flag, or one during
         this call, which it absorbs) at most ``INTERRUPT_DRAIN_S`` more of writing. Errors are
         kept in ``error``."""
-        from rt.common.clock import CLK_STOP
+        from frictionrt.rt.common.clock import CLK_STOP
         if self._thread is None:
             self._close()
             return
@@ -417,7 +417,7 @@ class LogWriter:
 
     # --- the thread ------------------------------------------------------------------------
     def _main(self) -> None:
-        from rt.common.clock import CLK_TICKS
+        from frictionrt.rt.common.clock import CLK_TICKS
         try:
             if self._paced and WRITER_NICE:  # on a shared core the scheduler prefers the loop
                 os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WRITER_NICE)
@@ -432,7 +432,7 @@ class LogWriter:
         except BaseException as exc:  # kept for the caller; the loop is never disturbed
             self.error = exc
         finally:
-            from rt.common.clock import CLK_WRITTEN, NO_WAIT
+            from frictionrt.rt.common.clock import CLK_WRITTEN, NO_WAIT
             self._clk[CLK_WRITTEN] = NO_WAIT   # an offline loop must not wait for a writer that stopped
             try:
                 self._close()
@@ -442,7 +442,7 @@ class LogWriter:
     def _step(self, done: int, final: bool) -> bool:
         """Drop the blocks the loop has overwritten (paced), then take one block out of the
         ring, fold it into the digest and write it, if there is one (none once aborted)."""
-        from rt.common.clock import CLK_TICKS, CLK_WRITTEN
+        from frictionrt.rt.common.clock import CLK_TICKS, CLK_WRITTEN
         if self._abort.is_set():
             return False
         ring = len(self._log)
@@ -500,9 +500,9 @@ class LogWriter:
 def open_run_log(base: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str], *,
                  rrd: bool = True, block_ticks: int = BLOCK_TICKS, ring_s: float | None = RING_S) -> LogWriter:
     """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata``; the
-    Foxglove layout of the log is written to BASE.foxglove.json (``rt.log.views``)."""
-    from rt.log.rrd_log import RrdLogWriter
-    from rt.log.views import write_foxglove_layout
+    Foxglove layout of the log is written to BASE.foxglove.json (``frictionrt.rt.log.views``)."""
+    from frictionrt.rt.log.rrd_log import RrdLogWriter
+    from frictionrt.rt.log.views import write_foxglove_layout
     base = Path(base)
     mcap = McapBlockWriter(base.with_name(base.name + ".mcap"), signals, rate_hz, metadata)
     try:
@@ -538,10 +538,10 @@ def package_versions() -> dict[str, str]:
 def run_metadata(cfg, law: str, estimator: str, seed: int, freq_hz: float, amp_n: float, duration_s: float,
                  paced: bool, argv: list[str] | None = None, start_tick: int = 0) -> dict[str, str]:
     """The "frictionrt" metadata record of a run (all strings; floats as repr, exact)."""
-    from rt.common.blas import state as blas_state
-    from rt.common.codegen import compiled_target
-    from rt.common.config import dumps
-    from rt.common.jit_cache import source_hash
+    from frictionrt.rt.common.blas import state as blas_state
+    from frictionrt.rt.common.codegen import compiled_target
+    from frictionrt.rt.common.config import dumps
+    from frictionrt.rt.common.jit_cache import source_hash
     return {"config": dumps(cfg), "versions": json.dumps(package_versions()),
             "codegen": json.dumps(compiled_target()), "blas": json.dumps(blas_state()), "kernels": source_hash(),
             "seed": str(seed), "law": law,

@@ -6,16 +6,16 @@ Modules: ``build`` (``Loop``, ``build_loop``, ``LoopState``), ``tick`` (the comp
 (``summary``), ``realtime`` (a paced run's priority, pinning, memory lock), ``floor`` (the null
 loop and cyclictest), ``supervisor``, ``faults``, ``digest`` (a ring run's whole-run figures),
 ``replay``, ``replay_plant``, ``budget``, ``bench``. A verb-named function lives in its module
-(``rt.loop.replay.replay``). The names below are imported on first use (rt/common/face.py).
+(``frictionrt.rt.loop.replay.replay``). The names below are imported on first use (rt/common/face.py).
 """
-from rt.common.face import lazy_face
+from frictionrt.rt.common.face import lazy_face
 
 _EXPORTS = {
-    "COMPONENTS": "rt.loop.build", "Designs": "rt.loop.build", "ESTIMATORS": "rt.loop.build", "Loop": "rt.loop.build",
-    "LoopState": "rt.loop.build", "build_loop": "rt.loop.build", "initial_loop_state": "rt.loop.build",
-    "loop_signals": "rt.loop.build",
-    "Run": "rt.loop.driver", "check_run_input": "rt.loop.driver", "run": "rt.loop.driver",
-    "first_harmonic_amplitude": "rt.loop.results", "summary": "rt.loop.results",
+    "COMPONENTS": "frictionrt.rt.loop.build", "Designs": "frictionrt.rt.loop.build", "ESTIMATORS": "frictionrt.rt.loop.build", "Loop": "frictionrt.rt.loop.build",
+    "LoopState": "frictionrt.rt.loop.build", "build_loop": "frictionrt.rt.loop.build", "initial_loop_state": "frictionrt.rt.loop.build",
+    "loop_signals": "frictionrt.rt.loop.build",
+    "Run": "frictionrt.rt.loop.driver", "check_run_input": "frictionrt.rt.loop.driver", "run": "frictionrt.rt.loop.driver",
+    "first_harmonic_amplitude": "frictionrt.rt.loop.results", "summary": "frictionrt.rt.loop.results",
 }
 __all__ = list(_EXPORTS)
 __getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

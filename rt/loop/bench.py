@@ -1,6 +1,6 @@
 """Step-time benchmarks of the compiled kernels (``frictionrt bench``, ``benchmarks/``).
 
-Times are measured inside the compiled loop around each step (``rt.common.clock._now_ns``), so they
+Times are measured inside the compiled loop around each step (``frictionrt.rt.common.clock._now_ns``), so they
 are the step's own cost without Python call overhead. Reported per case: median, p99, p99.9
 and max [us] over the steps after a warm-up run, plus the 47.6 us budget share of the median.
 The named alternative measured in the same process is python-control's ``forced_response`` of
@@ -16,14 +16,14 @@ import time
 import numba
 import numpy as np
 
-from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
-from plant.simulate import run
-from tracking.lowpass import _biquad_step, rest_state
-from rt.common.clock import _now_ns
-from rt.common.config import Config
-from tracking.force_tracking import _force_tracking_step
-from tracking.force_tracking import initial_state as tracking_initial_state
-from tracking.laws import _laws_step
+from frictionrt.plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz, stuck_stiffness
+from frictionrt.plant.simulate import run
+from frictionrt.tracking.lowpass import _biquad_step, rest_state
+from frictionrt.rt.common.clock import _now_ns
+from frictionrt.rt.common.config import Config
+from frictionrt.tracking.force_tracking import _force_tracking_step
+from frictionrt.tracking.force_tracking import initial_state as tracking_initial_state
+from frictionrt.tracking.laws import _laws_step
 
 BUDGET_US = 1e6 / 21000.0  # the controller step [us]
 
@@ -149,9 +149,9 @@ def bench_loop(cfg: Config, law: str = "lyapunov", n_steps: int = 21000, n_pc: i
     """
     import control
 
-    from rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
-    from rt.loop.build import build_loop
-    from rt.loop.driver import run
+    from frictionrt.rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
+    from frictionrt.rt.loop.build import build_loop
+    from frictionrt.rt.loop.driver import run
     loop = build_loop(cfg, law)
     run(loop, EXC_FREQ_HZ, EXC_AMP_N, 0.01)
     total = _stats_us(run(loop, EXC_FREQ_HZ, EXC_AMP_N, n_steps * cfg.dt_s).signal("tick_ns"))

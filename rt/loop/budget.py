@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from rt.common.config import Config
-from rt.loop.build import COMPONENTS, build_loop
-from rt.loop.floor import cyclictest, null_loop, tails_us
-from rt.loop.driver import run
+from frictionrt.rt.common.config import Config
+from frictionrt.rt.loop.build import COMPONENTS, build_loop
+from frictionrt.rt.loop.floor import cyclictest, null_loop, tails_us
+from frictionrt.rt.loop.driver import run
 
 EXC_FREQ_HZ, EXC_AMP_N = 223.6, 5.0  # mode-3 resonance, moderate amplitude: stick-slip every cycle
 

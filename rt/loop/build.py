@@ -10,26 +10,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from observer.kalman import ObserverParams, design_observer
-from observer.oracle import ORACLE_OUTPUTS, build_oracle
-from observer.step import OBSERVER_OUTPUTS
-from plant.actuator import ACTUATOR_OUTPUTS, ActuatorParams, build_actuator
-from plant.actuator import initial_state as actuator_initial_state
-from plant.actuator import output_index as actuator_output_index
-from plant.model import PlantModel, build_plant
-from plant.sensors import SENSOR_OUTPUTS, SensorParams, build_sensors
-from plant.sensors import initial_state as sensors_initial_state
-from plant.sensors import output_index as sensor_output_index
-from plant.shaker import ShakerParams, build_shaker, check_shaker
-from rt.common.config import Config, require_adaptive_screw
-from rt.common.noise import new_rng
-from rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
-from rt.loop.supervisor import initial_state as supervisor_initial_state
-from tracking.force_tracking import FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign, design_force_tracking
-from tracking.force_tracking import initial_state as tracking_initial_state
-from tracking.laws import LAWS_OUTPUTS, LAWS_SLOTS, build_laws
-from tracking.lowpass import BiquadParams, rest_state
-from tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
+from frictionrt.observer.kalman import ObserverParams, design_observer
+from frictionrt.observer.oracle import ORACLE_OUTPUTS, build_oracle
+from frictionrt.observer.step import OBSERVER_OUTPUTS
+from frictionrt.plant.actuator import ACTUATOR_OUTPUTS, ActuatorParams, build_actuator
+from frictionrt.plant.actuator import initial_state as actuator_initial_state
+from frictionrt.plant.actuator import output_index as actuator_output_index
+from frictionrt.plant.model import PlantModel, build_plant
+from frictionrt.plant.sensors import SENSOR_OUTPUTS, SensorParams, build_sensors
+from frictionrt.plant.sensors import initial_state as sensors_initial_state
+from frictionrt.plant.sensors import output_index as sensor_output_index
+from frictionrt.plant.shaker import ShakerParams, build_shaker, check_shaker
+from frictionrt.rt.common.config import Config, require_adaptive_screw
+from frictionrt.rt.common.noise import new_rng
+from frictionrt.rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
+from frictionrt.rt.loop.supervisor import initial_state as supervisor_initial_state
+from frictionrt.tracking.force_tracking import FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign, design_force_tracking
+from frictionrt.tracking.force_tracking import initial_state as tracking_initial_state
+from frictionrt.tracking.laws import LAWS_OUTPUTS, LAWS_SLOTS, build_laws
+from frictionrt.tracking.lowpass import BiquadParams, rest_state
+from frictionrt.tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
 
 COMPONENTS = ("sensors", "estimator", "law", "supervisor", "tracking", "actuator", "plant", "log")
 ESTIMATORS = ("oracle", "observer")
@@ -168,9 +168,9 @@ class LoopState:
 
 
 def controller_stages(loop: Loop, st: LoopState) -> tuple:
-    """(est, law, sup, trk): the controller's arrays as ``rt.loop.tick._controller_tick`` takes
+    """(est, law, sup, trk): the controller's arrays as ``frictionrt.rt.loop.tick._controller_tick`` takes
     them, the states those of ``st`` (advanced in place by the ticks), inputs, outputs and next
-    states fresh scratch (but yl, yf: st's). The loop (``rt.loop.driver.run``), the replay and
+    states fresh scratch (but yl, yf: st's). The loop (``frictionrt.rt.loop.driver.run``), the replay and
     ``bench controller`` build them here."""
     est = (st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
            st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)

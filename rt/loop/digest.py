@@ -1,7 +1,7 @@
 """Whole-run figures of a ring run, folded block by block as the writer takes rows out of the ring.
 
-A run with a ring (``rt.loop.driver.run``) keeps only its last R ticks in memory, but ``rt.loop.results.summary``
-reports some figures over the whole run. The writer (``rt.log.writer.LogWriter``) hands every block
+A run with a ring (``frictionrt.rt.loop.driver.run``) keeps only its last R ticks in memory, but ``frictionrt.rt.loop.results.summary``
+reports some figures over the whole run. The writer (``frictionrt.rt.log.writer.LogWriter``) hands every block
 it copies out of the ring to ``RunDigest.add``, which keeps, exactly and in memory independent of
 the run's length (but for the number of distinct values and changes):
 
@@ -11,8 +11,8 @@ the run's length (but for the number of distinct values and changes):
 * the distinct tick_ns values [ns] with their counts: the median (as ``np.median``: the mean of
   the two middle values for an even count) and the maximum are exact;
 * the ticks where fault_latched, fault_code and passive change (each from 0 before the first
-  tick): piecewise constant, so ``values_at`` gives them at any tick, and ``rt.loop.faults.trips``
-  and ``rt.loop.faults.outcome`` evaluated on the change ticks (plus the faults' start ticks) give
+  tick): piecewise constant, so ``values_at`` gives them at any tick, and ``frictionrt.rt.loop.faults.trips``
+  and ``frictionrt.rt.loop.faults.outcome`` evaluated on the change ticks (plus the faults' start ticks) give
   what they give on the whole columns.
 
 Offline nothing is dropped, so the digest covers every tick; a paced writer that drops blocks
@@ -26,7 +26,7 @@ STEP_SIGNALS = ("fault_latched", "fault_code", "passive")  # piecewise-constant 
 
 
 class RunDigest:
-    """Folds blocks of a run's log (columns in ``signals`` order, ``rt.loop.build.loop_signals``)."""
+    """Folds blocks of a run's log (columns in ``signals`` order, ``frictionrt.rt.loop.build.loop_signals``)."""
 
     def __init__(self, signals):
         names = [n for n, _, _ in signals]

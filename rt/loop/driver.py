@@ -10,14 +10,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.actuator import output_index as actuator_output_index
-from plant.sensors import output_index as sensor_output_index
-from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
-from rt.loop import realtime
-from rt.loop.build import COMPONENTS, Loop, LoopState, controller_stages, initial_loop_state
-from rt.loop.pacing import START_SLACK_NS
-from rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, no_faults
-from rt.loop.tick import _run_ticks
+from frictionrt.plant.actuator import output_index as actuator_output_index
+from frictionrt.plant.sensors import output_index as sensor_output_index
+from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
+from frictionrt.rt.loop import realtime
+from frictionrt.rt.loop.build import COMPONENTS, Loop, LoopState, controller_stages, initial_loop_state
+from frictionrt.rt.loop.pacing import START_SLACK_NS
+from frictionrt.rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, no_faults
+from frictionrt.rt.loop.tick import _run_ticks
 
 
 @dataclass
@@ -81,10 +81,10 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     is not modified). Ticks continue from the start's tick k (t = k dt), so a run split in two
     at the same frequency equals one run, bit for bit.
 
-    ``faults``: a fault schedule (``rt.loop.faults.schedule``; ticks absolute, so a split run takes
+    ``faults``: a fault schedule (``frictionrt.rt.loop.faults.schedule``; ticks absolute, so a split run takes
     the same schedule), none by default.
 
-    ``writer`` (an ``rt.log.writer.LogWriter``) drains the log to files while the loop runs: its
+    ``writer`` (an ``frictionrt.rt.log.writer.LogWriter``) drains the log to files while the loop runs: its
     ``start(log, clk, k0, paced, digest, ticks)`` (ticks: the run's length) is called before the first tick, its ``finish()`` (write the
     rest, close the files) after the last one, also on an error or Ctrl-C.
 
@@ -189,7 +189,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         clk[CLK_DEADLINE] = t_wall + period_ns
         digest = None
         if writer is not None:
-            from rt.loop.digest import RunDigest
+            from frictionrt.rt.loop.digest import RunDigest
             digest = RunDigest(loop.signals)
             writer.start(log, clk, st.k, paced, digest, n_ticks)
         interrupted = False

@@ -1,5 +1,5 @@
 """Fault injection (``frictionrt simulate --fault``, docs/reliability.md): the ``--fault`` strings,
-the schedule array the loop's kernels read (``rt.loop.supervisor``), and what the supervisor made of
+the schedule array the loop's kernels read (``frictionrt.rt.loop.supervisor``), and what the supervisor made of
 each injected fault (from the log).
 
 Syntax: ``KIND[/SENSOR][=VALUE]@TIME[:DURATION]`` with TIME, DURATION in s (no DURATION: to the
@@ -25,8 +25,8 @@ import re
 
 import numpy as np
 
-from plant.sensors import output_index
-from rt.loop.supervisor import (F_END, F_KIND, F_START, F_TARGET, F_VALUE, FAULT_CODES, FAULT_KINDS, K_BIAS,
+from frictionrt.plant.sensors import output_index
+from frictionrt.rt.loop.supervisor import (F_END, F_KIND, F_START, F_TARGET, F_VALUE, FAULT_CODES, FAULT_KINDS, K_BIAS,
                            K_CPU_STALL, K_FORCE_SAT, K_GAIN, K_OBS_MISMATCH)
 
 SENSOR_KINDS = FAULT_KINDS[:4]

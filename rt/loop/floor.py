@@ -17,10 +17,10 @@ import tempfile
 
 import numpy as np
 
-from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, _now_ns
-from rt.loop import realtime
-from rt.loop.driver import watch
-from rt.loop.pacing import START_SLACK_NS, _null_ticks
+from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, _now_ns
+from frictionrt.rt.loop import realtime
+from frictionrt.rt.loop.driver import watch
+from frictionrt.rt.loop.pacing import START_SLACK_NS, _null_ticks
 
 CYCLICTEST_DEFAULT_PRIORITY = 0  # cyclictest at the loop's own priority; 0: SCHED_OTHER, as the loop
 HIST_US = 2000                   # cyclictest histogram range [us]; later ones count as overflows

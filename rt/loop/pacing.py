@@ -20,7 +20,7 @@ from __future__ import annotations
 import numba
 from numba import types
 
-from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLOCK_MONOTONIC, _now_ns
+from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLOCK_MONOTONIC, _now_ns
 
 TIMER_ABSTIME = 1
 START_SLACK_NS = 1_000_000  # a paced run's first deadline: 1 ms after its thread is ready (the first call's dispatch is no lateness)

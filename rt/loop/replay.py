@@ -1,9 +1,9 @@
 """HIL-style replay of a run log: the recorded sensor stream through the controller stack.
 
-``replay(path)`` reads an MCAP log (``rt.log.mcap_log.read_mcap``), rebuilds the loop from the
+``replay(path)`` reads an MCAP log (``frictionrt.rt.log.mcap_log.read_mcap``), rebuilds the loop from the
 configuration TOML, law and estimator in its "frictionrt" metadata record (``build_loop``),
 starts every controller state as a run does (``initial_loop_state``) and feeds, tick by tick,
-what the controller read at that tick in the loop (``rt.loop.tick._run_ticks``, stage 1 onward):
+what the controller read at that tick in the loop (``frictionrt.rt.loop.tick._run_ticks``, stage 1 onward):
 
     sensors     row k of /sensors (a_tip_meas, a_frf_meas, v_tip_meas, F_strain, F_cell): the
                 loop logs the readings its sensor stage produced at tick k and the controller
@@ -12,7 +12,7 @@ what the controller read at that tick in the loop (``rt.loop.tick._run_ticks``, 
                 previous tick are what the oracle reads at tick k; before the first tick the
                 rest state's, zero); only when the estimator was the oracle
     estimator -> law -> supervisor -> prefilter -> force tracking: the loop's own controller
-                tick (``rt.loop.tick._controller_tick``, ``_replay_ticks``), with the run's fault
+                tick (``frictionrt.rt.loop.tick._controller_tick``, ``_replay_ticks``), with the run's fault
                 schedule (metadata "faults": the observer-stage faults act here; the sensor
                 faults are in the recorded readings) and its overruns (paced runs: tick_ns +
                 late_ns of the tick before)
@@ -33,22 +33,22 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from observer.step import OBSERVER_OUTPUTS
-from rt.common.config import ConfigError, load, loads
-from rt.log.design_record import use_logged
-from rt.loop import realtime
-from rt.loop.faults import from_json
-from rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
-from rt.loop.build import ESTIMATORS, build_loop, controller_stages, initial_loop_state
-from rt.loop.driver import watch
-from rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
-from rt.loop.tick import _controller_done, _controller_tick
-from rt.log.mcap_log import read_mcap
-from plant.sensors import SENSOR_OUTPUTS
-from rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
-from tracking.force_tracking import FORCE_TRACKING_OUTPUTS
-from tracking.laws import LAWS_OUTPUTS
-from tracking.prefilter import PREFILTER_OUTPUTS
+from frictionrt.observer.step import OBSERVER_OUTPUTS
+from frictionrt.rt.common.config import ConfigError, load, loads
+from frictionrt.rt.log.design_record import use_logged
+from frictionrt.rt.loop import realtime
+from frictionrt.rt.loop.faults import from_json
+from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
+from frictionrt.rt.loop.build import ESTIMATORS, build_loop, controller_stages, initial_loop_state
+from frictionrt.rt.loop.driver import watch
+from frictionrt.rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
+from frictionrt.rt.loop.tick import _controller_done, _controller_tick
+from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.plant.sensors import SENSOR_OUTPUTS
+from frictionrt.rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
+from frictionrt.tracking.force_tracking import FORCE_TRACKING_OUTPUTS
+from frictionrt.tracking.laws import LAWS_OUTPUTS
+from frictionrt.tracking.prefilter import PREFILTER_OUTPUTS
 
 COMMANDED = tuple(n for n, _ in OBSERVER_OUTPUTS + LAWS_OUTPUTS + PREFILTER_OUTPUTS + FORCE_TRACKING_OUTPUTS
                   + SUPERVISOR_OUTPUTS)
@@ -57,7 +57,7 @@ SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
 def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, yc, est, law, sup, trk):
-    """The loop's controller tick (``rt.loop.tick._controller_tick``: estimator, law, supervisor,
+    """The loop's controller tick (``frictionrt.rt.loop.tick._controller_tick``: estimator, law, supervisor,
     force tracking) for the ticks ks: sens[i] the sensor readings (``SENSOR_OUTPUTS`` order),
     uv[i] the plant's (u_rel, v_rel) the oracle reads at tick ks[i], overran[i] whether the
     tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the

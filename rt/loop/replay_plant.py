@@ -1,13 +1,13 @@
 """Open-loop replay of a log into the plant: recorded commands and excitation in, plant out.
 
-``replay_plant(path)`` reads an MCAP log (``rt.log.mcap_log.read_mcap``), rebuilds actuator and
+``replay_plant(path)`` reads an MCAP log (``frictionrt.rt.log.mcap_log.read_mcap``), rebuilds actuator and
 plant from the configuration stored in its "frictionrt" record (with ``--set`` overrides), starts
-them at rest as a run does (``rt.loop.build.initial_loop_state``) and drives them, tick by tick, with
+them at rest as a run does (``frictionrt.rt.loop.build.initial_loop_state``) and drives them, tick by tick, with
 
     V_cmd    row k of /tracking: the controller's command at tick k (the DAC input)
     F_exc    row k of /rt: the excitation force held over [t_k, t_k+1)
 
-through the loop's own stages 5 and 6 (``rt.loop.tick._actuate``: actuator over the tick, then the
+through the loop's own stages 5 and 6 (``frictionrt.rt.loop.tick._actuate``: actuator over the tick, then the
 plant with the mean of F_N1 at t_k and t_k+1), then compares every /actuator and /plant signal
 the file holds with the replayed one (row k: values at t_k+1, docs/data-format.md).
 
@@ -31,11 +31,11 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from plant.actuator import ACTUATOR_OUTPUTS
-from rt.loop.tick import _actuate, _copy, _put
-from rt.loop.build import build_loop, initial_loop_state
-from rt.log.design_record import use_logged
-from rt.loop.replay import compare_bits, open_log, seed_of
+from frictionrt.plant.actuator import ACTUATOR_OUTPUTS
+from frictionrt.rt.loop.tick import _actuate, _copy, _put
+from frictionrt.rt.loop.build import build_loop, initial_loop_state
+from frictionrt.rt.log.design_record import use_logged
+from frictionrt.rt.loop.replay import compare_bits, open_log, seed_of
 
 INPUTS = ("F_exc", "V_cmd")
 SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")  # "outputs" in the JSON
@@ -43,7 +43,7 @@ SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
 def _replay_plant_ticks(ks, F_exc, V_cmd, out, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p, plant_wk, ts):
-    """Stages 5 and 6 of ``rt.loop.tick._run_ticks`` (``_actuate``) for the ticks ks with the
+    """Stages 5 and 6 of ``frictionrt.rt.loop.tick._run_ticks`` (``_actuate``) for the ticks ks with the
     recorded F_exc[i] [N] and V_cmd[i] [V]; out[i] receives the actuator's and then the plant's
     outputs at t_k+1. Returns the number of failed plant solves. RT-safe."""
     failed = 0

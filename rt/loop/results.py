@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from observer.accuracy import band_limited_truth, nrmse
-from rt.loop.driver import Run
-from rt.loop.supervisor import F_START
+from frictionrt.observer.accuracy import band_limited_truth, nrmse
+from frictionrt.rt.loop.driver import Run
+from frictionrt.rt.loop.supervisor import F_START
 
 
 def first_harmonic_amplitude(x: np.ndarray, freq_hz: float, dt: float) -> float:
@@ -30,7 +30,7 @@ def _tail(r: Run) -> slice:
 def summary(r: Run) -> dict:
     """The figures `frictionrt simulate` prints (SI units). A ring run whose log holds only its
     last ticks takes the whole-run figures (mean F_N1, tick median and maximum, trips, faults)
-    from its digest (``rt.loop.digest``), the last-20 % figures from the rows held (docs/loop.md)."""
+    from its digest (``frictionrt.rt.loop.digest``), the last-20 % figures from the rows held (docs/loop.md)."""
     dt = r.loop.cfg.dt_s
     tail = _tail(r)
     a = r.signal("a_frf")
@@ -53,8 +53,8 @@ def summary(r: Run) -> dict:
 def _supervisor_summary(r: Run) -> dict:
     """``trips``: every latched fault (code, name, tick, recovered_tick); ``faults``: per injected
     fault its kind, sensor, tick, and the code, detected_tick, passive_tick the supervisor logged
-    (``rt.loop.faults.outcome``). Ticks are absolute."""
-    from rt.loop.faults import outcome, trips
+    (``frictionrt.rt.loop.faults.outcome``). Ticks are absolute."""
+    from frictionrt.rt.loop.faults import outcome, trips
     p = r.loop.supervisor
     grace = 2 * max(p.stuck_ticks, p.err_ticks, p.sat_ticks, p.ovr_ticks) + 100
     faults = r.faults if r.faults is not None else np.zeros((0, 5))

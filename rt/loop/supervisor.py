@@ -2,7 +2,7 @@
 controller.
 
 Every tick, after the estimator and the law and before the force tracking
-(``rt.loop.tick._controller_tick``), ``_supervise`` checks, in this order (the first failing check
+(``frictionrt.rt.loop.tick._controller_tick``), ``_supervise`` checks, in this order (the first failing check
 gives the tick's ``fault_code``):
 
     1 sensor_nonfinite     a reading (a_tip_meas, a_frf_meas, F_strain, F_cell) is NaN or Inf
@@ -35,7 +35,7 @@ float64), carried between ticks and runs (``LoopState.sv``). Outputs ``SUPERVISO
 fault_code (this tick's), fault_latched (the latched code, 0 when active), passive (0/1).
 
 Fault injection: a schedule ``F`` (n, 5) float64 rows (kind, target, k_start, k_end, value),
-active for k_start <= k < k_end (``rt.loop.faults`` builds it from ``--fault`` strings); applied by
+active for k_start <= k < k_end (``frictionrt.rt.loop.faults`` builds it from ``--fault`` strings); applied by
 the loop at the sensor stage (``_inject_sensors``), the observer's input (``_inject_observer``),
 the actuator's input (``_inject_actuator``) and as a busy delay (``_stall_ns``). No callbacks:
 the kernels read the array.
@@ -48,7 +48,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from plant.sensors import _adc
+from frictionrt.plant.sensors import _adc
 
 FAULT_CODES = ("none", "sensor_nonfinite", "sensor_range", "sensor_stuck", "force_disagree", "observer_divergence",
                "command_nonfinite", "tracking_error", "amp_saturation", "overrun_burst")

@@ -29,7 +29,7 @@ Ticks run in chunks so that Python can show progress between them (rt/loop/drive
 deadline carries over.
 
 Stages 2-4 with the supervisor are one function, ``_controller_tick``, which the replay
-(``rt.loop.replay``) runs on logged readings. Injected faults (``rt.loop.faults``) act on the readings
+(``frictionrt.rt.loop.replay``) runs on logged readings. Injected faults (``frictionrt.rt.loop.faults``) act on the readings
 after the ADC (stage 1), the observer's input, the amplifier's input (stage 5) and as a busy
 delay (cpu_stall).
 """
@@ -39,19 +39,19 @@ import math
 
 import numba
 
-from observer.step import _observer_step
-from plant.actuator import _actuator_step
-from plant.newmark import _plant_step
-from plant.sensors import _sensors_read, _tip_velocity
-from plant.sensors import output_index as sensor_output_index
-from plant.shaker import _shaker_step
-from rt.common.clock import CLK_DEADLINE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
-from rt.loop.pacing import _next_deadline, _wait_for_deadline
-from rt.loop.supervisor import (S_OVERRAN, S_PASSIVE, _inject_actuator, _inject_observer, _inject_sensors, _sanitise,
+from frictionrt.observer.step import _observer_step
+from frictionrt.plant.actuator import _actuator_step
+from frictionrt.plant.newmark import _plant_step
+from frictionrt.plant.sensors import _sensors_read, _tip_velocity
+from frictionrt.plant.sensors import output_index as sensor_output_index
+from frictionrt.plant.shaker import _shaker_step
+from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
+from frictionrt.rt.loop.pacing import _next_deadline, _wait_for_deadline
+from frictionrt.rt.loop.supervisor import (S_OVERRAN, S_PASSIVE, _inject_actuator, _inject_observer, _inject_sensors, _sanitise,
                                 _stall_ns, _supervise, _supervise_after)
-from tracking.force_tracking import _force_tracking_step
-from tracking.laws import _laws_step
-from tracking.lowpass import _biquad_step
+from frictionrt.tracking.force_tracking import _force_tracking_step
+from frictionrt.tracking.laws import _laws_step
+from frictionrt.tracking.lowpass import _biquad_step
 
 COL_V_TIP, COL_F_CELL = sensor_output_index()["v_tip_meas"], sensor_output_index()["F_cell"]  # the observer's inputs
 
@@ -76,7 +76,7 @@ def _actuate(k, F_exc, V_cmd, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p
     """Stages 5 and 6 of tick k: the actuator over [t_k, t_k+1] on the command V_cmd [V], then
     the plant over [t_k, t_k+1] with F_exc [N] held and the stack force (F_stack(t_k) +
     F_stack(t_k+1)) / 2 as the adaptive bolt's preload (ya[0] on entry is F_stack(t_k)). ya, yp receive the outputs at t_k+1; the next states go to
-    xa_n, xp_n. The loop and the plant replay (``rt.loop.replay_plant``) both call this. Returns
+    xa_n, xp_n. The loop and the plant replay (``frictionrt.rt.loop.replay_plant``) both call this. Returns
     (the plant's Newton iterations, -1 on a failed solve; the clock [ns] after the actuator
     if timing, else 0). RT-safe."""
     F_start = ya[0]
@@ -95,7 +95,7 @@ def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing
     this. The stages' arrays come in four tuples (a call of more than ~30 arguments cannot be
     inlined): est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p), law = (xl, xl_n, yl,
     ul, law_p), sup = (sv, ysv, sv_p), trk = (xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p). yc receives the readings the controller uses (non-finite ones replaced by the last
-    finite, ``rt.loop.supervisor._sanitise``); ye, yl, yq, yf, ysv the stages' outputs; next states
+    finite, ``frictionrt.rt.loop.supervisor._sanitise``); ye, yl, yq, yf, ysv the stages' outputs; next states
     into x*_n; the supervisor state sv is advanced in place. Returns the clock [ns] after the
     estimator, the law, the supervisor and the tracking if timing, else zeros. RT-safe."""
     xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
@@ -288,7 +288,7 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
 
     observe selects the estimator: False the oracle (states xo), True the observer (states xe;
     inputs: the measured tip velocity and force-cell reading). faults: the fault schedule
-    (``rt.loop.supervisor``, (0, 5) for none). shake: the shaker stage runs (states xsh; inputs
+    (``frictionrt.rt.loop.supervisor``, (0, 5) for none). shake: the shaker stage runs (states xsh; inputs
     the drive and the plant's w, w' at the excitation point); False: F_exc = drive (ideal source).
     log[(k - k0) mod len(log)] receives the tick's signals (``loop_signals`` order): a log of
     k1 - k0 rows is filled in order, a shorter one is a ring (``run``); comp_ns the same row's

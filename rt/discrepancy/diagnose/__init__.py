@@ -10,18 +10,18 @@ outside them), ``remainder`` (what calibration, the effect and the model form ex
 progress bars, their parallel runs, and Ctrl-C that keeps the fits done),
 ``report`` and ``rrd`` (the report folder and its rerun file). Imports rt.discrepancy.rig (the
 FRF files' sensor points, the levels report's new folder) and the shared modules. A verb-named function
-is on this face (``rt.discrepancy.diagnose.diagnose``, defined in ``campaign``). The names below
+is on this face (``frictionrt.rt.discrepancy.diagnose.diagnose``, defined in ``campaign``). The names below
 are imported on first use (rt/common/face.py).
 """
-from rt.common.face import lazy_face
+from frictionrt.rt.common.face import lazy_face
 
 _EXPORTS = {
-    "diagnose": "rt.discrepancy.diagnose.campaign", "load_campaign": "rt.discrepancy.diagnose.campaign",
-    "fit_in_parallel": "rt.discrepancy.diagnose.watch", "public": "rt.discrepancy.diagnose.campaign",
-    "summary": "rt.discrepancy.diagnose.campaign",
-    "diagnose_frf": "rt.discrepancy.diagnose.frf", "is_frf_folder": "rt.discrepancy.diagnose.frf",
-    "diagnose_levels": "rt.discrepancy.diagnose.levels", "write_levels_report": "rt.discrepancy.diagnose.levels_report",
-    "write_report": "rt.discrepancy.diagnose.report",
+    "diagnose": "frictionrt.rt.discrepancy.diagnose.campaign", "load_campaign": "frictionrt.rt.discrepancy.diagnose.campaign",
+    "fit_in_parallel": "frictionrt.rt.discrepancy.diagnose.watch", "public": "frictionrt.rt.discrepancy.diagnose.campaign",
+    "summary": "frictionrt.rt.discrepancy.diagnose.campaign",
+    "diagnose_frf": "frictionrt.rt.discrepancy.diagnose.frf", "is_frf_folder": "frictionrt.rt.discrepancy.diagnose.frf",
+    "diagnose_levels": "frictionrt.rt.discrepancy.diagnose.levels", "write_levels_report": "frictionrt.rt.discrepancy.diagnose.levels_report",
+    "write_report": "frictionrt.rt.discrepancy.diagnose.report",
 }
 __all__ = list(_EXPORTS)
 __getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

@@ -41,9 +41,9 @@ from mcap.reader import make_reader
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from plant.model import build_plant
-from rt.common.config import Config, with_sets
-from rt.discrepancy.diagnose.structure import (
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.diagnose.structure import (
     ShapeRun,
     StructureFit,
     best_nested,
@@ -55,17 +55,17 @@ from rt.discrepancy.diagnose.structure import (
     struct_cfg,
     unwarp,
 )
-from rt.discrepancy.diagnose.stepsine import CHANNEL as SS_CHANNEL
-from rt.discrepancy.diagnose.stepsine import fit_shaker, load_stepsine
-from rt.discrepancy.diagnose.stepsine import gap_db as stepsine_gap_db
-from rt.discrepancy.diagnose.stepsine import prepare as prepare_stepsine
-from rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
-from rt.discrepancy.effects import Effect, get, implemented
-from rt.discrepancy.diagnose.remainder import budget, verdict
-from rt.discrepancy.diagnose.plausible import summary_lines
-from rt.discrepancy.diagnose.watch import done_fit, fit_in_parallel, keeping
-from rt.log.mcap_log import read_mcap
-from rt.discrepancy.chain import measure_actuator, quiet, scale_bounds, scaled
+from frictionrt.rt.discrepancy.diagnose.stepsine import CHANNEL as SS_CHANNEL
+from frictionrt.rt.discrepancy.diagnose.stepsine import fit_shaker, load_stepsine
+from frictionrt.rt.discrepancy.diagnose.stepsine import gap_db as stepsine_gap_db
+from frictionrt.rt.discrepancy.diagnose.stepsine import prepare as prepare_stepsine
+from frictionrt.rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
+from frictionrt.rt.discrepancy.effects import Effect, get, implemented
+from frictionrt.rt.discrepancy.diagnose.remainder import budget, verdict
+from frictionrt.rt.discrepancy.diagnose.plausible import summary_lines
+from frictionrt.rt.discrepancy.diagnose.watch import done_fit, fit_in_parallel, keeping
+from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.rt.discrepancy.chain import measure_actuator, quiet, scale_bounds, scaled
 
 BAND_HZ = (50.0, 1200.0)         # FRF gap band [Hz]
 NAME_THRESHOLD = 10.0            # BIC margin over calibration alone to name an effect
@@ -134,7 +134,7 @@ def frf(t: Test, a: np.ndarray, warp: tuple = (0.0, 0.0)):
     """(freq [Hz], H) of accelerance a / F_exc, the force windowed around the hammer pulse, the
     response exponentially (tau = T / 4): rt.discrepancy.diagnose.structure.windowed_frf; a model's
     response read through its dispersion ``warp`` = (c, h) (structure.model_frf)."""
-    from rt.discrepancy.diagnose.structure import force_window
+    from frictionrt.rt.discrepancy.diagnose.structure import force_window
     return model_frf(force_window(t.data["F_exc"], t.dt), a, t.dt, *warp)
 
 
@@ -237,13 +237,13 @@ def diagnose(folder: str | Path, nominal: Config | None = None, progress=None, j
     configuration under "_config" and the plotting data under "_plots". BLAS runs single-threaded
     meanwhile (the fit's matrices are small: threads only contend, 20x slower on a loaded machine).
     jobs: processes for the candidates' fits and the model step-sines (``fit_in_parallel``,
-    ``rt.experiments.branches.run_branches``; default the number of cores). dask_address (e.g.
+    ``frictionrt.rt.experiments.branches.run_branches``; default the number of cores). dask_address (e.g.
     "tcp://host:8786"): both on that dask cluster instead (frictionrt installed on its workers;
     ConnectionError if no scheduler answers); the result is the same either way. ``progress(msg)``: the
     stages; ``bars``: tqdm bars on stderr over the calibration's model evaluations and the candidates' fits.
     Ctrl-C raises Interrupted with the fits done so far (rt.discrepancy.diagnose.watch)."""
     if dask_address is not None:  # no scheduler: say so now, not after the calibration
-        from rt.experiments import connect
+        from frictionrt.rt.experiments import connect
         connect(dask_address).close()
     with threadpool_limits(1), keeping({}, input="campaign") as done:
         return _diagnose(folder, nominal, progress or (lambda msg: None), jobs, dask_address, bars, done)
@@ -451,7 +451,7 @@ def modes_table(f_model: np.ndarray, f_modes: dict) -> dict:
 
 
 def _unimplemented() -> list[str]:
-    from rt.discrepancy.effects import EFFECTS
+    from frictionrt.rt.discrepancy.effects import EFFECTS
     return [n for n, e in EFFECTS.items() if not e.implemented]
 
 

@@ -64,13 +64,13 @@ import numpy as np
 from scipy.ndimage import median_filter
 from threadpoolctl import threadpool_limits
 
-from plant.linear_frf import point_accelerances
-from plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-from rt.common.config import Config, with_sets
-from rt.discrepancy.chain import quiet
-from rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
-from rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
-from rt.discrepancy.diagnose.structure import (
+from frictionrt.plant.linear_frf import point_accelerances
+from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.chain import quiet
+from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
+from frictionrt.rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
+from frictionrt.rt.discrepancy.diagnose.structure import (
     CAL_FAR,
     FLOOR,
     LOG_SCALE,
@@ -84,12 +84,12 @@ from rt.discrepancy.diagnose.structure import (
     struct_cfg,
     to_z,
 )
-from rt.discrepancy.effects import EFFECTS, Effect, implemented
-from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
-from rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
-from rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
-from rt.discrepancy.rig.frf import add_points, sensor_points
-from rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
+from frictionrt.rt.discrepancy.effects import EFFECTS, Effect, implemented
+from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
+from frictionrt.rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
+from frictionrt.rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
+from frictionrt.rt.discrepancy.rig.frf import add_points, sensor_points
+from frictionrt.rt.log.frf_files import FRFTest, frf_files, from_accelerance, load_frf_folder
 
 NOISE_LINES = 31                 # running-median window of the noise estimate [lines]
 POSITION_TOL_M = 1e-3            # sidecar positions must match the model's points within this [m]

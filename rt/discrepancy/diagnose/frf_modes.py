@@ -33,8 +33,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.signal import find_peaks
 
-from plant.impulse import identify
-from plant.model import preloaded_pairs, stuck_stiffness
+from frictionrt.plant.impulse import identify
+from frictionrt.plant.model import preloaded_pairs, stuck_stiffness
 
 PEAK_PROMINENCE = 1.0            # a mode's peak stands this far above its surroundings [ln |H|] (8.7 dB)
 PEAK_SIGMA = 0.1                 # ... on a line with noise sigma_k below this (relative)

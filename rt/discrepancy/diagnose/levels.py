@@ -49,19 +49,19 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-from plant.harmonic_frf import METHODS, harmonic_system
-from plant.model import build_plant
-from rt.common.config import Config, with_sets
-from rt.discrepancy.chain import quiet, scale_bounds, scaled
-from rt.discrepancy.diagnose.campaign import bic, rank
-from rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
+from frictionrt.plant.harmonic_frf import METHODS, harmonic_system
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.chain import quiet, scale_bounds, scaled
+from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
+from frictionrt.rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
-from rt.discrepancy.diagnose.random_level import RandomLevel, is_random, level_accelerances, random_levels
-from rt.discrepancy.diagnose.structure import CAL_FAR
-from rt.discrepancy.effects import Effect, get
-from rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, verdict
-from rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
-from rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
+from frictionrt.rt.discrepancy.diagnose.random_level import RandomLevel, is_random, level_accelerances, random_levels
+from frictionrt.rt.discrepancy.diagnose.structure import CAL_FAR
+from frictionrt.rt.discrepancy.effects import Effect, get
+from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, verdict
+from frictionrt.rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
+from frictionrt.rt.log.frf_files import FRFTest, from_accelerance, load_frf_folder
 
 CAL_NAMES = ("E", "k_t", "mu", "modal_damping")
 BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.1, 10.0)}

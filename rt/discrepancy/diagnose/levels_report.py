@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.discrepancy.diagnose.plausible import markdown, summary_lines
-from rt.discrepancy.diagnose.watch import write_result
+from frictionrt.rt.discrepancy.diagnose.plausible import markdown, summary_lines
+from frictionrt.rt.discrepancy.diagnose.watch import write_result
 
 
 def summary(res: dict) -> str:
@@ -41,7 +41,7 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from rt.discrepancy.rig.campaign import new_folder
+    from frictionrt.rt.discrepancy.rig.campaign import new_folder
     with new_folder(out) as tmp:
         write_result(tmp, res)
         plots = res["_plots"]

@@ -47,7 +47,7 @@ import math
 
 import numpy as np
 
-from rt.common.config import Config
+from frictionrt.rt.common.config import Config
 
 EDGE_LN = 0.01
 """A parameter this far outside its range (on ln) costs the fit n, its data residuals' expected sum of squares."""

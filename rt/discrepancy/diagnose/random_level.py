@@ -71,13 +71,13 @@ import numpy as np
 from scipy.integrate import trapezoid
 from scipy.special import roots_laguerre
 
-from plant.describing import pair_df, slider_amplitude
-from plant.harmonic_frf import HarmonicFRF, HarmonicSystem, harmonic_accelerances, harmonic_system
-from plant.model import build_plant
-from rt.common.config import Config
-from rt.discrepancy.chain import quiet
-from rt.discrepancy.diagnose.frf import FRFData
-from rt.log.frf_files import FRFTest, from_accelerance
+from frictionrt.plant.describing import pair_df, slider_amplitude
+from frictionrt.plant.harmonic_frf import HarmonicFRF, HarmonicSystem, harmonic_accelerances, harmonic_system
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import Config
+from frictionrt.rt.discrepancy.chain import quiet
+from frictionrt.rt.discrepancy.diagnose.frf import FRFData
+from frictionrt.rt.log.frf_files import FRFTest, from_accelerance
 
 NODES = 64
 """Gauss-Laguerre nodes of each element's slipping part of the Rayleigh average (module docstring, 2.): within

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from rt.discrepancy.effects import get
+from frictionrt.rt.discrepancy.effects import get
 
 DOMINATES = 0.5        # share of what calibration leaves above which the remainder dominates
 NOISE_X = 2.0          # ... and the final weighted residuals' rms above this (noise model: 1)

@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.common.config import dumps
-from rt.discrepancy.diagnose.rrd import write_diagnosis_rrd
-from rt.discrepancy.diagnose.plausible import markdown
-from rt.discrepancy.diagnose.remainder import verdict
-from rt.discrepancy.diagnose.campaign import (
+from frictionrt.rt.common.config import dumps
+from frictionrt.rt.discrepancy.diagnose.rrd import write_diagnosis_rrd
+from frictionrt.rt.discrepancy.diagnose.plausible import markdown
+from frictionrt.rt.discrepancy.diagnose.remainder import verdict
+from frictionrt.rt.discrepancy.diagnose.campaign import (
     BAND_HZ,
     MIN_RSS_REDUCTION,
     NAME_THRESHOLD,

@@ -26,8 +26,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rt.discrepancy.diagnose.campaign import BAND_HZ, frf_overlays
-from rt.log.rrd_log import freq_index, write_series_rrd
+from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, frf_overlays
+from frictionrt.rt.log.rrd_log import freq_index, write_series_rrd
 
 CURVES = ("measured", "before", "after")
 

@@ -5,7 +5,7 @@ F_amp_N and drive_amp_N): per line the measured ratio rho = F_amp / drive. The n
 shaker is an ideal force source, rho = 1.
 
 Model of the candidate ``shaker_interaction`` (armature mass m; the shaker's other constants at
-their catalogue values, rt.common.config.Shaker): the two-port of ``plant.shaker.force_ratio``,
+their catalogue values, rt.common.config.Shaker): the two-port of ``frictionrt.plant.shaker.force_ratio``,
 
     F_exc / drive = 1 / (1 + D_a / k~ + D_a R),
 
@@ -66,13 +66,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rt.common.config import Config, with_sets
-from rt.discrepancy.effects import Effect
-from rt.log.frf_files import FRFTest, frf_files, load_frf_folder
-from rt.discrepancy.chain import quiet
-from plant.shaker import force_ratio
-from rt.experiments.branches import Branch, run_branches
-from rt.experiments.stepsine import Settle
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.discrepancy.effects import Effect
+from frictionrt.rt.log.frf_files import FRFTest, frf_files, load_frf_folder
+from frictionrt.rt.discrepancy.chain import quiet
+from frictionrt.plant.shaker import force_ratio
+from frictionrt.rt.experiments.branches import Branch, run_branches
+from frictionrt.rt.experiments.stepsine import Settle
 
 CHANNEL = "stepsine F_amp/drive"
 SIGMA = 0.01             # [-] relative: the floor of sigma_k (a well-conditioned line)

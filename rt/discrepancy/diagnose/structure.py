@@ -43,13 +43,13 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import least_squares
 
-from plant.impulse import accelerance_frf, identify
-from plant.model import build_plant, preloaded_pairs, stuck_stiffness
-from rt.common.config import Config
-from rt.discrepancy.effects import Effect
-from rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
-from rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
-from rt.discrepancy.diagnose.watch import watch
+from frictionrt.plant.impulse import accelerance_frf, identify
+from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_stiffness
+from frictionrt.rt.common.config import Config
+from frictionrt.rt.discrepancy.effects import Effect
+from frictionrt.rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
+from frictionrt.rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
+from frictionrt.rt.discrepancy.diagnose.watch import watch
 
 SENSORS = ("a_frf_meas", "a_tip_meas")
 MODES = (1, 2, 3, 4, 5, 6, 7, 8)        # bending modes whose frequencies start the fit (stage 1)

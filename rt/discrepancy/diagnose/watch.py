@@ -116,7 +116,7 @@ def write_result(folder: Path, res: dict) -> None:
     """diagnose.json (``res`` without its "_" keys) and, if ``res`` has one, model.toml ("_config") in ``folder``."""
     import json
 
-    from rt.common.config import dumps
+    from frictionrt.rt.common.config import dumps
     (folder / "diagnose.json").write_text(json.dumps({k: v for k, v in res.items() if not k.startswith("_")},
                                                      indent=1) + "\n")
     if "_config" in res:
@@ -127,7 +127,7 @@ def write_partial_report(partial: dict, out: str | Path) -> Path:
     """The report folder of an interrupted diagnosis, filled beside ``out`` and renamed to it (rt.discrepancy.
     rig.campaign.new_folder: never half-written): ``write_result`` of ``partial`` (model.toml: the last fit's
     configuration) and report.md."""
-    from rt.discrepancy.rig.campaign import new_folder
+    from frictionrt.rt.discrepancy.rig.campaign import new_folder
     with new_folder(out) as tmp:
         write_result(tmp, partial)
         (tmp / "report.md").write_text("\n".join(
@@ -142,7 +142,7 @@ def fit_in_parallel(calls: list, jobs: int | None, dask_address: str | None = No
                     each=None) -> list:
     """[f(*args, **kwargs) for (f, args, kwargs) in calls], in joblib (loky) worker processes when
     jobs (default joblib.cpu_count()) > 1, or on the dask cluster at dask_address (jobs ignored;
-    ``rt.experiments.connect``): the candidates' fits are independent given the calibration, and
+    ``frictionrt.rt.experiments.connect``): the candidates' fits are independent given the calibration, and
     each is a pure function of its inputs, so the results are the same as in sequence (tested);
     the workers keep their compiled kernels between calls. The results arrive in the calls' order, counted
     on a tqdm bar on stderr when ``bars``; ``each(i, result)`` is told of each as it arrives (what Ctrl-C keeps)."""
@@ -159,7 +159,7 @@ def fit_in_parallel(calls: list, jobs: int | None, dask_address: str | None = No
 def _results(calls: list, jobs: int | None, dask_address: str | None):
     """The results of ``calls`` (``fit_in_parallel``) one by one, in order, as they end."""
     if dask_address is not None:
-        from rt.experiments import connect
+        from frictionrt.rt.experiments import connect
         with connect(dask_address) as client:
             for future in [client.submit(_one_blas_thread, f, a, k, pure=False) for f, a, k in calls]:
                 yield future.result()

@@ -8,17 +8,17 @@ impulse and actuator tests, MCAP), ``frf`` (FRF files of the stuck linear plant)
 tests). Imports rt.discrepancy's shared modules (``effects``, ``chain``), never the diagnosis.
 The names below are imported on first use (rt/common/face.py).
 """
-from rt.common.face import lazy_face
+from frictionrt.rt.common.face import lazy_face
 
 _EXPORTS = {
-    "make_campaign": "rt.discrepancy.rig.campaign", "model_form": "rt.discrepancy.rig.campaign",
-    "model_form_parts": "rt.discrepancy.rig.campaign", "model_form_refine": "rt.discrepancy.rig.campaign",
-    "MODEL_FORM_PARTS": "rt.discrepancy.rig.campaign",
-    "true_structure": "rt.discrepancy.rig.campaign", "scatter_sets": "rt.discrepancy.rig.campaign",
-    "new_folder": "rt.discrepancy.rig.campaign", "FN1_LEVELS_N": "rt.discrepancy.rig.campaign",
-    "HAMMER_PEAK_N": "rt.discrepancy.rig.campaign", "HAMMER_CONTACT_S": "rt.discrepancy.rig.campaign",
-    "make_frf_campaign": "rt.discrepancy.rig.frf", "sensor_points": "rt.discrepancy.rig.frf", "add_points": "rt.discrepancy.rig.frf",
-    "make_level_campaign": "rt.discrepancy.rig.levels", "sweep_level": "rt.discrepancy.rig.levels",
+    "make_campaign": "frictionrt.rt.discrepancy.rig.campaign", "model_form": "frictionrt.rt.discrepancy.rig.campaign",
+    "model_form_parts": "frictionrt.rt.discrepancy.rig.campaign", "model_form_refine": "frictionrt.rt.discrepancy.rig.campaign",
+    "MODEL_FORM_PARTS": "frictionrt.rt.discrepancy.rig.campaign",
+    "true_structure": "frictionrt.rt.discrepancy.rig.campaign", "scatter_sets": "frictionrt.rt.discrepancy.rig.campaign",
+    "new_folder": "frictionrt.rt.discrepancy.rig.campaign", "FN1_LEVELS_N": "frictionrt.rt.discrepancy.rig.campaign",
+    "HAMMER_PEAK_N": "frictionrt.rt.discrepancy.rig.campaign", "HAMMER_CONTACT_S": "frictionrt.rt.discrepancy.rig.campaign",
+    "make_frf_campaign": "frictionrt.rt.discrepancy.rig.frf", "sensor_points": "frictionrt.rt.discrepancy.rig.frf", "add_points": "frictionrt.rt.discrepancy.rig.frf",
+    "make_level_campaign": "frictionrt.rt.discrepancy.rig.levels", "sweep_level": "frictionrt.rt.discrepancy.rig.levels",
 }
 __all__ = list(_EXPORTS)
 __getattr__, __dir__ = lazy_face(__name__, _EXPORTS)

@@ -37,14 +37,14 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.impulse import hammer_force
-from plant.model import build_plant
-from rt.common.config import Config, refined_sets, require_adaptive_screw, with_sets
-from rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
+from frictionrt.plant.impulse import hammer_force
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import Config, refined_sets, require_adaptive_screw, with_sets
+from frictionrt.rt.discrepancy.chain import (FORCE_NOISE_N, I_NOISE_A, SIGNALS, V_NOISE_V, hold_voltage, measure_actuator,
                                   measure_impulse, scaled)
-from rt.discrepancy.effects import get
-from rt.log.mcap_log import utc_now
-from rt.log.writer import McapBlockWriter
+from frictionrt.rt.discrepancy.effects import get
+from frictionrt.rt.log.mcap_log import utc_now
+from frictionrt.rt.log.writer import McapBlockWriter
 
 FN1_LEVELS_N = (40.0, 100.0, 300.0)   # impulse tests: bolt force levels [N]
 RAMPS_S = (0.3e-3, 1e-3, 3e-3)        # actuator tests: 0 -> V_RAMP_V ramp durations [s]
@@ -124,7 +124,7 @@ def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS, refine: i
 def _refined_sets(cfg: Config, refine: int | None) -> list[str]:
     """--set assignments of the element length, the contact pitch and the plant substeps (in the
     order of ``REFINED_PARTS``) of ``model_form``'s truth: refined by ``refine`` as
-    ``rt.common.config.refined_sets`` does, or (None) halved, halved and doubled (issue 18's form)."""
+    ``frictionrt.rt.common.config.refined_sets`` does, or (None) halved, halved and doubled (issue 18's form)."""
     p = cfg.plant
     if refine is None:
         return [f"plant.element_length_m={p.element_length_m / 2!r}",
@@ -216,7 +216,7 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
                 f"{HOLD_S * 1e3:g} ms, structure at rest"))
             names.append(name)
         if stepsine:
-            from rt.discrepancy.rig.stepsine import write_stepsine_tests
+            from frictionrt.rt.discrepancy.rig.stepsine import write_stepsine_tests
             names += write_stepsine_tests(tmp, true, levels_n, seed)
     return [Path(out_dir) / n for n in names]
 

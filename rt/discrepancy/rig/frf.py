@@ -35,14 +35,14 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.model import build_plant
-from rt.common.config import Config, Point, adaptive_screw, with_sets
-from rt.discrepancy.effects import get
-from rt.log.data_format import ACCELEROMETER_POINTS
-from rt.log.frf_files import FORMAT, FRFTest, from_accelerance, write_frf_csv, write_frf_uff
-from plant.linear_frf import point_accelerances
-from rt.discrepancy.chain import sensor_point
-from rt.discrepancy.rig.campaign import FN1_LEVELS_N, new_folder, true_structure
+from frictionrt.plant.model import build_plant
+from frictionrt.rt.common.config import Config, Point, adaptive_screw, with_sets
+from frictionrt.rt.discrepancy.effects import get
+from frictionrt.rt.log.data_format import ACCELEROMETER_POINTS
+from frictionrt.rt.log.frf_files import FORMAT, FRFTest, from_accelerance, write_frf_csv, write_frf_uff
+from frictionrt.plant.linear_frf import point_accelerances
+from frictionrt.rt.discrepancy.chain import sensor_point
+from frictionrt.rt.discrepancy.rig.campaign import FN1_LEVELS_N, new_folder, true_structure
 
 FREQ_HZ = 4.0 + 0.25 * np.arange(6385)   # [Hz] 4 .. 1600 Hz
 NOISE_REL = 0.01                         # complex noise rms relative to |H|

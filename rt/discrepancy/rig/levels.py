@@ -41,16 +41,16 @@ from typing import NamedTuple
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz
-from plant.simulate import run
-from rt.common.config import Config, adaptive_screw
-from rt.discrepancy.chain import hold_voltage, stack_force
-from rt.discrepancy.effects import get
-from rt.discrepancy.rig.campaign import new_folder, true_structure
-from rt.discrepancy.rig.frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
-from rt.discrepancy.rig.random_excitation import OVERLAP, random_test, record_s
-from rt.experiments.stepsine import Settle, harmonics_of_columns, resonance_grid, steady
-from rt.log.frf_files import FRFTest, write_frf_csv, write_frf_uff
+from frictionrt.plant.model import PlantModel, build_plant, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.plant.simulate import run
+from frictionrt.rt.common.config import Config, adaptive_screw
+from frictionrt.rt.discrepancy.chain import hold_voltage, stack_force
+from frictionrt.rt.discrepancy.effects import get
+from frictionrt.rt.discrepancy.rig.campaign import new_folder, true_structure
+from frictionrt.rt.discrepancy.rig.frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
+from frictionrt.rt.discrepancy.rig.random_excitation import OVERLAP, random_test, record_s
+from frictionrt.rt.experiments.stepsine import Settle, harmonics_of_columns, resonance_grid, steady
+from frictionrt.rt.log.frf_files import FRFTest, write_frf_csv, write_frf_uff
 
 LEVELS_N = (0.5, 1.0, 2.0, 5.0, 10.0, 20.0)   # [N] force amplitudes
 BAND_HZ = (50.0, 1200.0)                       # [Hz] lines inside this band

@@ -1,7 +1,7 @@
 """Random excitation of the rig's level tests (``frictionrt rig --frf-files --levels .. --excitation random``,
 issue 35): what a lab measures with a shaker driven by band-limited noise, H1 by Welch's method.
 
-Level: the rms F_rms [N] of the force over the band f_lo..f_hi (``rt.discrepancy.rig.levels.BAND_HZ``,
+Level: the rms F_rms [N] of the force over the band f_lo..f_hi (``frictionrt.rt.discrepancy.rig.levels.BAND_HZ``,
 50-1200 Hz; with a force scale s [N/V] the rms V_rms [V] of the drive voltage, the force s v). The
 force is Gaussian with the flat one-sided spectral density
 
@@ -42,8 +42,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.signal import csd, welch
 
-from plant.model import PlantModel
-from plant.simulate import run
+from frictionrt.plant.model import PlantModel
+from frictionrt.plant.simulate import run
 
 BLOCK_S = 16.0          # [s] Welch block: 0.0625 Hz lines
 AVERAGES = 10           # Hann blocks, 50 % overlap (module docstring: the random error)

@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rt.common.config import Config, with_sets
-from rt.log.frf_files import FORMAT, FRFTest, write_frf_csv
-from rt.discrepancy.chain import FORCE_NOISE_N
-from rt.experiments.branches import Branch, run_branches
-from rt.experiments.stepsine import SENSOR_READINGS, Settle
+from frictionrt.rt.common.config import Config, with_sets
+from frictionrt.rt.log.frf_files import FORMAT, FRFTest, write_frf_csv
+from frictionrt.rt.discrepancy.chain import FORCE_NOISE_N
+from frictionrt.rt.experiments.branches import Branch, run_branches
+from frictionrt.rt.experiments.stepsine import SENSOR_READINGS, Settle
 
 AMPLITUDES_N = (5.0, 10.0)                   # target force amplitudes [N]
 LINES_HZ = tuple(sorted({120.0, 300.0, 500.0, 700.0, 1100.0, 1250.0}
