@@ -175,8 +175,9 @@ def compare(rebuilt: dict[str, np.ndarray], logged: dict[str, np.ndarray], parts
 
 
 def environment_changes(meta: dict[str, str]) -> list[str]:
-    """What differs between the set-up that wrote a log (its "versions", "kernels", "codegen" and
-    "blas" metadata) and this one: e.g. ["numba 0.68.1 -> 0.69.0", "codegen generic -> znver5",
+    """What differs between the set-up that wrote a log (its "versions", "kernel_version", "kernels",
+    "codegen" and "blas" metadata) and this one: e.g. ["numba 0.68.1 -> 0.69.0",
+    "kernel version 1 -> 2 (v2: ...)", "codegen generic -> znver5",
     "BLAS Haswell x 1 -> SkylakeX x 2"]; empty
     when all agree or the log records none. Bit-exactness is promised only without changes
     (docs/determinism.md)."""
@@ -185,6 +186,7 @@ def environment_changes(meta: dict[str, str]) -> list[str]:
     from frictionrt.rt.common.blas import state as blas_state
     from frictionrt.rt.common.codegen import compiled_target
     from frictionrt.rt.common.jit_cache import source_hash
+    from frictionrt.rt.common.kernel_version import KERNEL_VERSION, changes_since, logged_version
     from frictionrt.rt.log.writer import package_versions
     out = []
     try:
@@ -197,6 +199,9 @@ def environment_changes(meta: dict[str, str]) -> list[str]:
     for name in ("python", "numpy", "numba", "llvmlite", "scipy", "control"):
         if isinstance(then, dict) and name in then and then[name] != now.get(name):
             out.append(f"{name} {then[name]} -> {now.get(name)}")
+    changed = changes_since(logged_version(meta))
+    if changed:
+        out.append(f"kernel version {logged_version(meta)} -> {KERNEL_VERSION} ({'; '.join(changed)})")
     if "kernels" in meta and meta["kernels"] != source_hash():
         out.append(f"kernel sources {meta['kernels']} -> {source_hash()}")
     if isinstance(target, dict):

@@ -542,8 +542,10 @@ def run_metadata(cfg, law: str, estimator: str, seed: int, freq_hz: float, amp_n
     from frictionrt.rt.common.codegen import compiled_target
     from frictionrt.rt.common.config import dumps
     from frictionrt.rt.common.jit_cache import source_hash
+    from frictionrt.rt.common.kernel_version import KERNEL_VERSION
     return {"config": dumps(cfg), "versions": json.dumps(package_versions()),
             "codegen": json.dumps(compiled_target()), "blas": json.dumps(blas_state()), "kernels": source_hash(),
+            "kernel_version": str(KERNEL_VERSION),
             "seed": str(seed), "law": law,
             "estimator": estimator, "freq_hz": repr(float(freq_hz)), "amp_n": repr(float(amp_n)),
             "duration_s": repr(float(duration_s)), "paced": str(bool(paced)).lower(),

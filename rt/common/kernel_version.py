@@ -1,0 +1,34 @@
+"""The kernels' version: a number raised by every change that moves the bits a run computes.
+
+Every log records ``KERNEL_VERSION`` (metadata "kernel_version"); a replay of a log recorded with
+another version reports the changes in between (``changes_since``), so a replay that is no longer
+bit-exact says why. The source hash (``jit_cache.source_hash``) changes with every edit of a
+kernel file; this number changes only when the numbers change, and says how.
+
+To change the bits: raise ``KERNEL_VERSION`` by one and add a line to ``CHANGES`` that names the
+kernel and what now differs; regenerate the determinism fixture (tests/fixtures/make_fixtures.py).
+"""
+from __future__ import annotations
+
+KERNEL_VERSION = 1
+
+# version -> what changed the bits from the version before it. Version 1 is the first recorded;
+# a log without a record (version 0) was computed by version 1's kernels or older ones, and its
+# "kernels" source hash tells which.
+CHANGES: dict[int, str] = {}
+
+
+def logged_version(meta: dict[str, str]) -> int:
+    """The kernel version a log's metadata records; 0 for a log that records none."""
+    try:
+        return int(meta.get("kernel_version", "0"))
+    except ValueError:
+        return 0
+
+
+def changes_since(version: int) -> list[str]:
+    """What changed the kernels' bits after ``version``: ["v2: ...", ...]; empty when the bits
+    are those of this version (versions 0 and 1 compute the same)."""
+    if version > KERNEL_VERSION:
+        return [f"the log is from a newer frictionrt (kernel version {version} > {KERNEL_VERSION})"]
+    return [f"v{v}: {CHANGES[v]}" for v in range(max(version, 1) + 1, KERNEL_VERSION + 1)]
