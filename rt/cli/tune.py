@@ -17,9 +17,10 @@ from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, refus
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
 each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
-  1. the mean peak reduction against the passive law (constant F_N1 = tracking.F_passive_N) [dB], and
+  1. the mean peak change against the passive law (constant F_N1 = tracking.F_passive_N) [dB],
+     20 log10(peak_law / peak_passive): negative = the law's peak is lower, and
   2. the mean actuator power during the measurements [W].
-The candidates that no other beats on both are the Pareto front. The best (largest reduction, within
+The candidates that no other beats on both are the Pareto front. The best (most negative peak change, within
 --max-power if given) is written as a full configuration that every command takes with --config.
 
 Writes into --out DIR: table.csv and table.md (one row per candidate), pareto.png, best.toml, tune.json.
@@ -68,10 +69,10 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
 
 
 def _markdown(rows: list[dict], keys) -> str:
-    head = list(keys) + ["reduction [dB]", "power [W]", "Pareto", "best", "refused"]
+    head = list(keys) + ["peak change [dB] (negative: lower)", "power [W]", "Pareto", "best", "refused"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        red = "" if r["reduction_db"] is None else f"{r['reduction_db']:.2f}"
+        red = "" if r["peak_change_db"] is None else f"{r['peak_change_db']:+.2f}"
         pw = "" if r["power_w"] is None else f"{r['power_w']:.3g}"
         lines.append("| " + " | ".join([f"{r[k]:g}" for k in keys] + [red, pw, "yes" if r["pareto"] else "",
                                                                       "**best**" if r["best"] else "", r["error"]])
@@ -84,9 +85,9 @@ def _csv(rows: list[dict], keys) -> str:
     import io
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(list(keys) + ["reduction_db", "power_w", "pareto", "best", "error"])
+    w.writerow(list(keys) + ["peak_change_db", "power_w", "pareto", "best", "error"])
     for r in rows:
-        w.writerow([r[k] for k in keys] + ["" if r["reduction_db"] is None else r["reduction_db"],
+        w.writerow([r[k] for k in keys] + ["" if r["peak_change_db"] is None else r["peak_change_db"],
                                            "" if r["power_w"] is None else r["power_w"], r["pareto"], r["best"],
                                            r["error"]])
     return buf.getvalue()
