@@ -22,10 +22,14 @@ a dask cluster with ``dask_address``; the same configuration gives the same numb
 from __future__ import annotations
 
 import itertools
+import json
+import os
+import tempfile
 import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -266,3 +270,46 @@ def plot_pareto(res: TuneResult, path: str | None = None):
     if path is not None:
         fig.savefig(path, dpi=120)
     return fig
+
+
+def markdown_table(rows: list[dict], keys) -> str:
+    head = list(keys) + ["peak change [dB] (negative: lower)", "power [W]", "Pareto", "best", "refused"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        red = "" if r["peak_change_db"] is None else f"{r['peak_change_db']:+.2f}"
+        pw = "" if r["power_w"] is None else f"{r['power_w']:.3g}"
+        lines.append("| " + " | ".join([f"{r[k]:g}" for k in keys] + [red, pw, "yes" if r["pareto"] else "",
+                                                                      "**best**" if r["best"] else "", r["error"]])
+                     + " |")
+    return "\n".join(lines) + "\n"
+
+
+def csv_table(rows: list[dict], keys) -> str:
+    import csv
+    import io
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(list(keys) + ["peak_change_db", "power_w", "pareto", "best", "error"])
+    for r in rows:
+        w.writerow([r[k] for k in keys] + ["" if r["peak_change_db"] is None else r["peak_change_db"],
+                                           "" if r["power_w"] is None else r["power_w"], r["pareto"], r["best"],
+                                           r["error"]])
+    return buf.getvalue()
+
+
+def write_outputs(res, out: Path) -> None:
+    """Write the files into a temporary folder beside out, then move them in (never half-written)."""
+    out.mkdir(parents=True, exist_ok=True)
+    rows = res.rows()
+    with tempfile.TemporaryDirectory(dir=out, prefix=".tune-") as tmp:
+        t = Path(tmp)
+        (t / "table.csv").write_text(csv_table(rows, res.keys))
+        (t / "table.md").write_text(markdown_table(rows, res.keys))
+        (t / "tune.json").write_text(json.dumps(res.to_dict(), indent=1))
+        plot_pareto(res, str(t / "pareto.png"))
+        if res.best >= 0:
+            (t / "best.toml").write_text(best_toml(res))
+        for f in t.iterdir():
+            os.replace(f, out / f.name)
+    if res.best < 0 and (out / "best.toml").exists():
+        (out / "best.toml").unlink()  # an older run's best must not pass for this one's
