@@ -113,23 +113,18 @@ def _interrupted(part: dict, args) -> int:
 
 def _campaign_or_frf(cfg, args, say) -> int:
     """``diagnose`` of a campaign (rt.discrepancy.diagnose.campaign) or of FRF files (.frf)."""
-    from frictionrt.rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
+    from frictionrt.jobs import diagnose
     from frictionrt.rt.discrepancy.diagnose.watch import Interrupted
     try:
-        if is_frf_folder(args.folder):
-            res = diagnose_frf(args.folder, cfg, progress=say, bars=True)
-        else:
-            res = diagnose(args.folder, cfg, progress=say, jobs=args.jobs, dask_address=args.dask, bars=True)
+        res = diagnose(args.folder, cfg, out=args.out, force=args.force, jobs=args.jobs, dask=args.dask, progress=say,
+                       bars=True)
     except ConnectionError as exc:
         return fail(f"diagnose --dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     except Interrupted as stop:   # Ctrl-C: keep the fits done so far
         return _interrupted(stop.partial, args)
-    if args.out:
-        from frictionrt.rt.discrepancy.diagnose import write_report
-        write_folder(args.out, args.force, lambda: write_report(res, args.out))
-    print(json.dumps(public(res)) if args.json else summary(res))
+    print(res.to_json() if args.json else str(res))
     return 0
 
 

@@ -4,12 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
-from pathlib import Path
 
 from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list
-from frictionrt.rt.common.files import write_folder
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
@@ -103,93 +100,29 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
 
 
 def cmd_rig(cfg, args) -> int:
-    from frictionrt.rt.discrepancy.effects import EFFECTS, get
+    from frictionrt.jobs import effects, rig
     if args.list:
-        rows = [e.to_json() for e in EFFECTS.values()]
-        if args.json:
-            print(json.dumps({"effects": rows}))
-        else:
-            for r in rows:
-                state = "" if r["implemented"] else "  (not implemented yet)"
-                print(f"{r['name']:<20} {r['parameter']} [{r['unit']}] default {r['default_strength']:g}, "
-                      f"bounds {r['bounds']}{state}")
+        res = effects()
+        print(res.to_json() if args.json else str(res))
         return 0
     if not args.effect or not args.out:
         return fail("rig: give --effect NAME (or none) and -o DIR, or --list")
-    out = Path(args.out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
-        return fail(f"rig -o {out}: exists; pass --force to replace it as a whole, or give a new folder")
-    if args.effect != "none":
-        try:
-            eff = get(args.effect)
-        except ValueError as exc:
-            return fail(f"rig --effect: {exc}")
-        if not eff.implemented:
-            return fail(f"rig --effect {eff.name}: not implemented yet (needs new kernel code); implemented: "
-                         + ", ".join(n for n, e in EFFECTS.items() if e.implemented))
-        p = eff.parameter
-        if args.strength is not None and not (math.isfinite(args.strength) and p.lo <= args.strength <= p.hi):
-            return fail(f"rig --strength {args.strength:g}: {eff.name} takes {p.name} in [{p.lo:g}, {p.hi:g}] {p.unit}")
-    elif args.strength is not None:
-        return fail("rig --strength: --effect none takes no strength")
-    if not (math.isfinite(args.record_s) and 0.2 <= args.record_s <= 10.0):
-        return fail(f"rig --record-s {args.record_s:g}: give 0.2 .. 10 s")
-    if args.frf_files and (args.stepsine or args.record_s != 1.0):
-        return fail("rig --frf-files: --stepsine and --record-s apply to the time-series campaign only; drop them")
-    if not args.frf_files and (args.quantity != "accelerance" or args.force_scale is not None):
-        return fail("rig --quantity, --force-scale: they apply to --frf-files only; add it or drop them")
-    if args.force_scale is not None and not (math.isfinite(args.force_scale) and args.force_scale > 0):
-        return fail(f"rig --force-scale {args.force_scale:g}: give a force per volt > 0 [N/V]")
-    if args.levels is not None and not args.frf_files:
-        return fail("rig --levels: the level tests are FRF files; add --frf-files")
-    if args.levels is not None and args.quantity != "accelerance":
-        return fail("rig --levels: the level tests are accelerances; --quantity applies to the linear FRF files "
-                    "only, drop it")
-    if args.excitation != "stepsine" and args.levels is None:
-        return fail(f"rig --excitation {args.excitation}: it drives the level tests; add --frf-files --levels A,B,..")
     levels = None
     if args.levels is not None:
         try:
             levels = parse_list(args.levels, float, "rig --levels", "0.5,1,2,5")
         except ValueError as exc:
             return fail(str(exc))
-    from frictionrt.rt.discrepancy.rig import make_campaign, model_form, model_form_parts, model_form_refine
     try:
-        form = model_form_parts(args.model_form)
-    except ValueError as exc:
-        return fail(f"rig --model-form: {exc}")
-    if args.refine is not None and not form:
-        return fail(f"rig --refine {args.refine}: it refines the truth's model form; add --model-form (all or PARTS)")
-    try:
-        refine = model_form_refine(args.refine, form)
-    except ValueError as exc:
-        return fail(f"rig --refine {args.refine}: {exc}")
-    if refine is not None:
-        try:
-            model_form(cfg, form, refine)
-        except ValueError as exc:
-            return fail(f"rig --refine {refine}: the refined truth is not a valid configuration ({exc}); "
-                        "give a smaller factor")
-    from frictionrt.rt.discrepancy.rig import make_frf_campaign, make_level_campaign
-
-    def write():   # the campaign into the new folder out (moved in once complete; rt.discrepancy.rig.new_folder)
-        if levels is not None:
-            return make_level_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, force_levels_n=levels,
-                                       other_form=form, force_scale_N_per_V=args.force_scale,
-                                       excitation=args.excitation, refine=refine,
-                                       progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
-        if args.frf_files:
-            return make_frf_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, quantity=args.quantity,
-                                     force_scale_N_per_V=args.force_scale, other_form=form, refine=refine)
-        return make_campaign(out, args.effect, args.strength, seed=args.seed, cfg=cfg, record_s=args.record_s,
-                             stepsine=args.stepsine, other_form=form, refine=refine)
-
-    try:
-        files = write_folder(out, args.force, write)
-    except ValueError as exc:
-        return fail(f"rig -o: {exc}")
+        res = rig(cfg, effect=args.effect, out=args.out, strength=args.strength, seed=args.seed,
+                  record_s=args.record_s, stepsine=args.stepsine, frf_files=args.frf_files, quantity=args.quantity,
+                  force_scale=args.force_scale, levels=levels, excitation=args.excitation,
+                  model_form=args.model_form, refine=args.refine, force=args.force,
+                  progress=lambda msg: print(f"rig: {msg}", file=sys.stderr))
+    except (ValueError, FileExistsError) as exc:
+        return fail(str(exc))
     if args.json:
-        print(json.dumps({"folder": args.out, "files": [str(f) for f in files]}))
+        print(json.dumps({"folder": args.out, "files": res["files"]}))
     else:
-        print(f"{len(files)} files in {args.out}: " + ", ".join(f.name for f in files))
+        print(res)
     return 0

@@ -9,13 +9,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 from pathlib import Path
 
 from frictionrt.rt.common.config import Config, ConfigError
-from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, refuse_existing
+from frictionrt.rt.cli.common import CommaList, add_estimator, add_force, add_out, fail, parse_list, refuse_existing
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
-each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
+each runs step-sine sweeps around --modes at each --amps [N] force amplitude, and is scored by
   1. the mean peak change against the passive law (constant F_N1 = tracking.F_passive_N) [dB],
      20 log10(peak_law / peak_passive): negative = the law's peak is lower, and
   2. the mean actuator power during the measurements [W].
@@ -30,11 +31,11 @@ observer.fric_noise_N, observer.meas_noise_m_s). The laws run on the paper's obs
 default) or, with --estimator oracle, on the plant's own u_rel, v_rel (the upper bound)."""
 
 EXAMPLES = """examples:
-  frictionrt tune --law hysteresis --modes 3,4 --amp 5 20
+  frictionrt tune --law hysteresis --modes 3,4 --amps 5,20
   frictionrt tune --law lyapunov --grid tracking.eps_m_s=0.003,0.01,0.03 --grid tracking.pid_bandwidth_hz=150,300
   frictionrt tune --law hysteresis --grid observer.fric_noise_N=100,300,1000 --out logs/tune_obs
   frictionrt tune --law lyapunov --estimator oracle --out logs/tune_oracle
-  frictionrt --config logs/tune_hysteresis/best.toml frf --law hysteresis --amp 5 --around-modes 3"""
+  frictionrt --config logs/tune_hysteresis/best.toml frf --law hysteresis --amps 5 --around-modes 3"""
 
 
 def add_parser(subparsers, parents) -> argparse.ArgumentParser:
@@ -47,14 +48,13 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
                         "repeatable, the candidates are all combinations (default: the law's own gains)")
     p.add_argument("--modes", default="3,4", metavar="M1,M2,...",
                    help="bending modes whose peaks are scored (mode 1 is at 9.8 Hz)")
-    p.add_argument("--amp", nargs="+", type=float, default=[5.0], metavar="N",
-                   help="excitation force amplitude(s) [N], held on the measured force")
+    p.add_argument("--amps", "--amp", action=CommaList, kind=float, default=[5.0], metavar="N1,N2",
+                   help="excitation force amplitude(s) [N], held on the measured force, comma-separated")
     p.add_argument("--points", type=int, default=9, metavar="N",
                    help="step-sine frequencies per mode over +/- --half-width")
     p.add_argument("--half-width", type=float, default=0.15, metavar="REL",
                    help="half width of each mode's band, relative to its centre")
-    p.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
-                   help="observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
+    add_estimator(p)
     p.add_argument("--max-power", type=float, default=None, metavar="W",
                    help="pick the best candidate among those using at most this mean actuator power [W]")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
@@ -68,8 +68,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
 
 
 def cmd_tune(cfg: Config, args) -> int:
+    from frictionrt.jobs import tune
     from frictionrt.rt.experiments.branches import sweeps_line
-    from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, markdown_table, parse_grid, tune, write_outputs
+    from frictionrt.rt.experiments.tune import markdown_table, parse_grid
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
         return fail(f"--out {out}: exists and is not a folder")
@@ -83,18 +84,19 @@ def cmd_tune(cfg: Config, args) -> int:
     if args.jobs is not None and args.jobs < 1:
         return fail(f"--jobs {args.jobs}: must be >= 1")
     try:
-        grid = parse_grid(args.grid) if args.grid else DEFAULT_GRIDS[args.law]
+        grid = parse_grid(args.grid) if args.grid else None
         modes = parse_list(args.modes, int, "--modes", "3,4")
-        res = tune(cfg, args.law, grid, modes, args.amp, points=args.points, half_width_rel=args.half_width,
-                   estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs, dask_address=args.dask,
-                   progress=not args.json)
+        res = tune(cfg, law=args.law, grid=grid, modes=modes, amps_n=args.amps, points=args.points,
+                   half_width=args.half_width, estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs,
+                   dask=args.dask, out=out, force=True, progress=not args.json)
     except ConfigError as exc:
         return fail(f"--grid: {exc}")
     except ConnectionError as exc:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(str(exc))
-    write_outputs(res, out)
+    for w in res.warnings or []:
+        print(f"frictionrt tune: warning: {w}", file=sys.stderr)
     doc = res.to_dict()
     doc["out"] = str(out)
     if args.json:

@@ -72,6 +72,17 @@ class TuneResult:
     best: int                              # index of the best candidate (-1: none qualifies)
     best_cfg: Config | None
     timing: dict | None = None             # the sweeps' cost (rt.experiments.branches.sweep_timing; wall-clock)
+    resolution: list[dict] | None = None   # per (mode, amplitude): the passive peak on the grid and refined
+    warnings: list[str] | None = None      # where the grid does not resolve a peak, and the points that would
+
+    @property
+    def best_config(self) -> Config | None:
+        """The best candidate's full configuration (None: none qualifies)."""
+        return self.best_cfg
+
+    def plot(self):
+        """The Pareto plot (``plot_pareto``): a matplotlib Figure."""
+        return plot_pareto(self)
 
     def rows(self) -> list[dict]:
         """One dict per candidate: the swept values, objectives, Pareto flag, error."""
@@ -96,7 +107,7 @@ class TuneResult:
         return {"law": self.law, "modes": list(self.modes), "amps_n": list(self.amps_n), "keys": list(self.keys),
                 "candidates": self.rows(), "passive_peak": self.passive_peak.tolist(),
                 "best": None if self.best < 0 else self.rows()[self.best], "best_on_edge": self.best_on_edge(),
-                "timing": self.timing}
+                "resolution": self.resolution or [], "warnings": self.warnings or [], "timing": self.timing}
 
 
 def _num(v: float) -> float | None:
@@ -204,7 +215,10 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     ok = [c for c in cands if c.cfg is not None]
     branches = [Branch(base, "passive", a, freqs[m], estimator, settle) for m, a in cells]
     branches += [Branch(c.cfg, law, a, freqs[m], estimator, settle) for c in ok for m, a in cells]
-    results = run_branches(branches, jobs, dask_address, progress=progress, loops=build_loops(branches, designs))
+    loops = build_loops(branches, designs)
+    results = run_branches(branches, jobs, dask_address, progress=progress, loops=loops)
+    resolution = passive_resolution(branches[:len(cells)], loops[:len(cells)], results[:len(cells)], cells,
+                                    half_width_rel, jobs, dask_address)
     timing = sweep_timing(results, time.perf_counter() - t0, results.cores)
     shape = (len(modes), len(amps_n))
     passive_peak = np.array([r.H_abs.max() for r in results[:len(cells)]]).reshape(shape)
@@ -224,7 +238,65 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     keys = tuple(grid)
     values = np.array([[float(s.split("=", 1)[1]) for s in c.sets] for c in cands])
     return TuneResult(law, modes, amps_n, keys, values, [c.error for c in cands], passive_peak, peak, change,
-                      power, front, best, None if best < 0 else cands[best].cfg, timing)
+                      power, front, best, None if best < 0 else cands[best].cfg, timing, resolution,
+                      [r["warning"] for r in resolution if r["warning"]])
+
+
+RESOLVED_DB = 1.0      # a grid resolves a peak when its highest point is within 1 dB of the refined peak
+REFINE_ROUNDS = 8      # refinement rounds of the passive check (each halves the step toward the peak)
+
+
+def points_for(half_width_hz: float, width_hz: float, half_width_rel: float, centre_hz: float,
+               db: float = RESOLVED_DB) -> int:
+    """Grid points over +/- ``half_width_rel`` of ``centre_hz`` [Hz] whose step puts a point within
+    ``db`` of a single-mode peak of half-power half-width ``width_hz`` [Hz]: near the peak
+    |H|^2 / |H_max|^2 = b^2 / ((f - f_0)^2 + b^2), the worst point lies half a step off, so the step
+    is at most 2 b sqrt(10^(db/10) - 1)."""
+    step = 2.0 * width_hz * math.sqrt(10.0 ** (db / 10.0) - 1.0)
+    return int(math.ceil(2.0 * half_width_rel * centre_hz / step)) + 1
+
+
+def passive_resolution(branches: Sequence[Branch], loops, results, cells, half_width_rel: float,
+                       jobs: int | None = None, dask_address: str | None = None) -> list[dict]:
+    """Whether each passive sweep's grid resolves its peak: the passive law's peak refined by
+    ``REFINE_ROUNDS`` rounds of midpoints toward it (``reproduce.refine_points``, single points from
+    rest) against the grid's highest point. Per cell: mode, amp_n, grid_peak, refined_peak
+    [(m/s^2)/N], error_db (20 log10 grid / refined, <= 0), points_needed (``points_for``, from the
+    parabola 1/|H|^2 through the refined peak's three points) and "warning" (empty when within
+    ``RESOLVED_DB``)."""
+    from dataclasses import replace
+
+    from frictionrt.rt.experiments.reproduce import merge, refine_points
+    merged = list(results)
+    for _ in range(REFINE_ROUNDS):
+        todo = [(i, f) for i, r in enumerate(merged) for f in refine_points(r.freq_hz, r.H_abs)]
+        if not todo:
+            break
+        new = run_branches([replace(branches[i], freqs_hz=(f,)) for i, f in todo], jobs, dask_address,
+                           progress=False, loops=[loops[i] for i, _ in todo])
+        for (i, _), r in zip(todo, new):
+            merged[i] = merge([merged[i], r])
+    out = []
+    for (mode, amp), b, grid, ref in zip(cells, branches, results, merged):
+        g, p = float(grid.H_abs.max()), float(ref.H_abs.max())
+        err = 20.0 * math.log10(g / p) if p > 0 else 0.0
+        k = int(np.argmax(ref.H_abs))
+        needed = None
+        if 0 < k < len(ref.freq_hz) - 1:
+            f, y = ref.freq_hz[k - 1:k + 2] - ref.freq_hz[k], 1.0 / ref.H_abs[k - 1:k + 2] ** 2
+            c2, c1, c0 = np.polyfit(f, y, 2)
+            y0 = c0 - c1 * c1 / (4 * c2) if c2 > 0 else 0.0
+            if c2 > 0 and y0 > 0:
+                centre = 0.5 * (b.freqs_hz[0] + b.freqs_hz[-1])
+                needed = points_for(half_width_rel * centre, math.sqrt(y0 / c2), half_width_rel, centre)
+        warn = ""
+        if err < -RESOLVED_DB:
+            warn = (f"mode {mode} at {amp:g} N: the grid of {len(grid.freq_hz)} points puts the passive peak at "
+                    f"{g:.3g} (m/s^2)/N, {-err:.1f} dB below the refined {p:.3g}; the peak changes are not resolved"
+                    + (f": use --points {needed} or more" if needed else ": use more --points"))
+        out.append({"mode": mode, "amp_n": amp, "grid_peak": g, "refined_peak": p, "error_db": err,
+                    "refined_f_hz": float(ref.freq_hz[k]), "points_needed": needed, "warning": warn})
+    return out
 
 
 def best_toml(res: TuneResult) -> str:
