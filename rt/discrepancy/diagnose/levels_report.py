@@ -1,12 +1,12 @@
 """The amplitude-dependence diagnosis' report (rt.discrepancy.diagnose.levels): the text the CLI prints,
-diagnose.json, model.toml, report.md and levels.png (an interrupted diagnosis': rt.discrepancy.diagnose.watch).
+diagnose.json, model.toml, report.md and levels.png (per level |H| and the residuals [dB]; an interrupted diagnosis': rt.discrepancy.diagnose.watch).
 Moved out of levels.py unchanged."""
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
+from frictionrt.rt.discrepancy.diagnose.overlay import overlay_figure
 from frictionrt.rt.discrepancy.diagnose.plausible import markdown, summary_lines
 from frictionrt.rt.discrepancy.diagnose.watch import write_result
 
@@ -45,19 +45,14 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
     with new_folder(out) as tmp:
         write_result(tmp, res)
         plots = res["_plots"]
-        fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
-        for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):
-            s = next(iter(H))
-            ax.semilogy(f, np.abs(H[s]), "k.", ms=3, label=f"measured {s}")
-            ax.semilogy(f, np.abs(h0[s]), "C1-", lw=0.8, label="linear (stuck)")
-            ax.semilogy(f, np.abs(h1[s]), "C0-", lw=0.8, label="harmonic balance")
+        s = next(iter(plots[0][3]))      # the first sensor
+        panels = [(f"{name}: {a:g} {res['level_unit']}\n({'calibrated on' if a in res['calibrate_on_n'] else 'predicted'})"
+                   f" |{s}|", f, H[s], {"linear": h0[s], "hb": h1[s]}) for name, a, f, H, h0, h1 in plots]
+        fig = overlay_figure(f"measured {s} and the models, each level", panels,
+                             {"linear": ("linear (stuck)", "C1-"), "hb": ("harmonic balance", "C0-")})
+        for ax in fig.axes:
             ax.axvspan(*res["softening_band_hz"], color="0.9", zorder=0)
-            cal = "calibrated on" if a in res["calibrate_on_n"] else "predicted"
-            ax.set_title(f"{name}: {a:g} {res['level_unit']} ({cal})", fontsize=9)
-            ax.grid(True, lw=0.3)
-        axes[0, 0].legend(fontsize=7)
-        axes[-1, 0].set_xlabel("f [Hz]")
-        fig.tight_layout()
+            ax.yaxis.label.set_fontsize(7)
         fig.savefig(tmp / "levels.png", dpi=110)
         plt.close(fig)
         rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "
