@@ -96,3 +96,40 @@ def test_report_overlays_of_frf_files_have_residual_panels(tmp_path):
     before = next(ln for ln in fig.axes[1].get_lines() if ln.get_label() == MODELS["before"][0])
     np.testing.assert_allclose(before.get_ydata(), 20 * np.log10(2.0), rtol=1e-12)
     assert (tmp_path / "frf_t1.png").stat().st_size > 1000
+
+
+# --- the text for people -------------------------------------------------------------------------
+
+FITTED = {"E": 1.00251, "k_t": 1.0321, "modal_damping": 1.0112, "moving_mass": 0.050002,
+          "clamp_compliance": 4.5264e-31, "accelerometer_mass": 0.0099596}
+
+
+def test_fitted_values_for_people():
+    from frictionrt.rt.discrepancy.diagnose.watch import fitted_text
+    # 4 significant digits of the scale: 1 for the calibration's factors, the effect's default strength
+    # (moving_mass 0.05 kg, clamp_compliance 3e-5 rad/(N m): 4.5e-31 of it is the bound 0, accelerometer_mass 0.02 kg)
+    assert fitted_text(FITTED) == ("E 1.003, k_t 1.032, modal_damping 1.011, moving_mass 0.05, clamp_compliance 0, "
+                                   "accelerometer_mass 0.00996")
+
+
+def test_diagnose_summary_is_rounded_and_json_is_not():
+    """The summary of a result as diagnose prints it: the fitted values rounded for people (before: their
+    JSON, "clamp_compliance": 4.5264e-31); public(), what --json prints, keeps the result's values."""
+    from frictionrt.rt.discrepancy.diagnose.campaign import public, summary
+    text, b = _verdict(1000.0, 130.0, 50.0)
+    res = {"named_effect": "moving_mass", "runner_up": "accelerometer_mass", "gap_budget": b,
+           "ranking": [{"effect": "moving_mass", "delta_bic": 280254.53, "rss_reduction": 0.99912, "fitted": FITTED}],
+           "gap_before": {"structure_frf_db": 3.07812, "actuator_nrmse": None},
+           "gap_after": {"structure_frf_db": 0.17321, "actuator_nrmse": None}}
+    out = summary(res)
+    assert "fitted E 1.003, k_t 1.032, modal_damping 1.011, moving_mass 0.05, clamp_compliance 0," in out, out
+    assert "e-31" not in out and "structure FRF gap [dB]: 3.078 -> 0.173" in out
+    assert "0.050002" not in out and "1.0321" not in out, out
+    assert public(res)["ranking"][0]["fitted"] == FITTED
+
+
+def test_rig_list_is_rounded(capsys):
+    from frictionrt.rt.cli.app import main
+    assert main(["rig", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert "accelerometer_mass   mass_kg [kg] default 0.02, bounds 0..0.2" in out, out

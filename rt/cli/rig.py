@@ -110,8 +110,8 @@ def cmd_rig(cfg, args) -> int:
         else:
             for r in rows:
                 state = "" if r["implemented"] else "  (not implemented yet)"
-                print(f"{r['name']:<20} {r['parameter']} [{r['unit']}] default {r['default_strength']:g}, "
-                      f"bounds {r['bounds']}{state}")
+                print(f"{r['name']:<20} {r['parameter']} [{r['unit']}] default {r['default_strength']:.4g}, "
+                      f"bounds {r['bounds'][0]:.4g}..{r['bounds'][1]:.4g}{state}")
         return 0
     if not args.effect or not args.out:
         return fail("rig: give --effect NAME (or none) and -o DIR, or --list")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from frictionrt.rt.discrepancy.diagnose.overlay import overlay_figure
 from frictionrt.rt.discrepancy.diagnose.plausible import markdown, summary_lines
-from frictionrt.rt.discrepancy.diagnose.watch import write_result
+from frictionrt.rt.discrepancy.diagnose.watch import fitted_text, write_result
 
 
 def summary(res: dict) -> str:
@@ -17,7 +17,7 @@ def summary(res: dict) -> str:
              f"{res['harmonic_method']}); softening mode "
              f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
              f"named effect: {res['named_effect'] or 'no missing effect found'}",
-             f"fitted (harmonic balance): {res['nonlinear']['fitted']}",
+             f"fitted (harmonic balance): {fitted_text(res['nonlinear']['fitted'])}",
              *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
              *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
                for w in res["warnings"]],
