@@ -276,3 +276,42 @@ def test_mat73_without_h5py_says_so(tmp_path, plant_frf, monkeypatch):
     with pytest.raises(ValueError, match=r"m.mat: a MATLAB v7.3 \(HDF5\) file needs h5py"):
         import_frf(src, tmp_path / "out", **KW)
 
+
+
+# --- the docs' worked example (docs/discrepancy.md, "Your own measured FRFs") runs as written -------
+
+def _doc_blocks() -> list[tuple[str, str]]:
+    text = (Path(__file__).resolve().parents[1] / "docs" / "discrepancy.md").read_text()
+    sec = text[text.index("## Your own measured FRFs"):]
+    sec = sec[:sec.index("\n## ", 5)]
+    import re
+    return re.findall(r"```(\w+)\n(.*?)```", sec, re.S)
+
+
+def test_docs_worked_example(tmp_path, monkeypatch, capsys):
+    import shlex
+
+    from frictionrt.rt.cli.app import main
+    monkeypatch.chdir(tmp_path)
+    blocks = _doc_blocks()
+    assert [k for k, _ in blocks] == ["python", "console", "console", "python", "text"]
+    exec(blocks[0][1], {})
+    for kind, body in blocks[1:3]:
+        lines = body.splitlines()
+        i = 0
+        while i < len(lines):
+            cmd = shlex.split(lines[i].removeprefix("$ "))
+            want = []
+            i += 1
+            while i < len(lines) and not lines[i].startswith("$ "):
+                want.append(lines[i])
+                i += 1
+            code = main(cmd[1:])
+            out = capsys.readouterr()
+            got = (out.out + out.err).rstrip("\n").splitlines()
+            assert got == want, (cmd, got)
+            assert code == (2 if "error" in "".join(want) else 0)
+    exec(blocks[3][1], {})
+    assert capsys.readouterr().out.splitlines() == blocks[4][1].splitlines()
+    (t,) = load_frf_folder("logs/lab_frf")
+    assert t.meta["sensor_positions_m"] == {"acc_tip": 0.765, "acc_mid": 0.45}

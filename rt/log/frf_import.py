@@ -139,9 +139,9 @@ class ImportResult:
         out = [f"{len(self.tests)} FRF file{'s' if len(self.tests) != 1 else ''} in {self.folder}:"]
         for t in self.tests:
             names = ", ".join(s if s == k else f"{s} (from {k!r})" for k, s in t["sensors"].items())
-            out.append(f"  {t['file']}: {t['lines']} lines {t['f_min_hz']:.6g}-{t['f_max_hz']:.6g} Hz, "
-                       f"{t['quantity']} [{t['unit']}], sensors {names}"
-                       + ("; 0 Hz line dropped" if t["dropped_dc_line"] else "") + f"  (from {t['source']})")
+            out.append(f"  {t['file']} from {t['source']}: {t['lines']} lines {t['f_min_hz']:.6g}-{t['f_max_hz']:.6g} "
+                       f"Hz, {t['quantity']} [{t['unit']}], sensors {names}"
+                       + ("; its 0 Hz line dropped" if t["dropped_dc_line"] else ""))
         return "\n".join(out)
 
 
@@ -315,8 +315,8 @@ def _read_text(path: Path) -> _Raw:
     if not body:
         raise ValueError(f"{path}: empty file; a header and one row per frequency line")
     last = body[-1][1]
-    sep = "\t" if "\t" in last else ";" if ";" in last else "," if "," in last.replace('","', "").replace(
-        '"', "") or last.count(",") else None
+    # the separator: tab, ';', ',' (but not between blank-separated numbers with decimal commas), blanks
+    sep = "\t" if "\t" in last else ";" if ";" in last else "," if "," in last and len(last.split()) == 1 else None
     # decimal comma: a separator other than ',' with commas in the numbers, or quoted numbers with commas
     sample = _split(last, sep)
     decimal_comma = any("," in f for f in sample)
@@ -339,6 +339,8 @@ def _read_text(path: Path) -> _Raw:
         raise ValueError(f"{path}: no header line before the data; give the columns' names in a first line "
                          "(e.g. \"Frequency [Hz]\";\"a1 Real\";\"a1 Imag\")")
     hi, header, _ = rows[k - 1]
+    if sep is None and len(header) != len(sample):     # blank-separated names with blanks: 2 or more apart
+        header = re.split(r"\s{2,}|\t", lines[hi - 1].strip())
     if len(header) != len(sample):
         bad = next((r for r in rows[k - 1::-1] if r[2] is None), rows[k - 1])
         raise ValueError(f"{path}: line {bad[0]} has {len(bad[1])} fields, the data rows {len(sample)}; "
@@ -617,6 +619,11 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
                          amplitude=amplitude, kind=kind, description=description)
         tests.append(test)
         rows.append(row)
+    had = {s for t in tests for s in t.H}
+    extra = [n for n in (sensor_positions or {}) if n not in had]
+    if extra:
+        raise ValueError(f"--sensor-positions places {', '.join(extra)}, which no source has (their sensors: "
+                         f"{', '.join(sorted(had))}); drop it or rename the sensors by --sensor-names")
     _write_folder(out, tests, force)
     return ImportResult(out, tuple(rows))
 
@@ -685,10 +692,6 @@ def _one(src: Path, stem: str, F_N1, *, unit, quantity, frequency_unit, phase_un
         missing.append("the bolt force held during the test (--fn1 F [N], 0 without an adaptive screw)")
     if missing:
         raise MissingInput(f"{src} does not say " + "; ".join(missing))
-    extra = [n for n in pos if n not in names]
-    if extra:
-        raise ValueError(f"--sensor-positions places {', '.join(extra)}, which {src} does not have (its sensors: "
-                         f"{', '.join(names)})")
     f = np.asarray(raw.freq, float) * FREQUENCY_UNITS[f_unit]
     H = {n: c * _complex(src, k, raw.sensors[k], p_unit) for n, k in zip(names, file_names)}
     coh = {n: raw.sensors[k].parts["coh"] for n, k in zip(names, file_names) if "coh" in raw.sensors[k].parts}
@@ -698,7 +701,7 @@ def _one(src: Path, stem: str, F_N1, *, unit, quantity, frequency_unit, phase_un
         H = {n: h[1:] for n, h in H.items()}
         coh = {n: g[1:] for n, g in coh.items()}
     excitation = exc
-    meta = {"format": FORMAT, "kind": kind, "excitation_x_m": float(excitation_x),
+    meta = {"format": FORMAT, "kind": kind, "excitation_x_m": float(excitation_x),  # this file's sensors only
             "sensor_positions_m": {n: float(pos[n]) for n in names}, "F_N1_N": float(F_N1),
             "amplitude_n": None if amplitude is None else float(amplitude),
             "description": description or f"imported from {src.name}"}
