@@ -69,7 +69,7 @@ def test_overlay_has_a_residual_panel_in_db():
     top, res = fig.axes
     assert res.get_ylabel().endswith("[dB]")
     lines = {ln.get_label(): ln.get_ydata() for ln in res.get_lines() if not ln.get_label().startswith("_")}
-    np.testing.assert_allclose(lines[MODELS["before"][0]], 0.1, atol=1e-12)   # 20 log10 |10^(0.1/20)|
+    np.testing.assert_allclose(lines[MODELS["before"][0]], -0.1, atol=1e-12)  # measured - model: -20 log10 10^(0.1/20)
     np.testing.assert_allclose(lines[MODELS["after"][0]], 0.0, atol=1e-12)    # a phase alone: 0 dB
     assert len(top.get_lines()) == 3
 
@@ -94,7 +94,7 @@ def test_report_overlays_of_frf_files_have_residual_panels(tmp_path):
     (fig,) = figs
     assert len(fig.axes) == 4 and [ax.get_ylabel().endswith("[dB]") for ax in fig.axes] == [False, True] * 2
     before = next(ln for ln in fig.axes[1].get_lines() if ln.get_label() == MODELS["before"][0])
-    np.testing.assert_allclose(before.get_ydata(), 20 * np.log10(2.0), rtol=1e-12)
+    np.testing.assert_allclose(before.get_ydata(), -20 * np.log10(2.0), rtol=1e-12)   # the model 2x the measurement
     assert (tmp_path / "frf_t1.png").stat().st_size > 1000
 
 

@@ -4,7 +4,6 @@ format's precision; what a file does not say refused with its flag; nothing writ
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 

@@ -428,7 +428,7 @@ def uff_truncation(path: str | os.PathLike) -> int | None:
     return n if open_at is not None else None
 
 
-def _uff_sets(path: Path) -> list[dict]:
+def read_uff_sets(path: Path) -> list[dict]:
     import pyuff
     cut = uff_truncation(path)
     if cut is not None:
@@ -475,7 +475,7 @@ def _check_characteristics(d: dict, name: str, meta: dict) -> None:
 
 def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None, dict | None]:
     x, H, amp, coh = None, {}, {}, {}
-    for d in _uff_sets(path):
+    for d in read_uff_sets(path):
         name = str(d.get("id1", "")).strip()
         ft = d.get("func_type")
         if ft == FUNC_FRF:

@@ -71,6 +71,7 @@ from frictionrt.rt.log.frf_files import (
     check_test,
     frf_unit,
     read_frf,
+    read_uff_sets,
     write_frf_csv,
 )
 
@@ -359,9 +360,8 @@ def _read_text(path: Path) -> _Raw:
 # --- universal files -----------------------------------------------------------------------------
 
 def _read_uff(path: Path) -> _Raw:
-    from frictionrt.rt.log.frf_files import _uff_sets
     try:
-        sets = [d for d in _uff_sets(path) if d.get("func_type") == 4]
+        sets = [d for d in read_uff_sets(path) if d.get("func_type") == 4]
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
     if not sets:

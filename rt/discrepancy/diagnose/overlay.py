@@ -8,14 +8,15 @@ MODELS = {"before": ("nominal model (before)", "C1--"), "after": ("updated model
 """The diagnosis' two models, {key: (label, line style)}: nominal (before) and updated (after)."""
 
 def residual_db(H_model: np.ndarray, H_meas: np.ndarray) -> np.ndarray:
-    """The model's log-magnitude residual against the measurement [dB]: 20 log10(|H_model| / |H_meas|)."""
-    return 20.0 * np.log10(np.abs(H_model) / np.abs(H_meas))
+    """The log-magnitude residual of a model [dB]: 20 log10(|H_meas| / |H_model|), measured - model
+    (as diagnosis.rrd's /frf_gap: positive where the model is below the measurement)."""
+    return 20.0 * np.log10(np.abs(H_meas) / np.abs(H_model))
 
 
 def overlay_figure(title: str, panels: list, models: dict, loglog: bool = False):
     """A matplotlib figure, per panel (ylabel, f [Hz], H_meas, {model key: H}) two axes over f: |H|
     measured and of each model of ``models`` {key: (label, style)}, and below it each model's
-    residual_db against the measurement (0 dB: the model is the measurement), so that curves lying
+    residual_db, measured - model (0 dB: the model is the measurement), so that curves lying
     on top of each other above are told apart below."""
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(2 * len(panels), 1, figsize=(8, 1.2 + 4.2 * len(panels)), sharex=True, squeeze=False,
@@ -31,7 +32,7 @@ def overlay_figure(title: str, panels: list, models: dict, loglog: bool = False)
         if loglog:
             axr.set_xscale("log")
         ax.set_ylabel(ylabel)
-        axr.set_ylabel("model - measured\n[dB]")
+        axr.set_ylabel("measured - model\n[dB]")
         ax.grid(True, which="both", lw=0.3)
         axr.grid(True, which="both", lw=0.3)
     axes[0, 0].set_title(title)

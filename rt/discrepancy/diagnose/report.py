@@ -3,7 +3,7 @@ model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (
 for rerun: rt.discrepancy.diagnose.rrd), and overlay PNGs: per impulse
 test |H| measured / nominal model (before) / updated model (after) over BAND_HZ, per FRF file the
 same for every sensor over the file's whole band, in its quantity and unit, each with a panel of
-the two models' residuals 20 log10(|H_model| / |H_measured|) [dB] below it (``overlay_figure``); per
+the two models' residuals 20 log10(|H_measured| / |H_model|) [dB] below it (``overlay_figure``); per
 actuator test the bolt force F_cell over time. Written into a temporary folder beside REPORT_DIR,
 then renamed."""
 from __future__ import annotations
