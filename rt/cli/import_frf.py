@@ -64,7 +64,6 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     g.add_argument("--drive-voltage", type=float, metavar="V", help="an FRF per volt: the drive's amplitude; "
                    "the FRF stays per volt")
     g.add_argument("--amplitude", type=float, metavar="N", help="the force's amplitude [N] (default: not recorded)")
-    p.add_argument("--kind", choices=["frf", "stepsine"], default="frf", help="the tests' kind")
     p.add_argument("--description", help="the sidecars' description (default: imported from FILE)")
     p.add_argument("--json", action="store_true", help='one JSON object: {"folder", "tests": [{"source", "file", '
                    '"sensors", "lines", "f_min_hz", "f_max_hz", "quantity", "excitation", "unit", "dropped_dc_line"}]}')
@@ -84,7 +83,7 @@ def cmd_import_frf(cfg, args) -> int:
                          frequency_unit=args.frequency_unit, phase_unit=args.phase_unit,
                          sensor_names=args.sensor_names, sensor_positions=args.sensor_positions,
                          excitation_x=args.excitation_x, fn1=fn1, force_scale=args.force_scale,
-                         drive_voltage=args.drive_voltage, amplitude=args.amplitude, kind=args.kind,
+                         drive_voltage=args.drive_voltage, amplitude=args.amplitude,
                          description=args.description, force=args.force)
     except ValueError as exc:
         return fail(f"import-frf: {exc}")

@@ -65,7 +65,6 @@ from frictionrt.rt.log.frf_files import (
     EXCITATIONS,
     FORMAT,
     FRFTest,
-    KINDS,
     QUANTITIES,
     check_sensor_name,
     check_test,
@@ -561,7 +560,7 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
                frequency_unit: str | None = None, phase_unit: str | None = None, sensor_names=None,
                sensor_positions: dict | None = None, excitation_x: float | None = None, fn1=None,
                force_scale: float | None = None, drive_voltage: float | None = None,
-               amplitude: float | None = None, kind: str = "frf", description: str | None = None,
+               amplitude: float | None = None, description: str | None = None,
                force: bool = False) -> ImportResult:
     """Import exported FRF files (module docstring) into the new folder ``out``.
 
@@ -572,7 +571,6 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
     unit, quantity, frequency_unit, phase_unit, sensor_names, sensor_positions, excitation_x, fn1,
     force_scale, drive_voltage : what the files do not say (module docstring); units m, N, N/V, V.
     amplitude : the excitation's amplitude [N] (sidecar amplitude_n), or None (not known).
-    kind : the sidecar's kind (frf, or stepsine for a step-sine test).
     description : the sidecar's description (default: where it was imported from).
 
     Returns the ``ImportResult``. Raises ``MissingInput`` (a ValueError) naming what no file says and
@@ -585,8 +583,6 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
         raise ValueError("no source file; give at least one exported FRF file")
     if out.exists() and not force:
         raise ValueError(f"{out}: exists; pass --force to replace it as a whole, or give a new folder")
-    if kind not in KINDS:
-        raise ValueError(f"kind {kind!r}; give one of {', '.join(KINDS)}")
     for key, val, allowed, flag in ((quantity, quantity, QUANTITIES, "--quantity"),
                                     (frequency_unit, frequency_unit, FREQUENCY_UNITS, "--frequency-unit"),
                                     (phase_unit, phase_unit, PHASE_UNITS, "--phase-unit")):
@@ -616,7 +612,7 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
         test, row = _one(src, stem, F_N1, unit=unit, quantity=quantity, frequency_unit=frequency_unit,
                          phase_unit=phase_unit, sensor_names=sensor_names, sensor_positions=sensor_positions,
                          excitation_x=excitation_x, force_scale=force_scale, drive_voltage=drive_voltage,
-                         amplitude=amplitude, kind=kind, description=description)
+                         amplitude=amplitude, description=description)
         tests.append(test)
         rows.append(row)
     had = {s for t in tests for s in t.H}
@@ -629,7 +625,7 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
 
 
 def _one(src: Path, stem: str, F_N1, *, unit, quantity, frequency_unit, phase_unit, sensor_names,
-         sensor_positions, excitation_x, force_scale, drive_voltage, amplitude, kind, description):
+         sensor_positions, excitation_x, force_scale, drive_voltage, amplitude, description):
     """One source -> (FRFTest, its row of the result)."""
     raw = read_source(src, sensor_names)
     missing = []
@@ -701,8 +697,8 @@ def _one(src: Path, stem: str, F_N1, *, unit, quantity, frequency_unit, phase_un
         H = {n: h[1:] for n, h in H.items()}
         coh = {n: g[1:] for n, g in coh.items()}
     excitation = exc
-    meta = {"format": FORMAT, "kind": kind, "excitation_x_m": float(excitation_x),  # this file's sensors only
-            "sensor_positions_m": {n: float(pos[n]) for n in names}, "F_N1_N": float(F_N1),
+    meta = {"format": FORMAT, "kind": "frf", "excitation_x_m": float(excitation_x),
+            "sensor_positions_m": {n: float(pos[n]) for n in names}, "F_N1_N": float(F_N1),   # its own sensors
             "amplitude_n": None if amplitude is None else float(amplitude),
             "description": description or f"imported from {src.name}"}
     if exc == "drive_voltage" and force_scale is not None:
