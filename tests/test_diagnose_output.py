@@ -133,3 +133,29 @@ def test_rig_list_is_rounded(capsys):
     assert main(["rig", "--list"]) == 0
     out = capsys.readouterr().out
     assert "accelerometer_mass   mass_kg [kg] default 0.02, bounds 0..0.2" in out, out
+
+
+def test_levels_report_has_residual_panels(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from frictionrt.rt.discrepancy.diagnose.levels_report import write_levels_report
+    f = np.linspace(50.0, 1200.0, 40)
+    H = {"a_frf_meas": np.full(40, 3.0 + 0j)}
+    plots = [(f"level_0{j}", a, f, H, {"a_frf_meas": H["a_frf_meas"] * 10 ** (a / 20)}, H) for j, a in enumerate((1.0, 2.0))]
+    res = {"_plots": plots, "level_unit": "N", "calibrate_on_n": [1.0], "softening_band_hz": [100.0, 200.0],
+           "prediction": [], "softening_mode": 3, "named_effect": None, "harmonic_method": "df", "contact_note": None,
+           "nonlinear": {"fitted": {"E": 1.0}}, "linear": {"fitted": {"E": 1.0}}, "warnings": [],
+           "plausibility": {"note": "fine", "let_go": None, "ranges": {}}}
+    figs = []
+    real = plt.Figure.savefig
+    try:
+        plt.Figure.savefig = lambda self, *a, **k: (figs.append(self), real(self, *a, **k))[1]
+        write_levels_report(res, tmp_path / "rep")
+    finally:
+        plt.Figure.savefig = real
+    (fig,) = figs
+    assert len(fig.axes) == 4 and (tmp_path / "rep" / "levels.png").is_file()
+    linear = [next(ln for ln in ax.get_lines() if ln.get_label() == "linear (stuck)") for ax in fig.axes[1::2]]
+    for ln, a in zip(linear, (1.0, 2.0)):   # the linear model a dB above the measurement: measured - model = -a
+        np.testing.assert_allclose(ln.get_ydata(), -a, rtol=1e-12)

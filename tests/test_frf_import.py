@@ -314,3 +314,15 @@ def test_docs_worked_example(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().out.splitlines() == blocks[4][1].splitlines()
     (t,) = load_frf_folder("logs/lab_frf")
     assert t.meta["sensor_positions_m"] == {"acc_tip": 0.765, "acc_mid": 0.45}
+
+
+def test_validate_names_the_problem_of_an_frf_folder(tmp_path, plant_frf, capsys):
+    from frictionrt.rt.cli.app import main
+    f, H = plant_frf
+    import_frf(_write(tmp_path, w_quoted, "q.csv", f, H), tmp_path / "out", **KW)
+    side = tmp_path / "out" / "q.json"
+    side.write_text(side.read_text().replace('"F_N1_N": 100.0', '"F_N1_N": -1.0'))
+    assert main(["validate", str(tmp_path / "out")]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith(f"{tmp_path / 'out'}: INVALID, 1 problem:") and "F_N1_N is -1.0" in out, out
+    assert main(["validate", str(tmp_path / "nothing")]) == 2

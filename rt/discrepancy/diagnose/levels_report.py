@@ -34,7 +34,8 @@ def summary(res: dict) -> str:
 def write_levels_report(res: dict, out: str | Path) -> Path:
     """The report folder (a new folder, written beside and renamed: never half a report):
     diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
-    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction)."""
+    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction, and
+    below it their residuals measured - model [dB])."""
     import json
 
     import matplotlib
