@@ -522,7 +522,7 @@ def _read_mat(path: Path, sensor_names) -> _Raw:
 
 # --- from what was read to an FRF test -----------------------------------------------------------
 
-def read_source(path: str | os.PathLike, sensor_names=None) -> _Raw:
+def _read_source(path: str | os.PathLike, sensor_names=None) -> _Raw:
     """What one exported file says (module docstring), before any keyword; ValueError naming the
     file, the problem and the fix."""
     path = Path(path)
@@ -627,7 +627,7 @@ def import_frf(sources, out, *, unit: str | None = None, quantity: str | None = 
 def _one(src: Path, stem: str, F_N1, *, unit, quantity, frequency_unit, phase_unit, sensor_names,
          sensor_positions, excitation_x, force_scale, drive_voltage, amplitude, description):
     """One source -> (FRFTest, its row of the result)."""
-    raw = read_source(src, sensor_names)
+    raw = _read_source(src, sensor_names)
     missing = []
     f_unit = _agree(src, "the frequency in", raw.freq_unit, frequency_unit, "--frequency-unit")
     if f_unit is None:
