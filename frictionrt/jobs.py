@@ -416,8 +416,9 @@ def effects() -> Result:
     per effect its name, parameter, unit, default strength, bounds, implemented."""
     from frictionrt.rt.discrepancy.effects import EFFECTS
     rows = [e.to_json() for e in EFFECTS.values()]
-    text = "\n".join(f"{r['name']:<20} {r['parameter']} [{r['unit']}] default {r['default_strength']:g}, "
-                     f"bounds {r['bounds']}{'' if r['implemented'] else '  (not implemented yet)'}" for r in rows)
+    text = "\n".join(f"{r['name']:<20} {r['parameter']} [{r['unit']}] default {r['default_strength']:.4g}, "
+                     f"bounds {r['bounds'][0]:.4g}..{r['bounds'][1]:.4g}"
+                     f"{'' if r['implemented'] else '  (not implemented yet)'}" for r in rows)
     return Result("effects", {"effects": rows}, text=text)
 
 

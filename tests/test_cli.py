@@ -162,7 +162,7 @@ def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_
     # it creates; --help says which, as README's table does, and --force replaces it on every verb
     writers, table = _writers(), _readme_out_table()
     assert set(writers) == set(table) == {"simulate", "impulse", "compare", "frf", "reproduce", "tune", "rig",
-                                          "diagnose", "recover", "inspect", "export-c"}
+                                          "diagnose", "recover", "inspect", "export-c", "import-frf"}
     for name, p in writers.items():
         out = next(a for a in p._actions if "--out" in a.option_strings)
         assert "-o" in out.option_strings, name
@@ -184,6 +184,7 @@ def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_
     ("recover", ["{tmp}/broken.mcap.part"], "x.mcap"),
     ("inspect", ["{tmp}/broken.mcap.part"], "x.rrd"),
     ("export-c", ["--law", "passive"], "dir"),
+    ("import-frf", ["{tmp}/broken.mcap.part"], "dir"),
 ])
 def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args, existing, tmp_path, capsys):
     out = tmp_path / existing

@@ -15,8 +15,8 @@ import sys
 
 import shtab
 
-from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, inspect, modes, observer,
-                    recover, replay, reproduce, rig, simulate, tune, validate)
+from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, import_frf, inspect, modes,
+                    observer, recover, replay, reproduce, rig, simulate, tune, validate)
 from frictionrt.rt.cli.common import (Parser, actuator_verb, add_common, fail, json_errors, realtime_sets,
                                       split_negative_lists)
 from frictionrt.rt.common.config import ConfigError, load, require_adaptive_screw
@@ -59,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
 VERBS = {"config": config, "modes": modes, "impulse": impulse, "simulate": simulate, "compare": compare,
          "budget": budget, "observer": observer, "replay": replay, "bench": bench, "frf": frf,
          "validate": validate, "reproduce": reproduce, "tune": tune, "rig": rig, "diagnose": diagnose,
-         "recover": recover, "inspect": inspect, "export-c": export_c}
+         "recover": recover, "inspect": inspect, "export-c": export_c, "import-frf": import_frf}
 """Each verb's module, in the order --help lists them."""
 
 COMMANDS = {name: getattr(module, f"cmd_{name.replace('-', '_')}") for name, module in VERBS.items()}

@@ -412,8 +412,28 @@ def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarr
     return col["freq_hz"], H, col.get("F_amp_N"), col.get("drive_amp_N"), coh or None
 
 
-def _uff_sets(path: Path) -> list[dict]:
+def uff_truncation(path: str | os.PathLike) -> int | None:
+    """The number of the last line of an ASCII universal file cut short inside a data set (one opened
+    by a ``-1`` line and never closed by another), or None if every data set is closed. A binary set
+    (58b) is not scanned line by line: None from there on."""
+    open_at = None
+    n = 0
+    with open(path, "rb") as fh:
+        for n, raw in enumerate(fh, 1):
+            line = raw.rstrip(b"\r\n")
+            if line.strip() == b"-1" and len(line) <= 6:
+                open_at = n if open_at is None else None
+            elif open_at == n - 1 and line.strip().endswith(b"b"):
+                return None             # binary data set: its payload is not lines
+    return n if open_at is not None else None
+
+
+def read_uff_sets(path: Path) -> list[dict]:
     import pyuff
+    cut = uff_truncation(path)
+    if cut is not None:
+        raise ValueError(f"truncated after line {cut}: its last data set is not closed by a -1 line (the file was "
+                         "cut short in a copy or an export); export the file again")
     # pyuff prints some readers' notes to stdout, numpy may warn on odd numbers: neither may reach the CLI
     with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -455,7 +475,7 @@ def _check_characteristics(d: dict, name: str, meta: dict) -> None:
 
 def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None, dict | None]:
     x, H, amp, coh = None, {}, {}, {}
-    for d in _uff_sets(path):
+    for d in read_uff_sets(path):
         name = str(d.get("id1", "")).strip()
         ft = d.get("func_type")
         if ft == FUNC_FRF:

@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from frictionrt.rt.common.config import Config
+from frictionrt.rt.discrepancy.diagnose.watch import fitted_text
 
 EDGE_LN = 0.01
 """A parameter this far outside its range (on ln) costs the fit n, its data residuals' expected sum of squares."""
@@ -205,7 +206,8 @@ def summary_lines(p: dict) -> list[str]:
     out += [f"outside its plausible range ({fit}): {_range_text(o)}: {o['meaning']}"
             for fit, key in FITS[1:] for o in p.get(key, [])]
     if p["let_go"]:
-        out.append(f"with the plausible ranges let go: {p['let_go']['fitted']} (gap {p['let_go']['gap_db']:g} dB)")
+        out.append(f"with the plausible ranges let go: {fitted_text(p['let_go']['fitted'])} (gap "
+                   f"{p['let_go']['gap_db']:.3f} dB)")
     return out
 
 
