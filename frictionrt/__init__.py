@@ -24,6 +24,7 @@ from frictionrt.rt.common.face import lazy_face
 _JOBS = ("load_config", "show_config", "modes", "impulse", "simulate", "compare", "frf", "reproduce", "tune",
          "replay", "export_c", "effects", "rig", "diagnose", "diagnose_frf_arrays", "check_frequency")
 _EXPORTS = {name: "frictionrt.jobs" for name in _JOBS} | {
+    "import_frf": "frictionrt.rt.log.frf_import",
     "Result": "frictionrt.results",
     "Config": "frictionrt.rt.common.config", "ConfigError": "frictionrt.rt.common.config",
     "Estimator": "frictionrt.rt.common.config", "ESTIMATORS": "frictionrt.rt.common.config",

@@ -95,8 +95,8 @@ class CommaList(argparse.Action):
     space-separated values (``--amp 5 20``), is accepted with a one-line note. Values that start
     with a minus sign (``--freqs -5,200``) reach the option too (``split_negative_lists``)."""
 
-    def __init__(self, option_strings, dest, kind=float, example: str = "5,20", **kw):
-        self.kind, self.example = kind, example
+    def __init__(self, option_strings, dest, kind=float, example: str = "5,20", allowed=None, **kw):
+        self.kind, self.example, self.allowed = kind, example, allowed
         kw.setdefault("nargs", "+")
         super().__init__(option_strings, dest, **kw)
 
@@ -109,10 +109,10 @@ class CommaList(argparse.Action):
             items = parse_list(text, self.kind, option_string, self.example)
         except ValueError as exc:
             parser.error(str(exc))
-        if self.choices is not None:
-            bad = [v for v in items if v not in self.choices]
+        if self.allowed is not None:
+            bad = [v for v in items if v not in self.allowed]
             if bad:
-                parser.error(f"{option_string} {bad[0]!r}: give one or more of {', '.join(self.choices)}, comma-separated")
+                parser.error(f"{option_string} {bad[0]!r}: give one or more of {', '.join(self.allowed)}, comma-separated")
         setattr(namespace, self.dest, items)
 
 

@@ -37,7 +37,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
         parents = [common]
     p = subparsers.add_parser("frf", parents=parents, help="step-sine FRF [(m/s^2)/N] per law and force amplitude",
                               description=DESCRIPTION, epilog=EXAMPLES)
-    p.add_argument("--law", "--laws", action=CommaList, kind=str, choices=LAWS, required=True, metavar="LAW1,LAW2",
+    p.add_argument("--law", "--laws", action=CommaList, kind=str, allowed=LAWS, required=True, metavar="LAW1,LAW2",
                    example="passive,lyapunov", help=f"control law(s), comma-separated, one sweep each: {', '.join(LAWS)}")
     add_estimator(p)
     p.add_argument("--amps", "--amp", action=CommaList, kind=float, required=True, metavar="N1,N2",
