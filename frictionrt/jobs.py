@@ -510,7 +510,7 @@ def rig(cfg: Cfg = None, *, effect: str, out: str | Path, strength: float | None
 
 
 def diagnose(folder: str | Path, cfg: Cfg = None, *, out: str | Path | None = None, force: bool = False,
-             calibrate_on: Sequence[float] | None = None, harmonic_method: str = "describing",
+             calibrate_on: Sequence[float] | None = None, harmonic_method: str = "df",
              jobs: int | None = None, dask: str | None = None, progress=None, bars: bool = False) -> Result:
     """Find where the model and the measurements disagree and name the missing effect
     (``frictionrt diagnose``; docs/discrepancy.md): calibrate the nominal model ``cfg`` on the

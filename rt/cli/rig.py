@@ -8,40 +8,13 @@ import sys
 
 from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list
 
-DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
-(docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s
-records) and actuator ramps 0 -> 150 -> 0 V over 0.3, 1 and 3 ms, each end held 30 ms (structure at
-rest), with a few percent of scatter in E, mu, k_t, modal damping and c_v drawn from --seed, and
-sensor noise. One effect of the library (--list) is hidden in the true structure; nothing in the
-files names it.
---stepsine adds step-sine FRF tests (CSV + JSON sidecar, docs/discrepancy.md): passive, force
-amplitude held at 5 and 10 N by the amplitude controller, at every F_N1 level, 18 lines 120-1250 Hz
-around modes 3 and 4; the files hold the measured force and the shaker's drive amplitude per line
-(shaker_interaction shows only there).
-With --frf-files: measured FRFs instead (docs/data-format.md, "FRF files"): low-level accelerances
-of both accelerometers with the contact stuck at each F_N1, 4-1600 Hz in 0.25 Hz lines, noise 1 %
-of |H| plus 2e-3 (m/s^2)/N, as frf_01.csv, frf_02.uff, frf_03.csv with JSON sidecars; a structure
-without an adaptive screw gets one test, frf_01.csv (F_N1_N = 0). Without --frf-files the campaign
-needs the adaptive screw (its actuator tests). --quantity writes mobilities or receptances instead,
---force-scale S FRFs per drive volt of a shaker without force transducer (H per volt = S x H per newton).
-With --frf-files --levels A,B,..: FRFs at these force amplitudes [N] from stepped-sine up-sweeps of
-the nonlinear plant (the adaptive screw, if any, held at 100 N; lines around the stuck structure's
-modes in 50-1200 Hz), where the joint softens as the level rises (level_NN.csv/.uff); with
---force-scale S the levels are drive voltages [V] of a shaker without force transducer.
-With --excitation random the levels are rms values instead: per level a Gaussian force (drive voltage
-with --force-scale) of that rms [N] ([V]) with a flat spectrum over 50-1200 Hz drives the nonlinear plant
-for 92 s; the files hold H1 = S_fa / S_ff and the coherence gamma^2 = |S_fa|^2 / (S_ff S_aa) by Welch's
-method (10 Hann blocks of 16 s, 50 % overlap: 0.0625 Hz lines, |H1|'s random error
-sqrt(1 - gamma^2) / (gamma sqrt(20)), 2 % at gamma^2 = 0.99) on the lines of 50-1200 Hz, as a lab's
-analyser exports them (rt/discrepancy/rig/random_excitation.py).
---model-form: the truth is of another model form than the nominal (half the element length and
-contact pitch, two substeps, twice the interface damping, beams 0.5 % off in height and density),
-so that no calibration of the nominal model fits it exactly, as with a real structure;
---model-form PARTS takes only these of its parts (mesh, pitch, substeps, damping, beams), to find
-which part hides an effect (docs/discrepancy.md, "Which part of the model form hides an effect").
---refine R (with --model-form) refines its discretisation parts as a convergence study does: element
-length and contact pitch / R, substeps x R^2 (R = 2: half the pitch and element length, four times
-the substeps, the default plant's converged reference); without it they are halved, halved and doubled."""
+DESCRIPTION = """Writes a measurement campaign of the configured structure as a lab records it, with one
+effect of the library (--list) hidden in the true structure, a few percent of scatter and sensor
+noise: impulse and actuator tests as MCAP logs (--stepsine adds step-sine FRF tests); with
+--frf-files FRF files (CSV/UFF with JSON sidecars) of the stuck contact; with --frf-files --levels
+FRFs of the nonlinear plant at several force amplitudes (--excitation random: rms levels, H1 and
+coherence). --model-form gives the truth another model form than the nominal. What each test holds,
+its lines and noise: docs/discrepancy.md, "The virtual rig"."""
 
 EXAMPLES = """examples:
   frictionrt rig --list
