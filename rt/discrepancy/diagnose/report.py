@@ -2,7 +2,7 @@
 model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (the overlays
 for rerun: rt.discrepancy.diagnose.rrd), and overlay PNGs: per impulse
 test |H| measured / nominal model (before) / updated model (after) over BAND_HZ, per FRF file the
-same for every sensor over the file's whole band, in its quantity and unit (issue 18), per
+same for every sensor over the file's whole band, in its quantity and unit, per
 actuator test the bolt force F_cell over time. Written into a temporary folder beside REPORT_DIR,
 then renamed."""
 from __future__ import annotations
@@ -163,7 +163,7 @@ def _not_tried(res: dict) -> str:
 
 
 def _frf_file_sections(res: dict) -> list[str]:
-    """The FRF-file input's warnings, plausibility (issue 35), excitation and sensors (issue 18)."""
+    """The FRF-file input's warnings, plausibility, excitation and sensors."""
     out = []
     if res.get("warnings"):
         out += ["", "## Warnings: parameters on a bound, level", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]
