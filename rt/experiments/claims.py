@@ -40,7 +40,7 @@ Table = Mapping[str, Mapping[int, Mapping[float, float]]]  # law -> mode -> ampl
 
 
 def peak_reduction_db(peaks: Table) -> dict[str, dict[int, dict[float, float]]]:
-    """law -> mode -> amplitude -> 20 log10(peaks[law][mode][amp] / peaks["passive"][mode][amp]) [dB]
+    """law -> mode -> amplitude -> 20 log10(``peaks[law][mode][amp] / peaks["passive"][mode][amp]``) [dB]
     for every law but passive (peaks: |H| [(m/s^2)/N] or acceleration, the same unit for all)."""
     ref = peaks["passive"]
     return {law: {m: {a: 20.0 * math.log10(v / ref[m][a]) for a, v in by_amp.items()} for m, by_amp in by_mode.items()}
