@@ -144,8 +144,8 @@ def _writers():
 
 
 def _readme_out_table() -> dict[str, str]:
-    """{verb: what -o names} from README's table under "Where a verb writes"."""
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    """{verb: what -o names} from docs/commands.md's table under "Where a verb writes"."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "commands.md").read_text()
     lines = text[text.index("**Where a verb writes"):].splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("| verb |"))
     rows = {}
