@@ -9,7 +9,7 @@
 - Output: ``-o``/``--out`` names where a verb writes (``add_out``): the one file it writes (its
   viewer companions beside it, named after it), or a folder it creates; an existing output is
   refused unless ``--force`` (``add_force``, ``refuse_existing``), which replaces it (a folder as a
-  whole: ``write_folder``). Old spellings stay for one release with a one-line note
+  whole: ``frictionrt.rt.common.files.write_folder``). Old spellings stay for one release with a one-line note
   (``add_deprecated``). README, "Where a verb writes", has the table.
 - Help: one formatter for every verb (``HelpFormatter``: defaults shown as "(default: VALUE)").
 """
@@ -251,28 +251,6 @@ class DeprecatedSpelling(argparse.Action):
 def add_deprecated(p: argparse.ArgumentParser, old: str, new: str, dest: str = "out", **kw) -> None:
     """Keep the old spelling ``old`` of the option now spelled ``new`` (``DeprecatedSpelling``)."""
     p.add_argument(old, dest=dest, action=DeprecatedSpelling, new=new, default=argparse.SUPPRESS, **kw)
-
-
-def write_folder(out, force: bool, write):
-    """Run ``write()``, which creates the folder ``out``, and return its result. With ``force`` an
-    existing ``out`` is moved aside first (a hidden sibling), removed once ``write`` returned and put
-    back if it raised: --force replaces a folder as a whole and never loses the old one to a failed run."""
-    import os
-    import shutil
-    out = Path(out)
-    aside = None
-    if force and out.exists():
-        aside = out.with_name(f".{out.name}.replaced-{os.getpid()}")
-        os.replace(out, aside)
-    try:
-        result = write()
-    except BaseException:
-        if aside is not None and not out.exists():
-            os.replace(aside, out)
-        raise
-    if aside is not None:
-        shutil.rmtree(aside) if aside.is_dir() else aside.unlink()
-    return result
 
 
 def deprecated(old: str, new: str) -> None:

@@ -9,7 +9,8 @@ import time
 
 import shtab
 
-from frictionrt.rt.cli.common import add_force, add_out, fail, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail
+from frictionrt.rt.common.files import write_folder
 
 INTERRUPTED = 130       # exit status after Ctrl-C (128 + SIGINT), the fits done so far kept
 DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,

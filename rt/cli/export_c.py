@@ -12,7 +12,8 @@ from pathlib import Path
 
 import shtab
 
-from frictionrt.rt.cli.common import add_force, add_out, fail, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail
+from frictionrt.rt.common.files import write_folder
 
 DESCRIPTION = """Write the controller of the resolved configuration (or, with --from-log, of the design a run
 log carries) as self-contained C99 into the folder DIR: frictionrt_ctrl.h / .c (ctrl_init, ctrl_step on plain

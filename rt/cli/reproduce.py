@@ -21,7 +21,7 @@ Lyapunov control at several excitation force amplitudes [N] (the laws on the pap
 the oracle beside it as the upper bound), and the passive law at several constant
 F_N1 [N] (the best constant clamping force: the fair baseline). Writes into --out: fig5.png (impulse
 FRF), fig7.png (hysteresis vs passive), fig8.png (Lyapunov vs passive), report.md (claims table,
-peak reduction [dB], best constant F_N1, actuator energy [J]) and report.json; all files appear at
+peak change [dB] (negative: lower than passive), best constant F_N1, actuator energy [J]) and report.json; all files appear at
 once when the run has finished. Full run: modes 2-5 at 5, 10, 20 N; --quick: modes 3, 4 at 5, 20 N
 on a coarse grid (docs/experiments.md)."""
 
@@ -117,7 +117,8 @@ def cmd_reproduce(cfg: Config, args) -> int:
         print(f"{c:>5} " + " ".join(f"{'yes' if v['claims'][c]['holds'] else 'NO':>8}" for v in by_est.values())
               + f"  {CLAIM_TEXT[c]}")
     for e, v in by_est.items():
-        print(f"peak reduction [dB], {e} (law: mode: amplitude): {json.dumps(v['peak_reduction_db'])}")
+        print(f"peak change [dB] (negative: lower than passive), {e} (law: mode: amplitude): "
+              f"{json.dumps(v['peak_change_db'])}")
     print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}; "
           + sweeps_line(report["timing_s"]["sweeps"]))
     print(f"report: {out / 'report.md'}; figures: {out / 'fig5.png'}, {out / 'fig7.png'}, {out / 'fig8.png'}")

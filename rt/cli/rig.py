@@ -8,7 +8,8 @@ import math
 import sys
 from pathlib import Path
 
-from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list
+from frictionrt.rt.common.files import write_folder
 
 DESCRIPTION = """Writes a measurement campaign as a lab records it, in the measurement format
 (docs/data-format.md): impulse tests at F_N1 = 40, 100, 300 N (hammer at the excitation point, 1 s

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import tempfile
 from pathlib import Path
 
 from frictionrt.rt.common.config import Config, ConfigError
@@ -17,9 +16,10 @@ from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, refus
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
 each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
-  1. the mean peak reduction against the passive law (constant F_N1 = tracking.F_passive_N) [dB], and
+  1. the mean peak change against the passive law (constant F_N1 = tracking.F_passive_N) [dB],
+     20 log10(peak_law / peak_passive): negative = the law's peak is lower, and
   2. the mean actuator power during the measurements [W].
-The candidates that no other beats on both are the Pareto front. The best (largest reduction, within
+The candidates that no other beats on both are the Pareto front. The best (most negative peak change, within
 --max-power if given) is written as a full configuration that every command takes with --config.
 
 Writes into --out DIR: table.csv and table.md (one row per candidate), pareto.png, best.toml, tune.json.
@@ -67,53 +67,9 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     return p
 
 
-def _markdown(rows: list[dict], keys) -> str:
-    head = list(keys) + ["reduction [dB]", "power [W]", "Pareto", "best", "refused"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for r in rows:
-        red = "" if r["reduction_db"] is None else f"{r['reduction_db']:.2f}"
-        pw = "" if r["power_w"] is None else f"{r['power_w']:.3g}"
-        lines.append("| " + " | ".join([f"{r[k]:g}" for k in keys] + [red, pw, "yes" if r["pareto"] else "",
-                                                                      "**best**" if r["best"] else "", r["error"]])
-                     + " |")
-    return "\n".join(lines) + "\n"
-
-
-def _csv(rows: list[dict], keys) -> str:
-    import csv
-    import io
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(list(keys) + ["reduction_db", "power_w", "pareto", "best", "error"])
-    for r in rows:
-        w.writerow([r[k] for k in keys] + ["" if r["reduction_db"] is None else r["reduction_db"],
-                                           "" if r["power_w"] is None else r["power_w"], r["pareto"], r["best"],
-                                           r["error"]])
-    return buf.getvalue()
-
-
-def _write_outputs(res, out: Path) -> None:
-    """Write the files into a temporary folder beside out, then move them in (never half-written)."""
-    from frictionrt.rt.experiments.tune import best_toml, plot_pareto
-    out.mkdir(parents=True, exist_ok=True)
-    rows = res.rows()
-    with tempfile.TemporaryDirectory(dir=out, prefix=".tune-") as tmp:
-        t = Path(tmp)
-        (t / "table.csv").write_text(_csv(rows, res.keys))
-        (t / "table.md").write_text(_markdown(rows, res.keys))
-        (t / "tune.json").write_text(json.dumps(res.to_dict(), indent=1))
-        plot_pareto(res, str(t / "pareto.png"))
-        if res.best >= 0:
-            (t / "best.toml").write_text(best_toml(res))
-        for f in t.iterdir():
-            os.replace(f, out / f.name)
-    if res.best < 0 and (out / "best.toml").exists():
-        (out / "best.toml").unlink()  # an older run's best must not pass for this one's
-
-
 def cmd_tune(cfg: Config, args) -> int:
     from frictionrt.rt.experiments.branches import sweeps_line
-    from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
+    from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, markdown_table, parse_grid, tune, write_outputs
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
         return fail(f"--out {out}: exists and is not a folder")
@@ -138,7 +94,7 @@ def cmd_tune(cfg: Config, args) -> int:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(str(exc))
-    _write_outputs(res, out)
+    write_outputs(res, out)
     doc = res.to_dict()
     doc["out"] = str(out)
     if args.json:
@@ -146,7 +102,7 @@ def cmd_tune(cfg: Config, args) -> int:
         return 0
     print(f"tune {res.law}: {len(res.values)} candidates, modes {list(res.modes)}, amplitudes {list(res.amps_n)} N; "
           f"passive peaks [(m/s^2)/N]: {', '.join(f'{v:.3g}' for v in res.passive_peak.ravel())}")
-    print(_markdown(res.rows(), res.keys), end="")
+    print(markdown_table(res.rows(), res.keys), end="")
     if res.best < 0:
         print("no candidate qualifies (all refused, or none within --max-power); best.toml not written")
     else:

@@ -22,8 +22,8 @@ Thresholds (module constants) and why:
   at mode 3, 5 N with K_f = 6.3e6). A cell where both laws stay below it decides nothing: there
   C6 compared round-off and turned under two sensitivity variants (docs/experiments.md).
 
-peak reduction [dB] = 20 log10(peak_law / peak_passive), peaks of |H| = |a(0.45 m) / F_exc|
-[(m/s^2)/N] over the step-sine points of one mode at one amplitude (``peak_reduction_db``).
+peak change [dB] = 20 log10(peak_law / peak_passive) (negative: the law's peak is lower), peaks of |H| = |a(0.45 m) / F_exc|
+[(m/s^2)/N] over the step-sine points of one mode at one amplitude (``peak_change_db``).
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ CONTROLLED = ("hysteresis", "lyapunov")
 Table = Mapping[str, Mapping[int, Mapping[float, float]]]  # law -> mode -> amplitude -> value
 
 
-def peak_reduction_db(peaks: Table) -> dict[str, dict[int, dict[float, float]]]:
+def peak_change_db(peaks: Table) -> dict[str, dict[int, dict[float, float]]]:
     """law -> mode -> amplitude -> 20 log10(``peaks[law][mode][amp] / peaks["passive"][mode][amp]``) [dB]
     for every law but passive (peaks: |H| [(m/s^2)/N] or acceleration, the same unit for all)."""
     ref = peaks["passive"]
@@ -78,7 +78,7 @@ def claim_c3(reduction_db: Table, tol_db: float = TOL_DB, min_modes: int = 2) ->
                for law in CONTROLLED}
     return {"holds": all(len(v) >= min_modes for v in reduced.values()),
             "numbers": {"modes_reduced": reduced, "min_modes": min_modes, "tol_db": tol_db,
-                        "mean_reduction_db": {law: _mean(v for by_amp in reduction_db[law].values()
+                        "mean_peak_change_db": {law: _mean(v for by_amp in reduction_db[law].values()
                                                          for v in by_amp.values()) for law in CONTROLLED}}}
 
 
@@ -90,7 +90,7 @@ def claim_c4(reduction_db: Table, tol_db: float = TOL_DB) -> dict:
              for law in CONTROLLED}
     return {"holds": all(v <= tol_db for v, _ in worst.values()),
             "numbers": {"amplitude_n": low, "tol_db": tol_db,
-                        "worst_reduction_db": {law: v for law, (v, _) in worst.items()},
+                        "worst_peak_change_db": {law: v for law, (v, _) in worst.items()},
                         "worst_mode": {law: m for law, (_, m) in worst.items()}}}
 
 

@@ -69,12 +69,11 @@ def response_at_excitation(r: Run) -> np.ndarray:
     return ss.sosfiltfilt(sos, r.signal("w_frf"))
 
 
-def plot(runs: dict[str, Run], path: str) -> None:
+def plot(runs: dict[str, Run], path: str | None = None):
     """Response at the excitation frequency and F_N1 over the last 50 ms of each run (PNG)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, (ax_w, ax_f) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(9, 6))
+    (ax_w, ax_f) = fig.subplots(2, 1, sharex=True)
     for law, r in runs.items():
         dt = r.loop.cfg.dt_s
         n = len(r.log)
@@ -92,5 +91,6 @@ def plot(runs: dict[str, Run], path: str) -> None:
         ax.grid(True, lw=0.3)
         ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
