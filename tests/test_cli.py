@@ -144,8 +144,8 @@ def _writers():
 
 
 def _readme_out_table() -> dict[str, str]:
-    """{verb: what -o names} from README's table under "Where a verb writes"."""
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    """{verb: what -o names} from docs/commands.md's table under "Where a verb writes"."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "commands.md").read_text()
     lines = text[text.index("**Where a verb writes"):].splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("| verb |"))
     rows = {}
@@ -201,7 +201,7 @@ def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args,
 
 
 def test_force_replaces_a_folder_as_a_whole_and_keeps_it_when_the_verb_fails(tmp_path):
-    from frictionrt.rt.cli.common import write_folder
+    from frictionrt.rt.common.files import write_folder
     out = tmp_path / "campaign"
     out.mkdir()
     (out / "old.mcap").write_text("old")

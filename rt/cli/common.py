@@ -10,7 +10,7 @@
   viewer companions beside it, named after it), or a folder it creates; an existing output is
   refused unless ``--force`` (``add_force``, ``refuse_existing``), which replaces it (a folder as a
   whole: ``frictionrt.rt.common.files.write_folder``). Old spellings stay for one release with a one-line note
-  (``add_deprecated``). README, "Where a verb writes", has the table.
+  (``add_deprecated``). docs/commands.md, "Where a verb writes", has the table.
 - Help: one formatter for every verb (``HelpFormatter``: defaults shown as "(default: VALUE)").
 """
 from __future__ import annotations
@@ -58,7 +58,7 @@ class Parser(argparse.ArgumentParser):
 
 def add_out(p: argparse.ArgumentParser, metavar: str, help: str, **kw) -> None:
     """-o/--out: where the verb writes; ``help`` starts with what it names: "the file ..." or "a
-    folder it creates ..." (README, "Where a verb writes")."""
+    folder it creates ..." (docs/commands.md, "Where a verb writes")."""
     assert help.startswith(("the file", "a folder")), help
     p.add_argument("-o", "--out", metavar=metavar, help=help, **kw)
 

@@ -64,7 +64,7 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "(without PARTS) or a comma-separated subset of mesh,pitch,substeps,damping,beams")
     p.add_argument("--refine", metavar="R", help="with --model-form: its mesh, pitch and substeps parts refine the "
                    "nominal's by a whole number R >= 2 (element length and pitch / R, substeps x R^2; 2 is the "
-                   "converged reference of the default plant); default: / 2, / 2 and x 2 (issue 18's form)")
+                   "converged reference of the default plant); default: / 2, / 2 and x 2)")
     add_out(p, "DIR", "a folder it creates for the campaign's files; an existing one (not empty) is refused, or "
                       "with --force replaced as a whole")
     add_force(p, "an existing folder as a whole")

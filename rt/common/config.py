@@ -680,7 +680,7 @@ def _legacy_layout(data: dict, over: dict, stored: bool, source: str) -> None:
     text = _end_pitch_text(end_pitch, r)
     if not stored:
         raise ConfigError(f"{source}: {text}")
-    if "end_pitch_m" in itf_over and r > 1:   # 0 (stops 38-39's default) was the uniform layout: nothing to say
+    if "end_pitch_m" in itf_over and r > 1:   # 0 is the uniform layout: nothing to say
         warnings.warn(f"{source}: {text}; converted", stacklevel=3)
     itf["end_refinement"] = r
 

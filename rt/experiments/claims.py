@@ -18,7 +18,7 @@ Thresholds (module constants) and why:
   per cent at a friction-affected resonance (rt.experiments.stepsine, H_scatter); 0.5 dB covers both.
 * ``P_TOL_W = 1e-8``: below this mean power [W] a law holds its force (C6). A law saturated at
   F_max draws 0 to 3.5e-10 W over the measurement blocks (round-off of the energy integral:
-  both laws at mode 2, 20 N, issue 32), a law that moves its force at least 2.1e-7 W (hysteresis
+  both laws at mode 2, 20 N), a law that moves its force at least 2.1e-7 W (hysteresis
   at mode 3, 5 N with K_f = 6.3e6). A cell where both laws stay below it decides nothing: there
   C6 compared round-off and turned under two sensitivity variants (docs/experiments.md).
 
@@ -40,7 +40,7 @@ Table = Mapping[str, Mapping[int, Mapping[float, float]]]  # law -> mode -> ampl
 
 
 def peak_change_db(peaks: Table) -> dict[str, dict[int, dict[float, float]]]:
-    """law -> mode -> amplitude -> 20 log10(peaks[law][mode][amp] / peaks["passive"][mode][amp]) [dB]
+    """law -> mode -> amplitude -> 20 log10(``peaks[law][mode][amp] / peaks["passive"][mode][amp]``) [dB]
     for every law but passive (peaks: |H| [(m/s^2)/N] or acceleration, the same unit for all)."""
     ref = peaks["passive"]
     return {law: {m: {a: 20.0 * math.log10(v / ref[m][a]) for a, v in by_amp.items()} for m, by_amp in by_mode.items()}

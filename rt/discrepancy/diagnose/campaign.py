@@ -1,4 +1,4 @@
-"""The discrepancy workflow (issue 7, docs/discrepancy.md): where do model and measurement
+"""The discrepancy workflow (docs/discrepancy.md): where do model and measurement
 disagree, which effect of the library (rt.discrepancy.effects) is missing, and how much of the gap it closes.
 
 Method, on a campaign of the measurement format (impulse tests at several F_N1, actuator ramps):

@@ -1,4 +1,4 @@
-"""What the diagnosis explains and what remains (issue 18, docs/discrepancy.md "What remains: model form").
+"""What the diagnosis explains and what remains (docs/discrepancy.md "What remains: model form").
 
 A measurement never comes from the model that fits it. The structure channels' weighted residuals r
 (ln|H| differences over their noise sigma, rt.discrepancy.diagnose.structure / frf) give, for

@@ -144,7 +144,7 @@ def _not_tried(res: dict) -> str:
     return ", ".join(f"{e} ({why[e]})" if e in why else e for e in res["not_tried"])
 
 def _frf_file_sections(res: dict) -> list[str]:
-    """The FRF-file input's warnings, plausibility (issue 35), excitation and sensors (issue 18)."""
+    """The FRF-file input's warnings, plausibility, excitation and sensors."""
     out = []
     if res.get("warnings"):
         out += ["", "## Warnings: parameters on a bound, level", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]

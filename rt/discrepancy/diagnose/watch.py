@@ -1,4 +1,4 @@
-"""Running the diagnosis' fits where a user sees them (issue 35 item 2; docs/discrepancy.md "Progress and
+"""Running the diagnosis' fits where a user sees them (docs/discrepancy.md "Progress and
 Ctrl-C"): progress bars, the candidates' fits in parallel, and Ctrl-C that keeps what is done.
 
 Progress: a fit counts its model evaluations on a tqdm bar on stderr with the best cost so far
