@@ -21,9 +21,23 @@ same bits on every machine (docs/determinism.md). The names are imported on firs
 import frictionrt.rt.common  # noqa: F401  (BLAS, numba's target and cache, before numpy or a kernel loads)
 from frictionrt.rt.common.face import lazy_face
 
-_JOBS = ("load_config", "show_config", "modes", "impulse", "simulate", "compare", "frf", "reproduce", "tune",
-         "replay", "export_c", "effects", "rig", "diagnose", "diagnose_frf_arrays", "check_frequency")
-_EXPORTS = {name: "frictionrt.jobs" for name in _JOBS} | {
+_EXPORTS = {
+    "load_config": "frictionrt.jobs",
+    "show_config": "frictionrt.jobs",
+    "modes": "frictionrt.jobs",
+    "impulse": "frictionrt.jobs",
+    "simulate": "frictionrt.jobs",
+    "compare": "frictionrt.jobs",
+    "frf": "frictionrt.jobs",
+    "reproduce": "frictionrt.jobs",
+    "tune": "frictionrt.jobs",
+    "replay": "frictionrt.jobs",
+    "export_c": "frictionrt.jobs",
+    "effects": "frictionrt.jobs",
+    "rig": "frictionrt.jobs",
+    "diagnose": "frictionrt.jobs",
+    "diagnose_frf_arrays": "frictionrt.jobs",
+    "check_frequency": "frictionrt.jobs",
     "import_frf": "frictionrt.rt.log.frf_import",
     "Result": "frictionrt.results",
     "Config": "frictionrt.rt.common.config", "ConfigError": "frictionrt.rt.common.config",

@@ -100,7 +100,7 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     ``duration_s`` [s] (``frictionrt simulate``): ``law`` (None: tracking.law) on ``estimator``.
     With ``out`` ("logs/run" or "logs/run.mcap"), every signal is logged to run.mcap, run.rrd (unless
     ``rrd`` is False) and a Foxglove layout run.foxglove.json while the loop runs, through a ring of
-    ``ring_s`` [s]. ``faults``: specs "KIND[/SENSOR][=VALUE]@TIME[:DURATION]" (docs/reliability.md);
+    ``ring_s`` [s]. ``faults``: specs ``"KIND[/SENSOR][=VALUE]@TIME[:DURATION]"`` (docs/reliability.md);
     ``controller_of(loop)``: the loop's controller (a C export's, ``frictionrt.rt.export.sil``; None:
     numba's); ``argv``: the command line the log records (None: this process's); ``seed``: the sensor
     noise's (None: rt.seed). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
