@@ -267,7 +267,7 @@ def test_help_shows_defaults_one_way_for_every_verb():
         for a in p._actions:
             if a.option_strings and a.help != argparse.SUPPRESS and a.default not in (None, False, [], argparse.SUPPRESS):
                 assert "default" in (a.help or "") or f"(default: {a.default})" in text, (name, a.option_strings)
-    assert "\n  frictionrt frf --law hysteresis --amp 5 20 --freqs 190,195,200,205 --down --json\n" in \
+    assert "\n  frictionrt frf --law hysteresis --amps 5,20 --freqs 190,195,200,205 --down --json\n" in \
         sub["frf"].format_help()
 
 

@@ -8,7 +8,7 @@
 #
 # Run it with `python docs/examples/reproduce_paper.py` (the quick plan: about 30 s on 2 cores),
 # or open it in Jupyter with jupytext. `FRICTIONRT_EXAMPLES_QUICK=1` runs a smaller version
-# (mode 3 only), which the test suite runs.
+# (mode 3, the observer only), which the test suite runs.
 
 # %%
 import os
@@ -21,7 +21,8 @@ OUT = Path(os.environ.get("FRICTIONRT_EXAMPLES_OUT", "logs/examples"))
 OUT.mkdir(parents=True, exist_ok=True)
 
 cfg = fr.load_config()                      # the spec's defaults; fr.load_config("my.toml", sets=[...])
-res = fr.reproduce(cfg, quick=True, modes=(3,) if SMALL else None, out=OUT / "reproduce", force=True,
+res = fr.reproduce(cfg, quick=True, modes=(3,) if SMALL else None,
+                   estimators=("observer",) if SMALL else fr.ESTIMATORS, out=OUT / "reproduce", force=True,
                    progress=not SMALL)
 
 # %% [markdown]

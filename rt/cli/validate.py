@@ -46,7 +46,12 @@ def cmd_validate(cfg, args) -> int:
 
     from frictionrt.rt.log.data_format import validate
     from frictionrt.rt.log.frf_files import SUFFIXES
-    if Path(args.file).is_dir() or Path(args.file).suffix.lower() in SUFFIXES:
+    from frictionrt.rt.log.frf_files import frf_files
+    path = Path(args.file)
+    if path.is_dir() and not frf_files(path):   # a folder where a file is expected: not one of FRF files
+        return fail(f"{path}: a folder, not a file, with no FRF files (*.csv, *.uff, *.unv); give an .mcap log or "
+                    "a folder of FRF files")
+    if path.is_dir() or path.suffix.lower() in SUFFIXES:
         return _validate_frf(args)
     try:
         problems = validate(args.file)
