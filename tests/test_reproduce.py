@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from frictionrt.rt.experiments.claims import (claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db)
+from frictionrt.rt.experiments.claims import (Verdict, claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6,
+                                             peak_reduction_db, verdict)
 from frictionrt.rt.cli import main
 from frictionrt.rt.common.config import load
 from frictionrt.rt.experiments.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
@@ -86,6 +87,47 @@ def test_c6_lyapunov_power_higher_everywhere():
     assert c["holds"] and c["numbers"]["held_cells"] == [(2, 20.0)]
     # a law that moves its force is compared, however small its power
     assert not claim_c6(_table(hy | {(2, 20.0): 2e-7}, {(3, 5.0): 3.0, (4, 5.0): 2.0, (2, 20.0): 1e-7}))["holds"]
+
+
+def test_margins_in_each_claims_unit_are_positive_where_it_holds():
+    """Each claim's margin (rt.experiments.claims): its sign is the verdict, its size the distance
+    of the deciding number from the threshold, by hand from the synthetic tables."""
+    bare = {2: 0.001, 3: 0.001, 4: 0.001, 5: 0.001}
+    good = {2: 0.0012, 3: 0.013, 4: 0.015, 5: 0.00223}
+    assert claim_c1(bare)["margin"] is None
+    assert claim_c2(good, bare)["margin"] == pytest.approx(0.23)           # mode 5: 2.23 against 2
+    assert claim_c2({**good, 5: 0.00185}, bare)["margin"] == pytest.approx(-0.15)
+    assert claim_c2({**good, 2: 0.0019}, bare)["margin"] == pytest.approx(0.1)  # mode 2: 1.9 below 2
+    assert claim_c2({**good, 3: math.nan}, bare)["margin"] == -math.inf
+    ly = {(3, 5.0): -6.0, (3, 20.0): -1.0, (4, 5.0): -7.0, (4, 20.0): -2.0}
+    hy = {(3, 5.0): -1.0, (3, 20.0): -0.6, (4, 5.0): -1.0, (4, 20.0): -0.7}
+    assert claim_c3(_table(hy, ly))["margin"] == pytest.approx(0.1)        # hysteresis' 2nd mode: -0.6 dB
+    assert claim_c3(_table({**hy, (4, 20.0): +3.0}, ly))["margin"] == pytest.approx(-3.5)
+    assert claim_c4(_table(hy, ly))["margin"] == pytest.approx(1.5)        # -1.0 against +0.5
+    c4 = claim_c4(_table({**hy, (4, 5.0): +1.25}, ly))
+    assert not c4["holds"] and c4["margin"] == pytest.approx(-0.75)
+    hy5 = {(3, 5.0): -1.0, (3, 20.0): +3.0, (4, 5.0): 1.0, (4, 20.0): +6.0}
+    ly5 = {(3, 5.0): -6.0, (3, 20.0): +1.0, (4, 5.0): -7.0, (4, 20.0): +2.0}
+    assert claim_c5(_table(hy5, ly5))["margin"] == pytest.approx(3.0)      # min(3.0, 6.5 - 3.0)
+    assert claim_c5(_table(hy5, {k: v + 10.0 for k, v in ly5.items()}))["margin"] < 0
+    p_hy = {(3, 5.0): 0.01, (4, 5.0): 0.02}
+    assert claim_c6(_table(p_hy, {(3, 5.0): 0.03, (4, 5.0): 0.05}))["margin"] == pytest.approx(1.5)
+    assert claim_c6(_table(p_hy, {(3, 5.0): 3.0, (4, 5.0): 0.01}))["margin"] == pytest.approx(-0.5)
+
+
+@pytest.mark.parametrize("margin, shift, holds, expected", [
+    (0.23, 0.10, True, Verdict.YES),        # decided: the discretisation moves it by less than its margin
+    (0.23, -0.38, True, Verdict.UNDECIDED),  # C2 at the default against the refined plant (docs/plant.md 6.3)
+    (-0.75, 0.2, False, Verdict.NO),
+    (-0.75, 0.9, False, Verdict.UNDECIDED),
+    (1.5, None, True, Verdict.YES),         # not estimated: the margin's sign decides
+    (-0.1, math.nan, False, Verdict.NO),
+    (None, None, True, Verdict.YES),        # C1: a model input
+    (math.inf, 0.5, True, Verdict.YES),     # C6 with no compared cell
+])
+def test_verdict_is_undecided_where_the_discretisation_moves_the_margin_past_zero(margin, shift, holds, expected):
+    assert verdict(margin, shift, holds) is expected
+    assert verdict(margin, shift, holds).value in ("yes", "NO", "undecided")
 
 
 # --- refinement and merging ---------------------------------------------------------------------
