@@ -130,6 +130,23 @@ def test_verdict_is_undecided_where_the_discretisation_moves_the_margin_past_zer
     assert verdict(margin, shift, holds).value in ("yes", "NO", "undecided")
 
 
+def test_richardson_shift_and_the_stored_coarse_margins(tmp_path):
+    """refined_shift = (M - M_coarse) / (2^p - 1), p = 1 by default; a record is found only for the
+    configuration and plan it was stored for."""
+    from frictionrt.rt.experiments.discretisation import refined_shift, store, stored
+    from frictionrt.rt.experiments.reproduce import QUICK, FULL
+    from frictionrt.rt.common.config import with_sets
+    assert refined_shift(0.23, 0.61) == pytest.approx(-0.38)
+    assert refined_shift(0.23, 0.61, order=2.0) == pytest.approx(-0.38 / 3)
+    assert refined_shift(None, None) is None and math.isnan(refined_shift(math.inf, 0.5))
+    path, cfg = tmp_path / "coarse.json", load()
+    store(cfg, QUICK, {"observer": {"C2": 0.61}}, "test", path)
+    assert stored(cfg, QUICK, path) == {"observer": {"C2": 0.61}}
+    assert stored(cfg, FULL, path) is None
+    assert stored(with_sets(cfg, ["plant.substeps=2"]), QUICK, path) is None
+    assert stored(cfg, QUICK, tmp_path / "none.json") is None
+
+
 # --- refinement and merging ---------------------------------------------------------------------
 
 def _sdof(f, fn=200.0, zeta=0.01):
@@ -248,7 +265,11 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
         assert isinstance(v["holds"], bool)
         nums = _numbers(v["numbers"])
         assert nums and all(math.isfinite(x) for x in nums), c
-        assert f"| {c} |" in md and f"**{'yes' if v['holds'] else 'NO'}**" in md.split(f"| {c} |")[1].split("\n")[0]
+        assert f"| {c} |" in md and f"**{v['verdict']}**" in md.split(f"| {c} |")[1].split("\n")[0]
+        # the verdict with the discretisation's error: the default's coarse margins are stored
+        # (rt/experiments/coarse_margins.json), so the quick run pays for the default alone
+        assert v["error_estimate"] == "stored" and v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"])
+        assert (v["margin"] is None) == (c == "C1")
     # each reduction is 20 log10 of the peaks it comes from
     peaks = doc["peaks"]
     for law in ("hysteresis", "lyapunov"):
@@ -290,10 +311,19 @@ def test_one_estimator_alone_decides_its_own_claims(tmp_path):
     from frictionrt.rt.experiments.stepsine import Settle
     plan = Plan(modes=(3,), amps_n=(5.0, 20.0), n_points=3, refine_rounds=0, fn1_n=(),
                 settle=Settle(rel_tol=0.05, max_s=0.4))
-    res = measure(load(), plan, ("oracle",), jobs=1, progress=False)
+    res = measure(load(), plan, ("oracle",), jobs=1, progress=False, error_estimate="run")
     rep = res["report"]
+    # the coarse run (pitch and elements x2) gives every claim with a margin its estimated shift
+    assert rep["discretisation"]["source"] == "run" and rep["discretisation"]["coarse_run_s"] > 0
+    for c, v in rep["claims"].items():
+        coarse = rep["discretisation"]["coarse_margins"]["oracle"][c]
+        if c == "C1":
+            assert v["refined_shift"] is None and v["verdict"] == "yes"
+        elif math.isfinite(v["margin"]) and math.isfinite(coarse):
+            assert v["refined_shift"] == pytest.approx(v["margin"] - coarse)
+        assert v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"]).value
     assert list(rep["by_estimator"]) == ["oracle"] and rep["plan"]["estimators"] == ["oracle"]
     assert rep["claims"] is rep["by_estimator"]["oracle"]["claims"]
     assert {k.law for k in res["frfs"]} == {"passive", "hysteresis", "lyapunov"} and len(res["frfs"]) == 6
     md = markdown(rep)
-    assert "| claim | statement | holds: oracle |" in md and "holds: observer" not in md
+    assert "| claim | statement | oracle |" in md and "observer |" not in md

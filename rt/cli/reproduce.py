@@ -13,6 +13,7 @@ from pathlib import Path
 
 from frictionrt.rt.common.config import Config
 from frictionrt.rt.cli.common import add_force, add_out, fail, refuse_existing
+from frictionrt.rt.experiments.discretisation import ErrorEstimate
 
 DESCRIPTION = """Reproduce Becker & Gaul's experiments (SPEC section 6) and decide their claims C1..C6 on the
 numbers measured: an impulse test at F_N1 = 100 N (identified modal damping), amplitude-controlled
@@ -56,6 +57,11 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the step-sine sweeps on this dask scheduler's workers instead (frictionrt installed there)")
+    p.add_argument("--error-estimate", choices=[e.value for e in ErrorEstimate], default="auto",
+                   help="how far the plant's discretisation moves each claim's margin: Richardson from this run and "
+                        "the same plan with the contact pitch and elements x2 (order 1); auto (default): the coarse "
+                        "margins stored for this configuration and plan, else the coarse run (about as long again); "
+                        "run: always the coarse run; none: no estimate, each verdict from its margin's sign")
     p.add_argument("--json", action="store_true", help="print report.json's content as one JSON object (no progress)")
     return p
 
@@ -98,7 +104,8 @@ def cmd_reproduce(cfg: Config, args) -> int:
     try:
         plan.check(cfg)
         estimators = ESTIMATORS if args.estimator == "both" else (args.estimator,)
-        result = measure(cfg, plan, estimators, args.jobs, args.dask, progress=not args.json, stage=say)
+        result = measure(cfg, plan, estimators, args.jobs, args.dask, progress=not args.json, stage=say,
+                         error_estimate=ErrorEstimate(args.error_estimate))
     except ConnectionError as exc:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
@@ -112,10 +119,16 @@ def cmd_reproduce(cfg: Config, args) -> int:
         print(json.dumps(report))
         return 0
     by_est = report["by_estimator"]
-    print(f"{'claim':>5} " + " ".join(f"{e:>8}" for e in by_est) + "  statement")
+    first = next(iter(by_est))
+    print(f"{'claim':>5} " + " ".join(f"{e:>9}" for e in by_est) + f"  {'margin (' + first + ')':>20} "
+          f"{'discretisation':>14}  statement")
     for c in report["claims"]:
-        print(f"{c:>5} " + " ".join(f"{'yes' if v['claims'][c]['holds'] else 'NO':>8}" for v in by_est.values())
-              + f"  {CLAIM_TEXT[c]}")
+        x = by_est[first]["claims"][c]
+        m, shift, unit = x.get("margin"), x.get("refined_shift"), x.get("margin_unit") or ""
+        margin = "model input" if x.get("margin_unit") is None else ("-" if m is None else f"{m:+.3g} {unit}")
+        print(f"{c:>5} " + " ".join(f"{v['claims'][c].get('verdict', 'yes' if v['claims'][c]['holds'] else 'NO'):>9}"
+                                    for v in by_est.values())
+              + f"  {margin:>20} {'-' if shift is None else f'{shift:+.3g}':>14}  {CLAIM_TEXT[c]}")
     for e, v in by_est.items():
         print(f"peak reduction [dB], {e} (law: mode: amplitude): {json.dumps(v['peak_reduction_db'])}")
     print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}; "

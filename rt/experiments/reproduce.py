@@ -49,6 +49,8 @@ from frictionrt.rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim
 from frictionrt.rt.common.config import Config
 from frictionrt.rt.loop import Designs, Loop, build_loop
 from frictionrt.rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
+from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, ErrorEstimate, annotate, coarser, margins,
+                                                      stored)
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
@@ -62,6 +64,7 @@ HALF_WIDTH = {2: 0.08, 3: 0.15, 4: 0.12, 5: 0.04}
 RESOLVED_REL = 0.10   # a peak is resolved when both neighbours lie within 10 % of it
 BALANCE = 2.0        # a neighbour more than this many times as far from the largest point as the other: refine
 MIN_STEP_REL = 2e-4   # no refinement below this spacing (relative): a jump is not a peak to chase
+MECHANISM_S = 1.0     # simulated time of a failing cell's re-run [s] (explain_failures)
 
 
 @dataclass(frozen=True)
@@ -286,13 +289,17 @@ def evaluate(cfg: Config, frfs: dict[Key, StepSineResult]) -> dict:
 
 def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, jobs: int | None = None,
             dask_address: str | None = None, progress: bool = True,
-            stage: Callable[[str], object] | None = None) -> dict:
+            stage: Callable[[str], object] | None = None,
+            error_estimate: ErrorEstimate = ErrorEstimate.AUTO, explain: bool = True) -> dict:
     """Run the plan and evaluate the claims, the controlled laws on each of ``estimators``.
     Returns {"report": the JSON document, "frfs": Key -> StepSineResult of the first estimator,
     "frfs_by_estimator": estimator -> Key -> StepSineResult, "impulse": ImpulseResult}. The report
     holds claims, peak_reduction_db, best_passive_fn1, peaks and energy of the first estimator (the
     one the claims are decided on), the same per estimator under "by_estimator", and impulse,
-    timing, plan. stage(text) is called before each stage."""
+    timing, plan, discretisation. Each claim carries its margin, the discretisation's estimated
+    shift of it and its verdict (rt.experiments.discretisation; error_estimate: where the coarse
+    margins come from); explain: the measured mechanism of each cell that makes C3 or C4 fail
+    (``explain_failures``) under "mechanisms". stage(text) is called before each stage."""
     from frictionrt.plant.impulse import impulse_test
     from frictionrt.plant.model import build_plant
     from frictionrt.plant.modes import bare_beam_bending_hz
@@ -320,7 +327,24 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     for est, frfs in views.items():
         e = evaluate(cfg, frfs)
         by_est[est] = e | {"claims": impulse_claims | e["claims"]}
+    error_estimate = ErrorEstimate(error_estimate)
+    coarse, t_coarse = None, 0.0
+    if error_estimate is ErrorEstimate.AUTO:
+        coarse = stored(cfg, plan)
+    if coarse is None and error_estimate is not ErrorEstimate.NONE:
+        say(f"the same plan with the contact pitch and the elements x{COARSENING:g}: the discretisation's error")
+        t1 = time.perf_counter()
+        c = measure(coarser(cfg), plan, estimators, jobs, dask_address, progress, error_estimate=ErrorEstimate.NONE,
+                    explain=False)
+        coarse = {est: margins(v["claims"]) for est, v in c["report"]["by_estimator"].items()}
+        t_coarse, source = time.perf_counter() - t1, "run"
+    else:
+        source = "none" if coarse is None else "stored"
+    for est in by_est:
+        by_est[est]["claims"] = annotate(by_est[est]["claims"], None if coarse is None else coarse.get(est), source)
     report = by_est[estimators[0]] | {
+        "discretisation": {"source": source, "order": ORDER, "coarsening": COARSENING, "coarse_margins": coarse,
+                           "coarse_run_s": t_coarse},
         "by_estimator": by_est,
         "impulse": {"fn1_n": plan.impulse_fn1_n, "modes": list(imp.modes),
                     "freq_hz": [float(f) for f in imp.freq_hz], "zeta": zeta_passive, "zeta_bare": zeta_bare,
@@ -333,7 +357,20 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
                  "unsettled": int(sum((~r.settled).sum() for r in every)),
                  "simulated_s": float(sum(r.settle_s.sum() for r in every))},
         "timing_s": {"impulse": t_imp, "step_sine": t_frf, "sweeps": sweep_timing(every, t_frf, cores)}}
+    if explain:
+        report["mechanisms"] = explain_failures(cfg, report)
     return {"report": report, "frfs": views[estimators[0]], "frfs_by_estimator": views, "impulse": imp}
+
+
+def explain_failures(cfg: Config, report: dict, duration_s: float = MECHANISM_S) -> list[dict]:
+    """The measured mechanism (rt.experiments.mechanisms) of every cell that makes C3 or C4 fail on
+    an estimator of the report: each such cell's law run once more at its peak for duration_s."""
+    from frictionrt.rt.experiments.mechanisms import failing_cells, mechanism
+    from frictionrt.rt.experiments.reproduce_report import jsonable
+    text = jsonable({k: report[k] for k in ("by_estimator", "best_passive_fn1")})
+    cells = failing_cells(text["by_estimator"])
+    designs = Designs()
+    return [mechanism(cfg, designs, c, text, duration_s) for c in cells]
 
 
 def _energy(frfs: dict[Key, StepSineResult], law: str, dt: float) -> dict:

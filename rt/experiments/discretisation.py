@@ -1,0 +1,103 @@
+"""How far the plant's discretisation moves each claim's margin (docs/experiments.md, "The
+discretisation error beside each claim").
+
+The claims' margins (rt.experiments.claims) are measured on a plant whose contact pitch and element
+length are numerical choices (docs/plant.md 6). The estimate is Richardson's from the default and a
+coarser discretisation, the pitch and the element length doubled (``coarser``: half the contact
+points, cheaper than the default), with the observed order p of the joint's figures in the pitch:
+
+    M_refined - M  ~  (M - M_coarse) / (2^p - 1)        (``refined_shift``)
+
+``ORDER`` = 1: the frequencies and, off the slip thresholds, the damping converge at about first
+order in the pitch (docs/plant.md 6.2), the order for which the shift is largest among p >= 1. The
+plant step is not coarsened (one substep is the coarsest): its share is not in the estimate.
+
+The coarse run's margins are stored per configuration and plan (``COARSE_STORE``, keyed by
+``record_key``: the resolved configuration, the plan, the kernel version), so a run of a stored
+configuration pays for the default alone; another configuration runs the coarse plan itself.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from enum import Enum
+from pathlib import Path
+
+from frictionrt.rt.common.config import Config, to_dict, with_sets
+from frictionrt.rt.common.kernel_version import KERNEL_VERSION
+from frictionrt.rt.experiments.claims import MARGIN_UNIT, verdict
+
+COARSENING = 2.0
+ORDER = 1.0
+COARSE_STORE = Path(__file__).with_name("coarse_margins.json")
+
+
+class ErrorEstimate(str, Enum):
+    """Where a reproduction's coarse margins come from."""
+    AUTO = "auto"      # the stored record of this configuration and plan, else a coarse run
+    RUN = "run"        # always run the coarse plan
+    NONE = "none"      # no estimate: each verdict from its margin's sign
+
+
+def coarser(cfg: Config, factor: float = COARSENING) -> Config:
+    """``cfg`` with the contact pitch and the element length multiplied by factor (the end
+    refinement kept: the ends' pitch grows with it); the same physical model (contact per area)."""
+    p = cfg.plant
+    return with_sets(cfg, [f"plant.interface.pitch_m={p.interface.pitch_m * factor!r}",
+                           f"plant.element_length_m={p.element_length_m * factor!r}"])
+
+
+def refined_shift(margin: float | None, coarse: float | None, order: float = ORDER) -> float | None:
+    """Richardson's estimate of M_refined - M [the margin's unit] from the default's margin M and
+    the coarse discretisation's (module docstring); None for a claim without a margin, NaN where
+    either is not finite."""
+    if margin is None or coarse is None:
+        return None
+    if not (math.isfinite(margin) and math.isfinite(coarse)):
+        return math.nan
+    return (margin - coarse) / (COARSENING ** order - 1.0)
+
+
+def margins(claims: dict) -> dict[str, float | None]:
+    """claim -> margin of a report's claims dict."""
+    return {c: v.get("margin") for c, v in claims.items()}
+
+
+def annotate(claims: dict, coarse: dict[str, float | None] | None, source: str) -> dict:
+    """The claims dict with, per claim, ``refined_shift`` (None: not estimated), ``margin_unit``
+    and ``verdict`` (claims.Verdict's value) and ``error_estimate`` = source."""
+    out = {}
+    for c, v in claims.items():
+        shift = refined_shift(v.get("margin"), coarse.get(c)) if coarse is not None else None
+        out[c] = v | {"margin_unit": MARGIN_UNIT.get(c), "refined_shift": shift,
+                      "verdict": verdict(v.get("margin"), shift, v["holds"]).value, "error_estimate": source}
+    return out
+
+
+def record_key(cfg: Config, plan) -> str:
+    """Hex digest of the resolved configuration, the plan and the kernel version."""
+    doc = {"config": to_dict(cfg), "plan": dataclasses.asdict(plan), "kernel_version": KERNEL_VERSION}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+def stored(cfg: Config, plan, path: Path = COARSE_STORE) -> dict | None:
+    """estimator -> claim -> coarse margin of the stored record of (cfg, plan), or None."""
+    try:
+        records = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return records.get(record_key(cfg, plan), {}).get("coarse_margins")
+
+
+def store(cfg: Config, plan, coarse: dict, note: str, path: Path = COARSE_STORE) -> None:
+    """Add (cfg, plan)'s coarse margins (estimator -> claim -> margin) to the record at path."""
+    try:
+        records = json.loads(path.read_text())
+    except (OSError, ValueError):
+        records = {}
+    records[record_key(cfg, plan)] = {"note": note, "coarse_margins": coarse}
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(records, indent=1, sort_keys=True) + "\n")
+    tmp.replace(path)
