@@ -140,11 +140,25 @@ def test_richardson_shift_and_the_stored_coarse_margins(tmp_path):
     assert refined_shift(0.23, 0.61, order=2.0) == pytest.approx(-0.38 / 3)
     assert refined_shift(None, None) is None and math.isnan(refined_shift(math.inf, 0.5))
     path, cfg = tmp_path / "coarse.json", load()
-    store(cfg, QUICK, {"observer": {"C2": 0.61}}, "test", path)
-    assert stored(cfg, QUICK, path) == {"observer": {"C2": 0.61}}
-    assert stored(cfg, FULL, path) is None
-    assert stored(with_sets(cfg, ["plant.substeps=2"]), QUICK, path) is None
-    assert stored(cfg, QUICK, tmp_path / "none.json") is None
+    store(cfg, QUICK, {"observer": {"C2": 0.61}}, "test", path, refined_margins={"C2": -0.15})
+    assert stored(cfg, QUICK, path) == ({"observer": {"C2": 0.61}}, {"C2": -0.15})
+    assert stored(cfg, FULL, path) == (None, None)
+    assert stored(with_sets(cfg, ["plant.substeps=2"]), QUICK, path) == (None, None)
+    assert stored(cfg, QUICK, tmp_path / "none.json") == (None, None)
+
+
+def test_the_refined_margin_decides_where_it_is_measured():
+    """annotate: C2's shift is the refined plant's margin minus the default's (docs/experiments.md: the
+    default's 2.23 against the refined 1.85, margin 0.23, shift -0.38: undecided); the other claims
+    take Richardson's from the coarse margins."""
+    from frictionrt.rt.experiments.discretisation import annotate
+    claims = {"C1": {"holds": True, "margin": None}, "C2": {"holds": True, "margin": 0.231},
+              "C4": {"holds": True, "margin": 1.413}}
+    out = annotate(claims, {"C1": None, "C2": 0.092, "C4": 0.522}, "stored", {"C2": -0.146})
+    assert out["C2"]["refined_shift"] == pytest.approx(-0.377) and out["C2"]["verdict"] == "undecided"
+    assert out["C2"]["error_estimate"] == "refined (stored)"
+    assert out["C4"]["refined_shift"] == pytest.approx(0.891) and out["C4"]["verdict"] == "yes"
+    assert out["C1"]["verdict"] == "yes" and out["C1"]["margin_unit"] is None
 
 
 # --- refinement and merging ---------------------------------------------------------------------
@@ -268,7 +282,8 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
         assert f"| {c} |" in md and f"**{v['verdict']}**" in md.split(f"| {c} |")[1].split("\n")[0]
         # the verdict with the discretisation's error: the default's coarse margins are stored
         # (rt/experiments/coarse_margins.json), so the quick run pays for the default alone
-        assert v["error_estimate"] == "stored" and v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"])
+        assert v["error_estimate"] == ("refined (stored)" if c == "C2" else "stored")
+        assert v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"])
         assert (v["margin"] is None) == (c == "C1")
     # each reduction is 20 log10 of the peaks it comes from
     peaks = doc["peaks"]
@@ -319,6 +334,8 @@ def test_one_estimator_alone_decides_its_own_claims(tmp_path):
         coarse = rep["discretisation"]["coarse_margins"]["oracle"][c]
         if c == "C1":
             assert v["refined_shift"] is None and v["verdict"] == "yes"
+        elif c == "C2":  # the impulse test on the refined plant itself
+            assert v["refined_shift"] == pytest.approx(rep["discretisation"]["refined_margins"]["C2"] - v["margin"])
         elif math.isfinite(v["margin"]) and math.isfinite(coarse):
             assert v["refined_shift"] == pytest.approx(v["margin"] - coarse)
         assert v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"]).value
