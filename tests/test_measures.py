@@ -111,3 +111,18 @@ def test_impulse_error_estimate_gives_each_figures_shift(capsys):
     assert np.all(df[1:] < 0) and np.all(np.abs(df / f) < 0.01)
     coarse = impulse_test(build_plant(coarser(load())), 100.0)
     assert df == pytest.approx(f - coarse.freq_hz, abs=2e-3)
+
+
+def test_frf_error_estimate_gives_each_points_shift(capsys):
+    """frictionrt frf --error-estimate: the same point on the coarse plant; the shift of |H| in dB
+    is 20 log10 |H| - 20 log10 |H_coarse| (order 1), finite, and the sweep's peak shift is its
+    largest point's (one point here)."""
+    import json
+    from frictionrt.rt.cli import main
+    assert main(["frf", "--law", "passive", "--amp", "5", "--freqs", "228", "--max-time", "0.3", "--jobs", "1",
+                 "--error-estimate", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    e, = doc["error_estimate"]
+    assert e["law"] == "passive" and e["amp_n"] == 5.0
+    assert len(e["H_shift_db"]) == 1 and math.isfinite(e["H_shift_db"][0]) and abs(e["H_shift_db"][0]) < 6.0
+    assert e["peak_shift_db"] == e["H_shift_db"][0]
