@@ -179,7 +179,7 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     doc = {"curves": curves, "claims": {c: v["holds"] for c, v in result["report"]["claims"].items()},
-           "peak_reduction_db": result["report"]["peak_reduction_db"], "plan": result["report"]["plan"],
+           "peak_change_db": result["report"]["peak_change_db"], "plan": result["report"]["plan"],
            "sets": args.sets, "wall_s": time.perf_counter() - t0}
     (out / "baseline_curve.json").write_text(json.dumps(jsonable(doc), indent=1))
     plot(curves, str(out / "baseline_curve.png"))

@@ -37,7 +37,7 @@ def peaks(report: dict) -> dict:
 def diff(a: dict, b: dict) -> dict:
     """{claims: C -> (holds_a, holds_b), reduction: (law, mode, amp) -> (dB_a, dB_b),
     max_reduction_diff_db: (|b - a|, its cell), max_peak_rel: (|b/a - 1|, its FRF)} of two reports."""
-    ra, rb = cells(a["peak_reduction_db"]), cells(b["peak_reduction_db"])
+    ra, rb = cells(a["peak_change_db"]), cells(b["peak_change_db"])
     red = {k: (ra[k], rb.get(k)) for k in ra}
     dk = max((k for k in red if None not in red[k]), key=lambda k: abs(red[k][1] - red[k][0]))
     pa, pb = peaks(a), peaks(b)

@@ -13,7 +13,7 @@ each row reports the impulse test's mode-3 frequency and damping at F_N1 = 100 N
 whether the variant still meets the paper's observation (215..235 Hz).
 
 Writes into ``--out`` (default logs/sensitivity): ``sensitivity.json`` (per variant: the --set
-assignments, claims with their numbers, peak_reduction_db, impulse, plan, wall time; rewritten after
+assignments, claims with their numbers, peak_change_db, impulse, plan, wall time; rewritten after
 every run) and ``sensitivity.md`` (verdict table, changed verdicts in bold, and the largest change
 of a peak reduction against the default).
 """
@@ -85,13 +85,13 @@ CLAIMS = ("C2", "C3", "C4", "C5", "C6")
 
 def run_variant(v: Variant, base_sets: list[str], full: bool, jobs: int | None, estimator: str) -> dict:
     """The reproduction of one variant, the controlled laws on ``estimator``: {name, input, sets,
-    why, claims, peak_reduction_db, impulse, plan, wall_s}."""
+    why, claims, peak_change_db, impulse, plan, wall_s}."""
     cfg = load(None, [*base_sets, *v.sets])
     t0 = time.perf_counter()
     rep = measure(cfg, FULL if full else QUICK, (estimator,), jobs=jobs,
                   stage=lambda text: print(f"sensitivity {v.name}: {text}", file=sys.stderr))["report"]
     return {"name": v.name, "input": v.input, "sets": list(v.sets), "why": v.why, "claims": rep["claims"],
-            "peak_reduction_db": rep["peak_reduction_db"], "impulse": rep["impulse"], "plan": rep["plan"],
+            "peak_change_db": rep["peak_change_db"], "impulse": rep["impulse"], "plan": rep["plan"],
             "wall_s": time.perf_counter() - t0}
 
 
@@ -119,7 +119,7 @@ def markdown(doc: dict) -> str:
         if ref is None or r is ref:
             delta = "-"
         else:
-            a, b = cells(r["peak_reduction_db"]), cells(ref["peak_reduction_db"])
+            a, b = cells(r["peak_change_db"]), cells(ref["peak_change_db"])
             key = max(a, key=lambda k: abs(a[k] - b[k]) if a[k] is not None and b.get(k) is not None else -1.0)
             delta = f"{a[key] - b[key]:+.2f} ({key[0]}, mode {key[1]}, {key[2]:g} N)"
         sets = "<br>".join(f"`{s}`" for s in r["sets"]) or "-"
@@ -137,15 +137,15 @@ def markdown(doc: dict) -> str:
         fmt = lambda d: ", ".join(f"{k}: {v:.3g}" if isinstance(v, float) else f"{k}: {v}" for k, v in d.items())
         c6 = n["C6"]["min_ratio_lyapunov_to_hysteresis"]
         lines.append(f"| {r['name']} | {fmt(n['C2']['ratio'])} | {fmt(n['C3']['modes_reduced'])} | "
-                     f"{fmt(n['C4']['worst_reduction_db'])} | {fmt(n['C5']['mean_advantage_db'])} | "
+                     f"{fmt(n['C4']['worst_peak_change_db'])} | {fmt(n['C5']['mean_advantage_db'])} | "
                      f"{'-' if c6 is None else f'{c6:.3g}'} |")
     lines += ["", (f"Peak reduction against passive [dB] (negative: lower peak; |x| < {TOL_DB} dB counts as "
                    "unchanged):"), ""]
-    keys = sorted(cells(runs[0]["peak_reduction_db"])) if runs else []
+    keys = sorted(cells(runs[0]["peak_change_db"])) if runs else []
     lines.append("| variant | " + " | ".join(f"{law[:4]} {m}/{a:g} N" for law, m, a in keys) + " |")
     lines.append("| --- " * (1 + len(keys)) + "|")
     for r in runs:
-        c = cells(r["peak_reduction_db"])
+        c = cells(r["peak_change_db"])
         lines.append(f"| {r['name']} | " + " | ".join(f"{c[k]:+.2f}" if c.get(k) is not None else "-"
                                                      for k in keys) + " |")
     return "\n".join(lines) + "\n"

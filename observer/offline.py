@@ -1,4 +1,4 @@
-"""Offline reference estimator (issue 4): filterpy's unscented Kalman filter and its RTS smoother
+"""Offline reference estimator: filterpy's unscented Kalman filter and its RTS smoother
 on the observer's own discrete model, run on a logged run.
 
 The real-time observer (``frictionrt.observer.step``) is a constant-gain filter: its gain M is the steady

@@ -1,4 +1,4 @@
-"""The amplitude-dependent FRF of the plant: harmonic balance of its friction joints (issue 18).
+"""The amplitude-dependent FRF of the plant: harmonic balance of its friction joints.
 
 At one excitation force amplitude F [N] (F_exc = F cos(Omega t) at the excitation point) the
 first harmonic of the periodic response of the preloaded plant, in its modal coordinates q

@@ -133,13 +133,15 @@ def impulse_test(model: PlantModel, fn1: float) -> ImpulseResult:
     return ImpulseResult(float(fn1), freq, H, MODES, fn, zeta, np.arange(n) * dt, force, accel)
 
 
-def plot_frf(res: ImpulseResult, path: str, f_max: float) -> None:
-    """Log-magnitude accelerance over frequency with the identified modes marked (cf. Fig. 5)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def plot_frf(res: ImpulseResult, path: str | None = None, f_max: float | None = None):
+    """Log-magnitude accelerance over frequency up to ``f_max`` [Hz] (None: the FRF's last line)
+    with the identified modes marked (cf. Fig. 5); a matplotlib Figure, also written to ``path``
+    (PNG) if given."""
+    from matplotlib.figure import Figure
+    f_max = float(res.freq[-1]) if f_max is None else f_max
     sel = (res.freq > 1.0) & (res.freq <= f_max)
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig = Figure(figsize=(8, 4.5))
+    ax = fig.subplots()
     ax.semilogy(res.freq[sel], np.abs(res.frf[sel]), lw=0.8, color="C0", label="simulated")
     for m, f, z in zip(res.modes, res.freq_hz, res.damping_ratio):
         ax.axvline(f, color="0.6", lw=0.6, ls="--")
@@ -151,5 +153,6 @@ def plot_frf(res: ImpulseResult, path: str, f_max: float) -> None:
     ax.set_xlim(0, f_max)
     ax.grid(True, which="both", lw=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    if path is not None:
+        fig.savefig(path, dpi=120)
+    return fig

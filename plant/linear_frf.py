@@ -32,7 +32,7 @@ by the half tick of the held force (at 380 Hz near mode 4: 4.7 %, measured). The
 the closed loop with the contact stuck equals it within the settling tolerance (tests).
 
 Many lines at once (``modal_accelerance``, ``point_accelerances``: the FRF-file rig and
-diagnosis, issue 7). ``continuous_accelerance`` solves (K - w^2 I + i w C) x = b per line
+diagnosis). ``continuous_accelerance`` solves (K - w^2 I + i w C) x = b per line
 (6385 lines, 86 modal DOFs: ~1 s); instead, the first-order form of the same linearised plant,
 
     z' = A z + B F,   A = [[0, I], [-K, -C]],   B = [0; b],   z = [q; q'],

@@ -68,8 +68,8 @@ from frictionrt.plant.contact import (
 FASTMATH = {"reassoc", "contract"}
 # The kernels never allocate, so they are compiled without numba's reference counting
 # (_nrt=False; numba refuses at compile time if a function needed it). With it, every array
-# taken from the NamedTuples was incref'd/decref'd atomically per call: 2.07 -> 1.08 us per
-# step at 9 pairs, measured. The flag is numba's own (used in its test suite) but not in its
+# taken from the NamedTuples would be incref'd/decref'd atomically per call (about half the
+# step's time at 9 pairs). The flag is numba's own (used in its test suite) but not in its
 # public docs: pyproject pins numba's range and tests/test_realtime_properties.py checks it.
 PLAIN_ITER = 4  # Newton iterations before steps are shortened by backtracking
 ROUNDOFF = 64 * np.finfo(np.float64).eps  # relative floor of the Newton tolerance on the gaps

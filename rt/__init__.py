@@ -1,6 +1,6 @@
 """frictionrt's real-time side: the loop, logging, experiments, the discrepancy workflow, the CLI.
 
-The rooms (docs/architecture in README.md, "Layout"), each a sub-package whose ``__init__``
+The rooms (docs/layout.md), each a sub-package whose ``__init__``
 lists what the others may use:
 
 - ``frictionrt.rt.common``: configuration, clock slots, noise, the kernels' code generation and cache

@@ -134,9 +134,9 @@ def test_no_merge_conflict_markers_are_left():
 
 
 def test_docs_links_and_file_references_resolve():
-    # every relative link of README.md and docs/*.md, and every `package/file.py` they name
+    # every relative link of README.md and docs/**/*.md, and every `package/file.py` they name
     missing = []
-    for md in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+    for md in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
         text = md.read_text()
         for target in LINK.findall(text):
             if "://" in target or target.startswith("mailto:"):

@@ -10,7 +10,7 @@ from frictionrt.rt.experiments.reproduce_report import jsonable
 
 def _view(reduction: dict) -> dict:
     """One estimator's report part, as report.json has it (text keys), from reductions law -> mode -> amp."""
-    return jsonable({"peak_reduction_db": reduction,
+    return jsonable({"peak_change_db": reduction,
                      "claims": {"C3": claim_c3(reduction), "C4": claim_c4(reduction)}})
 
 

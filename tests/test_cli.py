@@ -144,8 +144,8 @@ def _writers():
 
 
 def _readme_out_table() -> dict[str, str]:
-    """{verb: what -o names} from README's table under "Where a verb writes"."""
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    """{verb: what -o names} from docs/commands.md's table under "Where a verb writes"."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "commands.md").read_text()
     lines = text[text.index("**Where a verb writes"):].splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("| verb |"))
     rows = {}
@@ -162,7 +162,7 @@ def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_
     # it creates; --help says which, as README's table does, and --force replaces it on every verb
     writers, table = _writers(), _readme_out_table()
     assert set(writers) == set(table) == {"simulate", "impulse", "compare", "frf", "reproduce", "tune", "rig",
-                                          "diagnose", "recover", "inspect", "export-c"}
+                                          "diagnose", "recover", "inspect", "export-c", "import-frf"}
     for name, p in writers.items():
         out = next(a for a in p._actions if "--out" in a.option_strings)
         assert "-o" in out.option_strings, name
@@ -184,6 +184,7 @@ def test_every_writing_verb_takes_o_for_out_and_force_and_the_readme_table_says_
     ("recover", ["{tmp}/broken.mcap.part"], "x.mcap"),
     ("inspect", ["{tmp}/broken.mcap.part"], "x.rrd"),
     ("export-c", ["--law", "passive"], "dir"),
+    ("import-frf", ["{tmp}/broken.mcap.part"], "dir"),
 ])
 def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args, existing, tmp_path, capsys):
     out = tmp_path / existing
@@ -200,7 +201,7 @@ def test_every_writing_verb_refuses_an_existing_output_without_force(verb, args,
 
 
 def test_force_replaces_a_folder_as_a_whole_and_keeps_it_when_the_verb_fails(tmp_path):
-    from frictionrt.rt.cli.common import write_folder
+    from frictionrt.rt.common.files import write_folder
     out = tmp_path / "campaign"
     out.mkdir()
     (out / "old.mcap").write_text("old")

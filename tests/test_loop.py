@@ -141,7 +141,7 @@ def test_compare_cli_table_and_plot(tmp_path, capsys):
     code = main(["compare", "--duration", "0.2", "-o", str(png), "--json"])
     rows = json.loads(capsys.readouterr().out)
     assert code == 0 and [r["law"] for r in rows] == ["passive", "hysteresis", "lyapunov"]
-    assert rows[0]["reduction_pct"] == 0.0
+    assert rows[0]["change_pct"] == 0.0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -170,7 +170,7 @@ def test_compare_places_the_laws_at_the_passive_step_sine_peak():
     assert h_peak > 0.95 * max(h_minus, h_plus)   # the top, to the refinement's resolution
     assert h_peak > 1.1 * h_linear   # measured 6.81 against 5.67 on the 10 mm plant (6.64 / 3.87 on the 20 mm one)
     rows = table(compare(cfg, f, AMP, 1.0))
-    assert 15 < rows[1]["reduction_pct"] < rows[2]["reduction_pct"]
+    assert -15 > rows[1]["change_pct"] > rows[2]["change_pct"]   # negative: lower than passive
 
 
 def test_bench_loop_against_python_control(capsys):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from frictionrt.rt.experiments.claims import (Verdict, claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6,
-                                             peak_reduction_db, verdict)
+                                             peak_change_db, verdict)
 from frictionrt.rt.cli import main
 from frictionrt.rt.common.config import load
 from frictionrt.rt.experiments.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
@@ -27,7 +27,7 @@ def _table(hy: dict, ly: dict) -> dict:
 
 def test_peak_reduction_is_20_log10_of_the_ratio():
     peaks = {"passive": {3: {5.0: 8.0, 20.0: 4.0}}, "lyapunov": {3: {5.0: 4.0, 20.0: 4.0}}}
-    red = peak_reduction_db(peaks)
+    red = peak_change_db(peaks)
     assert set(red) == {"lyapunov"}
     assert red["lyapunov"][3][5.0] == pytest.approx(-6.0206, abs=1e-4)  # half the peak: -6.02 dB
     assert red["lyapunov"][3][20.0] == 0.0
@@ -61,7 +61,7 @@ def test_c4_looks_at_the_smallest_amplitude_only():
     c = claim_c4(_table(hy, ly))
     assert c["holds"] and c["numbers"]["amplitude_n"] == 5.0 and c["numbers"]["worst_mode"]["hysteresis"] == 3
     c = claim_c4(_table({**hy, (4, 5.0): +1.25}, ly))
-    assert not c["holds"] and c["numbers"]["worst_reduction_db"]["hysteresis"] == 1.25
+    assert not c["holds"] and c["numbers"]["worst_peak_change_db"]["hysteresis"] == 1.25
 
 
 def test_c5_lyapunov_more_and_more_so_at_small_amplitudes():
@@ -291,7 +291,7 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
         for m in ("3", "4"):
             for a in ("5", "20"):
                 ratio = peaks[law][m][a]["H_abs"] / peaks["passive"][m][a]["H_abs"]
-                assert doc["peak_reduction_db"][law][m][a] == pytest.approx(20 * math.log10(ratio), rel=1e-12)
+                assert doc["peak_change_db"][law][m][a] == pytest.approx(20 * math.log10(ratio), rel=1e-12)
     # the best constant F_N1 is the lowest peak over the forces tried, F_min (the passive law) among them
     for m in ("3", "4"):
         for a in ("5", "20"):
@@ -305,16 +305,16 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
     # runs (which ignore the estimate) shared
     assert doc["plan"]["estimators"] == ["observer", "oracle"]
     obs, ora = doc["by_estimator"]["observer"], doc["by_estimator"]["oracle"]
-    assert obs["claims"] == doc["claims"] and obs["peak_reduction_db"] == doc["peak_reduction_db"]
+    assert obs["claims"] == doc["claims"] and obs["peak_change_db"] == doc["peak_change_db"]
     assert ora["peaks"]["passive"] == obs["peaks"]["passive"]
     assert ora["peaks"]["lyapunov"]["3"]["5"]["H_abs"] != obs["peaks"]["lyapunov"]["3"]["5"]["H_abs"]
-    cell = f"{obs['peak_reduction_db']['lyapunov']['3']['5']:+.2f} / {ora['peak_reduction_db']['lyapunov']['3']['5']:+.2f}"
+    cell = f"{obs['peak_change_db']['lyapunov']['3']['5']:+.2f} / {ora['peak_change_db']['lyapunov']['3']['5']:+.2f}"
     assert f"| lyapunov | 3 | {cell} |" in md
     # physics the claims rest on: the impulse-identified damping at 100 N (docs/plant.md 6.3: mode 3 at
     # 1.19 % on the graded joint, 0.90 % on the 5 mm / 2.5 mm ends reference), Lyapunov's peak at mode 3,
     # 5 N well below passive's (docs/loop.md)
     assert doc["impulse"]["zeta"]["3"] == pytest.approx(0.0119, rel=0.1)
-    assert doc["peak_reduction_db"]["lyapunov"]["3"]["5"] < -3.0
+    assert doc["peak_change_db"]["lyapunov"]["3"]["5"] < -3.0
     assert doc["claims"]["C6"]["holds"]  # Lyapunov switches F_N1 at twice the vibration frequency: > 10x power
 
 

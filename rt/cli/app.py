@@ -15,9 +15,10 @@ import sys
 
 import shtab
 
-from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, inspect, modes, observer,
-                    recover, replay, reproduce, rig, simulate, tune, validate)
-from frictionrt.rt.cli.common import Parser, actuator_verb, add_common, fail, json_errors, realtime_sets
+from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, import_frf, inspect, modes,
+                    observer, recover, replay, reproduce, rig, simulate, tune, validate)
+from frictionrt.rt.cli.common import (Parser, actuator_verb, add_common, fail, json_errors, realtime_sets,
+                                      split_negative_lists)
 from frictionrt.rt.common.config import ConfigError, load, require_adaptive_screw
 
 EPILOG = """units: SI throughout (m, s, N, N/m, Hz, Pa, kg/m^3); forces in N, frequencies in Hz.
@@ -58,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
 VERBS = {"config": config, "modes": modes, "impulse": impulse, "simulate": simulate, "compare": compare,
          "budget": budget, "observer": observer, "replay": replay, "bench": bench, "frf": frf,
          "validate": validate, "reproduce": reproduce, "tune": tune, "rig": rig, "diagnose": diagnose,
-         "recover": recover, "inspect": inspect, "export-c": export_c}
+         "recover": recover, "inspect": inspect, "export-c": export_c, "import-frf": import_frf}
 """Each verb's module, in the order --help lists them."""
 
 COMMANDS = {name: getattr(module, f"cmd_{name.replace('-', '_')}") for name, module in VERBS.items()}
@@ -66,12 +67,27 @@ COMMANDS = {name: getattr(module, f"cmd_{name.replace('-', '_')}") for name, mod
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
+    argv = split_negative_lists(sys.argv[1:] if argv is None else list(argv))
     json_errors("--json" in argv)   # for this command line only (rt.cli.common)
     try:
         return _main(build_parser().parse_args(argv))
+    except BrokenPipeError:
+        return _closed_pipe()
     finally:
         json_errors(False)
+
+
+def _closed_pipe() -> int:
+    """The reader of stdout went away (``frictionrt ... | head``): end quietly with 141 (128 +
+    SIGPIPE, what a shell reports for a command killed by the signal). stdout is pointed at
+    /dev/null so that the interpreter's final flush does not raise again."""
+    import os
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    return 141
 
 
 def _main(args) -> int:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import shtab
 
-from frictionrt.rt.cli.common import fail
+from frictionrt.rt.cli.common import add_estimator, fail
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -27,8 +27,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     b.add_argument("--cc", metavar="CC", default=None, help="controller with --c: the C compiler (default: $CC or cc)")
     b.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov",
                    help="controller: the law")
-    b.add_argument("--estimator", choices=["oracle", "observer"], default="observer",
-                   help="controller: the estimator")
+    add_estimator(b)
     b.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     return b
 

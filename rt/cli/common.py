@@ -9,14 +9,15 @@
 - Output: ``-o``/``--out`` names where a verb writes (``add_out``): the one file it writes (its
   viewer companions beside it, named after it), or a folder it creates; an existing output is
   refused unless ``--force`` (``add_force``, ``refuse_existing``), which replaces it (a folder as a
-  whole: ``write_folder``). Old spellings stay for one release with a one-line note
-  (``add_deprecated``). README, "Where a verb writes", has the table.
+  whole: ``frictionrt.rt.common.files.write_folder``). Old spellings stay for one release with a one-line note
+  (``add_deprecated``). docs/commands.md, "Where a verb writes", has the table.
 - Help: one formatter for every verb (``HelpFormatter``: defaults shown as "(default: VALUE)").
 """
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import textwrap
 from pathlib import Path
@@ -57,7 +58,7 @@ class Parser(argparse.ArgumentParser):
 
 def add_out(p: argparse.ArgumentParser, metavar: str, help: str, **kw) -> None:
     """-o/--out: where the verb writes; ``help`` starts with what it names: "the file ..." or "a
-    folder it creates ..." (README, "Where a verb writes")."""
+    folder it creates ..." (docs/commands.md, "Where a verb writes")."""
     assert help.startswith(("the file", "a folder")), help
     p.add_argument("-o", "--out", metavar=metavar, help=help, **kw)
 
@@ -88,6 +89,49 @@ def add_common(p: argparse.ArgumentParser, top: bool) -> None:
                         "(list elements by name); repeatable")
 
 
+class CommaList(argparse.Action):
+    """A list option in the one syntax of every verb: comma-separated values (``--amps 5,20``),
+    converted by ``kind`` (float, int, or a ``choices`` check for names). The old spelling,
+    space-separated values (``--amp 5 20``), is accepted with a one-line note. Values that start
+    with a minus sign (``--freqs -5,200``) reach the option too (``split_negative_lists``)."""
+
+    def __init__(self, option_strings, dest, kind=float, example: str = "5,20", allowed=None, **kw):
+        self.kind, self.example, self.allowed = kind, example, allowed
+        kw.setdefault("nargs", "+")
+        super().__init__(option_strings, dest, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        values = values if isinstance(values, list) else [values]
+        if len(values) > 1:
+            deprecated(f"{option_string} {' '.join(values)} (space-separated)", f"{option_string} {','.join(values)}")
+        text = ",".join(values)
+        try:
+            items = parse_list(text, self.kind, option_string, self.example)
+        except ValueError as exc:
+            parser.error(str(exc))
+        if self.allowed is not None:
+            bad = [v for v in items if v not in self.allowed]
+            if bad:
+                parser.error(f"{option_string} {bad[0]!r}: give one or more of {', '.join(self.allowed)}, comma-separated")
+        setattr(namespace, self.dest, items)
+
+
+LIST_VALUE = re.compile(r"^-[\d.]+(?:[eE][+-]?\d+)?,")
+
+
+def split_negative_lists(argv: list[str]) -> list[str]:
+    """argv with an option's comma list that starts with a minus sign joined to it
+    (``--freqs -5,200`` -> ``--freqs=-5,200``): argparse would take ``-5,200`` for an option and
+    say only "expected one argument"; joined, the value reaches the option's own check."""
+    out: list[str] = []
+    for a in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and LIST_VALUE.match(a):
+            out[-1] = f"{out[-1]}={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def parse_list(text: str, kind, option: str, example: str) -> list:
     """The comma-separated values of an option (``kind`` each, e.g. float); ValueError naming
     the option and an example when one is not a number or the list is empty."""
@@ -98,6 +142,27 @@ def parse_list(text: str, kind, option: str, example: str) -> list:
     if not values:
         raise ValueError(f"{option} {text!r}: empty list; give at least one value, e.g. {example}")
     return values
+
+
+def spec_default(key: str) -> str:
+    """``KEY = VALUE`` of the spec's default configuration, for --help texts whose default is a
+    configuration key (e.g. "tracking.law = hysteresis"): --config/--set may change it."""
+    from frictionrt.rt.common.config import Config
+    obj = Config()
+    for part in key.split("."):
+        obj = next(x for x in obj if x.name == part) if isinstance(obj, tuple) else getattr(obj, part)
+    return f"{key} = {obj:g}" if isinstance(obj, float) else f"{key} = {obj}"
+
+
+def add_estimator(p: argparse.ArgumentParser, both: bool = False) -> None:
+    """--estimator: what the laws run on (``Estimator``; the observer by default); ``both``: also
+    "both", the default then (reproduce: the claims on the observer, the oracle beside them)."""
+    from frictionrt.rt.common.config import DEFAULT_ESTIMATOR, ESTIMATORS
+    choices = (*ESTIMATORS, "both") if both else ESTIMATORS
+    p.add_argument("--estimator", choices=choices, default="both" if both else DEFAULT_ESTIMATOR.value,
+                   help="observer: the paper's Kalman-designed observer on the tip accelerometer and the force cell; "
+                        "oracle: the plant's own band-limited u_rel, v_rel (the upper bound)"
+                        + ("; both: the claims on the observer, the oracle beside them" if both else ""))
 
 
 def add_realtime(p: argparse.ArgumentParser) -> None:
@@ -251,28 +316,6 @@ class DeprecatedSpelling(argparse.Action):
 def add_deprecated(p: argparse.ArgumentParser, old: str, new: str, dest: str = "out", **kw) -> None:
     """Keep the old spelling ``old`` of the option now spelled ``new`` (``DeprecatedSpelling``)."""
     p.add_argument(old, dest=dest, action=DeprecatedSpelling, new=new, default=argparse.SUPPRESS, **kw)
-
-
-def write_folder(out, force: bool, write):
-    """Run ``write()``, which creates the folder ``out``, and return its result. With ``force`` an
-    existing ``out`` is moved aside first (a hidden sibling), removed once ``write`` returned and put
-    back if it raised: --force replaces a folder as a whole and never loses the old one to a failed run."""
-    import os
-    import shutil
-    out = Path(out)
-    aside = None
-    if force and out.exists():
-        aside = out.with_name(f".{out.name}.replaced-{os.getpid()}")
-        os.replace(out, aside)
-    try:
-        result = write()
-    except BaseException:
-        if aside is not None and not out.exists():
-            os.replace(aside, out)
-        raise
-    if aside is not None:
-        shutil.rmtree(aside) if aside.is_dir() else aside.unlink()
-    return result
 
 
 def deprecated(old: str, new: str) -> None:

@@ -9,33 +9,17 @@ import time
 
 import shtab
 
-from frictionrt.rt.cli.common import add_force, add_out, fail, write_folder
+from frictionrt.rt.cli.common import add_force, add_out, fail
+from frictionrt.rt.common.files import write_folder
 
 INTERRUPTED = 130       # exit status after Ctrl-C (128 + SIGINT), the fits done so far kept
-DESCRIPTION = """Runs the nominal model (--config/--set) on the campaign's measured inputs (hammer force,
-V_cmd), calibrates E, mu, k_t, modal damping, c_v and the dispersion (the data's time step against
-the model's: 0 for the virtual rig's own data, ~1 for a lab's), fits each implemented effect of the library
-jointly with the calibration (structure: on the log-magnitude FRFs of both accelerometers at every
-F_N1; actuator: on V_a, i, F_cell; with step-sine files (rig --stepsine): the shaker on the force
-ratio F_amp/drive), ranks them by BIC and names the best only if it beats calibration alone by more
-than 10, removes at least 25 % of its channels' residual sum of squares and is fitted away from its
-nominal strength (else "no missing effect found"). The candidates' fits and the model's step-sines
-run in --jobs processes, or on a dask cluster with --dask.
-About 10-25 s per campaign on 2 cores (30-50 s with step-sine tests).
-A folder of measured FRF files instead (*.csv/*.uff/*.unv with JSON sidecars, no *.mcap;
-docs/data-format.md "FRF files") is fitted with the linear stuck-contact model of the --config
-structure: E, k_t, modal damping and each structural effect on the log-magnitude FRFs (mu cannot
-act there), about 10 s. With --calibrate-on LEVELS (FRF files at several force amplitudes, e.g. from
-rig --frf-files --levels): the linear model and the harmonic balance of the joints (plant.harmonic_frf)
-are calibrated on the files at those levels only and predict the others; the report gives both
-predictions' gaps around the softening mode (1-2 min); --harmonic-method aft for a joint whose contact
-opens and closes (about 2 min on configs/lap_joint_al.toml). Random tests (rig --excitation random; a lab's
-1,600 lines a level) are the joint linearised under its random gap, about 1 min for six levels. Every diagnosis shows its fits' progress
-on stderr (with --json too): a bar over each fit's model evaluations with its best cost, and one over the
-candidates' fits run in parallel. Ctrl-C stops it and keeps the fits done so far, and the best point of
-the fit it stopped (printed, and in --out's folder, written beside and renamed; exit 130). Every fit
-stays within what the configuration accepts (e.g. plant.interface.mu 0..2). The wall time is printed
-on stderr. Method: docs/discrepancy.md."""
+DESCRIPTION = """Finds where the model and a campaign's measurements disagree and names the missing effect:
+calibrates the nominal model (--config/--set) on the campaign (E, mu, k_t, modal damping, ...),
+fits each effect of the library with it, ranks them by BIC and names the best only where it beats
+calibration alone clearly (else "no missing effect found"); reports the gap before and after. A
+folder of FRF files is fitted with the linear stuck-contact model; --calibrate-on LEVELS fits the
+joints' harmonic balance on some levels and predicts the others. Progress bars on stderr; Ctrl-C
+keeps the fits done so far (exit 130). Method, run times and the report: docs/discrepancy.md."""
 
 EXAMPLES = """examples:
   frictionrt diagnose logs/campaign_acc
@@ -67,14 +51,9 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    "these force amplitudes [N] (sidecar amplitude_n) and predict the others, linear model against "
                    "the harmonic balance of the joints (rt/discrepancy/diagnose/levels.py)")
     p.add_argument("--harmonic-method", choices=("df", "aft"), default="df",
-                   help="with --calibrate-on: the harmonic balance's method (plant/harmonic_frf.py). df: "
-                        "describing functions with the normal contact linear, fast (0.1 s a model, 0.06 ms a line), "
-                        "exact while "
-                        "the joint stays closed; aft: the plant's own pair law over the period (contact opening and "
-                        "closing, slip limit following the normal force), for joints that gape, e.g. a lap joint's "
-                        "overlap ends (about 4x the cost; docs/discrepancy.md \"Amplitude dependence\"). Random "
-                        "tests (rig --excitation random) take df only: their joint is linearised under its simulated "
-                        "random gap (rt/discrepancy/diagnose/random_level.py)")
+                   help="with --calibrate-on: the harmonic balance's method. df: describing functions, the normal "
+                        "contact linear (fast; exact while the joint stays closed); aft: the pair law over the "
+                        "period, for joints whose contact opens (about 4x the cost; random tests take df only)")
     return p
 
 
@@ -112,23 +91,18 @@ def _interrupted(part: dict, args) -> int:
 
 def _campaign_or_frf(cfg, args, say) -> int:
     """``diagnose`` of a campaign (rt.discrepancy.diagnose.campaign) or of FRF files (.frf)."""
-    from frictionrt.rt.discrepancy.diagnose import diagnose, diagnose_frf, is_frf_folder, public, summary
+    from frictionrt.jobs import diagnose
     from frictionrt.rt.discrepancy.diagnose.watch import Interrupted
     try:
-        if is_frf_folder(args.folder):
-            res = diagnose_frf(args.folder, cfg, progress=say, bars=True)
-        else:
-            res = diagnose(args.folder, cfg, progress=say, jobs=args.jobs, dask_address=args.dask, bars=True)
+        res = diagnose(args.folder, cfg, out=args.out, force=args.force, jobs=args.jobs, dask=args.dask, progress=say,
+                       bars=True)
     except ConnectionError as exc:
         return fail(f"diagnose --dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(f"diagnose: {exc}")
     except Interrupted as stop:   # Ctrl-C: keep the fits done so far
         return _interrupted(stop.partial, args)
-    if args.out:
-        from frictionrt.rt.discrepancy.diagnose import write_report
-        write_folder(args.out, args.force, lambda: write_report(res, args.out))
-    print(json.dumps(public(res)) if args.json else summary(res))
+    print(res.to_json() if args.json else str(res))
     return 0
 
 

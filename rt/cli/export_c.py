@@ -12,7 +12,7 @@ from pathlib import Path
 
 import shtab
 
-from frictionrt.rt.cli.common import add_force, add_out, fail, write_folder
+from frictionrt.rt.cli.common import spec_default, add_estimator, add_force, add_out, fail
 
 DESCRIPTION = """Write the controller of the resolved configuration (or, with --from-log, of the design a run
 log carries) as self-contained C99 into the folder DIR: frictionrt_ctrl.h / .c (ctrl_init, ctrl_step on plain
@@ -37,9 +37,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                       "Makefile, the harness and frictionrt_export.json (required; its parent folder must exist); "
                       "an existing one (not empty) is refused, or with --force replaced as a whole", required=True)
     p.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
-                   help="control law (default: tracking.law)")
-    p.add_argument("--estimator", choices=["oracle", "observer"], default="observer",
-                   help="observer (what a rig runs) or oracle (a test build that reads the plant's u_rel, v_rel)")
+                   help=f"control law (default: {spec_default('tracking.law')})")
+    add_estimator(p)
     p.add_argument("--from-log", metavar="RUN.mcap", default=None,
                    help="export the design a run log carries (its configuration, law, estimator and design "
                         "arrays; --law, --estimator do not apply)").complete = shtab.FILE
@@ -49,30 +48,20 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_export_c(cfg, args) -> int:
-    from frictionrt.rt.export.generate import MANIFEST, export_c
+    from frictionrt.jobs import export_c
+    from frictionrt.rt.export.generate import MANIFEST
     out = Path(args.out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
-        return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
-    if not out.parent.exists():
-        return fail(f"--out {out}: folder {out.parent} does not exist")
     try:
-        if args.from_log:
-            from frictionrt.rt.export.replay_c import log_design
-            _, _, _, loop, st, report = log_design(Path(args.from_log), cfg, args.sets)
-            source = f"the log {args.from_log} ({report['why']})"
-        else:
-            from frictionrt.rt.loop import build_loop, initial_loop_state
-            loop = build_loop(cfg, args.law, args.estimator)
-            st = initial_loop_state(loop, cfg.rt.seed)
-            source = "the resolved configuration"
-        m = write_folder(out, args.force, lambda: export_c(loop, st, out, source))   # --force: the old one as a whole
+        m = export_c(cfg, out=out, law=args.law, estimator=args.estimator, from_log=args.from_log, sets=args.sets,
+                     force=args.force).to_dict()
+    except FileExistsError:
+        return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
     except ValueError as exc:
-        return fail(str(exc))
+        return fail(str(exc).replace("out ", "--out ", 1) if str(exc).startswith("out ") else str(exc))
     if args.json:
-        print(json.dumps(m | {"folder": str(out)}))
+        print(json.dumps(m))
         return 0
     print(f"export-c {out}: law {m['law']}, estimator {m['estimator']}{' (test build)' if m['estimator'] == 'oracle' else ''}, "
           f"design {m['design_hash']}")
     print(f"  from {m['source']}; {MANIFEST}, C sources, Makefile (make -C {out}), harness ctrl_harness")
     return 0
-

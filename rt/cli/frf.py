@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from frictionrt.rt.common.config import LAWS, Config, dumps
-from frictionrt.rt.cli.common import (add_common, add_controller, add_force, add_out, c_exports, controller_for, fail,
+from frictionrt.rt.cli.common import (CommaList, add_estimator, add_common, add_controller, add_force, add_out, c_exports, controller_for, fail,
                            parse_list, refuse_existing)
 
 DESCRIPTION = """Step-sine accelerance FRF H = a(x = 0.45 m) / F_exc [(m/s^2)/N] of the closed loop, as the
@@ -22,10 +22,10 @@ amplitude [N] is held on the measured force, and the point is measured once H ha
 previous one's state; one sweep per law and amplitude, run in parallel."""
 
 EXAMPLES = """examples:
-  frictionrt frf --law passive lyapunov --amp 5 --around-modes 3 --plot logs/frf_mode3.png
-  frictionrt frf --law hysteresis --amp 5 20 --freqs 190,195,200,205 --down --json
-  frictionrt frf --law passive --amp 5 --around-modes 2,3,4,5 --dask tcp://10.0.0.5:8786 --out logs/frf.json
-  frictionrt frf --law passive --amp 5 --freqs 185,205 --sweep-rate 0.5 --down --plot logs/sweep_down.png"""
+  frictionrt frf --law passive,lyapunov --amps 5 --around-modes 3 --plot logs/frf_mode3.png
+  frictionrt frf --law hysteresis --amps 5,20 --freqs 190,195,200,205 --down --json
+  frictionrt frf --law passive --amps 5 --around-modes 2,3,4,5 --dask tcp://10.0.0.5:8786 --out logs/frf.json
+  frictionrt frf --law passive --amps 5 --freqs 185,205 --sweep-rate 0.5 --down --plot logs/sweep_down.png"""
 
 
 def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
@@ -37,12 +37,12 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
         parents = [common]
     p = subparsers.add_parser("frf", parents=parents, help="step-sine FRF [(m/s^2)/N] per law and force amplitude",
                               description=DESCRIPTION, epilog=EXAMPLES)
-    p.add_argument("--law", nargs="+", choices=LAWS, required=True, metavar="LAW",
-                   help=f"control law(s), one sweep each: {', '.join(LAWS)}")
-    p.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
-                   help="observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
-    p.add_argument("--amp", nargs="+", type=float, required=True, metavar="N",
-                   help="excitation force amplitude(s) [N] held on the measured force, one sweep each (> 0)")
+    p.add_argument("--law", "--laws", action=CommaList, kind=str, allowed=LAWS, required=True, metavar="LAW1,LAW2",
+                   example="passive,lyapunov", help=f"control law(s), comma-separated, one sweep each: {', '.join(LAWS)}")
+    add_estimator(p)
+    p.add_argument("--amps", "--amp", action=CommaList, kind=float, required=True, metavar="N1,N2",
+                   help="excitation force amplitude(s) [N] held on the measured force, comma-separated, one sweep "
+                        "each (> 0)")
     grid = p.add_mutually_exclusive_group(required=True)
     grid.add_argument("--freqs", metavar="F1,F2,...",
                       help="explicit frequencies [Hz], comma-separated, below the Nyquist frequency (10500 Hz at "
@@ -128,7 +128,7 @@ def cmd_frf(cfg: Config, args) -> int:
     one ``StepSineResult.to_dict()`` per sweep)."""
     from frictionrt.rt.experiments.branches import Branch, run_branches
     from frictionrt.rt.experiments.stepsine import Settle, plot_frfs
-    for a in args.amp:
+    for a in args.amps:
         if not (math.isfinite(a) and a > 0.0):
             return fail(f"--amp {a:g} N: an FRF needs a finite force amplitude > 0 N")
     if args.jobs is not None and args.jobs < 1:
@@ -160,7 +160,7 @@ def cmd_frf(cfg: Config, args) -> int:
         freqs = [freqs[0], freqs[-1]]   # the range, in sweep order
         rate = -rate if args.down else rate
     branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle, sweep_rate_hz_s=rate)
-                for law in args.law for a in args.amp]
+                for law in args.law for a in args.amps]
     loops = None
     try:
         exports = c_exports(args.controller, [(law, args.estimator) for law in dict.fromkeys(args.law)])

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -17,8 +16,8 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_modes(cfg, args) -> int:
-    from frictionrt.plant.modes import format_summary, modes_summary
-    s = modes_summary(cfg)
-    print(json.dumps(s) if args.json else format_summary(s))
+    from frictionrt.jobs import modes
+    res = modes(cfg)
+    print(res.to_json() if args.json else str(res))
     return 0
 

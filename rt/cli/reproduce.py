@@ -6,14 +6,12 @@ and returns the exit code (0 done, 2 bad input with one line on stderr).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 from pathlib import Path
 
 from frictionrt.rt.common.config import Config
-from frictionrt.rt.cli.common import add_force, add_out, fail, refuse_existing
-from frictionrt.rt.experiments.discretisation import ErrorEstimate
+from frictionrt.rt.cli.common import add_estimator, add_force, add_out, fail, refuse_existing
 
 DESCRIPTION = """Reproduce Becker & Gaul's experiments (SPEC section 6) and decide their claims C1..C6 on the
 numbers measured: an impulse test at F_N1 = 100 N (identified modal damping), amplitude-controlled
@@ -22,7 +20,7 @@ Lyapunov control at several excitation force amplitudes [N] (the laws on the pap
 the oracle beside it as the upper bound), and the passive law at several constant
 F_N1 [N] (the best constant clamping force: the fair baseline). Writes into --out: fig5.png (impulse
 FRF), fig7.png (hysteresis vs passive), fig8.png (Lyapunov vs passive), report.md (claims table,
-peak reduction [dB], best constant F_N1, actuator energy [J]) and report.json; all files appear at
+peak change [dB] (negative: lower than passive), best constant F_N1, actuator energy [J]) and report.json; all files appear at
 once when the run has finished. Full run: modes 2-5 at 5, 10, 20 N; --quick: modes 3, 4 at 5, 20 N
 on a coarse grid (docs/experiments.md)."""
 
@@ -46,22 +44,19 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                       "logs/reproduce); an existing one is refused, or with --force replaced as a whole",
             default="logs/reproduce")
     add_force(p, "an existing folder as a whole")
-    p.add_argument("--estimator", choices=["both", "observer", "oracle"], default="both",
-                   help="estimate of u_rel, v_rel for the controlled laws: observer (the paper's: Kalman-designed, "
-                        "on the tip accelerometer and the force cell), oracle (the plant's own, band-limited: the "
-                        "upper bound) or both (default: the claims on the observer, the oracle's beside them; the "
-                        "passive runs, which ignore the estimate, are shared)")
+    add_estimator(p, both=True)
     p.add_argument("--modes", metavar="M1,M2", help="these bending modes of the plan only, e.g. 5 (of 2-5)")
     p.add_argument("--amps", metavar="A1,A2", help="these excitation amplitudes [N] instead of the plan's, at least two")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the step-sine sweeps on this dask scheduler's workers instead (frictionrt installed there)")
-    p.add_argument("--error-estimate", choices=[e.value for e in ErrorEstimate], default="auto",
-                   help="how far the plant's discretisation moves each claim's margin: Richardson from this run and "
-                        "the same plan with the contact pitch and elements x2 (order 1); auto (default): the coarse "
-                        "margins stored for this configuration and plan, else the coarse run (about as long again); "
-                        "run: always the coarse run; none: no estimate, each verdict from its margin's sign")
+    p.add_argument("--error-estimate", choices=["auto", "run", "none"], default="auto",
+                   help="how far the plant's discretisation moves each claim's margin: C2 from the impulse test on "
+                        "the refined plant, C3-C6 by Richardson from this run and the same plan with the contact "
+                        "pitch and elements x2 (order 1); auto (default): the margins stored for this configuration "
+                        "and plan, else those runs (about as long again); run: always those runs; none: no "
+                        "estimate, each verdict from its margin's sign")
     p.add_argument("--json", action="store_true", help="print report.json's content as one JSON object (no progress)")
     return p
 
@@ -83,38 +78,34 @@ def _check_out(out: Path) -> str | None:
 
 def cmd_reproduce(cfg: Config, args) -> int:
     """Run ``frictionrt reproduce``: validate, measure, evaluate, write (rt.experiments.reproduce_report)."""
-    from frictionrt.rt.experiments.reproduce import ESTIMATORS, FULL, QUICK, measure
+    from frictionrt.jobs import reproduce
+    from frictionrt.rt.common.config import ESTIMATORS
     from frictionrt.rt.experiments.branches import sweeps_line
-    from frictionrt.rt.experiments.reproduce_report import CLAIM_TEXT, jsonable, write_outputs
+    from frictionrt.rt.experiments.reproduce_report import CLAIM_TEXT
     if args.jobs is not None and args.jobs < 1:
         return fail(f"--jobs {args.jobs}: must be >= 1 (local worker processes)")
     out = Path(args.out)
     problem = _check_out(out) or refuse_existing([out], args.force)
     if problem:
         return fail(problem)
-    plan = QUICK if args.quick else FULL
     try:
-        if args.modes:
-            plan = dataclasses.replace(plan, modes=tuple(int(m) for m in args.modes.split(",")))
-        if args.amps:
-            plan = dataclasses.replace(plan, amps_n=tuple(float(a) for a in args.amps.split(",")))
+        modes = [int(m) for m in args.modes.split(",")] if args.modes else None
+        amps = [float(a) for a in args.amps.split(",")] if args.amps else None
     except ValueError:
         return fail(f"--modes {args.modes} / --amps {args.amps}: give comma-separated numbers, e.g. --modes 5 --amps 5,10")
     say = (lambda text: None) if args.json else (lambda text: print(f"reproduce: {text}", file=sys.stderr))
     try:
-        plan.check(cfg)
         estimators = ESTIMATORS if args.estimator == "both" else (args.estimator,)
-        result = measure(cfg, plan, estimators, args.jobs, args.dask, progress=not args.json, stage=say,
-                         error_estimate=ErrorEstimate(args.error_estimate))
+        res = reproduce(cfg, quick=args.quick, estimators=estimators, modes=modes, amps_n=amps, out=out, force=True,
+                        jobs=args.jobs, dask=args.dask, progress=not args.json, stage=say,
+                        error_estimate=args.error_estimate)
     except ConnectionError as exc:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
-    except ValueError as exc:
-        return fail(str(exc))
-    try:
-        write_outputs(out, result, cfg.impulse.f_max_hz)
     except OSError as exc:
         return fail(f"--out {out}: cannot write ({exc.strerror or exc}); give a folder you can write to")
-    report = jsonable(result["report"])
+    except ValueError as exc:
+        return fail(str(exc))
+    report = res.to_dict()
     if args.json:
         print(json.dumps(report))
         return 0
@@ -130,7 +121,8 @@ def cmd_reproduce(cfg: Config, args) -> int:
                                     for v in by_est.values())
               + f"  {margin:>20} {'-' if shift is None else f'{shift:+.3g}':>14}  {CLAIM_TEXT[c]}")
     for e, v in by_est.items():
-        print(f"peak reduction [dB], {e} (law: mode: amplitude): {json.dumps(v['peak_reduction_db'])}")
+        print(f"peak change [dB] (negative: lower than passive), {e} (law: mode: amplitude): "
+              f"{json.dumps(v['peak_change_db'])}")
     print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}; "
           + sweeps_line(report["timing_s"]["sweeps"]))
     print(f"report: {out / 'report.md'}; figures: {out / 'fig5.png'}, {out / 'fig7.png'}, {out / 'fig8.png'}")

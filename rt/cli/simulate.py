@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from frictionrt.rt.cli.common import (add_controller, add_force, add_out, add_realtime, c_exports, controller_for, deprecated,
+from frictionrt.rt.cli.common import (spec_default, add_estimator, add_controller, add_force, add_out, add_realtime, c_exports, controller_for, deprecated,
                            fail, realtime_notes, refuse_existing, unpaced_realtime)
 
 
@@ -19,15 +19,14 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                                    "mean F_N1 [N], actuator energy [J], overruns); with --out, log every signal "
                                    "to PATH.mcap and PATH.rrd while the loop runs.")
     s.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default=None,
-                   help="control law (default: tracking.law)")
-    s.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
-                   help="observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
+                   help=f"control law (default: {spec_default('tracking.law')})")
+    add_estimator(s)
     s.add_argument("--freq", type=float, required=True, metavar="HZ", help="excitation frequency [Hz]")
     s.add_argument("--amp", type=float, required=True, metavar="N", help="excitation force amplitude [N]")
     s.add_argument("--duration", type=float, default=1.0, metavar="S", help="simulated time [s]")
     s.add_argument("--paced", action="store_true", help="pace the ticks to the wall clock (21 kHz)")
     add_realtime(s)
-    s.add_argument("--seed", type=int, default=None, metavar="N", help="sensor noise seed (default: rt.seed)")
+    s.add_argument("--seed", type=int, default=None, metavar="N", help=f"sensor noise seed (default: {spec_default('rt.seed')})")
     add_out(s, "NAME.mcap", "the file to write the log to, NAME.mcap (.mcap added if missing), with its rerun "
                             "recording NAME.rrd and Foxglove layout NAME.foxglove.json beside it; the folder must exist")
     add_force(s)
@@ -47,20 +46,10 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
 
 
 def cmd_simulate(cfg, args) -> int:
-    from tqdm import tqdm
-
-    from frictionrt.rt.log.data_format import run_test_record
-    from frictionrt.rt.loop.faults import schedule, to_json
-    from frictionrt.rt.log.design_record import DESIGN_ATTACHMENT, MEDIA_TYPE, design_arrays, to_npz
-    from frictionrt.rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
-    from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S, open_run_log, run_metadata
-    if args.seed is not None and args.seed < 0:
-        return fail(f"--seed {args.seed}: must be a non-negative integer")
+    from frictionrt.jobs import simulate
+    from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S
     if msg := unpaced_realtime(args):
         return fail(msg)
-    if not args.ring > 0:
-        return fail(f"--ring {args.ring:g} s: must be > 0 s")
-    base = None
     if args.out:
         base = Path(args.out)
         if base.suffix == ".rrd":   # the old spelling: the stem of all three files
@@ -72,45 +61,22 @@ def cmd_simulate(cfg, args) -> int:
         outputs = [base.with_name(base.name + s) for s in (".mcap", ".foxglove.json", *(() if args.no_rrd else (".rrd",)))]
         if msg := refuse_existing(outputs, args.force):
             return fail(msg)
-    writer = None
     try:
-        faults = schedule(args.fault, cfg)
-        if not args.paced and any("cpu_stall" in f for f in args.fault):
-            return fail("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced")
-        loop = build_loop(cfg, args.law, args.estimator)
-        n = check_run_input(loop, args.freq, args.amp, args.duration, ring=base is not None)  # --out: a ring
-        late = [t for t, f in zip(args.fault, faults) if f[2] >= n]
-        if late:
-            return fail(f"--fault {late[0]!r}: starts after the run's end ({args.duration:g} s); give a TIME below it")
-        # the C export before the log is opened: a bad --controller leaves no files
-        controller = controller_for(c_exports(args.controller, [(loop.law, loop.estimator)]), loop,
-                                    cfg.rt.seed if args.seed is None else args.seed)
-        if base is not None:
-            seed = cfg.rt.seed if args.seed is None else args.seed
-            meta = run_metadata(cfg, loop.law, loop.estimator, seed, args.freq, args.amp, args.duration, args.paced)
-            meta["faults"] = json.dumps(to_json(faults))
-            meta["controller_design"] = design_hash_of(loop, seed)   # what export-c writes for it
-            writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=not args.no_rrd, ring_s=args.ring)
-            writer.mcap.add_metadata("test", run_test_record(loop, args.freq, args.amp, args.duration))
-            writer.mcap.add_attachment(DESIGN_ATTACHMENT, MEDIA_TYPE,
-                                       to_npz(design_arrays(loop, initial_loop_state(loop, seed))))
-        with tqdm(total=n, unit="tick", unit_scale=True, disable=args.json, desc=f"simulate {loop.law}") as bar:
-            r = run(loop, args.freq, args.amp, args.duration, paced=args.paced, seed=args.seed, progress=bar.update,
-                    writer=writer, faults=faults, controller=controller)
+        seed = cfg.rt.seed if args.seed is None else args.seed
+        exports = c_exports(args.controller, [(args.law or cfg.tracking.law, args.estimator)])
+        res = simulate(cfg, freq_hz=args.freq, amp_n=args.amp, law=args.law, estimator=args.estimator,
+                       duration_s=args.duration, paced=args.paced, seed=args.seed, out=args.out, force=args.force,
+                       rrd=not args.no_rrd, ring_s=args.ring, faults=args.fault, progress=not args.json,
+                       controller_of=(lambda loop: controller_for(exports, loop, seed)) if exports else None)
     except ValueError as exc:
-        return fail(str(exc))
-    finally:
-        if writer is not None:
-            writer.finish()  # idempotent: closes the files also if the run never started
-    if len(r.log) < 2:
-        return fail("interrupted before the loop ran: nothing to summarise")
-    s = summary(r)
-    s["interrupted"] = r.interrupted or (writer is not None and writer.interrupted)
+        return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("ring ", "--ring ", 1)
+                    if str(exc).startswith(("freq_hz", "ring ")) else str(exc))
+    except KeyboardInterrupt as exc:
+        if str(exc).startswith("interrupted before"):
+            return fail(str(exc))
+        raise
+    s = res.to_dict()
     realtime_notes(s.get("realtime"))
-    if writer is not None:
-        s |= {"mcap": writer.paths["mcap"], "rrd": writer.paths["rrd"], "foxglove_layout": writer.paths["foxglove"],
-              "dropped_blocks": writer.dropped_blocks,
-              "unwritten_ticks": writer.unwritten_ticks}
     if args.json:
         print(json.dumps(s))
         return 130 if s["interrupted"] else 0
@@ -133,15 +99,7 @@ def cmd_simulate(cfg, args) -> int:
                  f"{f['passive_tick']}" if f["detected_tick"] is not None else "not detected"))
     if s["trips"] and not s["faults"]:
         print("supervisor: " + ", ".join(f"{t['name']} (code {t['code']}) at tick {t['tick']}" for t in s["trips"]))
-    if writer is not None:
+    if "mcap" in s:
         print(f"log: {s['mcap']}{', ' + s['rrd'] if s['rrd'] else ''}; dropped blocks {s['dropped_blocks']}; "
               f"Foxglove layout {s['foxglove_layout']}")
     return 130 if s["interrupted"] else 0
-
-
-def design_hash_of(loop, seed: int) -> str:
-    """The design hash of the controller of a run of ``loop`` (``simulate --out`` stores it in the
-    log's "frictionrt" record as "controller_design")."""
-    from frictionrt.rt.export.record import controller_record, design_hash
-    from frictionrt.rt.loop import initial_loop_state
-    return design_hash(controller_record(loop, initial_loop_state(loop, seed)))

@@ -9,17 +9,18 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import tempfile
+import sys
 from pathlib import Path
 
 from frictionrt.rt.common.config import Config, ConfigError
-from frictionrt.rt.cli.common import add_force, add_out, fail, parse_list, refuse_existing
+from frictionrt.rt.cli.common import CommaList, add_estimator, add_force, add_out, fail, parse_list, refuse_existing
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
-each runs step-sine sweeps around --modes at each --amp [N] force amplitude, and is scored by
-  1. the mean peak reduction against the passive law (constant F_N1 = tracking.F_passive_N) [dB], and
+each runs step-sine sweeps around --modes at each --amps [N] force amplitude, and is scored by
+  1. the mean peak change against the passive law (constant F_N1 = tracking.F_passive_N) [dB],
+     20 log10(peak_law / peak_passive): negative = the law's peak is lower, and
   2. the mean actuator power during the measurements [W].
-The candidates that no other beats on both are the Pareto front. The best (largest reduction, within
+The candidates that no other beats on both are the Pareto front. The best (most negative peak change, within
 --max-power if given) is written as a full configuration that every command takes with --config.
 
 Writes into --out DIR: table.csv and table.md (one row per candidate), pareto.png, best.toml, tune.json.
@@ -30,11 +31,11 @@ observer.fric_noise_N, observer.meas_noise_m_s). The laws run on the paper's obs
 default) or, with --estimator oracle, on the plant's own u_rel, v_rel (the upper bound)."""
 
 EXAMPLES = """examples:
-  frictionrt tune --law hysteresis --modes 3,4 --amp 5 20
+  frictionrt tune --law hysteresis --modes 3,4 --amps 5,20
   frictionrt tune --law lyapunov --grid tracking.eps_m_s=0.003,0.01,0.03 --grid tracking.pid_bandwidth_hz=150,300
   frictionrt tune --law hysteresis --grid observer.fric_noise_N=100,300,1000 --out logs/tune_obs
   frictionrt tune --law lyapunov --estimator oracle --out logs/tune_oracle
-  frictionrt --config logs/tune_hysteresis/best.toml frf --law hysteresis --amp 5 --around-modes 3"""
+  frictionrt --config logs/tune_hysteresis/best.toml frf --law hysteresis --amps 5 --around-modes 3"""
 
 
 def add_parser(subparsers, parents) -> argparse.ArgumentParser:
@@ -47,14 +48,13 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
                         "repeatable, the candidates are all combinations (default: the law's own gains)")
     p.add_argument("--modes", default="3,4", metavar="M1,M2,...",
                    help="bending modes whose peaks are scored (mode 1 is at 9.8 Hz)")
-    p.add_argument("--amp", nargs="+", type=float, default=[5.0], metavar="N",
-                   help="excitation force amplitude(s) [N], held on the measured force")
+    p.add_argument("--amps", "--amp", action=CommaList, kind=float, default=[5.0], metavar="N1,N2",
+                   help="excitation force amplitude(s) [N], held on the measured force, comma-separated")
     p.add_argument("--points", type=int, default=9, metavar="N",
                    help="step-sine frequencies per mode over +/- --half-width")
     p.add_argument("--half-width", type=float, default=0.15, metavar="REL",
                    help="half width of each mode's band, relative to its centre")
-    p.add_argument("--estimator", choices=["observer", "oracle"], default="observer",
-                   help="observer (default, the paper's): the Kalman-designed nonlinear observer on the tip accelerometer and the force cell (docs/observer.md); oracle: the plant's own band-limited u_rel, v_rel (the upper bound)")
+    add_estimator(p)
     p.add_argument("--max-power", type=float, default=None, metavar="W",
                    help="pick the best candidate among those using at most this mean actuator power [W]")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
@@ -67,53 +67,10 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
     return p
 
 
-def _markdown(rows: list[dict], keys) -> str:
-    head = list(keys) + ["reduction [dB]", "power [W]", "Pareto", "best", "refused"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for r in rows:
-        red = "" if r["reduction_db"] is None else f"{r['reduction_db']:.2f}"
-        pw = "" if r["power_w"] is None else f"{r['power_w']:.3g}"
-        lines.append("| " + " | ".join([f"{r[k]:g}" for k in keys] + [red, pw, "yes" if r["pareto"] else "",
-                                                                      "**best**" if r["best"] else "", r["error"]])
-                     + " |")
-    return "\n".join(lines) + "\n"
-
-
-def _csv(rows: list[dict], keys) -> str:
-    import csv
-    import io
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(list(keys) + ["reduction_db", "power_w", "pareto", "best", "error"])
-    for r in rows:
-        w.writerow([r[k] for k in keys] + ["" if r["reduction_db"] is None else r["reduction_db"],
-                                           "" if r["power_w"] is None else r["power_w"], r["pareto"], r["best"],
-                                           r["error"]])
-    return buf.getvalue()
-
-
-def _write_outputs(res, out: Path) -> None:
-    """Write the files into a temporary folder beside out, then move them in (never half-written)."""
-    from frictionrt.rt.experiments.tune import best_toml, plot_pareto
-    out.mkdir(parents=True, exist_ok=True)
-    rows = res.rows()
-    with tempfile.TemporaryDirectory(dir=out, prefix=".tune-") as tmp:
-        t = Path(tmp)
-        (t / "table.csv").write_text(_csv(rows, res.keys))
-        (t / "table.md").write_text(_markdown(rows, res.keys))
-        (t / "tune.json").write_text(json.dumps(res.to_dict(), indent=1))
-        plot_pareto(res, str(t / "pareto.png"))
-        if res.best >= 0:
-            (t / "best.toml").write_text(best_toml(res))
-        for f in t.iterdir():
-            os.replace(f, out / f.name)
-    if res.best < 0 and (out / "best.toml").exists():
-        (out / "best.toml").unlink()  # an older run's best must not pass for this one's
-
-
 def cmd_tune(cfg: Config, args) -> int:
+    from frictionrt.jobs import tune
     from frictionrt.rt.experiments.branches import sweeps_line
-    from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, parse_grid, tune
+    from frictionrt.rt.experiments.tune import markdown_table, parse_grid
     out = Path(args.out or f"logs/tune_{args.law}")
     if out.exists() and not out.is_dir():
         return fail(f"--out {out}: exists and is not a folder")
@@ -127,18 +84,19 @@ def cmd_tune(cfg: Config, args) -> int:
     if args.jobs is not None and args.jobs < 1:
         return fail(f"--jobs {args.jobs}: must be >= 1")
     try:
-        grid = parse_grid(args.grid) if args.grid else DEFAULT_GRIDS[args.law]
+        grid = parse_grid(args.grid) if args.grid else None
         modes = parse_list(args.modes, int, "--modes", "3,4")
-        res = tune(cfg, args.law, grid, modes, args.amp, points=args.points, half_width_rel=args.half_width,
-                   estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs, dask_address=args.dask,
-                   progress=not args.json)
+        res = tune(cfg, law=args.law, grid=grid, modes=modes, amps_n=args.amps, points=args.points,
+                   half_width=args.half_width, estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs,
+                   dask=args.dask, out=out, force=True, progress=not args.json)
     except ConfigError as exc:
         return fail(f"--grid: {exc}")
     except ConnectionError as exc:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except ValueError as exc:
         return fail(str(exc))
-    _write_outputs(res, out)
+    for w in res.warnings or []:
+        print(f"frictionrt tune: warning: {w}", file=sys.stderr)
     doc = res.to_dict()
     doc["out"] = str(out)
     if args.json:
@@ -146,7 +104,7 @@ def cmd_tune(cfg: Config, args) -> int:
         return 0
     print(f"tune {res.law}: {len(res.values)} candidates, modes {list(res.modes)}, amplitudes {list(res.amps_n)} N; "
           f"passive peaks [(m/s^2)/N]: {', '.join(f'{v:.3g}' for v in res.passive_peak.ravel())}")
-    print(_markdown(res.rows(), res.keys), end="")
+    print(markdown_table(res.rows(), res.keys), end="")
     if res.best < 0:
         print("no candidate qualifies (all refused, or none within --max-power); best.toml not written")
     else:

@@ -83,5 +83,5 @@ def check() -> None:
         _warned = True
         warnings.warn(f"OpenBLAS runs its {', '.join(other)} kernels, not the {pinned} ones frictionrt pins "
                       "(numpy was imported before frictionrt): the design may differ from another machine's in "
-                      f"its last bits; import frictionrt first, or set OPENBLAS_CORETYPE={pinned} in the "
+                      f"its last bits; `import frictionrt` before numpy, or set OPENBLAS_CORETYPE={pinned} in the "
                       "environment (docs/determinism.md)", stacklevel=3)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import enum
 import functools
 import math
 import tomllib
@@ -27,6 +28,30 @@ from typing import Any, get_args, get_origin, get_type_hints
 
 
 LAWS = ("passive", "hysteresis", "lyapunov")
+
+
+class Estimator(enum.StrEnum):
+    """What the laws run on: the estimate of u_rel [m] and v_rel [m/s] at the adaptive screw.
+
+    ``OBSERVER``: the paper's Kalman-designed nonlinear observer on the tip accelerometer and the
+    force cell (docs/observer.md), the default everywhere; ``ORACLE``: the plant's own u_rel,
+    v_rel, band-limited (the upper bound a perfect estimate gives). Members are strings, so
+    ``Estimator.OBSERVER == "observer"``."""
+    OBSERVER = "observer"
+    ORACLE = "oracle"
+
+
+ESTIMATORS = tuple(e.value for e in Estimator)   # ("observer", "oracle"): the default first
+DEFAULT_ESTIMATOR = Estimator.OBSERVER
+
+
+def estimator_of(value) -> Estimator:
+    """``value`` ("observer", "oracle" or an ``Estimator``) as an ``Estimator``; ValueError naming
+    the choices otherwise."""
+    try:
+        return Estimator(value)
+    except ValueError:
+        raise ValueError(f"estimator {value!r}: give one of {', '.join(ESTIMATORS)}") from None
 PASSIVE_MODES = ("voltage", "tracking")
 INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
@@ -655,7 +680,7 @@ def _legacy_layout(data: dict, over: dict, stored: bool, source: str) -> None:
     text = _end_pitch_text(end_pitch, r)
     if not stored:
         raise ConfigError(f"{source}: {text}")
-    if "end_pitch_m" in itf_over and r > 1:   # 0 (stops 38-39's default) was the uniform layout: nothing to say
+    if "end_pitch_m" in itf_over and r > 1:   # 0 is the uniform layout: nothing to say
         warnings.warn(f"{source}: {text}; converted", stacklevel=3)
     itf["end_refinement"] = r
 

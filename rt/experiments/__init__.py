@@ -13,7 +13,7 @@ _EXPORTS = {
     "Branch": "frictionrt.rt.experiments.branches", "connect": "frictionrt.rt.experiments.branches", "Settle": "frictionrt.rt.experiments.stepsine", "StepSineResult": "frictionrt.rt.experiments.stepsine", "run_branches": "frictionrt.rt.experiments.branches", "resonance_grid": "frictionrt.rt.experiments.stepsine", "mode_bands_hz": "frictionrt.rt.experiments.stepsine",
     "FULL": "frictionrt.rt.experiments.reproduce", "QUICK": "frictionrt.rt.experiments.reproduce", "measure": "frictionrt.rt.experiments.reproduce", "loop_at_fn1": "frictionrt.rt.experiments.reproduce",
     "write_outputs": "frictionrt.rt.experiments.reproduce_report",
-    "peak_reduction_db": "frictionrt.rt.experiments.claims",
+    "peak_change_db": "frictionrt.rt.experiments.claims",
     "DEFAULT_GRIDS": "frictionrt.rt.experiments.tune", "parse_grid": "frictionrt.rt.experiments.tune", "best_toml": "frictionrt.rt.experiments.tune",
 }
 __all__ = list(_EXPORTS)

@@ -15,7 +15,7 @@ import threading
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from frictionrt.rt.common.config import Config, dumps
+from frictionrt.rt.common.config import Config, Estimator, dumps
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, check_sweep, slow_sweep, sweep
 from frictionrt.rt.loop import Designs, Loop, build_loop
 
@@ -30,7 +30,7 @@ class Branch:
     law: str
     amp_n: float
     freqs_hz: tuple[float, ...]
-    estimator: str = "oracle"
+    estimator: str = Estimator.ORACLE   # the laws' estimate (an Estimator); the rig's passive sweeps use the oracle
     settle: Settle = Settle()
     seed: int | None = None  # None: cfg.rt.seed
     sweep_rate_hz_s: float | None = None   # [Hz/s], signed by the direction of freqs_hz

@@ -18,12 +18,12 @@ Thresholds (module constants) and why:
   per cent at a friction-affected resonance (rt.experiments.stepsine, H_scatter); 0.5 dB covers both.
 * ``P_TOL_W = 1e-8``: below this mean power [W] a law holds its force (C6). A law saturated at
   F_max draws 0 to 3.5e-10 W over the measurement blocks (round-off of the energy integral:
-  both laws at mode 2, 20 N, issue 32), a law that moves its force at least 2.1e-7 W (hysteresis
+  both laws at mode 2, 20 N), a law that moves its force at least 2.1e-7 W (hysteresis
   at mode 3, 5 N with K_f = 6.3e6). A cell where both laws stay below it decides nothing: there
   C6 compared round-off and turned under two sensitivity variants (docs/experiments.md).
 
-peak reduction [dB] = 20 log10(peak_law / peak_passive), peaks of |H| = |a(0.45 m) / F_exc|
-[(m/s^2)/N] over the step-sine points of one mode at one amplitude (``peak_reduction_db``).
+peak change [dB] = 20 log10(peak_law / peak_passive) (negative: the law's peak is lower), peaks of |H| = |a(0.45 m) / F_exc|
+[(m/s^2)/N] over the step-sine points of one mode at one amplitude (``peak_change_db``).
 
 **Margins.** Each claim's result also holds ``margin`` in the claim's own unit (``MARGIN_UNIT``):
 how far the deciding number lies from the claim's threshold, positive where the claim holds,
@@ -33,9 +33,9 @@ negative where it fails (the claim holds where margin > 0, and at margin = 0 whe
 * C1: none (``None``): the bare damping is a model input here (rt.experiments.reproduce);
 * C2 [ratio]: min over modes of (r_m - SIGNIFICANT_RATIO) for modes >= 3 and (SIGNIFICANT_RATIO
   - r_2) for mode 2, r_m = zeta_passive / zeta_bare;
-* C3 [dB]: per law, its ``min_modes``-th best mode's worst amplitude, -(reduction) - tol_db; the
+* C3 [dB]: per law, its ``min_modes``-th best mode's worst amplitude, -(peak change) - tol_db; the
   smaller over the laws;
-* C4 [dB]: tol_db - the worst (largest) reduction at the smallest amplitude, over the laws;
+* C4 [dB]: tol_db - the worst (largest) peak change at the smallest amplitude, over the laws;
 * C5 [dB]: min(the smallest mean advantage over the amplitudes, mean advantage at the smallest
   amplitude - at the largest);
 * C6 [ratio]: min over the compared cells of P_lyapunov / P_hysteresis - 1 (+inf: none compared).
@@ -80,8 +80,8 @@ def verdict(margin: float | None, shift: float | None, holds: bool | None = None
     return Verdict.YES if margin > 0 else Verdict.NO
 
 
-def peak_reduction_db(peaks: Table) -> dict[str, dict[int, dict[float, float]]]:
-    """law -> mode -> amplitude -> 20 log10(peaks[law][mode][amp] / peaks["passive"][mode][amp]) [dB]
+def peak_change_db(peaks: Table) -> dict[str, dict[int, dict[float, float]]]:
+    """law -> mode -> amplitude -> 20 log10(``peaks[law][mode][amp] / peaks["passive"][mode][amp]``) [dB]
     for every law but passive (peaks: |H| [(m/s^2)/N] or acceleration, the same unit for all)."""
     ref = peaks["passive"]
     return {law: {m: {a: 20.0 * math.log10(v / ref[m][a]) for a, v in by_amp.items()} for m, by_amp in by_mode.items()}
@@ -126,7 +126,7 @@ def claim_c3(reduction_db: Table, tol_db: float = TOL_DB, min_modes: int = 2) ->
         per_law.append(worst[min_modes - 1] if len(worst) >= min_modes else -math.inf)
     return {"holds": all(len(v) >= min_modes for v in reduced.values()), "margin": min(per_law),
             "numbers": {"modes_reduced": reduced, "min_modes": min_modes, "tol_db": tol_db,
-                        "mean_reduction_db": {law: _mean(v for by_amp in reduction_db[law].values()
+                        "mean_peak_change_db": {law: _mean(v for by_amp in reduction_db[law].values()
                                                          for v in by_amp.values()) for law in CONTROLLED}}}
 
 
@@ -139,7 +139,7 @@ def claim_c4(reduction_db: Table, tol_db: float = TOL_DB) -> dict:
     return {"holds": all(v <= tol_db for v, _ in worst.values()),
             "margin": min(tol_db - v for v, _ in worst.values()),
             "numbers": {"amplitude_n": low, "tol_db": tol_db,
-                        "worst_reduction_db": {law: v for law, (v, _) in worst.items()},
+                        "worst_peak_change_db": {law: v for law, (v, _) in worst.items()},
                         "worst_mode": {law: m for law, (_, m) in worst.items()}}}
 
 

@@ -50,12 +50,13 @@ def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None) -> fl
 
 
 def table(runs: dict[str, Run]) -> list[dict]:
-    """Per law: acceleration amplitude at x = 0.45 m, its reduction against passive [%], mean
-    F_N1, actuator energy."""
+    """Per law: acceleration amplitude at x = 0.45 m [m/s^2], its change against passive
+    ``change_pct`` = 100 (a_law / a_passive - 1) [%] (negative: lower than passive), mean F_N1 [N],
+    actuator energy [J]."""
     s = {law: summary(r) for law, r in runs.items()}
     ref = s["passive"]["acc045_amplitude"]
     return [{"law": law, "acc045_amplitude": v["acc045_amplitude"],
-             "reduction_pct": 100.0 * (1.0 - v["acc045_amplitude"] / ref),
+             "change_pct": 100.0 * (v["acc045_amplitude"] / ref - 1.0),
              "fn1_mean_n": v["fn1_mean_n"], "actuator_energy_j": v["actuator_energy_j"]} for law, v in s.items()]
 
 
@@ -69,12 +70,11 @@ def response_at_excitation(r: Run) -> np.ndarray:
     return ss.sosfiltfilt(sos, r.signal("w_frf"))
 
 
-def plot(runs: dict[str, Run], path: str) -> None:
+def plot(runs: dict[str, Run], path: str | None = None):
     """Response at the excitation frequency and F_N1 over the last 50 ms of each run (PNG)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, (ax_w, ax_f) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(9, 6))
+    (ax_w, ax_f) = fig.subplots(2, 1, sharex=True)
     for law, r in runs.items():
         dt = r.loop.cfg.dt_s
         n = len(r.log)
@@ -92,5 +92,6 @@ def plot(runs: dict[str, Run], path: str) -> None:
         ax.grid(True, lw=0.3)
         ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig

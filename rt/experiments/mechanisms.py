@@ -31,7 +31,7 @@ def failing_cells(by_est: dict) -> list[dict]:
     """[{estimator, claim, law, mode, amp}] of the C3 and C4 failures (module docstring), as text keys."""
     cells = []
     for est, v in by_est.items():
-        red = v["peak_reduction_db"]
+        red = v["peak_change_db"]
         if not v["claims"]["C3"]["holds"]:
             for law, modes in v["claims"]["C3"]["numbers"]["modes_reduced"].items():
                 if len(modes) < v["claims"]["C3"]["numbers"]["min_modes"]:
@@ -65,7 +65,7 @@ def mechanism(cfg, designs: Designs, cell: dict, report: dict, duration_s: float
     u0 = float(np.mean(r.signal("u0")[-n:]))
     F_N1 = float(np.mean(r.signal("F_N1")[-n:]))
     best = report["best_passive_fn1"][cell["mode"]][cell["amp"]]
-    reduction = v["peak_reduction_db"][cell["law"]][cell["mode"]][cell["amp"]]
+    reduction = v["peak_change_db"][cell["law"]][cell["mode"]][cell["amp"]]
     return cell | {"f_hz": f, "peak": pk["H_abs"], "reduction_db": reduction,
                    "u0_um": 1e6 * u0, "Kf_u0_over_Fmin": t.K_f * u0 / t.F_min_N,
                    "F_set_mean_n": float(np.mean(X[:, 0])), "F_N1_mean_n": F_N1,

@@ -45,8 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionrt.rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_reduction_db
+from frictionrt.rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_change_db
 from frictionrt.rt.common.config import Config
+from frictionrt.rt.common.config import ESTIMATORS, Estimator
 from frictionrt.rt.loop import Designs, Loop, build_loop
 from frictionrt.rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
 from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, ErrorEstimate, annotate, coarser, margins,
@@ -54,9 +55,6 @@ from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, ErrorEs
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
-ESTIMATORS = ("observer", "oracle")
-"""The estimators the controlled laws run on by default: the paper's observer first (the claims
-are decided on it), the oracle beside it as the upper bound."""
 # half width of each mode's grid, relative to its centre: modes 3 and 4 slide over a wide band
 # (passive 20 N mode 3 below 190 Hz, stuck 223.6 Hz); modes 2 and 5 move less (passive peaks 68-69 Hz
 # at 5-20 N, 608-610 Hz, against bands 71.1-73.8 and 609.2-616.5 Hz) and are sharp (zeta ~0.1-0.2 %)
@@ -212,7 +210,7 @@ def measure_frfs(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS
     designs = designs or Designs()  # one plant, one force-tracking design per sensor
     grids = mode_grids(cfg, plan.modes, plan.n_points, designs)
     # (law, F_N1, estimator) -> loop; estimator None: the passive law's, which ignores the estimate
-    loops = {("passive", None, None): build_loop(cfg, "passive", designs=designs)}
+    loops = {("passive", None, None): build_loop(cfg, "passive", Estimator.ORACLE, designs=designs)}
     for est in estimators:
         for law in LAWS_COMPARED[1:]:
             loops[(law, None, est)] = build_loop(cfg, law, est, designs=designs)
@@ -274,16 +272,16 @@ def best_constant_fn1(cfg: Config, frfs: dict[Key, StepSineResult], peaks: dict)
 
 
 def evaluate(cfg: Config, frfs: dict[Key, StepSineResult]) -> dict:
-    """What one estimator's FRFs say (the passive ones among them): {peak_reduction_db, peaks,
+    """What one estimator's FRFs say (the passive ones among them): {peak_change_db, peaks,
     best_passive_fn1, energy, claims C3..C6} (C1, C2 rest on the impulse test: ``measure``)."""
     dt = cfg.dt_s
     peaks = _table(frfs, lambda r: peak(r, dt))
-    reduction = peak_reduction_db(_table(frfs, lambda r: float(r.H_abs.max())))
+    reduction = peak_change_db(_table(frfs, lambda r: float(r.H_abs.max())))
     power = {law: {m: {a: p["power_w"] for a, p in by_amp.items()} for m, by_amp in by_mode.items()}
              for law, by_mode in peaks.items()}
     claims = {"C3": claim_c3(reduction), "C4": claim_c4(reduction), "C5": claim_c5(reduction),
               "C6": claim_c6(power) | {"note": "mean actuator power over the measurement blocks of each peak point"}}
-    return {"claims": claims, "peak_reduction_db": reduction, "best_passive_fn1": best_constant_fn1(cfg, frfs, peaks),
+    return {"claims": claims, "peak_change_db": reduction, "best_passive_fn1": best_constant_fn1(cfg, frfs, peaks),
             "peaks": peaks, "energy": {law: _energy(frfs, law, dt) for law in LAWS_COMPARED}}
 
 
@@ -294,7 +292,7 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     """Run the plan and evaluate the claims, the controlled laws on each of ``estimators``.
     Returns {"report": the JSON document, "frfs": Key -> StepSineResult of the first estimator,
     "frfs_by_estimator": estimator -> Key -> StepSineResult, "impulse": ImpulseResult}. The report
-    holds claims, peak_reduction_db, best_passive_fn1, peaks and energy of the first estimator (the
+    holds claims, peak_change_db, best_passive_fn1, peaks and energy of the first estimator (the
     one the claims are decided on), the same per estimator under "by_estimator", and impulse,
     timing, plan, discretisation. Each claim carries its margin, the discretisation's estimated
     shift of it and its verdict (rt.experiments.discretisation; error_estimate: where the coarse

@@ -114,7 +114,7 @@ def _claims_tables(r: dict) -> list[str]:
 
 
 def markdown(report: dict) -> str:
-    """report.md: claims table, peak reduction, best constant F_N1, energy, impulse, plan, timing;
+    """report.md: claims table, peak change, best constant F_N1, energy, impulse, plan, timing;
     each controlled law's figures per estimator side by side (report["by_estimator"])."""
     r = jsonable(report)
     plan, by_est = r["plan"], r["by_estimator"]
@@ -124,18 +124,18 @@ def markdown(report: dict) -> str:
              f"Modes {plan['modes']}, excitation force amplitudes {plan['amps_n']} N, the controlled laws on the "
              f"{' and the '.join(ests)}; {plan['points']} step-sine points ({plan['unsettled']} not settled), "
              f"{plan['simulated_s']:.0f} s simulated. Peaks are the largest measured |H| = |a(0.45 m) / F_exc| "
-             f"[(m/s^2)/N]; reduction = 20 log10(peak_law / peak_passive) [dB]; passive: F_N1 = "
+             f"[(m/s^2)/N]; peak change = 20 log10(peak_law / peak_passive) [dB], negative: the law's peak is lower; passive: F_N1 = "
              f"{plan['fn1_n'][0]:g} N (F_min). How the numbers are measured: docs/experiments.md.", ""]
     lines += _claims_tables(r)
     amps = [f"{a:g}" for a in plan["amps_n"]]
-    lines += ["", "## Peak reduction against passive [dB]", "",
+    lines += ["", "## Peak change against passive [dB] (negative: lower)", "",
               f"Negative: the law's peak is lower. |x| < {TOL_DB:g} dB counts as unchanged (rt/experiments/claims.py). "
               f"Each cell: {per}.", "",
               "| law | mode | " + " | ".join(f"{a} N" for a in amps) + " |", "| --- | --- |" + " --- |" * len(amps)]
-    for law, by_mode in r["peak_reduction_db"].items():
+    for law, by_mode in r["peak_change_db"].items():
         for m in by_mode:
             lines.append(f"| {law} | {m} | " + " | ".join(
-                " / ".join(f"{by_est[e]['peak_reduction_db'][law][m][a]:+.2f}" for e in ests) for a in amps) + " |")
+                " / ".join(f"{by_est[e]['peak_change_db'][law][m][a]:+.2f}" for e in ests) for a in amps) + " |")
     lines += ["", "## Resonance peaks", "",
               "| law | estimator | mode | amplitude [N] | peak |H| [(m/s^2)/N] | at [Hz] | acceleration [m/s^2] "
               "| mean F_N1 [N] | actuator power [W] | settled |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -183,18 +183,17 @@ def markdown(report: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_laws(frfs_by_estimator: dict, law: str, path: str, title: str) -> None:
+def plot_laws(frfs_by_estimator: dict, law: str, path: str | None, title: str):
     """|H| [dB re 1 (m/s^2)/N] against f [Hz], one panel per mode: the law on the first estimator
     solid, on the others dotted, passive dashed (as the paper's Figs. 7, 8), one colour per
     amplitude; unsettled points hollow. PNG."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
     ests = list(frfs_by_estimator)
     frfs = frfs_by_estimator[ests[0]]
     modes = sorted({k.mode for k in frfs})
     amps = sorted({k.amp_n for k in frfs})
-    fig, axes = plt.subplots(1, len(modes), figsize=(3.6 * len(modes), 4.2), squeeze=False)
+    fig = Figure(figsize=(3.6 * len(modes), 4.2))
+    axes = fig.subplots(1, len(modes), squeeze=False)
     for ax, m in zip(axes[0], modes):
         for c, a in enumerate(amps):
             curves = [("passive", "passive", "--", frfs)] + [
@@ -214,8 +213,9 @@ def plot_laws(frfs_by_estimator: dict, law: str, path: str, title: str) -> None:
     fig.suptitle(f"{title}\nsolid: controlled on the {ests[0]}{others}; dashed: passive F_N1 = F_min; "
                  "hollow: not settled", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
 
 
 def write_outputs(out: Path, result: dict, f_max_hz: float) -> None:

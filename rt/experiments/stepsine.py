@@ -85,7 +85,8 @@ import numpy as np
 
 from frictionrt.plant.actuator import output_index as actuator_output_index
 from frictionrt.rt.common.config import LAWS, Config
-from frictionrt.rt.loop import ESTIMATORS, Designs, Loop, LoopState, run
+from frictionrt.rt.common.config import DEFAULT_ESTIMATOR, estimator_of
+from frictionrt.rt.loop import Designs, Loop, LoopState, run
 
 WINDOWS = ("rect", "hann")
 SENSOR_READINGS = ("a_frf_meas", "a_tip_meas")  # accelerometer readings (plant.sensors) whose FRFs a point also gives
@@ -429,13 +430,12 @@ def sweep_direction(freqs_hz: Sequence[float]) -> str:
 
 
 def check_sweep(cfg: Config, law: str, freqs_hz: Sequence[float], amp_n: float, settle: Settle,
-                estimator: str = "oracle") -> None:
+                estimator: str = DEFAULT_ESTIMATOR) -> None:
     """ValueError naming the bad value and the fix, before anything runs."""
     nyq = 0.5 / cfg.dt_s
     if law not in LAWS:
         raise ValueError(f"law {law!r}: expected one of {', '.join(LAWS)}")
-    if estimator not in ESTIMATORS:
-        raise ValueError(f"estimator {estimator!r}: expected one of {', '.join(ESTIMATORS)}")
+    estimator_of(estimator)
     if not (math.isfinite(amp_n) and amp_n > 0.0):
         raise ValueError(f"amplitude {amp_n!r} N: an FRF needs a finite force amplitude > 0 N")
     if len(freqs_hz) == 0:
@@ -604,14 +604,13 @@ def resonance_grid(centres_hz: Sequence[float], half_width_rel: float = 0.15, n_
 
 # --- plot -------------------------------------------------------------------------------------
 
-def plot_frfs(results: Sequence[StepSineResult], path: str) -> None:
+def plot_frfs(results: Sequence[StepSineResult], path: str | None = None):
     """|H| [dB re 1 (m/s^2)/N] and phase [deg] against frequency, one curve per result (law,
     amplitude, direction); unsettled points hollow. Lines break where the frequency step exceeds
     three times the median step (between the bands of a resonance grid). PNG."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, (ax_m, ax_p) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(9, 6.5))
+    (ax_m, ax_p) = fig.subplots(2, 1, sharex=True)
     for r in results:
         order = np.argsort(r.freq_hz)
         f, H, ok = r.freq_hz[order], r.H[order], r.settled[order]
@@ -634,5 +633,6 @@ def plot_frfs(results: Sequence[StepSineResult], path: str) -> None:
         ax.grid(True, lw=0.3)
     ax_m.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig

@@ -55,7 +55,7 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     digest = design_hash(controller_record(loop, st))
     check_design(manifest, digest, loop, f"--c {folder}", "the log's",
                  f"; export it with frictionrt export-c --from-log {path}")
-    stated = meta.get("controller_design")   # simulate --out stores it (logs before issue 33 do not)
+    stated = meta.get("controller_design")   # simulate --out stores it (older logs may not)
     if stated is not None and stated != digest and not sets:
         raise ValueError(f"{path}: the log states controller design {stated[:19]}..., its design arrays give "
                          f"{digest[:19]}...: the log was edited or this version reads it otherwise")

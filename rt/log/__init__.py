@@ -4,7 +4,8 @@ the design record. Depends on rt.common only.
 Modules: ``mcap_log`` (the MCAP format: topics, schemas, reading), ``registry`` (signal names
 and their ROS 2 fields), ``writer`` (the writer thread draining the loop's ring), ``rrd_log``
 (rerun), ``views`` (Foxglove layout, rerun blueprint), ``data_format`` (the measurement format
-and its validator), ``frf_files`` (measured FRFs: CSV and UFF with sidecars),
+and its validator), ``frf_files`` (measured FRFs: CSV and UFF with sidecars), ``frf_import`` (FRFs as
+analysers export them, into FRF files),
 ``design_record`` (the kernels' design arrays carried in a log), ``recover`` (a killed run's
 ``.mcap.part``). The names below are imported on first use (rt/common/face.py).
 """
@@ -15,6 +16,7 @@ _EXPORTS = {
     "McapBlockWriter": "frictionrt.rt.log.writer", "LogWriter": "frictionrt.rt.log.writer", "open_run_log": "frictionrt.rt.log.writer", "run_metadata": "frictionrt.rt.log.writer",
     "RrdLogWriter": "frictionrt.rt.log.rrd_log", "write_rrd": "frictionrt.rt.log.rrd_log", "mcap_to_rrd": "frictionrt.rt.log.rrd_log",
     "validate": "frictionrt.rt.log.data_format",
+    "import_frf": "frictionrt.rt.log.frf_import", "ImportResult": "frictionrt.rt.log.frf_import",
     "FRFTest": "frictionrt.rt.log.frf_files", "read_frf": "frictionrt.rt.log.frf_files", "load_frf_folder": "frictionrt.rt.log.frf_files", "write_frf_csv": "frictionrt.rt.log.frf_files", "write_frf_uff": "frictionrt.rt.log.frf_files",
     "use_logged": "frictionrt.rt.log.design_record", "describe": "frictionrt.rt.log.design_record",
 }

@@ -1,4 +1,4 @@
-"""Measured FRF files (issues 7, 18): frequency responses H_s = response_s / excitation of the
+"""Measured FRF files: frequency responses H_s = response_s / excitation of the
 sensors over frequency lines, one file per test (one excitation level, one bolt force F_N1), as a
 lab exports them, with a JSON sidecar that says what was measured where. Format:
 docs/data-format.md, "FRF files".
@@ -11,7 +11,7 @@ name that is a ROS 2 field name (rt.log.registry.FIELD_RE, lowercase snake_case)
 
 * CSV ``<stem>.csv``: header ``freq_hz[,F_amp_N][,drive_amp_N],<sensor>_re,<sensor>_im[,<sensor>_coh],...``,
   one row per frequency line; written with ``repr`` floats, so a round trip is bit-exact. The optional
-  ``<sensor>_coh`` column is the sensor's coherence gamma^2 (0..1) of a random test's H1 (issue 35).
+  ``<sensor>_coh`` column is the sensor's coherence gamma^2 (0..1) of a random test's H1.
 * UFF ``<stem>.uff`` (or .unv): universal file, one data set 58 per sensor (function type 4 =
   frequency response function, complex ordinate, abscissa frequency in Hz, ID line 1 = sensor
   name), plus one real data set 58 of function type 0 (general) per optional amplitude column
@@ -22,7 +22,7 @@ name that is a ROS 2 field name (rt.log.registry.FIELD_RE, lowercase snake_case)
 * sidecar ``<stem>.json``: {"format": "frictionrt-frf/1", "kind": "stepsine" | "frf",
   "excitation_x_m", "sensor_positions_m": {sensor: x_m}, "F_N1_N", "amplitude_n", "description"}
   and optionally "quantity", "excitation", "sensor_beams": {sensor: beam}, "drive_amplitude_v" (the drive
-  voltage's amplitude [V] of a drive_voltage test at one level), "random" (a random test, issue 35:
+  voltage's amplitude [V] of a drive_voltage test at one level), "random" (a random test:
   {"rms", "band_hz": [f_lo, f_hi], "block_s", "averages", "overlap", "window"}, the level ``rms`` the force's [N]
   or, for a drive_voltage test, the drive voltage's [V] rms over the band, amplitude_n and
   drive_amplitude_v then null; ``check_random``) (``OPTIONAL_KEYS``, their defaults those of a file
@@ -66,7 +66,7 @@ EXCITATIONS = {"force": ("N", 13), "drive_voltage": ("V", 0)}
 """excitation -> (unit of the FRF's denominator, UFF 58 ordinate-denominator data characteristic)."""
 OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}, "drive_amplitude_v": None,
                  "random": None}
-"""Sidecar keys a file may omit, with the value a file without them has (issue 18)."""
+"""Sidecar keys a file may omit, with the value a file without them has."""
 AMPLITUDES = ("F_amp_N", "drive_amp_N")         # optional per-line columns [N]
 UFF_SUFFIXES = (".uff", ".unv")
 SUFFIXES = (".csv",) + UFF_SUFFIXES
@@ -346,7 +346,7 @@ def write_frf_uff(path: str | os.PathLike, test: FRFTest) -> None:
 
 
 def _uff_node(sensor: str, j: int) -> int:
-    """UFF response node of the j-th sensor: 1, 2 for a_tip_meas, a_frf_meas (as before issue 18),
+    """UFF response node of the j-th sensor: 1, 2 for a_tip_meas, a_frf_meas (the two-accelerometer files),
     3 + j for any other."""
     return SENSORS.index(sensor) + 1 if sensor in SENSORS else len(SENSORS) + 1 + j
 
@@ -412,8 +412,28 @@ def _parse_csv(text: str) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarr
     return col["freq_hz"], H, col.get("F_amp_N"), col.get("drive_amp_N"), coh or None
 
 
-def _uff_sets(path: Path) -> list[dict]:
+def uff_truncation(path: str | os.PathLike) -> int | None:
+    """The number of the last line of an ASCII universal file cut short inside a data set (one opened
+    by a ``-1`` line and never closed by another), or None if every data set is closed. A binary set
+    (58b) is not scanned line by line: None from there on."""
+    open_at = None
+    n = 0
+    with open(path, "rb") as fh:
+        for n, raw in enumerate(fh, 1):
+            line = raw.rstrip(b"\r\n")
+            if line.strip() == b"-1" and len(line) <= 6:
+                open_at = n if open_at is None else None
+            elif open_at == n - 1 and line.strip().endswith(b"b"):
+                return None             # binary data set: its payload is not lines
+    return n if open_at is not None else None
+
+
+def read_uff_sets(path: Path) -> list[dict]:
     import pyuff
+    cut = uff_truncation(path)
+    if cut is not None:
+        raise ValueError(f"truncated after line {cut}: its last data set is not closed by a -1 line (the file was "
+                         "cut short in a copy or an export); export the file again")
     # pyuff prints some readers' notes to stdout, numpy may warn on odd numbers: neither may reach the CLI
     with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -455,7 +475,7 @@ def _check_characteristics(d: dict, name: str, meta: dict) -> None:
 
 def _parse_uff(path: Path, meta: dict) -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None, dict | None]:
     x, H, amp, coh = None, {}, {}, {}
-    for d in _uff_sets(path):
+    for d in read_uff_sets(path):
         name = str(d.get("id1", "")).strip()
         ft = d.get("func_type")
         if ft == FUNC_FRF:

@@ -12,7 +12,7 @@
 (u_rel [um], -sum_j f_t_j [N])); ``foxglove_layout`` as a Foxglove layout (JSON, Plot panels with
 message paths such as ``/plant.f_n1``; the hysteresis as one x-y curve per contact pair j,
 f_t_j [N] against u_rel [m], since a layout cannot sum fields). ``frictionrt simulate --out BASE``
-writes the layout to ``BASE.foxglove.json`` beside the log (README: "Opening a run").
+writes the layout to ``BASE.foxglove.json`` beside the log (docs/recipes/inspect-a-run.md).
 """
 from __future__ import annotations
 

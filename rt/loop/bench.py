@@ -20,7 +20,7 @@ from frictionrt.plant.model import PlantModel, build_plant, preloaded_pairs, stu
 from frictionrt.plant.simulate import run
 from frictionrt.tracking.lowpass import _biquad_step, rest_state
 from frictionrt.rt.common.clock import _now_ns
-from frictionrt.rt.common.config import Config
+from frictionrt.rt.common.config import Config, Estimator
 from frictionrt.tracking.force_tracking import _force_tracking_step
 from frictionrt.tracking.force_tracking import initial_state as tracking_initial_state
 from frictionrt.tracking.laws import _laws_step
@@ -152,7 +152,7 @@ def bench_loop(cfg: Config, law: str = "lyapunov", n_steps: int = 21000, n_pc: i
     from frictionrt.rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
     from frictionrt.rt.loop.build import build_loop
     from frictionrt.rt.loop.driver import run
-    loop = build_loop(cfg, law)
+    loop = build_loop(cfg, law, Estimator.ORACLE)
     run(loop, EXC_FREQ_HZ, EXC_AMP_N, 0.01)
     total = _stats_us(run(loop, EXC_FREQ_HZ, EXC_AMP_N, n_steps * cfg.dt_s).signal("tick_ns"))
     U = _controller_inputs(cfg, n_steps)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from frictionrt.rt.common.config import Config
+from frictionrt.rt.common.config import Config, Estimator
 from frictionrt.rt.loop.build import COMPONENTS, build_loop
 from frictionrt.rt.loop.floor import cyclictest, null_loop, tails_us
 from frictionrt.rt.loop.driver import run
@@ -26,7 +26,7 @@ def budget(cfg: Config, law: str = "lyapunov", ticks: int = 105000, paced_s: flo
     with ``floor``, null (the null loop: ticks, overruns, overrun_rate, late, realtime) and
     cyclictest (loops, late_ge_period, late_rate, latency; None when not installed), each run
     for paced_s [s] under the same configuration (rt.priority, rt.cpu, the sleep margin)."""
-    loop = build_loop(cfg, law)
+    loop = build_loop(cfg, law, Estimator.ORACLE)
     dt = cfg.dt_s
     run(loop, EXC_FREQ_HZ, EXC_AMP_N, 0.01, timing=True)  # compile or load the cache
     r = run(loop, EXC_FREQ_HZ, EXC_AMP_N, ticks * dt, timing=True)

@@ -21,7 +21,7 @@ from frictionrt.plant.sensors import SENSOR_OUTPUTS, SensorParams, build_sensors
 from frictionrt.plant.sensors import initial_state as sensors_initial_state
 from frictionrt.plant.sensors import output_index as sensor_output_index
 from frictionrt.plant.shaker import ShakerParams, build_shaker, check_shaker
-from frictionrt.rt.common.config import Config, require_adaptive_screw
+from frictionrt.rt.common.config import DEFAULT_ESTIMATOR, ESTIMATORS, Config, estimator_of, require_adaptive_screw  # noqa: F401  (ESTIMATORS: the face)
 from frictionrt.rt.common.noise import new_rng
 from frictionrt.rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
 from frictionrt.rt.loop.supervisor import initial_state as supervisor_initial_state
@@ -32,7 +32,6 @@ from frictionrt.tracking.lowpass import BiquadParams, rest_state
 from frictionrt.tracking.prefilter import PREFILTER_OUTPUTS, build_prefilter
 
 COMPONENTS = ("sensors", "estimator", "law", "supervisor", "tracking", "actuator", "plant", "log")
-ESTIMATORS = ("oracle", "observer")
 
 
 @dataclass(frozen=True)
@@ -50,7 +49,7 @@ class Loop:
     design: ForceTrackingDesign
     force_sensor: str
     signals: tuple[tuple[str, str, str], ...]   # (name, unit, owner) per log column
-    estimator: str = "oracle"                   # one of ESTIMATORS
+    estimator: str = DEFAULT_ESTIMATOR          # an Estimator (its string value)
     supervisor: SupervisorParams | None = None  # built by build_loop
     shaker: ShakerParams | None = None          # built by build_loop (P = 0: ideal force source)
     plant_rest: np.ndarray | None = None        # built by build_loop: the plant's state at rest at F0
@@ -102,7 +101,7 @@ class Designs:
                           t.pid_phase_margin_deg), lambda: design_force_tracking(cfg, sensor))
 
 
-def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
+def build_loop(cfg: Config, law: str | None = None, estimator: str = DEFAULT_ESTIMATOR,
                observer_cfg: Config | None = None, designs: Designs | None = None) -> Loop:
     """Design time: plant, actuator, sensors, estimator, law and the force-tracking design for
     its sensor. The observer is designed from ``observer_cfg`` if given (a model that differs
@@ -113,8 +112,7 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = "oracle",
     unknown estimator, or ConfigError if the structure has no adaptive screw."""
     require_adaptive_screw(cfg, "the closed loop (rt.loop.build_loop)")
     law = cfg.tracking.law if law is None else law
-    if estimator not in ESTIMATORS:
-        raise ValueError(f"estimator {estimator!r}: expected one of {', '.join(ESTIMATORS)}")
+    estimator = estimator_of(estimator).value
     designs = Designs() if designs is None else designs
     plant = designs.plant(cfg)
     sensor = SENSOR_OF_LAW[law]

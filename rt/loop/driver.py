@@ -51,12 +51,13 @@ MAX_LOG_BYTES = 4 * 2**30  # a run's log must fit in memory with room to spare
 
 def check_run_input(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, ring: bool = False) -> int:
     """Number of ticks of a run; ValueError (naming the option and the limit) for an excitation
-    at or above Nyquist, a negative amplitude or duration, or (without a ring: ``run``) a log
+    frequency outside (0, Nyquist) (the one range of every verb: a sine at 0 Hz has no harmonic
+    to measure), a negative amplitude or duration, or (without a ring: ``run``) a log
     that would not fit in memory."""
     dt = loop.cfg.dt_s
     nyq = 0.5 / dt
-    if not (math.isfinite(freq_hz) and 0.0 <= freq_hz < nyq):
-        raise ValueError(f"--freq {freq_hz:g} Hz: must lie in [0, {nyq:g}) Hz (below the Nyquist frequency)")
+    if not (math.isfinite(freq_hz) and 0.0 < freq_hz < nyq):
+        raise ValueError(f"--freq {freq_hz:g} Hz: give a frequency in (0, {nyq:g}) Hz (above 0, below Nyquist)")
     if not (math.isfinite(amp_n) and amp_n >= 0.0):
         raise ValueError(f"--amp {amp_n:g} N: must be a finite force >= 0 N")
     if not (math.isfinite(duration_s) and duration_s > 0.0):

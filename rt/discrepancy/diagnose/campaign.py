@@ -1,4 +1,4 @@
-"""The discrepancy workflow (issue 7, docs/discrepancy.md): where do model and measurement
+"""The discrepancy workflow (docs/discrepancy.md): where do model and measurement
 disagree, which effect of the library (rt.discrepancy.effects) is missing, and how much of the gap it closes.
 
 Method, on a campaign of the measurement format (impulse tests at several F_N1, actuator ramps):
@@ -31,7 +31,6 @@ Method, on a campaign of the measurement format (impulse tests at several F_N1, 
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import NamedTuple
@@ -63,7 +62,7 @@ from frictionrt.rt.discrepancy.diagnose.stepsine import residuals as stepsine_re
 from frictionrt.rt.discrepancy.effects import Effect, get, implemented
 from frictionrt.rt.discrepancy.diagnose.remainder import budget, verdict
 from frictionrt.rt.discrepancy.diagnose.plausible import summary_lines
-from frictionrt.rt.discrepancy.diagnose.watch import done_fit, fit_in_parallel, keeping
+from frictionrt.rt.discrepancy.diagnose.watch import done_fit, fit_in_parallel, fitted_text, keeping
 from frictionrt.rt.log.mcap_log import read_mcap
 from frictionrt.rt.discrepancy.chain import measure_actuator, quiet, scale_bounds, scaled
 
@@ -481,7 +480,7 @@ def summary(result: dict) -> str:
              + (f" (runner-up {result['runner_up']})" if result["named_effect"] else "")]
     for r in result["ranking"]:
         lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  RSS -{100 * r['rss_reduction']:5.1f} %  "
-                     f"fitted {json.dumps(r['fitted'])}")
+                     f"fitted {fitted_text(r['fitted'])}")
     lines.append(f"structure FRF gap [dB]: {gb['structure_frf_db']:.3f} -> {ga['structure_frf_db']:.3f}")
     lines.append(verdict(result))
     if "stepsine_ratio_db" in gb:

@@ -1,4 +1,4 @@
-"""The discrepancy workflow on measured FRFs (issues 7, 18; docs/discrepancy.md "FRF-file input"): a
+"""The discrepancy workflow on measured FRFs (docs/discrepancy.md "FRF-file input"): a
 folder of FRF files (rt.log.frf_files: FRFs at several F_N1, CSV or UFF with sidecars) and a
 nominal model of any structure (--config) instead of a time-series campaign.
 
@@ -47,7 +47,7 @@ on (E, ln k_t, ln modal_damping, the candidate), at most ``MAX_STEPS_FAR`` steps
 of stage 1 and the calibration with the candidate at nominal. Ranking, naming conditions and
 result keys as rt.discrepancy.diagnose.campaign (rank, ranking_result); the gap per test [dB] is the RMS of
 20 log10|H_meas / H_model| of a_frf_meas (else the first sensor) over rt.discrepancy.diagnose.campaign.
-BAND_HZ ("frf_db", as before issue 18) and over every sensor and the file's whole band
+BAND_HZ ("frf_db", the two-accelerometer gap) and over every sensor and the file's whole band
 ("frf_db_all", "band_hz"). A fitted parameter within ``BOUND_REL`` of a bound is a warning
 (``bound_warnings``).
 
@@ -361,8 +361,8 @@ def _rms_db(H: np.ndarray, Hm: np.ndarray) -> float:
 
 def gap_db(data: list[FRFData], Hm: list[dict]) -> dict:
     """Per test: "frf_db", the RMS of 20 log10|H_meas / H_model| of a_frf_meas (else the first
-    sensor) over BAND_HZ (the whole band where the file does not reach into it) [dB], as before
-    issue 18; "frf_db_all", the same over every sensor and all lines; "band_hz" the file's band.
+    sensor) over BAND_HZ (the whole band where the file does not reach into it) [dB], the
+    two-accelerometer gap; "frf_db_all", the same over every sensor and all lines; "band_hz" the file's band.
     Their means over the tests ("structure_frf_db", "structure_frf_db_all"); "actuator_nrmse" None
     (no actuator test)."""
     out = {}

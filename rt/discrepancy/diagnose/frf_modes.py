@@ -1,4 +1,4 @@
-"""Measured modes of FRF files and their pairing with the model's (issue 18; docs/discrepancy.md
+"""Measured modes of FRF files and their pairing with the model's (docs/discrepancy.md
 "FRF-file input"): no window around the nominal frequencies, so that a first model tens of percent
 off still pairs every measured mode.
 

@@ -1,5 +1,5 @@
-"""FRFs at several excitation levels: calibrate at some, predict the others (``diagnose --calibrate-on``,
-issue 18; docs/discrepancy.md "Amplitude dependence").
+"""FRFs at several excitation levels: calibrate at some, predict the others (``diagnose --calibrate-on``;
+docs/discrepancy.md "Amplitude dependence").
 
 Input: a folder of FRF files (rt.log.frf_files) of one structure at one bolt force and several force
 amplitudes (sidecar ``amplitude_n`` [N]; e.g. ``rig --frf-files --levels``). The question a lab asks:

@@ -1,14 +1,14 @@
 """The amplitude-dependence diagnosis' report (rt.discrepancy.diagnose.levels): the text the CLI prints,
-diagnose.json, model.toml, report.md and levels.png (an interrupted diagnosis': rt.discrepancy.diagnose.watch).
+diagnose.json, model.toml, report.md and levels.png (per level |H| and the residuals [dB]; an interrupted diagnosis': rt.discrepancy.diagnose.watch).
 Moved out of levels.py unchanged."""
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
+from frictionrt.rt.discrepancy.diagnose.overlay import overlay_figure
 from frictionrt.rt.discrepancy.diagnose.plausible import markdown, summary_lines
-from frictionrt.rt.discrepancy.diagnose.watch import write_result
+from frictionrt.rt.discrepancy.diagnose.watch import fitted_text, write_result
 
 
 def summary(res: dict) -> str:
@@ -17,7 +17,7 @@ def summary(res: dict) -> str:
              f"{res['harmonic_method']}); softening mode "
              f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
              f"named effect: {res['named_effect'] or 'no missing effect found'}",
-             f"fitted (harmonic balance): {res['nonlinear']['fitted']}",
+             f"fitted (harmonic balance): {fitted_text(res['nonlinear']['fitted'])}",
              *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
              *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
                for w in res["warnings"]],
@@ -34,7 +34,8 @@ def summary(res: dict) -> str:
 def write_levels_report(res: dict, out: str | Path) -> Path:
     """The report folder (a new folder, written beside and renamed: never half a report):
     diagnose.json, model.toml (the calibrated harmonic-balance model), report.md and levels.png
-    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction)."""
+    (per level the measured |H| of the first sensor, the linear and the harmonic-balance prediction, and
+    below it their residuals measured - model [dB])."""
     import json
 
     import matplotlib
@@ -45,19 +46,14 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
     with new_folder(out) as tmp:
         write_result(tmp, res)
         plots = res["_plots"]
-        fig, axes = plt.subplots(len(plots), 1, figsize=(8, 2.2 * len(plots)), sharex=True, squeeze=False)
-        for ax, (name, a, f, H, h0, h1) in zip(axes[:, 0], plots):
-            s = next(iter(H))
-            ax.semilogy(f, np.abs(H[s]), "k.", ms=3, label=f"measured {s}")
-            ax.semilogy(f, np.abs(h0[s]), "C1-", lw=0.8, label="linear (stuck)")
-            ax.semilogy(f, np.abs(h1[s]), "C0-", lw=0.8, label="harmonic balance")
+        s = next(iter(plots[0][3]))      # the first sensor
+        panels = [(f"{name}: {a:g} {res['level_unit']}\n({'calibrated on' if a in res['calibrate_on_n'] else 'predicted'})"
+                   f" |{s}|", f, H[s], {"linear": h0[s], "hb": h1[s]}) for name, a, f, H, h0, h1 in plots]
+        fig = overlay_figure(f"measured {s} and the models, each level", panels,
+                             {"linear": ("linear (stuck)", "C1-"), "hb": ("harmonic balance", "C0-")})
+        for ax in fig.axes:
             ax.axvspan(*res["softening_band_hz"], color="0.9", zorder=0)
-            cal = "calibrated on" if a in res["calibrate_on_n"] else "predicted"
-            ax.set_title(f"{name}: {a:g} {res['level_unit']} ({cal})", fontsize=9)
-            ax.grid(True, lw=0.3)
-        axes[0, 0].legend(fontsize=7)
-        axes[-1, 0].set_xlabel("f [Hz]")
-        fig.tight_layout()
+            ax.yaxis.label.set_fontsize(7)
         fig.savefig(tmp / "levels.png", dpi=110)
         plt.close(fig)
         rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "

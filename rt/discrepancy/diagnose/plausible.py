@@ -1,5 +1,5 @@
-"""Plausible ranges of the diagnosis' calibrated parameters and the fits' penalty outside them (issue 35;
-docs/discrepancy.md "Plausible calibrations").
+"""Plausible ranges of the diagnosis' calibrated parameters and the fits' penalty outside them
+(docs/discrepancy.md "Plausible calibrations").
 
 A fit may move a parameter anywhere the configuration accepts (its hard bounds, rt.discrepancy.chain.
 scale_bounds); but a calibration that puts an aluminium beam's E at 0.6 x nominal has not found a material,
@@ -12,13 +12,13 @@ value is (``[diagnosis.uncertainty]`` of the configuration, rt.common.config.Unc
   cut at 4 %.
 * k_t, the tangential contact stiffness per unit area: ``K_T_STEEL`` 1e12..1e14 N/m^3 for ground steel on
   steel (the order of magnitude the bolted-joint literature gives for flat ground joints at a few MPa, the
-  range issue 35 quotes), scaled to the interface's materials by their contact modulus E*
+  range measured joints show), scaled to the interface's materials by their contact modulus E*
   (1 / E* = sum (1 - nu^2) / E of both sides; a rough contact's stiffness grows with E*): aluminium on
   aluminium x 0.336, 3.4e11..3.4e13 N/m^3.
 * mu: ``MU_DRY_METAL`` 0.1..1.5, dry metal on metal (handbook tables: steel on steel 0.5-0.8, clean
   aluminium on aluminium up to 1.05-1.35; oxide films and traces of lubricant bring it towards 0.1).
 * modal_damping: ``ZETA_BOLTED`` 5e-4..5e-2 (0.05..5 %), the modal damping ratios of bolted metal structures,
-  whose damping the joints dominate (issue 35's range).
+  whose damping the joints dominate.
 * clamp compliance [rad/(N m)] (the candidate clamp_compliance): 0 .. clamp_heights x h / (E I) of the
   clamped beam, 3 h by default (A: a real clamp rotates at most like ~3 beam heights h of extra beam; the
   effective root of a clamped beam lies about one height inside the fixture).
@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from frictionrt.rt.common.config import Config
+from frictionrt.rt.discrepancy.diagnose.watch import fitted_text
 
 EDGE_LN = 0.01
 """A parameter this far outside its range (on ln) costs the fit n, its data residuals' expected sum of squares."""
@@ -205,7 +206,8 @@ def summary_lines(p: dict) -> list[str]:
     out += [f"outside its plausible range ({fit}): {_range_text(o)}: {o['meaning']}"
             for fit, key in FITS[1:] for o in p.get(key, [])]
     if p["let_go"]:
-        out.append(f"with the plausible ranges let go: {p['let_go']['fitted']} (gap {p['let_go']['gap_db']:g} dB)")
+        out.append(f"with the plausible ranges let go: {fitted_text(p['let_go']['fitted'])} (gap "
+                   f"{p['let_go']['gap_db']:.3f} dB)")
     return out
 
 

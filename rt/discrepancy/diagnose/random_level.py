@@ -1,4 +1,4 @@
-"""A random test's level in the harmonic balance (issue 35, ``diagnose --calibrate-on`` on random tests, e.g.
+"""A random test's level in the harmonic balance (``diagnose --calibrate-on`` on random tests, e.g.
 ``rig --frf-files --levels .. --excitation random``): the joint's spectral equivalent linearisation under
 the test's Gaussian response.
 

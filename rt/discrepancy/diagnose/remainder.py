@@ -1,4 +1,4 @@
-"""What the diagnosis explains and what remains (issue 18, docs/discrepancy.md "What remains: model form").
+"""What the diagnosis explains and what remains (docs/discrepancy.md "What remains: model form").
 
 A measurement never comes from the model that fits it. The structure channels' weighted residuals r
 (ln|H| differences over their noise sigma, rt.discrepancy.diagnose.structure / frf) give, for
@@ -10,6 +10,14 @@ if one is named),
                                                         E[RSS] = n for residuals of unit variance)
     calibration share = (RSS_0 - RSS_c) / excess,   effect share = (RSS_c - RSS_f) / excess,
     remainder share   = (RSS_f - n) / excess,        the three summing to 1.
+
+The remainder is *within the noise* when RSS_f - n <= ``NOISE_SD`` sqrt(2 n) (RSS of n residuals of
+unit variance is chi-square with n degrees of freedom: mean n, standard deviation sqrt(2 n)). Then no
+part of the gap remains to explain and the shares are of what was explained, RSS_0 - RSS_f:
+calibration share = (RSS_0 - RSS_c) / (RSS_0 - RSS_f), effect share = (RSS_c - RSS_f) / (RSS_0 -
+RSS_f), remainder share 0, again summing to 1 (a remainder below n, fitted into the noise, would
+otherwise be a negative share beside shares summing to more than 1). The report's percentages are
+rounded so that they add up to 100 (largest remainder; ``percent_split``).
 
 The remainder *dominates* when it is more than ``DOMINATES`` of what calibration leaves
 (remainder share > DOMINATES (effect share + remainder share)) and the final residuals' rms is above
@@ -29,6 +37,7 @@ from frictionrt.rt.discrepancy.effects import get
 
 DOMINATES = 0.5        # share of what calibration leaves above which the remainder dominates
 NOISE_X = 2.0          # ... and the final weighted residuals' rms above this (noise model: 1)
+NOISE_SD = 2.0         # a remainder RSS_f - n within this many standard deviations sqrt(2 n) is noise
 MODE_TOL = 0.003       # a mode the final model misses by more than 0.3 % of its frequency is listed
                        # (the identification's scatter on the rig's noise: ~0.05 %; the effects shift 1-3 %)
 
@@ -45,14 +54,21 @@ def budget(nominal: dict, calibrated: dict, final: dict, modes_after: dict) -> d
     """The gap's budget (module docstring) from the structure channels {name: weighted residuals} of
     the nominal, calibrated and final models, and ``modes_after`` {test: rt.discrepancy.diagnose.campaign.modes_table
     of the final model}. Returns {"calibration_share", "effect_share", "remainder_share", "rms_final",
-    "remainder_dominates", "modes_missed": [{"test", "mode", "shift_rel"}], "sensors": [{"sensor",
-    "rms"}]}; shares None when the nominal model is already within the noise (excess <= 0)."""
+    "remainder_within_noise", "remainder_dominates", "modes_missed": [{"test", "mode", "shift_rel"}],
+    "sensors": [{"sensor", "rms"}]}; shares None when the nominal model is already within the noise
+    (excess <= 0, or nothing explained and the remainder within the noise)."""
     (r0, n), (rc, _), (rf, _) = _rss(nominal), _rss(calibrated), _rss(final)
     excess = r0 - n
     rms_f = math.sqrt(rf / n) if n else 0.0
-    shares = ({"calibration_share": round((r0 - rc) / excess, 4), "effect_share": round((rc - rf) / excess, 4),
-               "remainder_share": round((rf - n) / excess, 4)} if excess > 0 else
-              {"calibration_share": None, "effect_share": None, "remainder_share": None})
+    within = bool(n and rf - n <= NOISE_SD * math.sqrt(2.0 * n))
+    if excess > 0 and within and r0 > rf:
+        shares = {"calibration_share": round((r0 - rc) / (r0 - rf), 4), "effect_share": round((rc - rf) / (r0 - rf), 4),
+                  "remainder_share": 0.0}
+    elif excess > 0 and not within:
+        shares = {"calibration_share": round((r0 - rc) / excess, 4), "effect_share": round((rc - rf) / excess, 4),
+                  "remainder_share": round((rf - n) / excess, 4)}
+    else:
+        shares = {"calibration_share": None, "effect_share": None, "remainder_share": None}
     dominates = bool(excess > 0 and rf - n > DOMINATES * (rc - n) and rms_f > NOISE_X)
     missed = sorted(({"test": t, "mode": int(m), "shift_rel": row["shift_rel"]}
                      for t, rows in modes_after.items() for m, row in rows.items()
@@ -60,8 +76,19 @@ def budget(nominal: dict, calibrated: dict, final: dict, modes_after: dict) -> d
                     key=lambda x: -abs(x["shift_rel"]))
     sensors = sorted(({"sensor": k.removeprefix("FRF ").strip(), "rms": round(float(np.sqrt(np.mean(v ** 2))), 3)}
                       for k, v in final.items() if k.startswith("FRF") and len(v)), key=lambda x: -x["rms"])
-    return shares | {"rms_final": round(rms_f, 3), "remainder_dominates": dominates,
+    return shares | {"rms_final": round(rms_f, 3), "remainder_within_noise": within, "remainder_dominates": dominates,
                      "modes_missed": missed, "sensors": sensors}
+
+
+def percent_split(shares) -> list[int]:
+    """Whole percentages of ``shares`` (each clipped at 0, then taken as parts of their sum) that add
+    up to exactly 100: each share's floor, the rest given to the largest fractions (largest remainder)."""
+    x = np.maximum(np.asarray(shares, float), 0.0)
+    x = 100.0 * x / x.sum() if x.sum() > 0 else np.zeros_like(x)
+    out = np.floor(x).astype(int)
+    for i in np.argsort(-(x - out), kind="stable")[:100 - int(out.sum()) if x.sum() > 0 else 0]:
+        out[i] += 1
+    return out.tolist()
 
 
 def verdict(res: dict) -> str:
@@ -70,17 +97,24 @@ def verdict(res: dict) -> str:
     b = res["gap_budget"]
     if b["remainder_share"] is None:
         return "The nominal model already agrees with the measurement within its noise."
-    pct = {k: 100 * min(max(b[k], 0.0), 1.0) for k in ("calibration_share", "effect_share", "remainder_share")}
+    keys = ("calibration_share", "effect_share", "remainder_share")
+    pct = dict(zip(keys, percent_split([b[k] for k in keys])))
     named = res["named_effect"]
     if named is None:
         effect = "no effect is named"
     elif get(named).channel == "structure":
-        effect = f"the named effect ({named}) {pct['effect_share']:.0f} %"
+        effect = f"the named effect ({named}) {pct['effect_share']} %"
     else:
         effect = f"the named effect ({named}) acts on the {get(named).channel} channels, not counted here,"
-    text = (f"Of the structure's gap beyond the noise, calibration explains {pct['calibration_share']:.0f} %, "
-            f"{effect} and {pct['remainder_share']:.0f} % remains "
-            f"(final weighted residuals' rms {b['rms_final']:.2f}, noise 1).")
+    if b.get("remainder_within_noise"):
+        rest = ("the remainder is within the noise" if named is None or get(named).channel != "structure" else
+                "what remains is within the noise")
+        text = (f"Of the structure's gap, calibration explains {pct['calibration_share']} %, {effect} and {rest} "
+                f"(final weighted residuals' rms {b['rms_final']:.2f}, noise 1).")
+    else:
+        text = (f"Of the structure's gap beyond the noise, calibration explains {pct['calibration_share']} %, "
+                f"{effect} and {pct['remainder_share']} % remains "
+                f"(final weighted residuals' rms {b['rms_final']:.2f}, noise 1).")
     if not b["remainder_dominates"]:
         return text
     best = res["ranking"][0] if res["ranking"] else None

@@ -2,7 +2,8 @@
 model.toml (the updated model, loadable by --config), report.md, diagnosis.rrd (the overlays
 for rerun: rt.discrepancy.diagnose.rrd), and overlay PNGs: per impulse
 test |H| measured / nominal model (before) / updated model (after) over BAND_HZ, per FRF file the
-same for every sensor over the file's whole band, in its quantity and unit (issue 18), per
+same for every sensor over the file's whole band, in its quantity and unit, each with a panel of
+the two models' residuals 20 log10(|H_measured| / |H_model|) [dB] below it (``overlay_figure``); per
 actuator test the bolt force F_cell over time. Written into a temporary folder beside REPORT_DIR,
 then renamed."""
 from __future__ import annotations
@@ -17,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from frictionrt.rt.common.config import dumps
+from frictionrt.rt.discrepancy.diagnose.overlay import MODELS, overlay_figure
 from frictionrt.rt.discrepancy.diagnose.rrd import write_diagnosis_rrd
 from frictionrt.rt.discrepancy.diagnose.plausible import markdown
 from frictionrt.rt.discrepancy.diagnose.remainder import verdict
@@ -30,29 +32,18 @@ from frictionrt.rt.discrepancy.diagnose.campaign import (
 )
 
 
-LABELS = {"measured": ("measured", "k-"), "before": ("nominal model (before)", "C1--"),
-          "after": ("updated model (after)", "C0-")}
-
-
 def _frf_file_plots(pl: dict, folder: Path, plt) -> list[str]:
-    """Per FRF file one PNG, a panel per sensor: |H| measured, before, after over the whole band."""
+    """Per FRF file one PNG, per sensor |H| measured, before, after over the whole band and the
+    residuals [dB] of before and after."""
     names = []
     for name, F_N1, f, H, H0, H1 in pl["frf"]:
-        fig, axes = plt.subplots(len(H), 1, figsize=(8, 1.5 + 3 * len(H)), sharex=True, squeeze=False)
-        for ax, s in zip(axes[:, 0], H):
-            for k, (lab, st) in LABELS.items():
-                ax.loglog(f, np.abs({"measured": H, "before": H0, "after": H1}[k][s]), st, lw=0.8, label=lab)
-            ax.set_ylabel(f"{pl['frf_quantity'][name]} |{s}| [{pl['frf_units'][name]}]")
-            ax.grid(True, which="both", lw=0.3)
-        axes[0, 0].set_title(f"{name}: F_N1 = {F_N1:.0f} N")
-        axes[0, 0].legend()
-        axes[-1, 0].set_xlabel("frequency [Hz]")
-        fig.tight_layout()
+        panels = [(f"{pl['frf_quantity'][name]} |{s}| [{pl['frf_units'][name]}]", f, H[s],
+                   {"before": H0[s], "after": H1[s]}) for s in H]
+        fig = overlay_figure(f"{name}: F_N1 = {F_N1:.0f} N", panels, MODELS, loglog=True)
         names.append(f"frf_{name}.png")
         fig.savefig(folder / names[-1], dpi=110)
         plt.close(fig)
     return names
-
 
 def _plots(res: dict, folder: Path) -> list[str]:
     import matplotlib
@@ -63,16 +54,10 @@ def _plots(res: dict, folder: Path) -> list[str]:
         return _frf_file_plots(pl, folder, plt)
     names = []
     for name, F_N1, f, H in frf_overlays(pl):
-        fig, ax = plt.subplots(figsize=(8, 4.5))
         sel = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
-        for k, (lab, st) in LABELS.items():
-            ax.semilogy(f[sel], np.abs(H[k][sel]), st, lw=0.8, label=lab)
-        ax.set_xlabel("frequency [Hz]")
-        ax.set_ylabel("accelerance |a_frf / F_exc| [(m/s^2)/N]")
-        ax.set_title(f"{name}: F_N1 = {F_N1:.0f} N")
-        ax.legend()
-        ax.grid(True, which="both", lw=0.3)
-        fig.tight_layout()
+        fig = overlay_figure(f"{name}: F_N1 = {F_N1:.0f} N", [
+            ("accelerance |a_frf / F_exc| [(m/s^2)/N]", f[sel], H["measured"][sel], {k: H[k][sel] for k in MODELS})],
+            MODELS)
         names.append(f"frf_{name}.png")
         fig.savefig(folder / names[-1], dpi=110)
         plt.close(fig)
@@ -96,7 +81,6 @@ def _plots(res: dict, folder: Path) -> list[str]:
         plt.close(fig)
     return names
 
-
 def dispersion_note(c: float) -> str:
     """One line of report.md on the fitted dispersion c (structure.warp)."""
     step = (f"the data's time step is {math.sqrt(1.0 - c):.2f} x the model's plant step" if c <= 1.0 else
@@ -104,7 +88,6 @@ def dispersion_note(c: float) -> str:
     return (f"Dispersion c = {c:.3g}: the model's FRFs are read at f (1 - c (pi f h)^2 / 3), h the plant's step; "
             f"{step} (0: the virtual rig's own data, 1: continuous time, a laboratory's; docs/discrepancy.md, "
             "Method 3d). The written model.toml does not carry it.")
-
 
 def report_md(res: dict, pngs: list[str]) -> str:
     named = res["named_effect"]
@@ -155,15 +138,13 @@ def report_md(res: dict, pngs: list[str]) -> str:
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"
 
-
 def _not_tried(res: dict) -> str:
     """The effects not tried, each with its reason where the result gives one (FRF-file input)."""
     why = res.get("not_tried_reasons", {})
     return ", ".join(f"{e} ({why[e]})" if e in why else e for e in res["not_tried"])
 
-
 def _frf_file_sections(res: dict) -> list[str]:
-    """The FRF-file input's warnings, plausibility (issue 35), excitation and sensors (issue 18)."""
+    """The FRF-file input's warnings, plausibility, excitation and sensors."""
     out = []
     if res.get("warnings"):
         out += ["", "## Warnings: parameters on a bound, level", "", "| parameter | value | bound | fix |", "| --- | --- | --- | --- |"]
@@ -180,7 +161,6 @@ def _frf_file_sections(res: dict) -> list[str]:
         out += ["", "## Sensors", "", "| sensor | model point | quantity | unit |", "| --- | --- | --- | --- |"]
         out += [f"| {s} | {v['point']} | {v['quantity']} | {v['unit']} |" for s, v in res["sensors"].items()]
     return out
-
 
 def write_report(res: dict, out: str | os.PathLike) -> Path:
     out = Path(out)

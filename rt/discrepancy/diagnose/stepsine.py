@@ -34,27 +34,19 @@ for every candidate, which keeps BIC's channel term comparable). DELTA_R, the re
 per line the larger of DELTA_R_FLOOR and the model's own spread: |ln (R_exc / H)| between the
 calibrated model and the same model with its normal contact stiffness k_n x K_N_SPREAD and
 / K_N_SPREAD (k_n is not calibrated: it forms a ridge with k_t, docs/discrepancy.md "What remains").
-DELTA_R_FLOOR = 10 %: with the campaign's true structure as the model the estimate was within 2.3 %
-of the true R at 12 of 13 lines and 6 % at the 13th (300 N, 5 N, next to the stuck 389 Hz mode); with
-the calibrated one the errors are larger near driving-point antiresonances and at 1100-1250 Hz
-(modes 6-8 and the armature-on-stinger resonance, ratio 2-12). Without this term those lines, where
-the ratio is most sensitive to R, dominated the fit (seed 5: 0.075 instead of 0.1 kg, the ratio gap
-only 4.98 -> 2.26 dB); it was added after that run (seeds 3, 11, 17 were re-run with it:
-docs/discrepancy.md).
+DELTA_R_FLOOR = 10 %: with the campaign's true structure as the model the estimate is within a few
+per cent of the true R; with a calibrated one the errors are larger near driving-point
+antiresonances and at the modes next to the armature-on-stinger resonance, where the ratio is most
+sensitive to R and would otherwise dominate the fit (docs/studies/discrepancy-campaigns.md).
 
 Lines used: where the calibrated model vibrates as the measurement did, its accelerance |H| within
 H_AGREE of the measured one and its shape, the ratio of the two accelerometers' readings
 (SHAPE_SENSOR over a_frf_meas), within SHAPE_AGREE of the measured ratio (elsewhere the model is on
 another stick-slip branch, or has a resonance or antiresonance a little off, and its R_exc / H says
-nothing about the measured R). Why the shape gate and the k_n spread (issue 18, a truth of another
-model form, ``rig --model-form``, seeds 3 and 11, 0.1 kg hidden): the truth's own R_exc / H differs
-from the nominal contact pitch's by 0.19-37x next to the stuck modes (0.09x at 1100 Hz), and the
-calibrated model's estimate of R was 21x off at 212 Hz (300 N, 5 N; seed 11) and 4-7x off at 500 Hz
-(a driving-point antiresonance) where |H| agreed within 1-25 %: with the |H| gate and a constant
-10 % alone the fit gave 0.041 and 0.043 kg. The shape gate removes the 212 Hz line (shape 0.77 in ln)
-and the k_n spread weights the 500 Hz lines down (0.15-0.57): 0.1005 and 0.0977 kg, the weighted RSS
-66 and 88 over 29 and 30 lines (shape gate alone: 0.098 both, RSS 125 and 123). The campaign's true
-structure as the model keeps 88 of 93 lines and fits 0.0995 kg.
+nothing about the measured R). The shape gate and the k_n spread keep a truth of another model form
+(``rig --model-form``) from pulling the fit: next to the stuck modes and at driving-point
+antiresonances the calibrated model's R_exc / H can be several times off where |H| agrees within
+25 % (docs/studies/discrepancy-campaigns.md has the campaigns that set them).
 
 ``gap_db`` uses the same weights (dB at the scale of a well-conditioned line).
 """

@@ -31,7 +31,7 @@ driven by the windowed measured force; its FRFs are read at the data's frequenci
 dispersion c (``model_frf``). Gauss-Newton steps from stage 1 with bounds
 (scipy.optimize.lsq_linear) on a forward-difference Jacobian (plant rebuilt per column, 12 ms)
 kept up to date by Broyden's rank-one updates, plus Gaussian priors on the calibration scales
-(``CAL_FAR``: far from the nominal, issue 18; k_t and the modal damping moved as ln(scale),
+(``CAL_FAR``: far from the nominal; k_t and the modal damping moved as ln(scale),
 ``LOG_SCALE``; stage 1 fits ln k_t too). Measured at the true parameters of a campaign: residual
 rms 0.2-0.3 (sigma_k is conservative), nominal 5-21.
 """
@@ -67,7 +67,7 @@ SLIP_TOL = 2e-3                         # ... modes 2-5 within this of the stuck
 CAL_FAR = {"E": (0.5, 2.0, 0.3, 1e-3), "k_t": (0.01, 100.0, math.log(10.0), 0.02),
            "mu": (0.5, 2.0, 0.3, 0.02), "modal_damping": (0.1, 10.0, math.log(10.0), 0.02)}
 """Calibration scales around 1: (lower, upper bound, prior sigma, finite-difference step), of the
-impulse tests here and of the FRF-file input (rt.discrepancy.diagnose.frf: without mu; issue 18: a
+impulse tests here and of the FRF-file input (rt.discrepancy.diagnose.frf: without mu; a
 first model may be tens of percent off): E and mu within a factor 2 (frequencies within 41 %), prior
 sigma 0.3; the contact stiffness and the modal damping within a factor 100 and 10, on a log scale
 (``LOG_SCALE``), prior sigma ln 10 on ln(scale) (a contact stiffness from Hertz-Mindlin or a

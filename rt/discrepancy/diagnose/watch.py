@@ -1,4 +1,4 @@
-"""Running the diagnosis' fits where a user sees them (issue 35 item 2; docs/discrepancy.md "Progress and
+"""Running the diagnosis' fits where a user sees them (docs/discrepancy.md "Progress and
 Ctrl-C"): progress bars, the candidates' fits in parallel, and Ctrl-C that keeps what is done.
 
 Progress: a fit counts its model evaluations on a tqdm bar on stderr with the best cost so far
@@ -43,6 +43,30 @@ class Interrupted(KeyboardInterrupt):
 def rounded(theta: dict) -> dict:
     """Fitted parameters as the report gives them: 5 significant digits."""
     return {k: float(f"{v:.5g}") for k, v in theta.items()}
+
+
+PEOPLE_DIGITS = 4
+"""Significant digits of a fitted value in the text for people, of its parameter's scale: the
+calibration scales' 1 (x nominal), an effect's default strength; the JSON keeps its own."""
+
+
+def fitted_text(theta: dict) -> str:
+    """Fitted parameters for people: ``E 1.002, k_t 1.032, moving_mass 0.05``, each rounded to
+    PEOPLE_DIGITS significant digits of its scale (an effect's default strength, else 1 for the
+    calibration's scale factors; a value's own magnitude for any other), so that a strength pressed
+    to a bound of 0 (e.g. 4.5e-31 of a default 3e-5) reads 0."""
+    from frictionrt.rt.discrepancy.effects import EFFECTS
+    out = []
+    for k, v in theta.items():
+        v = float(v)
+        scale = abs(EFFECTS[k].parameter.default) if k in EFFECTS else 1.0 if k in ("E", "k_t", "modal_damping", "mu") \
+            else abs(v)
+        if not math.isfinite(v) or scale == 0.0:
+            out.append(f"{k} {v:g}")
+            continue
+        r = round(v, PEOPLE_DIGITS - 1 - math.floor(math.log10(scale)))
+        out.append(f"{k} {0.0 if r == 0 else r:.{PEOPLE_DIGITS}g}")
+    return ", ".join(out)
 
 
 def done_fit(theta: dict, cfg, **more) -> dict:
@@ -109,7 +133,7 @@ def keeping(done: dict, **keys):
 def partial_summary(partial: dict) -> str:
     """The text the CLI prints for an interrupted diagnosis (``partial_result``)."""
     return "\n".join(["interrupted; the fits done so far:"]
-                     + [f"  {name}: {f['fitted']}" for name, f in partial["fits"].items()])
+                     + [f"  {name}: {fitted_text(f['fitted'])}" for name, f in partial["fits"].items()])
 
 
 def write_result(folder: Path, res: dict) -> None:

@@ -1,4 +1,4 @@
-"""The virtual test rig (issue 7): a measurement campaign in the measurement format
+"""The virtual test rig: a measurement campaign in the measurement format
 (docs/data-format.md) from a "true" structure that differs from the nominal model by parameter
 scatter and, optionally, one hidden effect of the library (rt.discrepancy.effects).
 
@@ -108,7 +108,7 @@ def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS, refine: i
     ``refine`` (an integer >= 2, ``model_form_refine``) sets how much finer the discretisation
     parts are: element length and pitch / refine, substeps x refine^2 (``refined_sets``, the
     convergence study's refinement: the slipping joint's step error falls at first order;
-    refine 2 is SPEC 2's "same model refined"); None (the default) is the form of issue 18: element
+    refine 2 is SPEC 2's "same model refined"); None (the default) is the halved form: element
     length and pitch / 2, substeps x 2. Everything else (points, screws, actuator, sensors) is ``cfg``'s."""
     p, itf = cfg.plant, cfg.plant.interface
     sets = [s for part, s in zip(REFINED_PARTS, _refined_sets(cfg, refine)) if part in parts]
@@ -124,7 +124,7 @@ def model_form(cfg: Config, parts: tuple[str, ...] = MODEL_FORM_PARTS, refine: i
 def _refined_sets(cfg: Config, refine: int | None) -> list[str]:
     """--set assignments of the element length, the contact pitch and the plant substeps (in the
     order of ``REFINED_PARTS``) of ``model_form``'s truth: refined by ``refine`` as
-    ``frictionrt.rt.common.config.refined_sets`` does, or (None) halved, halved and doubled (issue 18's form)."""
+    ``frictionrt.rt.common.config.refined_sets`` does, or (None) halved, halved and doubled (the default form)."""
     p = cfg.plant
     if refine is None:
         return [f"plant.element_length_m={p.element_length_m / 2!r}",
@@ -181,7 +181,7 @@ def make_campaign(out_dir: str | os.PathLike, effect: str = "none", strength: fl
     non-empty ``out_dir``, or an effect that shows only in step-sine tests without ``stepsine``.
     ``stepsine``: also the step-sine FRF tests of rt.discrepancy.rig.stepsine (CSV + sidecar);
     ``other_form``: the truth of another model form made of these parts (``model_form``; () the nominal's),
-    its discretisation parts refined by ``refine`` (``model_form``; None: issue 18's form)."""
+    its discretisation parts refined by ``refine`` (``model_form``; None: the default form)."""
     if effect != "none" and get(effect).channel == "stepsine" and not stepsine:
         raise ValueError(f"effect {effect!r} shows only in step-sine tests (the shaker's force ratio); add --stepsine")
     rng = np.random.default_rng(seed)

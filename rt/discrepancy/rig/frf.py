@@ -1,4 +1,4 @@
-"""The virtual rig's FRF-file campaign (``frictionrt rig --frf-files``, issue 7): what a lab
+"""The virtual rig's FRF-file campaign (``frictionrt rig --frf-files``): what a lab
 exports from low-level FRF measurements with the contact stuck, as FRF files (rt.log.frf_files,
 docs/data-format.md "FRF files"), from the same "true" structure as ``rig`` writes time series of
 (rt.discrepancy.rig.campaign.true_structure: the same scatter draw and hidden effect for the same seed).
@@ -20,7 +20,7 @@ effect.
 A structure without an adaptive screw (ordinary bolts only, or the bare beam: docs/plant.md 5.3)
 has no F_N1 to hold: one test, frf_01.csv, with F_N1_N = 0 in its sidecar.
 
-Issue 18 (the file kinds a lab has; arguments of ``make_frf_campaign``, defaults as above): the
+The file kinds a lab has (arguments of ``make_frf_campaign``, defaults as above): the
 response as ``quantity`` (rt.log.frf_files.QUANTITIES: H_a / (i w)^(2 - k)), the excitation as a
 drive voltage with a force scale s [N/V] (H per volt = s H per newton: a voltage-driven shaker
 without force transducer; the noise floor is scaled alike), and other sensors {name: (beam, x_m)}

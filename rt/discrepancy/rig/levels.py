@@ -1,4 +1,4 @@
-"""Multi-level FRF files from the nonlinear plant (``frictionrt rig --frf-files --levels``, issue 18):
+"""Multi-level FRF files from the nonlinear plant (``frictionrt rig --frf-files --levels``):
 what a lab exports from stepped-sine tests at several excitation levels, where the joint's
 micro-slip softens and damps its modes as the level rises.
 
@@ -25,7 +25,7 @@ plan. Noise as rt.discrepancy.rig.frf (``NOISE_REL`` of |H| plus ``NOISE_FLOOR``
 ``level_NN`` alternately CSV and UFF, kind "frf", ``amplitude_n`` = F; the sidecars are the same for
 every hidden effect.
 
-Random excitation (``excitation`` "random", issue 35): per level a band-limited Gaussian force of that
+Random excitation (``excitation`` "random"): per level a band-limited Gaussian force of that
 rms [N] over ``BAND_HZ`` (a drive voltage of that rms [V] with a force scale) for one record, H1 and its
 coherence by Welch's method on the band's 0.0625 Hz lines (rt.discrepancy.rig.random_excitation); no
 noise added to H1 (the accelerometers' noise is in the record), the sidecar's "random" names the level

@@ -1,5 +1,5 @@
-"""Random excitation of the rig's level tests (``frictionrt rig --frf-files --levels .. --excitation random``,
-issue 35): what a lab measures with a shaker driven by band-limited noise, H1 by Welch's method.
+"""Random excitation of the rig's level tests (``frictionrt rig --frf-files --levels .. --excitation random``):
+what a lab measures with a shaker driven by band-limited noise, H1 by Welch's method.
 
 Level: the rms F_rms [N] of the force over the band f_lo..f_hi (``frictionrt.rt.discrepancy.rig.levels.BAND_HZ``,
 50-1200 Hz; with a force scale s [N/V] the rms V_rms [V] of the drive voltage, the force s v). The
