@@ -67,11 +67,6 @@ def _margin_cell(x: dict) -> str:
     return (f"**{v}** (margin {m:+.3g} {unit}, discretisation {'not estimated' if shift is None else f'{shift:+.3g}'})")
 
 
-def verdict_line(claims: dict) -> str:
-    """One line per claim for a terminal: claim, verdict, margin, shift (CLI)."""
-    return "\n".join(f"{c:>5} {_margin_cell(x).replace('**', '')}" for c, x in claims.items())
-
-
 def _claims_tables(r: dict) -> list[str]:
     """The verdicts of every estimator side by side, then each estimator's numbers."""
     by_est = r["by_estimator"]
