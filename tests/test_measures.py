@@ -119,7 +119,7 @@ def test_frf_error_estimate_gives_each_points_shift(capsys):
     largest point's (one point here)."""
     import json
     from frictionrt.rt.cli import main
-    assert main(["frf", "--law", "passive", "--amp", "5", "--freqs", "228", "--max-time", "0.3", "--jobs", "1",
+    assert main(["frf", "--law", "passive", "--amps", "5", "--freqs", "228", "--max-time", "0.3", "--jobs", "1",
                  "--error-estimate", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     e, = doc["error_estimate"]
