@@ -32,57 +32,8 @@ import numpy as np
 
 from benchmarks.entry import run_main
 from frictionrt.rt.common.config import load
-from frictionrt.rt.experiments.claims import TOL_DB
-from frictionrt.rt.experiments.stepsine import harmonics_of_columns
-from frictionrt.rt.loop import Designs, build_loop, run
-
-
-def failing_cells(by_est: dict) -> list[dict]:
-    """[{estimator, claim, law, mode, amp}] of the C3 and C4 failures (module docstring), as text keys."""
-    cells = []
-    for est, v in by_est.items():
-        red = v["peak_change_db"]
-        if not v["claims"]["C3"]["holds"]:
-            for law, modes in v["claims"]["C3"]["numbers"]["modes_reduced"].items():
-                if len(modes) < v["claims"]["C3"]["numbers"]["min_modes"]:
-                    cells += [{"estimator": est, "claim": "C3", "law": law, "mode": m, "amp": a}
-                              for m, by_amp in red[law].items() for a, x in by_amp.items() if x > -TOL_DB]
-        if not v["claims"]["C4"]["holds"]:
-            amp = f"{v['claims']['C4']['numbers']['amplitude_n']:g}"
-            cells += [{"estimator": est, "claim": "C4", "law": law, "mode": m, "amp": amp}
-                      for law, by_mode in red.items() for m, by_amp in by_mode.items() if by_amp[amp] > TOL_DB]
-    return cells
-
-
-def constant_clamp_peak(peaks_by_fn1: dict, fn1_n: float) -> float:
-    """The baseline's passive peak at constant F_N1 = fn1_n [N], linear between the forces tried."""
-    f = np.array([float(k) for k in peaks_by_fn1])
-    order = np.argsort(f)
-    return float(np.interp(fn1_n, f[order], np.array(list(peaks_by_fn1.values()), dtype=float)[order]))
-
-
-def mechanism(cfg, designs: Designs, cell: dict, report: dict, duration_s: float) -> dict:
-    """One cell's closed-loop run at its peak (module docstring)."""
-    v = report["by_estimator"][cell["estimator"]]
-    pk = v["peaks"][cell["law"]][cell["mode"]][cell["amp"]]
-    f, amp = pk["f_hz"], float(cell["amp"])
-    loop = build_loop(cfg, cell["law"], cell["estimator"], designs=designs)
-    r = run(loop, f, amp, duration_s)
-    dt, t = cfg.dt_s, cfg.tracking
-    n = len(r.log) // 2
-    X = np.column_stack([r.signal(s)[-n:] for s in ("F_set", "F_N1")])
-    F_set_2f, F_N1_2f = (abs(h.X[1]) for h in harmonics_of_columns(X, f, dt, 2, k0=len(r.log) - n))
-    u0 = float(np.mean(r.signal("u0")[-n:]))
-    F_N1 = float(np.mean(r.signal("F_N1")[-n:]))
-    best = report["best_passive_fn1"][cell["mode"]][cell["amp"]]
-    reduction = v["peak_change_db"][cell["law"]][cell["mode"]][cell["amp"]]
-    return cell | {"f_hz": f, "peak": pk["H_abs"], "reduction_db": reduction,
-                   "u0_um": 1e6 * u0, "Kf_u0_over_Fmin": t.K_f * u0 / t.F_min_N,
-                   "F_set_mean_n": float(np.mean(X[:, 0])), "F_N1_mean_n": F_N1,
-                   "at_F_max": float(np.mean(X[:, 0] >= t.F_max_N * (1 - 1e-9))),
-                   "F_set_2f_n": float(F_set_2f), "F_N1_2f_n": float(F_N1_2f),
-                   "transmitted": float(F_N1_2f / F_set_2f) if F_set_2f >= 1.0 else float("nan"),
-                   "constant_clamp_peak": constant_clamp_peak(best["peaks_by_fn1"], F_N1)}
+from frictionrt.rt.experiments.mechanisms import failing_cells, mechanism
+from frictionrt.rt.loop import Designs
 
 
 def main(argv=None) -> int:

@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from benchmarks.entry import run_main
+from frictionrt.plant import measures
 from frictionrt.plant.impulse import impulse_test
 from frictionrt.plant.model import build_plant
 from frictionrt.rt.common.config import Config, load, with_sets
@@ -63,16 +64,57 @@ def configured(base: Config, entry: tuple[float, float, int, int]) -> Config:
 
 
 def hammer(cfg: Config, F_N1: float) -> dict:
-    """The hammer test at F_N1 [N]: modal f [Hz], zeta [-] of modes 2-5, the FRF in ``BAND_HZ``, wall [s]."""
+    """The hammer test at F_N1 [N]: modal f [Hz], zeta [-] of modes 2-5, the FRF in ``BAND_HZ``
+    (lines ``freq`` [Hz]), the exponential window's tau_w [s], wall [s]."""
     t0 = time.perf_counter()
     r = impulse_test(build_plant(cfg), F_N1)
     band = (r.freq > BAND_HZ[0]) & (r.freq < BAND_HZ[1])
-    return {"f": r.freq_hz, "zeta": r.damping_ratio, "H": r.frf[band], "wall_s": time.perf_counter() - t0}
+    return {"f": r.freq_hz, "zeta": r.damping_ratio, "H": r.frf[band], "freq": r.freq[band],
+            "tau_w": cfg.impulse.record_s / 4.0, "wall_s": time.perf_counter() - t0}
 
 
-def rms_db(H: np.ndarray, ref: np.ndarray) -> float:
-    """RMS of 20 log10 |H / ref| [dB]."""
-    return float(np.sqrt(np.mean((20.0 * np.log10(np.abs(H / ref))) ** 2)))
+rms_db = measures.rms_db
+
+
+def lab_measures(rows: list[dict]) -> list[dict]:
+    """Per entry, against the last (finest) one, in the bands of the last entry's modes 2-5
+    (plant.measures): per mode the peak's frequency offset [%] and height offset [dB], the
+    half-power zeta offset [%] and the magnitude-weighted FRF error [dB]; over 50-1200 Hz the
+    weighted error and the rms of dB."""
+    ref = rows[-1]
+    bands = measures.mode_bands(ref["f"])
+    m_ref = measures.mode_measures(ref["freq"], ref["H"], bands, ref["tau_w"])
+    out = []
+    for r in rows:
+        m = measures.mode_measures(r["freq"], r["H"], bands, r["tau_w"])
+        out.append({"df_pct": [100 * (a.f_peak_hz / b.f_peak_hz - 1) for a, b in zip(m, m_ref)],
+                    "dpeak_db": [20 * np.log10(a.peak_abs / b.peak_abs) for a, b in zip(m, m_ref)],
+                    "dzeta_pct": [100 * (a.zeta_half_power / b.zeta_half_power - 1) for a, b in zip(m, m_ref)],
+                    "zeta_hp_pct": [100 * a.zeta_half_power for a in m],
+                    "band_db": measures.band_errors_db(r["freq"], r["H"], ref["H"], bands),
+                    "weighted_db": measures.weighted_error_db(r["H"], ref["H"]), "rms_db": rms_db(r["H"], ref["H"])})
+    return out
+
+
+def print_lab_measures(entries: list[str], rows: list[dict]) -> None:
+    """The table of ``lab_measures`` and, for entries of one pitch at substeps S, 2S, 4S..., the
+    observed order of each error e_S (weighted, dB) against the finest: p = (e_S - e_2S) / 6.02."""
+    lab = lab_measures(rows)
+    print("\nLab measures against the last entry (plant.measures; modes 2-5): peak f [%], peak height [dB], "
+          "half-power zeta [%, offset], weighted FRF error per mode band [dB]; whole band: weighted [dB] / "
+          "rms of dB\n")
+    print("| entry | peak f | peak height | zeta (half power) | band error | weighted / rms |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for e, m in zip(entries, lab):
+        fmt = lambda xs, f: ", ".join(f.format(x) for x in xs)  # noqa: E731
+        print(f"| {e} | {fmt(m['df_pct'], '{:+.3f}')} | {fmt(m['dpeak_db'], '{:+.2f}')} | "
+              + ", ".join(f"{z:.3f} ({d:+.0f} %)" for z, d in zip(m["zeta_hp_pct"], m["dzeta_pct"]))
+              + f" | {fmt(m['band_db'], '{:.1f}')} | {m['weighted_db']:.1f} / {m['rms_db']:.2f} |")
+    for k in range(len(lab) - 2):
+        p = (lab[k]["weighted_db"] - lab[k + 1]["weighted_db"]) / (20 * np.log10(2))
+        pb = [(a - b) / (20 * np.log10(2)) for a, b in zip(lab[k]["band_db"], lab[k + 1]["band_db"])]
+        print(f"observed order {entries[k]} -> {entries[k + 1]} (halving assumed): weighted {p:.2f}; per mode band "
+              + ", ".join(f"{x:.2f}" for x in pb))
 
 
 def richardson(H1: np.ndarray, H2: np.ndarray, H4: np.ndarray) -> tuple[float, np.ndarray]:
@@ -123,6 +165,7 @@ def main(argv=None) -> int:
                     print(f"\n{p:g} mm{ends} / {e:g} mm, substeps {s}, {2 * s}, {4 * s}: observed order {order:.2f}; distance "
                           "from the Richardson limit [dB rms]: "
                           + ", ".join(f"{k} substeps {rms_db(Hs[k], limit):.2f}" for k in (s, 2 * s, 4 * s)))
+        print_lab_measures([label(e) for e in args.grid], rows)
     if args.save:
         np.savez(args.save, **saved)
     return 0

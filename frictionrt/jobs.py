@@ -65,11 +65,14 @@ def modes(cfg: Cfg = None) -> Result:
     return Result("modes", s, text=format_summary(s))
 
 
-def impulse(cfg: Cfg = None, *, fn1_n: float | None = None) -> Result:
+def impulse(cfg: Cfg = None, *, fn1_n: float | None = None, error_estimate: bool = False) -> Result:
     """The simulated hammer test at constant F_N1 = ``fn1_n`` [N] (None: the adaptive screw's
     configured preload): accelerance FRF [(m/s^2)/N], natural frequencies [Hz] and damping
-    ratios of modes 2-5 (``frictionrt impulse``). ``.plot()``: the FRF (cf. the paper's Fig. 5);
-    ``.frf``: the ``plant.impulse.ImpulseResult``."""
+    ratios of modes 2-5 (``frictionrt impulse``). ``error_estimate``: also the test on the plant
+    with the contact pitch and the elements x2, and ``refined_shift`` {freq_hz, damping_ratio}:
+    each figure's estimated shift under refinement (Richardson, order 1;
+    rt.experiments.discretisation). ``.plot()``: the FRF (cf. the paper's Fig. 5); ``.frf``: the
+    ``plant.impulse.ImpulseResult``."""
     from frictionrt.plant.impulse import impulse_test, plot_frf
     from frictionrt.plant.model import build_plant
     from frictionrt.rt.common.config import adaptive_screw
@@ -83,12 +86,25 @@ def impulse(cfg: Cfg = None, *, fn1_n: float | None = None) -> Result:
     if screw is not None and not (t.F_min_N <= fn1 <= t.F_max_N):
         raise ValueError(f"F_N1 {fn1:g} N lies outside [F_min, F_max] = [{t.F_min_N:g}, {t.F_max_N:g}] N")
     res = impulse_test(build_plant(cfg), fn1)
+    data = res.to_json()
     text = [f"impulse test, {'no adaptive screw' if screw is None else f'F_N1 = {fn1:g} N'}, "
-            f"hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms",
-            f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>9}"]
-    text += [f"{m:>4} {f:>9.2f} {100 * z:>9.3f}" for m, f, z in zip(res.modes, res.freq_hz, res.damping_ratio)]
-    return Result("impulse", res.to_json(), lambda: plot_frf(res, None, cfg.impulse.f_max_hz), "\n".join(text),
-                  frf=res)
+            f"hammer {cfg.impulse.peak_N:g} N / {1e3 * cfg.impulse.duration_s:g} ms"]
+    if not error_estimate:
+        text.append(f"{'mode':>4} {'f [Hz]':>9} {'zeta [%]':>9}")
+        text += [f"{m:>4} {f:>9.2f} {100 * z:>9.3f}" for m, f, z in zip(res.modes, res.freq_hz, res.damping_ratio)]
+    else:
+        from frictionrt.rt.experiments.discretisation import coarser, refined_shift
+        coarse = impulse_test(build_plant(coarser(cfg)), fn1)
+        shift = {"freq_hz": [refined_shift(float(a), float(b)) for a, b in zip(res.freq_hz, coarse.freq_hz)],
+                 "damping_ratio": [refined_shift(float(a), float(b))
+                                   for a, b in zip(res.damping_ratio, coarse.damping_ratio)]}
+        data["refined_shift"] = {k: [None if v != v else float(f"{v:.6g}") for v in x] for k, x in shift.items()}
+        text += ["discretisation error: estimated shift under refinement (Richardson from the contact pitch and "
+                 "elements x2, order 1)", f"{'mode':>4} {'f [Hz]':>9} {'shift [%]':>9} {'zeta [%]':>9} {'shift [%]':>9}"]
+        text += [f"{m:>4} {f:>9.2f} {100 * df / f:>+9.2f} {100 * z:>9.3f} {100 * dz / z:>+9.0f}"
+                 for m, f, z, df, dz in zip(res.modes, res.freq_hz, res.damping_ratio, shift["freq_hz"],
+                                            shift["damping_ratio"])]
+    return Result("impulse", data, lambda: plot_frf(res, None, cfg.impulse.f_max_hz), "\n".join(text), frf=res)
 
 
 def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None = None,
@@ -280,7 +296,7 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
 def reproduce(cfg: Cfg = None, *, quick: bool = False, estimators: Sequence[str] = ESTIMATORS,
               modes: Sequence[int] | None = None, amps_n: Sequence[float] | None = None,
               out: str | Path | None = None, force: bool = False, jobs: int | None = None, dask: str | None = None,
-              progress: bool = False, stage=None) -> Result:
+              progress: bool = False, stage=None, error_estimate: str = "auto") -> Result:
     """The paper's experiments and claims C1..C6 (``frictionrt reproduce``; docs/experiments.md):
     the impulse test, step-sine FRFs of passive, hysteresis-optimal and Lyapunov control around the
     resonances at several force amplitudes (the laws on each of ``estimators``: the paper's observer
@@ -289,8 +305,11 @@ def reproduce(cfg: Cfg = None, *, quick: bool = False, estimators: Sequence[str]
     ``modes``/``amps_n``: the plan on those only. With ``out``: fig5.png, fig7.png, fig8.png,
     report.md, report.json written there at once. ``.to_dict()`` is report.json (``claims`` ->
     C1..C6 -> holds, numbers; ``peak_change_db`` -> law -> mode -> amplitude [dB], negative: the
-    law's peak is lower); ``.plot(law)``: the law against passive ("hysteresis": Fig. 7,
-    "lyapunov": Fig. 8). ``stage(text)``: told each stage as it starts."""
+    law's peak is lower; per claim ``margin``, ``refined_shift``, ``verdict``: yes / NO / undecided);
+    ``error_estimate``: "auto" (the stored margins of the coarse and refined plants for this
+    configuration and plan, else their runs), "run" or "none" (rt.experiments.discretisation);
+    ``.plot(law)``: the law against passive ("hysteresis": Fig. 7, "lyapunov": Fig. 8).
+    ``stage(text)``: told each stage as it starts."""
     import dataclasses
 
     from frictionrt.rt.experiments.reproduce import FULL, QUICK, measure
@@ -307,7 +326,14 @@ def reproduce(cfg: Cfg = None, *, quick: bool = False, estimators: Sequence[str]
     if amps_n is not None:
         plan = dataclasses.replace(plan, amps_n=tuple(float(a) for a in amps_n))
     plan.check(cfg)
-    result = measure(cfg, plan, estimators, jobs, dask, progress=progress, stage=stage or (lambda text: None))
+    from frictionrt.rt.experiments.discretisation import ErrorEstimate
+    try:
+        how = ErrorEstimate(error_estimate)
+    except ValueError:
+        raise ValueError(f"error_estimate {error_estimate!r}: give one of "
+                         f"{', '.join(e.value for e in ErrorEstimate)}") from None
+    result = measure(cfg, plan, estimators, jobs, dask, progress=progress, stage=stage or (lambda text: None),
+                     error_estimate=how)
     if out is not None:
         from frictionrt.rt.common.files import write_folder
         write_folder(out, force, lambda: write_outputs(Path(out), result, cfg.impulse.f_max_hz))

@@ -1,9 +1,9 @@
-"""benchmarks.claim_mechanisms' pure parts: which cells make C3 and C4 fail (rt.experiments.claims'
+"""rt.experiments.mechanisms' pure parts: which cells make C3 and C4 fail (rt.experiments.claims'
 rules on a report's numbers), and the constant clamp's peak at a law's mean force. The closed-loop
 re-runs themselves are measured in docs/experiments.md, "Why each failing claim fails"."""
 import pytest
 
-from benchmarks.claim_mechanisms import constant_clamp_peak, failing_cells
+from frictionrt.rt.experiments.mechanisms import constant_clamp_peak, failing_cells
 from frictionrt.rt.experiments.claims import claim_c3, claim_c4
 from frictionrt.rt.experiments.reproduce_report import jsonable
 

@@ -63,7 +63,8 @@ def test_tune_a_gain(tmp_path, monkeypatch):
 def test_reproduce_the_paper(tmp_path, monkeypatch):
     g = run_example("reproduce_paper.py", tmp_path / "py", monkeypatch)
     py = g["res"].to_dict()
-    cli = cli_json("reproduce", "--quick", "--modes", "3", "--estimator", "observer", "--out", tmp_path / "cli")
+    cli = cli_json("reproduce", "--quick", "--modes", "3", "--estimator", "observer", "--error-estimate", "none",
+                   "--out", tmp_path / "cli")
     assert list(py["by_estimator"]) == list(cli["by_estimator"]) == ["observer"]
     for est in ("observer",):
         assert py["by_estimator"][est]["peak_change_db"] == cli["by_estimator"][est]["peak_change_db"]

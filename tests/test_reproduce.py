@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from frictionrt.rt.experiments.claims import (claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_change_db)
+from frictionrt.rt.experiments.claims import (Verdict, claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6,
+                                             peak_change_db, verdict)
 from frictionrt.rt.cli import main
 from frictionrt.rt.common.config import load
 from frictionrt.rt.experiments.reproduce import loop_at_fn1, merge, refine_points, with_constant_fn1
@@ -86,6 +87,78 @@ def test_c6_lyapunov_power_higher_everywhere():
     assert c["holds"] and c["numbers"]["held_cells"] == [(2, 20.0)]
     # a law that moves its force is compared, however small its power
     assert not claim_c6(_table(hy | {(2, 20.0): 2e-7}, {(3, 5.0): 3.0, (4, 5.0): 2.0, (2, 20.0): 1e-7}))["holds"]
+
+
+def test_margins_in_each_claims_unit_are_positive_where_it_holds():
+    """Each claim's margin (rt.experiments.claims): its sign is the verdict, its size the distance
+    of the deciding number from the threshold, by hand from the synthetic tables."""
+    bare = {2: 0.001, 3: 0.001, 4: 0.001, 5: 0.001}
+    good = {2: 0.0012, 3: 0.013, 4: 0.015, 5: 0.00223}
+    assert claim_c1(bare)["margin"] is None
+    assert claim_c2(good, bare)["margin"] == pytest.approx(0.23)           # mode 5: 2.23 against 2
+    assert claim_c2({**good, 5: 0.00185}, bare)["margin"] == pytest.approx(-0.15)
+    assert claim_c2({**good, 2: 0.0019}, bare)["margin"] == pytest.approx(0.1)  # mode 2: 1.9 below 2
+    assert claim_c2({**good, 3: math.nan}, bare)["margin"] == -math.inf
+    ly = {(3, 5.0): -6.0, (3, 20.0): -1.0, (4, 5.0): -7.0, (4, 20.0): -2.0}
+    hy = {(3, 5.0): -1.0, (3, 20.0): -0.6, (4, 5.0): -1.0, (4, 20.0): -0.7}
+    assert claim_c3(_table(hy, ly))["margin"] == pytest.approx(0.1)        # hysteresis' 2nd mode: -0.6 dB
+    assert claim_c3(_table({**hy, (4, 20.0): +3.0}, ly))["margin"] == pytest.approx(-3.5)
+    assert claim_c4(_table(hy, ly))["margin"] == pytest.approx(1.5)        # -1.0 against +0.5
+    c4 = claim_c4(_table({**hy, (4, 5.0): +1.25}, ly))
+    assert not c4["holds"] and c4["margin"] == pytest.approx(-0.75)
+    hy5 = {(3, 5.0): -1.0, (3, 20.0): +3.0, (4, 5.0): 1.0, (4, 20.0): +6.0}
+    ly5 = {(3, 5.0): -6.0, (3, 20.0): +1.0, (4, 5.0): -7.0, (4, 20.0): +2.0}
+    assert claim_c5(_table(hy5, ly5))["margin"] == pytest.approx(3.0)      # min(3.0, 6.5 - 3.0)
+    assert claim_c5(_table(hy5, {k: v + 10.0 for k, v in ly5.items()}))["margin"] < 0
+    p_hy = {(3, 5.0): 0.01, (4, 5.0): 0.02}
+    assert claim_c6(_table(p_hy, {(3, 5.0): 0.03, (4, 5.0): 0.05}))["margin"] == pytest.approx(1.5)
+    assert claim_c6(_table(p_hy, {(3, 5.0): 3.0, (4, 5.0): 0.01}))["margin"] == pytest.approx(-0.5)
+
+
+@pytest.mark.parametrize("margin, shift, holds, expected", [
+    (0.23, 0.10, True, Verdict.YES),        # decided: the discretisation moves it by less than its margin
+    (0.23, -0.38, True, Verdict.UNDECIDED),  # C2 at the default against the refined plant (docs/plant.md 6.3)
+    (-0.75, 0.2, False, Verdict.NO),
+    (-0.75, 0.9, False, Verdict.UNDECIDED),
+    (1.5, None, True, Verdict.YES),         # not estimated: the margin's sign decides
+    (-0.1, math.nan, False, Verdict.NO),
+    (None, None, True, Verdict.YES),        # C1: a model input
+    (math.inf, 0.5, True, Verdict.YES),     # C6 with no compared cell
+])
+def test_verdict_is_undecided_where_the_discretisation_moves_the_margin_past_zero(margin, shift, holds, expected):
+    assert verdict(margin, shift, holds) is expected
+    assert verdict(margin, shift, holds).value in ("yes", "NO", "undecided")
+
+
+def test_richardson_shift_and_the_stored_coarse_margins(tmp_path):
+    """refined_shift = (M - M_coarse) / (2^p - 1), p = 1 by default; a record is found only for the
+    configuration and plan it was stored for."""
+    from frictionrt.rt.experiments.discretisation import refined_shift, store, stored
+    from frictionrt.rt.experiments.reproduce import QUICK, FULL
+    from frictionrt.rt.common.config import with_sets
+    assert refined_shift(0.23, 0.61) == pytest.approx(-0.38)
+    assert refined_shift(0.23, 0.61, order=2.0) == pytest.approx(-0.38 / 3)
+    assert refined_shift(None, None) is None and math.isnan(refined_shift(math.inf, 0.5))
+    path, cfg = tmp_path / "coarse.json", load()
+    store(cfg, QUICK, {"observer": {"C2": 0.61}}, "test", path, refined_margins={"C2": -0.15})
+    assert stored(cfg, QUICK, path) == ({"observer": {"C2": 0.61}}, {"C2": -0.15})
+    assert stored(cfg, FULL, path) == (None, None)
+    assert stored(with_sets(cfg, ["plant.substeps=2"]), QUICK, path) == (None, None)
+    assert stored(cfg, QUICK, tmp_path / "none.json") == (None, None)
+
+
+def test_the_refined_margin_decides_where_it_is_measured():
+    """annotate: C2's shift is the refined plant's margin minus the default's (docs/experiments.md: the
+    default's 2.23 against the refined 1.85, margin 0.23, shift -0.38: undecided); the other claims
+    take Richardson's from the coarse margins."""
+    from frictionrt.rt.experiments.discretisation import annotate
+    claims = {"C1": {"holds": True, "margin": None}, "C2": {"holds": True, "margin": 0.231},
+              "C4": {"holds": True, "margin": 1.413}}
+    out = annotate(claims, {"C1": None, "C2": 0.092, "C4": 0.522}, "stored", {"C2": -0.146})
+    assert out["C2"]["refined_shift"] == pytest.approx(-0.377) and out["C2"]["verdict"] == "undecided"
+    assert out["C2"]["error_estimate"] == "refined (stored)"
+    assert out["C4"]["refined_shift"] == pytest.approx(0.891) and out["C4"]["verdict"] == "yes"
+    assert out["C1"]["verdict"] == "yes" and out["C1"]["margin_unit"] is None
 
 
 # --- refinement and merging ---------------------------------------------------------------------
@@ -206,7 +279,12 @@ def test_quick_run_writes_figures_and_an_honest_claims_table(tmp_path, capsys):
         assert isinstance(v["holds"], bool)
         nums = _numbers(v["numbers"])
         assert nums and all(math.isfinite(x) for x in nums), c
-        assert f"| {c} |" in md and f"**{'yes' if v['holds'] else 'NO'}**" in md.split(f"| {c} |")[1].split("\n")[0]
+        assert f"| {c} |" in md and f"**{v['verdict']}**" in md.split(f"| {c} |")[1].split("\n")[0]
+        # the verdict with the discretisation's error: the default's coarse margins are stored
+        # (rt/experiments/coarse_margins.json), so the quick run pays for the default alone
+        assert v["error_estimate"] == ("refined (stored)" if c == "C2" else "stored")
+        assert v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"])
+        assert (v["margin"] is None) == (c == "C1")
     # each reduction is 20 log10 of the peaks it comes from
     peaks = doc["peaks"]
     for law in ("hysteresis", "lyapunov"):
@@ -248,10 +326,21 @@ def test_one_estimator_alone_decides_its_own_claims(tmp_path):
     from frictionrt.rt.experiments.stepsine import Settle
     plan = Plan(modes=(3,), amps_n=(5.0, 20.0), n_points=3, refine_rounds=0, fn1_n=(),
                 settle=Settle(rel_tol=0.05, max_s=0.4))
-    res = measure(load(), plan, ("oracle",), jobs=1, progress=False)
+    res = measure(load(), plan, ("oracle",), jobs=1, progress=False, error_estimate="run")
     rep = res["report"]
+    # the coarse run (pitch and elements x2) gives every claim with a margin its estimated shift
+    assert rep["discretisation"]["source"] == "run" and rep["discretisation"]["coarse_run_s"] > 0
+    for c, v in rep["claims"].items():
+        coarse = rep["discretisation"]["coarse_margins"]["oracle"][c]
+        if c == "C1":
+            assert v["refined_shift"] is None and v["verdict"] == "yes"
+        elif c == "C2":  # the impulse test on the refined plant itself
+            assert v["refined_shift"] == pytest.approx(rep["discretisation"]["refined_margins"]["C2"] - v["margin"])
+        elif math.isfinite(v["margin"]) and math.isfinite(coarse):
+            assert v["refined_shift"] == pytest.approx(v["margin"] - coarse)
+        assert v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"]).value
     assert list(rep["by_estimator"]) == ["oracle"] and rep["plan"]["estimators"] == ["oracle"]
     assert rep["claims"] is rep["by_estimator"]["oracle"]["claims"]
     assert {k.law for k in res["frfs"]} == {"passive", "hysteresis", "lyapunov"} and len(res["frfs"]) == 6
     md = markdown(rep)
-    assert "| claim | statement | holds: oracle |" in md and "holds: observer" not in md
+    assert "| claim | statement | oracle |" in md and "observer |" not in md

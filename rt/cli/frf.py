@@ -70,6 +70,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the sweeps on this dask scheduler's workers instead (frictionrt installed there)")
     add_controller(p, many=True)
+    p.add_argument("--error-estimate", action="store_true",
+                   help="also sweep the same points with the contact pitch and the elements x2 and give the "
+                        "estimated discretisation error of each |H| and of each sweep's peak [dB] (Richardson, "
+                        "order 1: refined - this = this - coarse); about as long again")
     p.add_argument("--json", action="store_true", help="print the results as one JSON object (no progress bar)")
     p.add_argument("--plot", metavar="PATH.png", help="write |H| [dB] and phase [deg] against f [Hz] here (PNG)")
     add_out(p, "PATH.json", "the file to write the results to (JSON; --plot and --rrd: the same FRFs as plot and "
@@ -175,6 +179,17 @@ def cmd_frf(cfg: Config, args) -> int:
                    for law in dict.fromkeys(args.law)}
     doc = {"dt_s": cfg.dt_s, "config": dumps(cfg), "controllers": controllers,
            "results": [r.to_dict() for r in results]}
+    if args.error_estimate:
+        from dataclasses import replace
+        from frictionrt.rt.experiments.discretisation import coarser, refined_shift
+        coarse_cfg = coarser(cfg)
+        coarse = run_branches([replace(b, cfg=coarse_cfg, controller=None) for b in branches], jobs=args.jobs,
+                              dask_address=args.dask, progress=not args.json)
+        doc["error_estimate"] = [
+            {"law": r.law, "amp_n": r.amp_n,
+             "H_shift_db": [refined_shift(20 * math.log10(a), 20 * math.log10(b)) for a, b in zip(r.H_abs, c.H_abs)],
+             "peak_shift_db": refined_shift(20 * math.log10(r.H_abs.max()), 20 * math.log10(c.H_abs.max()))}
+            for r, c in zip(results, coarse)]
     if "--out" in paths:
         tmp = paths["--out"].with_suffix(".tmp.json")
         tmp.write_text(json.dumps(doc))
@@ -196,7 +211,13 @@ def cmd_frf(cfg: Config, args) -> int:
         return 0
     if exports:
         print("controller: " + ", ".join(f"{law} {c}" for law, c in controllers.items()))
-    print("\n\n".join(_table(r) for r in results))
+    if args.error_estimate:
+        print("\n\n".join(_table(r) + f"\ndiscretisation: peak |H| {e['peak_shift_db']:+.2f} dB, points "
+                           + ", ".join(f"{x:+.2f}" for x in e["H_shift_db"]) + " dB (estimated shift under "
+                           "refinement: Richardson from the contact pitch and elements x2, order 1)"
+                           for r, e in zip(results, doc["error_estimate"])))
+    else:
+        print("\n\n".join(_table(r) for r in results))
     for option, path in paths.items():
         print(f"{option[2:]}: {path}")
     return 0

@@ -20,6 +20,10 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     add_out(i, "FILE.png", "the file to write the FRF plot to (PNG)", dest="plot")
     add_deprecated(i, "--plot", "-o/--out", dest="plot")
     add_force(i)
+    i.add_argument("--error-estimate", action="store_true",
+                   help="also run the test with the contact pitch and the elements x2 and give each figure's "
+                        "estimated discretisation error: Richardson, order 1 (refined - this: this - coarse); "
+                        "about half as long again")
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
     return i
 
@@ -35,7 +39,7 @@ def cmd_impulse(cfg, args) -> int:
         if msg := refuse_existing([out], args.force, "-o"):
             return fail(msg)
     try:
-        res = impulse(cfg, fn1_n=args.fn1)
+        res = impulse(cfg, fn1_n=args.fn1, error_estimate=args.error_estimate)
     except ValueError as exc:
         return fail(str(exc).replace("fn1_n ", "--fn1 ", 1).replace("leave it out", "drop --fn1")
                     .replace("F_N1 ", "--fn1 ", 1))

@@ -51,6 +51,12 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="local worker processes (default: the number of cores)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT",
                    help="run the step-sine sweeps on this dask scheduler's workers instead (frictionrt installed there)")
+    p.add_argument("--error-estimate", choices=["auto", "run", "none"], default="auto",
+                   help="how far the plant's discretisation moves each claim's margin: C2 from the impulse test on "
+                        "the refined plant, C3-C6 by Richardson from this run and the same plan with the contact "
+                        "pitch and elements x2 (order 1); auto (default): the margins stored for this configuration "
+                        "and plan, else those runs (about as long again); run: always those runs; none: no "
+                        "estimate, each verdict from its margin's sign")
     p.add_argument("--json", action="store_true", help="print report.json's content as one JSON object (no progress)")
     return p
 
@@ -91,7 +97,8 @@ def cmd_reproduce(cfg: Config, args) -> int:
     try:
         estimators = ESTIMATORS if args.estimator == "both" else (args.estimator,)
         res = reproduce(cfg, quick=args.quick, estimators=estimators, modes=modes, amps_n=amps, out=out, force=True,
-                        jobs=args.jobs, dask=args.dask, progress=not args.json, stage=say)
+                        jobs=args.jobs, dask=args.dask, progress=not args.json, stage=say,
+                        error_estimate=args.error_estimate)
     except ConnectionError as exc:
         return fail(f"--dask {args.dask}: " + " ".join(str(exc).split()))
     except OSError as exc:
@@ -103,10 +110,16 @@ def cmd_reproduce(cfg: Config, args) -> int:
         print(json.dumps(report))
         return 0
     by_est = report["by_estimator"]
-    print(f"{'claim':>5} " + " ".join(f"{e:>8}" for e in by_est) + "  statement")
+    first = next(iter(by_est))
+    print(f"{'claim':>5} " + " ".join(f"{e:>9}" for e in by_est) + f"  {'margin (' + first + ')':>20} "
+          f"{'discretisation':>14}  statement")
     for c in report["claims"]:
-        print(f"{c:>5} " + " ".join(f"{'yes' if v['claims'][c]['holds'] else 'NO':>8}" for v in by_est.values())
-              + f"  {CLAIM_TEXT[c]}")
+        x = by_est[first]["claims"][c]
+        m, shift, unit = x.get("margin"), x.get("refined_shift"), x.get("margin_unit") or ""
+        margin = "model input" if x.get("margin_unit") is None else ("-" if m is None else f"{m:+.3g} {unit}")
+        print(f"{c:>5} " + " ".join(f"{v['claims'][c].get('verdict', 'yes' if v['claims'][c]['holds'] else 'NO'):>9}"
+                                    for v in by_est.values())
+              + f"  {margin:>20} {'-' if shift is None else f'{shift:+.3g}':>14}  {CLAIM_TEXT[c]}")
     for e, v in by_est.items():
         print(f"peak change [dB] (negative: lower than passive), {e} (law: mode: amplitude): "
               f"{json.dumps(v['peak_change_db'])}")

@@ -50,6 +50,8 @@ from frictionrt.rt.common.config import Config
 from frictionrt.rt.common.config import ESTIMATORS, Estimator
 from frictionrt.rt.loop import Designs, Loop, build_loop
 from frictionrt.rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
+from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, ErrorEstimate, annotate, coarser, margins,
+                                                      refined_impulse_margins, stored)
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
@@ -60,6 +62,7 @@ HALF_WIDTH = {2: 0.08, 3: 0.15, 4: 0.12, 5: 0.04}
 RESOLVED_REL = 0.10   # a peak is resolved when both neighbours lie within 10 % of it
 BALANCE = 2.0        # a neighbour more than this many times as far from the largest point as the other: refine
 MIN_STEP_REL = 2e-4   # no refinement below this spacing (relative): a jump is not a peak to chase
+MECHANISM_S = 1.0     # simulated time of a failing cell's re-run [s] (explain_failures)
 
 
 @dataclass(frozen=True)
@@ -194,8 +197,8 @@ def loop_at_fn1(passive: Loop, fn1_n: float) -> Loop:
 
 
 def measure_frfs(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, jobs: int | None = None,
-                 dask_address: str | None = None,
-                 progress: bool = True) -> tuple[dict[str, dict[Key, StepSineResult]], list[StepSineResult], int]:
+                 dask_address: str | None = None, progress: bool = True,
+                 designs: Designs | None = None) -> tuple[dict[str, dict[Key, StepSineResult]], list[StepSineResult], int]:
     """Every step-sine FRF of the plan (module docstring), refined, the controlled laws once per
     estimator of ``estimators``; (estimator -> Key -> merged result, every FRF once, the cores that
     ran the sweeps). The passive FRFs ignore the estimate: run once, in every estimator's view. An
@@ -204,7 +207,7 @@ def measure_frfs(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS
     estimators = tuple(dict.fromkeys(estimators))
     if dask_address is None and jobs != 1:
         start_workers(jobs)  # their start-up overlaps the design below
-    designs = Designs()  # one plant, one force-tracking design per sensor
+    designs = designs or Designs()  # one plant, one force-tracking design per sensor
     grids = mode_grids(cfg, plan.modes, plan.n_points, designs)
     # (law, F_N1, estimator) -> loop; estimator None: the passive law's, which ignores the estimate
     loops = {("passive", None, None): build_loop(cfg, "passive", Estimator.ORACLE, designs=designs)}
@@ -284,13 +287,17 @@ def evaluate(cfg: Config, frfs: dict[Key, StepSineResult]) -> dict:
 
 def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, jobs: int | None = None,
             dask_address: str | None = None, progress: bool = True,
-            stage: Callable[[str], object] | None = None) -> dict:
+            stage: Callable[[str], object] | None = None,
+            error_estimate: ErrorEstimate = ErrorEstimate.AUTO, explain: bool = True) -> dict:
     """Run the plan and evaluate the claims, the controlled laws on each of ``estimators``.
     Returns {"report": the JSON document, "frfs": Key -> StepSineResult of the first estimator,
     "frfs_by_estimator": estimator -> Key -> StepSineResult, "impulse": ImpulseResult}. The report
     holds claims, peak_change_db, best_passive_fn1, peaks and energy of the first estimator (the
     one the claims are decided on), the same per estimator under "by_estimator", and impulse,
-    timing, plan. stage(text) is called before each stage."""
+    timing, plan, discretisation. Each claim carries its margin, the discretisation's estimated
+    shift of it and its verdict (rt.experiments.discretisation; error_estimate: where the coarse
+    margins come from); explain: the measured mechanism of each cell that makes C3 or C4 fail
+    (``explain_failures``) under "mechanisms". stage(text) is called before each stage."""
     from frictionrt.plant.impulse import impulse_test
     from frictionrt.plant.model import build_plant
     from frictionrt.plant.modes import bare_beam_bending_hz
@@ -308,7 +315,8 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     f_bare = bare_beam_bending_hz(model, cfg.plant.interface.lower)
     t_imp = time.perf_counter() - t0
     say(f"step-sine FRFs, the controlled laws on the {' and the '.join(estimators)}")
-    views, every, cores = measure_frfs(cfg, plan, estimators, jobs, dask_address, progress)
+    designs = Designs()  # shared by the sweeps and the failing cells' re-runs
+    views, every, cores = measure_frfs(cfg, plan, estimators, jobs, dask_address, progress, designs)
     t_frf = time.perf_counter() - t0 - t_imp
     impulse_claims = {
         "C1": claim_c1(zeta_bare) | {"note": "model input plant.modal_damping (assumption A), applied to "
@@ -318,7 +326,31 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     for est, frfs in views.items():
         e = evaluate(cfg, frfs)
         by_est[est] = e | {"claims": impulse_claims | e["claims"]}
+    error_estimate = ErrorEstimate(error_estimate)
+    coarse = fine = None
+    t_coarse = t_fine = 0.0
+    if error_estimate is ErrorEstimate.AUTO:
+        coarse, fine = stored(cfg, plan)
+    source = "none" if error_estimate is ErrorEstimate.NONE else "stored"
+    if fine is None and error_estimate is not ErrorEstimate.NONE:
+        say(f"impulse test at F_N1 = {plan.impulse_fn1_n:g} N on the refined plant (pitch and elements / 2, "
+            "substeps x 4)")
+        t1 = time.perf_counter()
+        fine = refined_impulse_margins(cfg, plan.impulse_fn1_n)
+        t_fine = time.perf_counter() - t1
+    if coarse is None and error_estimate is not ErrorEstimate.NONE:
+        say(f"the same plan with the contact pitch and the elements x{COARSENING:g}: the discretisation's error")
+        t1 = time.perf_counter()
+        c = measure(coarser(cfg), plan, estimators, jobs, dask_address, progress, error_estimate=ErrorEstimate.NONE,
+                    explain=False)
+        coarse = {est: margins(v["claims"]) for est, v in c["report"]["by_estimator"].items()}
+        t_coarse, source = time.perf_counter() - t1, "run"
+    for est in by_est:
+        by_est[est]["claims"] = annotate(by_est[est]["claims"], None if coarse is None else coarse.get(est), source,
+                                         fine)
     report = by_est[estimators[0]] | {
+        "discretisation": {"source": source, "order": ORDER, "coarsening": COARSENING, "coarse_margins": coarse,
+                           "refined_margins": fine, "coarse_run_s": t_coarse, "refined_impulse_s": t_fine},
         "by_estimator": by_est,
         "impulse": {"fn1_n": plan.impulse_fn1_n, "modes": list(imp.modes),
                     "freq_hz": [float(f) for f in imp.freq_hz], "zeta": zeta_passive, "zeta_bare": zeta_bare,
@@ -331,7 +363,22 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
                  "unsettled": int(sum((~r.settled).sum() for r in every)),
                  "simulated_s": float(sum(r.settle_s.sum() for r in every))},
         "timing_s": {"impulse": t_imp, "step_sine": t_frf, "sweeps": sweep_timing(every, t_frf, cores)}}
+    if explain:
+        report["mechanisms"] = explain_failures(cfg, report, designs=designs)
     return {"report": report, "frfs": views[estimators[0]], "frfs_by_estimator": views, "impulse": imp}
+
+
+def explain_failures(cfg: Config, report: dict, duration_s: float = MECHANISM_S,
+                     designs: Designs | None = None) -> list[dict]:
+    """The measured mechanism (rt.experiments.mechanisms) of every cell that makes C3 or C4 fail on
+    an estimator of the report: each such cell's law run once more at its peak for duration_s
+    (designs: the study's shared plant and force-tracking designs)."""
+    from frictionrt.rt.experiments.mechanisms import failing_cells, mechanism
+    from frictionrt.rt.experiments.reproduce_report import jsonable
+    text = jsonable({k: report[k] for k in ("by_estimator", "best_passive_fn1")})
+    cells = failing_cells(text["by_estimator"])
+    designs = designs or Designs()
+    return [mechanism(cfg, designs, c, text, duration_s) for c in cells]
 
 
 def _energy(frfs: dict[Key, StepSineResult], law: str, dt: float) -> dict:

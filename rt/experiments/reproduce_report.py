@@ -57,15 +57,48 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _margin_cell(x: dict) -> str:
+    """'**verdict** (margin M unit, shift S)' of one claim's result."""
+    v = x.get("verdict", "yes" if x["holds"] else "NO")
+    m, unit = x.get("margin"), x.get("margin_unit") or ""
+    if m is None:
+        return f"**{v}** (model input)" if x.get("margin_unit", 1) is None else f"**{v}**"
+    shift = x.get("refined_shift")
+    return (f"**{v}** (margin {m:+.3g} {unit}, discretisation {'not estimated' if shift is None else f'{shift:+.3g}'})")
+
+
 def _claims_tables(r: dict) -> list[str]:
     """The verdicts of every estimator side by side, then each estimator's numbers."""
     by_est = r["by_estimator"]
-    lines = ["## Claims", "", f"Decided on the {next(iter(by_est))}; each estimator's verdict side by side.", "",
-             "| claim | statement | " + " | ".join(f"holds: {e}" for e in by_est) + " |",
+    disc = r.get("discretisation") or {}
+    lines = ["## Claims", "", f"Decided on the {next(iter(by_est))}; each estimator's verdict side by side. Each "
+             "claim's margin is in its own unit (rt/experiments/claims.py; > 0: holds); \"discretisation\" is the "
+             "estimated shift of the margin under a refined plant (C2: the impulse test on the refined plant itself; "
+             f"C3-C6: Richardson from this run and the same plan with the contact pitch and the elements "
+             f"x{disc.get('coarsening', 2):g}, order {disc.get('order', 1):g}; margins: {disc.get('source', 'none')}); "
+             "**undecided** where it is at least the margin "
+             "(docs/experiments.md).", "",
+             "| claim | statement | " + " | ".join(f"{e}" for e in by_est) + " |",
              "| --- | --- |" + " --- |" * len(by_est)]
     for c in r["claims"]:
         lines.append(f"| {c} | {CLAIM_TEXT[c]} | " + " | ".join(
-            f"**{'yes' if v['claims'][c]['holds'] else 'NO'}**" for v in by_est.values()) + " |")
+            _margin_cell(v["claims"][c]) for v in by_est.values()) + " |")
+    mech = r.get("mechanisms") or []
+    if mech:
+        lines += ["", "### Why a claim fails: the measured mechanism of each failing cell", "",
+                  "Each cell run once more at its peak (rt/experiments/mechanisms.py): u0 the RT1 amplitude, K_f u0 / "
+                  "F_min < 1: the hysteresis law saturates at F_min; 2f: the law's switching at twice the excitation "
+                  "frequency, F_set and what reaches F_N1; the peak beside the passive peak at a constant F_N1 equal "
+                  "to the law's mean.", "",
+                  "| claim | estimator | law | mode | F [N] | reduction [dB] | u0 [um] | K_f u0 / F_min | "
+                  "mean F_set / F_N1 [N] | at F_max | 2f: F_set / F_N1 [N] | peak / constant clamp |",
+                  "| --- " * 12 + "|"]
+        for x in mech:
+            kf = f"{x['Kf_u0_over_Fmin']:.2f}" if x["law"] == "hysteresis" else "-"
+            lines.append(f"| {x['claim']} | {x['estimator']} | {x['law']} | {x['mode']} | {x['amp']} | "
+                         f"{x['reduction_db']:+.2f} | {x['u0_um']:.3f} | {kf} | {x['F_set_mean_n']:.0f} / "
+                         f"{x['F_N1_mean_n']:.0f} | {x['at_F_max']:.2f} | {x['F_set_2f_n']:.1f} / {x['F_N1_2f_n']:.1f} | "
+                         f"{x['peak']:.3g} / {x['constant_clamp_peak']:.3g} |")
     for e, v in by_est.items():
         lines += ["", f"### The numbers, laws on the {e}", "", "| claim | holds | numbers |", "| --- | --- | --- |"]
         for c, x in v["claims"].items():
