@@ -15,8 +15,8 @@
  *     observer/atan.py); fabs and isfinite are exact everywhere.
  *
  * Worst-case time of a tick: the observer's implicit friction step is a safeguarded Newton
- * iteration of at most CTRL_NEWTON_MAX (60) iterations (3..8 in practice), each one arctan and
- * a division; everything else is straight-line code with loops of fixed length (the observer's
+ * iteration of at most CTRL_NEWTON_MAX (60) iterations (docs/export-c.md gives the counts
+ * measured on run logs), each one arctan and a division; everything else is straight-line code with loops of fixed length (the observer's
  * CTRL_N_OBS x CTRL_N_OBS matrix-vector product, the fault schedule's rows).
  */
 #include <float.h>
@@ -189,8 +189,9 @@ static double friction(double v, double F_N, double *df)
     return c * ctrl_atan(av);
 }
 
-/* Root of g(v) = v - beta f_r(v) - v_star, between 0 and v_star (_implicit_v): safeguarded
- * Newton, at most CTRL_NEWTON_MAX iterations (the tick's worst case). */
+/* Root of g(v) = v - beta f_r(v) - v_star, between 0 and v_star (_implicit_v_iter): safeguarded
+ * Newton that stops on an exact root and on a step within tol before the bracket test, at most
+ * CTRL_NEWTON_MAX iterations (the tick's worst case). */
 static double implicit_v(double v_star, double beta, double F_N)
 {
     double lo = ord_min(0.0, v_star);
@@ -202,15 +203,17 @@ static double implicit_v(double v_star, double beta, double F_N)
         double df, f, g, v_new;
         f = friction(v, F_N, &df);
         g = v - beta * f - v_star;
+        if (g == 0.0)
+            return v;                              /* an exact root */
         if (g > 0.0)
             hi = v;
         else
             lo = v;
         v_new = v - g / (1.0 - beta * df);
+        if (fabs(v_new - v) <= tol)
+            return v_new;                          /* converged, before the bracket test */
         if (!(lo < v_new && v_new < hi))
             v_new = 0.5 * (lo + hi);               /* Newton left the bracket: bisect */
-        if (fabs(v_new - v) <= tol)
-            return v_new;
         v = v_new;
     }
     return v;
