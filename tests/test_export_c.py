@@ -483,3 +483,48 @@ def test_a_cortex_m7_build_is_warning_free(runs, tmp_path):
                             "-Werror", "-I", str(exp), "-c", "-o", str(obj), str(exp / src)], capture_output=True, text=True)
         assert p.returncode == 0, (src, p.stderr[-2000:])
 
+
+# ---- coverage of a replay -------------------------------------------------------------------------
+
+def test_replay_reports_coverage_and_require_coverage_fails_a_law_that_never_left_f_min(runs, capsys, tmp_path):
+    log, exp = runs["lyapunov", "observer"]
+    capsys.readouterr()
+    code, r, _ = run(capsys, "replay", log, "--require-coverage")
+    code_c, rc, _ = run(capsys, "replay", log, "--c", exp, "--require-coverage")
+    assert code == code_c == 0 and r["coverage"] == rc["coverage"]   # numba and C took the same paths
+    cov = r["coverage"]
+    assert cov["left_passive"] is True and cov["law_between"] > 0 and cov["ticks"] == TICKS
+    assert cov["law_at_F_min"] + cov["law_between"] + cov["law_at_F_max"] == TICKS
+    # hysteresis at 380 Hz, 5 N: u0 stays below F_min / K_f = 1.6 um, the law never leaves F_min
+    quiet = main(["simulate", "--law", "hysteresis", "--estimator", "observer", "--freq", "380", "--amp", "5",
+                  "--duration", "0.05", "--out", str(tmp_path / "quiet"), "--no-rrd", "--json"])
+    assert quiet == 0
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", tmp_path / "quiet.mcap", "--require-coverage")
+    assert r["bit_exact"] is True and r["coverage"]["left_passive"] is False and r["coverage"]["law_between"] == 0
+    assert code == 1 and "the hysteresis law never left F_min in 1050 ticks" in err and len(err.strip().splitlines()) == 1
+    code, r, err = run(capsys, "replay", tmp_path / "quiet.mcap")
+    assert code == 0
+    code, r, err = run(capsys, "replay", runs["passive", "observer"][0], "--require-coverage")
+    assert code == 0 and r["coverage"]["left_passive"] is None   # the passive law has no state to leave
+
+
+# ---- a log with a dropped block ------------------------------------------------------------------
+
+def test_a_log_with_a_dropped_block_is_compared_up_to_the_gap_and_reports_the_ranges(runs, capsys, tmp_path):
+    """Rows 400..499 of a 1050-tick log dropped (as the paced writer drops a block): the numba and
+    the C replay compare ticks 0..399 bit for bit, report 400..499 missing and 500..1049 not
+    compared (the log carries no controller state to restart from), and do not call it a mismatch."""
+    from frictionrt.rt.log.writer import McapBlockWriter
+    log, exp = runs["lyapunov", "observer"]
+    rec = read_mcap(log)
+    path = tmp_path / "dropped.mcap"
+    with McapBlockWriter(path, rec.signals, rec.rate_hz, dict(rec.metadata)) as w:
+        w.write_block(0, rec.log[:400])
+        w.write_block(500, rec.log[500:])
+    capsys.readouterr()
+    for extra in ((), ("--c", exp)):
+        code, r, _ = run(capsys, "replay", path, *extra)
+        assert code == 0 and r["bit_exact"] is True and r["missing_ticks"] == 100, (extra, r.get("first_mismatch_tick"))
+        assert r["compared_ranges"] == [[0, 399]] and r["missing_ranges"] == [[400, 499]]
+        assert r["not_compared_ranges"] == [[500, TICKS - 1]]
