@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean foxglove
+.PHONY: demo test bench clean foxglove check-targets
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -28,6 +28,14 @@ test: $(STAMP)
 # Foxglove's own decoder for tests/test_log_formats.py (Node.js and npm; the test is skipped without it)
 foxglove:
 	cd tools/foxglove && npm ci --no-audit --no-fund
+
+# the C export on other targets (docs/export-c.md): installs the cross compilers and qemu-user
+# (Debian/Ubuntu; needs root and the network, so it stays out of `make test`), then runs the
+# export's target tests: clang, aarch64 under qemu-aarch64, a Cortex-M7 build, the PREEMPT_RT example
+TARGET_PACKAGES = clang gcc-aarch64-linux-gnu qemu-user gcc-arm-none-eabi libnewlib-arm-none-eabi
+check-targets: $(STAMP)
+	apt-get install -y --no-install-recommends $(TARGET_PACKAGES)
+	$(BIN)/python -m pytest -q -p no:xdist tests/test_export_c.py -k "golden or guard or refuses_a_build or preempt or aarch64 or cortex or clang"
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/plant.py

@@ -356,3 +356,175 @@ def test_a_c_controller_pickles_and_its_copy_loads_the_library_by_path(runs, tmp
     for other in (copy, rebuilt):
         assert (run_loop(loop, 223.6, 5.0, 0.02, controller=other).log[:, keep].view(np.uint64)
                 == ref.view(np.uint64)).all()
+
+
+# ---- golden vectors, make check, the guards ------------------------------------------------------
+
+def _make_check(folder, tmp_path, name, **vars_):
+    """make check in a copy of the export folder; (make's exit code: 0, or 2 when ctrl_check failed,
+    ctrl_check's ok/FAIL line)."""
+    work = tmp_path / name
+    shutil.copytree(folder, work)
+    p = subprocess.run(["make", "-s", "-C", str(work), "check", *(f"{k}={v}" for k, v in vars_.items())],
+                       capture_output=True, text=True)
+    lines = [ln for ln in (p.stdout + p.stderr).splitlines() if ln.startswith(("ok:", "FAIL"))]
+    return p.returncode, (lines[-1] if lines else p.stdout + p.stderr)
+
+
+@pytest.mark.parametrize("law, estimator", [("lyapunov", "observer"), ("hysteresis", "oracle")])
+def test_every_export_carries_golden_vectors_that_make_check_passes(runs, tmp_path, law, estimator):
+    exp = runs[law, estimator][1]
+    m = json.loads((exp / "frictionrt_export.json").read_text())
+    g = m["golden"]
+    # the stream engages the law above F_min, the supervisor's fallback (a dropout: code 1, a range
+    # fault: code 2) and the force tracking's saturation
+    assert g["ticks"] == 3150 and g["law_between"] > 100 and g["passive"] > 100 and g["saturated"] > 0
+    assert {1, 2} <= set(g["fault_codes"])
+    assert f"0x{m['param_checksum']}ULL" in (exp / "ctrl_config.h").read_text()
+    first = (exp / "golden_in.txt").read_text().splitlines()[0]
+    assert first == f"# frictionrt golden {m['design_hash']}"
+    compilers = ["cc"] + (["clang"] if shutil.which("clang") else [])
+    for cc in compilers:
+        code, line = _make_check(exp, tmp_path, cc, CC=cc, EXTRA="-Werror")
+        assert code == 0 and line.startswith("ok: 3150 ticks x 13 outputs bit-exact"), (cc, line)
+
+
+def test_an_edited_parameter_fails_make_check_and_the_libraries_guard(runs, tmp_path):
+    from frictionrt.rt.export.cbuild import build
+    exp = runs["hysteresis", "observer"][1]
+    work = tmp_path / "edited"
+    shutil.copytree(exp, work)
+    h = work / "ctrl_design.h"
+    text = h.read_text()
+    k_f = re.search(r"\.K_f = (0x[0-9a-f.p+-]+),", text).group(1)
+    one_ulp_up = float(np.nextafter(float.fromhex(k_f), np.inf)).hex()
+    h.write_text(text.replace(f".K_f = {k_f},", f".K_f = {one_ulp_up},"))
+    code, line = _make_check(work, tmp_path, "edited_check")
+    assert code == 2 and line == "FAIL ctrl_init: the parameters differ from the design (ctrl_design.h edited: export again)"
+    with pytest.raises(ValueError, match="fails ctrl_init's guard 6: the parameters differ"):
+        build(work)
+
+
+def _has_fma() -> bool:
+    try:
+        return " fma " in open("/proc/cpuinfo").read().replace("\n", " ")
+    except OSError:
+        return False
+
+
+@pytest.mark.parametrize("flags, message", [
+    ("-ffp-contract=fast -mfma", "the build fuses multiply-adds"),
+    ("-funsafe-math-optimizations", "the build reassociates additions"),
+    ("-freciprocal-math", "the build replaces divisions by reciprocals"),
+])
+def test_ctrl_init_refuses_a_build_that_changes_the_arithmetic(runs, tmp_path, flags, message):
+    import platform
+    if "-mfma" in flags and not (platform.machine() == "x86_64" and _has_fma()):
+        pytest.skip("needs an x86-64 CPU with FMA")
+    exp = runs["lyapunov", "observer"][1]
+    code, line = _make_check(exp, tmp_path, "unsafe", EXTRA=flags)
+    assert code == 2 and line.startswith(f"FAIL ctrl_init: {message}"), line
+
+
+def test_the_object_needs_no_library_call_with_clang_and_builds_without_clock_monotonic(runs, tmp_path):
+    exp = runs["lyapunov", "observer"][1]
+    src = re.sub(r"/\*.*?\*/", "", (exp / "frictionrt_ctrl.c").read_text(), flags=re.S)
+    assert not re.search(r"[^_]isfinite\s*\(", src.replace("ctrl_isfinite", ""))   # bit tests only
+    if shutil.which("clang"):
+        obj = tmp_path / "clang.o"
+        subprocess.run(["clang", "-std=c99", "-O2", "-ffp-contract=off", "-c", "-o", str(obj),
+                        str(exp / "frictionrt_ctrl.c")], check=True)
+        assert set(subprocess.run(["nm", "-u", str(obj)], capture_output=True, text=True).stdout.split()) <= {"U", "memcpy"}
+    # ctrl_batch.c where time.h declares no CLOCK_MONOTONIC (newlib): a stand-in time.h
+    (tmp_path / "inc").mkdir()
+    (tmp_path / "inc" / "time.h").write_text("/* a C library without CLOCK_MONOTONIC */\n")
+    subprocess.run(["cc", "-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-pedantic", "-Werror",
+                    "-I", str(tmp_path / "inc"), "-I", str(exp), "-c", "-o", str(tmp_path / "batch.o"),
+                    str(exp / "ctrl_batch.c")], check=True)
+
+
+# ---- where it runs: the PREEMPT_RT example, cross targets (skipped without their toolchains) ------
+
+def test_the_preempt_rt_example_main_builds(runs, tmp_path):
+    import sys
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the example is for Linux (PREEMPT_RT)")
+    work = tmp_path / "rt"
+    shutil.copytree(runs["lyapunov", "observer"][1], work)
+    p = subprocess.run(["make", "-s", "-C", str(work), "rt_example", "EXTRA=-Werror"], capture_output=True, text=True)
+    assert p.returncode == 0 and (work / "ctrl_rt_main").is_file(), p.stderr[-2000:]
+    src = (work / "ctrl_rt_main.c").read_text()
+    for call in ("mlockall(", "sched_setscheduler(", "SCHED_FIFO", "clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME"):
+        assert call in src
+
+
+def test_aarch64_under_qemu_is_bit_exact_and_its_default_contraction_is_refused(runs, tmp_path):
+    cc, qemu = "aarch64-linux-gnu-gcc", "qemu-aarch64"
+    if not (shutil.which(cc) and shutil.which(qemu) and os.path.isdir("/usr/aarch64-linux-gnu")):
+        pytest.skip("needs gcc-aarch64-linux-gnu and qemu-user (make check-targets installs them)")
+    exp = runs["lyapunov", "observer"][1]
+    run_ = f"{qemu} -L /usr/aarch64-linux-gnu"
+    code, line = _make_check(exp, tmp_path, "a64", CC=cc, AR="aarch64-linux-gnu-ar", RUN=run_, EXTRA="-Werror")
+    assert code == 0 and line.startswith("ok: 3150 ticks x 13 outputs bit-exact"), line
+    code, line = _make_check(exp, tmp_path, "a64_fma", CC=cc, AR="aarch64-linux-gnu-ar", RUN=run_,
+                             EXTRA="-ffp-contract=fast")
+    assert code == 2 and line.startswith("FAIL ctrl_init: the build fuses multiply-adds"), line
+
+
+def test_a_cortex_m7_build_is_warning_free(runs, tmp_path):
+    cc = "arm-none-eabi-gcc"
+    if not shutil.which(cc):
+        pytest.skip("needs gcc-arm-none-eabi (make check-targets installs it)")
+    exp = runs["lyapunov", "observer"][1]
+    obj = tmp_path / "m7.o"
+    flags = ["-mcpu=cortex-m7", "-mfpu=fpv5-d16", "-mfloat-abi=hard", "-mthumb"]
+    for src in ("frictionrt_ctrl.c", "ctrl_batch.c", "ctrl_check.c"):
+        p = subprocess.run([cc, *flags, "-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-pedantic",
+                            "-Werror", "-I", str(exp), "-c", "-o", str(obj), str(exp / src)], capture_output=True, text=True)
+        assert p.returncode == 0, (src, p.stderr[-2000:])
+
+
+# ---- coverage of a replay -------------------------------------------------------------------------
+
+def test_replay_reports_coverage_and_require_coverage_fails_a_law_that_never_left_f_min(runs, capsys, tmp_path):
+    log, exp = runs["lyapunov", "observer"]
+    capsys.readouterr()
+    code, r, _ = run(capsys, "replay", log, "--require-coverage")
+    code_c, rc, _ = run(capsys, "replay", log, "--c", exp, "--require-coverage")
+    assert code == code_c == 0 and r["coverage"] == rc["coverage"]   # numba and C took the same paths
+    cov = r["coverage"]
+    assert cov["left_passive"] is True and cov["law_between"] > 0 and cov["ticks"] == TICKS
+    assert cov["law_at_F_min"] + cov["law_between"] + cov["law_at_F_max"] == TICKS
+    # hysteresis at 380 Hz, 5 N: u0 stays below F_min / K_f = 1.6 um, the law never leaves F_min
+    quiet = main(["simulate", "--law", "hysteresis", "--estimator", "observer", "--freq", "380", "--amp", "5",
+                  "--duration", "0.05", "--out", str(tmp_path / "quiet"), "--no-rrd", "--json"])
+    assert quiet == 0
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", tmp_path / "quiet.mcap", "--require-coverage")
+    assert r["bit_exact"] is True and r["coverage"]["left_passive"] is False and r["coverage"]["law_between"] == 0
+    assert code == 1 and "the hysteresis law never left F_min in 1050 ticks" in err and len(err.strip().splitlines()) == 1
+    code, r, err = run(capsys, "replay", tmp_path / "quiet.mcap")
+    assert code == 0
+    code, r, err = run(capsys, "replay", runs["passive", "observer"][0], "--require-coverage")
+    assert code == 0 and r["coverage"]["left_passive"] is None   # the passive law has no state to leave
+
+
+# ---- a log with a dropped block ------------------------------------------------------------------
+
+def test_a_log_with_a_dropped_block_is_compared_up_to_the_gap_and_reports_the_ranges(runs, capsys, tmp_path):
+    """Rows 400..499 of a 1050-tick log dropped (as the paced writer drops a block): the numba and
+    the C replay compare ticks 0..399 bit for bit, report 400..499 missing and 500..1049 not
+    compared (the log carries no controller state to restart from), and do not call it a mismatch."""
+    from frictionrt.rt.log.writer import McapBlockWriter
+    log, exp = runs["lyapunov", "observer"]
+    rec = read_mcap(log)
+    path = tmp_path / "dropped.mcap"
+    with McapBlockWriter(path, rec.signals, rec.rate_hz, dict(rec.metadata)) as w:
+        w.write_block(0, rec.log[:400])
+        w.write_block(500, rec.log[500:])
+    capsys.readouterr()
+    for extra in ((), ("--c", exp)):
+        code, r, _ = run(capsys, "replay", path, *extra)
+        assert code == 0 and r["bit_exact"] is True and r["missing_ticks"] == 100, (extra, r.get("first_mismatch_tick"))
+        assert r["compared_ranges"] == [[0, 399]] and r["missing_ranges"] == [[400, 499]]
+        assert r["not_compared_ranges"] == [[500, TICKS - 1]]

@@ -214,3 +214,23 @@ def test_observer_robust_to_model_errors(sets, f_scale):
           f"acc: passive {passive:.2f}, lyapunov {lyap['acc045_amplitude']:.2f} m/s^2")
     # measured 0.81 x passive at mu = 0.28 (the least friction), 0.64..0.72 x otherwise (docs/observer.md)
     assert lyap["acc045_amplitude"] < 0.9 * passive
+
+
+def test_newton_stops_at_its_root_in_a_few_iterations(design):
+    # the implicit friction step on a grid of end-of-tick velocities v* (both signs, 1e-7..1 m/s)
+    # and forces up to F_max: the root to round-off against scipy's brentq, in few iterations
+    # (a Newton that rejected its own converged step bisected for ~40 more)
+    from frictionrt.observer.step import NEWTON_MAX, _implicit_v_iter
+    p = design.params
+    F_max = load().tracking.F_max_N
+    its = []
+    for F in np.linspace(0.0, F_max, 7):
+        for v_star in np.concatenate([-np.logspace(-7, 0, 29), np.logspace(-7, 0, 29)]):
+            v, n = _implicit_v_iter(v_star, p.beta, F, p.mu, p.alpha)
+            g = lambda x: x - p.beta * p.mu * F * (2 / np.pi) * np.arctan(p.alpha * x) - v_star  # noqa: E731
+            ref = so.brentq(g, min(0.0, v_star), max(0.0, v_star), xtol=1e-300, rtol=4 * np.finfo(float).eps)
+            assert abs(v - ref) <= 1e-15 * (abs(v_star) + 1e-12) + 4 * np.spacing(abs(ref)), (F, v_star)
+            its.append(n)
+    its = np.array(its)
+    assert its.max() <= 8 < NEWTON_MAX, np.bincount(its)
+    assert np.median(its) <= 4

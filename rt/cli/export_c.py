@@ -18,12 +18,14 @@ DESCRIPTION = """Write the controller of the resolved configuration (or, with --
 log carries) as self-contained C99 into the folder DIR: frictionrt_ctrl.h / .c (ctrl_init, ctrl_step on plain
 structs: the tip integrator, the estimator, the law, the supervisor, the prefilter, the force tracking; no heap,
 no mutable globals, no libm), the generated parameters (ctrl_design.h, hexadecimal floats), a Makefile (cc
--std=c99 -O2 -ffp-contract=off) and a command-line harness. The design hash (SHA-256 of the controller's numbers)
+-std=c99 -O2 -ffp-contract=off), a command-line harness, and golden vectors with `make check` (ctrl_check.c: the
+compiled controller against the design's own simulation, bit for bit, without Python). ctrl_init checks the build's
+arithmetic and the parameters' checksum at run time. The design hash (SHA-256 of the controller's numbers)
 is in ctrl_config.h and frictionrt_export.json; `frictionrt replay RUN.mcap --c DIR` checks it and compares every
 output bit for bit. --estimator oracle gives a test build (inputs u_rel [m], v_rel [m/s] of the plant)."""
 
 EXAMPLES = """examples:
-  frictionrt export-c --law lyapunov -o ctrl_lyap && make -C ctrl_lyap
+  frictionrt export-c --law lyapunov -o ctrl_lyap && make -C ctrl_lyap check
   frictionrt simulate --law lyapunov --estimator observer --freq 223.6 --amp 5 --out logs/lyap
   frictionrt replay logs/lyap.mcap --c ctrl_lyap
   frictionrt export-c --from-log logs/lyap.mcap -o ctrl_lyap --force"""
@@ -63,5 +65,6 @@ def cmd_export_c(cfg, args) -> int:
         return 0
     print(f"export-c {out}: law {m['law']}, estimator {m['estimator']}{' (test build)' if m['estimator'] == 'oracle' else ''}, "
           f"design {m['design_hash']}")
-    print(f"  from {m['source']}; {MANIFEST}, C sources, Makefile (make -C {out}), harness ctrl_harness")
+    print(f"  from {m['source']}; {MANIFEST}, C sources, Makefile (make -C {out}), harness ctrl_harness, "
+          f"golden vectors ({m['golden']['ticks']} ticks: make -C {out} check)")
     return 0

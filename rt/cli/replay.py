@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import shtab
 
 from frictionrt.rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
+from frictionrt.rt.loop.coverage import coverage_problem, format_coverage
 
-GAP = " (dropped blocks): the states differ after a gap"   # a log's missing ticks, to a controller replay
+GAP = (" (dropped blocks): compared up to the first gap only; the log carries no controller state to restart "
+       "from")   # a log's missing ticks, to a controller replay
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -36,6 +39,9 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     r.add_argument("--cc", metavar="CC", default=None, help="with --c: the C compiler (default: $CC or cc)")
     r.add_argument("--c-opt", metavar="FLAG", default="-O2", help="with --c: the optimisation flag, written "
                    "--c-opt=-O0")
+    r.add_argument("--require-coverage", action="store_true",
+                   help="exit 1 when the controlled law (hysteresis, Lyapunov) never left F_min in the log: "
+                        "a bit-exact replay of such a log does not test the law")
     r.add_argument("--json", action="store_true", help="one JSON object instead of text")
     return r
 
@@ -52,10 +58,17 @@ def cmd_replay(cfg, args) -> int:
         return fail(str(exc))
     realtime_notes(res.get("realtime"))
     code = 1 if res["bit_exact"] is False else (130 if res.get("interrupted") else 0)
+    problem = coverage_problem(res["coverage"]) if args.require_coverage and "coverage" in res else None
+    if problem and code == 0:
+        code = 1
     if args.json:
         print(json.dumps(res))
     else:
         show(res)
+        if "coverage" in res:
+            print(format_coverage(res["coverage"]))
+    if problem:
+        print(problem, file=sys.stderr)
     return code
 
 
@@ -83,6 +96,7 @@ def _print_comparison(res, gap: str, unrecorded: str, width: int, over: str, wor
     from frictionrt.rt.log.design_record import describe
     if res["missing_ticks"]:
         print(f"  the log misses {res['missing_ticks']} ticks{gap}")
+        _print_ranges(res)
     print(describe(res["design"]))
     if res["bit_exact"] is None:
         print(f"  {unrecorded} (min / mean / max):")
@@ -93,6 +107,14 @@ def _print_comparison(res, gap: str, unrecorded: str, width: int, over: str, wor
     if not res["bit_exact"]:
         print(f"  first mismatch at tick {res['first_mismatch_tick']}; {worst_label}: "
               + ", ".join(f"{k} {v:.3g}" for k, v in worst))
+
+
+def _print_ranges(res) -> None:
+    """The compared, missing and not compared tick ranges of a replay of a log with gaps."""
+    for key, label in (("compared_ranges", "compared"), ("missing_ranges", "missing"),
+                       ("not_compared_ranges", "not compared")):
+        if res.get(key):
+            print(f"  {label}: " + ", ".join(f"{a}..{b}" for a, b in res[key]))
 
 
 def _replay_plant(cfg, args) -> dict:
@@ -127,6 +149,7 @@ def _show_c(res) -> None:
     print(f"  build: {res['build']}")
     if res["missing_ticks"]:
         print(f"  the log misses {res['missing_ticks']} ticks{GAP}")
+        _print_ranges(res)
     if res["bit_exact"] is None:
         print("  the log records no controller outputs: nothing to compare")
     elif res["bit_exact"]:

@@ -17,61 +17,13 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-import numba
 import numpy as np
 
-from frictionrt.plant.sensors import SENSOR_OUTPUTS, _tip_velocity
-from frictionrt.rt.common.clock import _now_ns
 from frictionrt.rt.export.cbuild import BASE_FLAGS, build, compiler
 from frictionrt.rt.export.generate import check_design
 from frictionrt.rt.export.record import controller_record, design_hash
+from frictionrt.rt.export.ticks import READINGS, SENSORS, closed_loop_readings, numba_outputs
 from frictionrt.rt.loop.bench import _stats_us
-from frictionrt.rt.loop.build import controller_stages
-from frictionrt.rt.loop.tick import _controller_done, _controller_tick
-
-SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
-READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
-
-
-@numba.njit(cache=True, nogil=True, _nrt=False)
-def _timed_ticks(ks, sens, uv, out, ns, force_col, observe, faults, ts, yc, tip, est, law, sup, trk):
-    """The controller of each tick ks[i] on the readings sens[i] (``SENSOR_OUTPUTS``; v_tip_meas
-    written by the integrator), the oracle's uv[i]; outputs (v_tip_meas, ``COMMANDED``) into
-    out[i], the tick's time [ns] into ns[i]. tip = (xs, xs_n, sensor params). RT-safe."""
-    xs, xs_n, sens_p = tip
-    for i in range(ks.shape[0]):
-        t0 = _now_ns(ts)
-        ys = sens[i]
-        _tip_velocity(xs, sens_p, xs_n, ys)
-        xs[6] = xs_n[6]
-        xs[7] = xs_n[7]
-        _controller_tick(ks[i], ys, yc, uv[i, 0], uv[i, 1], force_col, observe, faults, False, ts, est, law, sup, trk)
-        out[i, 0] = ys[2]
-        _controller_done(out, i, 1, observe, est, law, sup, trk)
-        ns[i] = _now_ns(ts) - t0
-
-
-def _inputs(loop, n: int):
-    """(k, readings (n, 5), uv (n, 2)) of a closed-loop run of n ticks at the budget's excitation."""
-    from frictionrt.rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
-    from frictionrt.rt.loop.driver import run
-    r = run(loop, EXC_FREQ_HZ, EXC_AMP_N, n * loop.cfg.dt_s)
-    sens = np.ascontiguousarray(r.log[:, [loop.column(c) for c in SENSORS]])
-    uv = np.zeros((len(sens), 2))
-    uv[1:] = r.log[:-1, [loop.column("u_rel"), loop.column("v_rel")]]
-    return np.arange(len(sens), dtype=np.int64), sens, uv
-
-
-def _numba(loop, st, k, sens, uv):
-    st = st.copy()
-    si = {nm: i for i, nm in enumerate(SENSORS)}
-    force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
-    est, law_, sup, trk = controller_stages(loop, st)
-    out = np.full((len(k), 13), np.nan)
-    ns = np.zeros(len(k), dtype=np.int64)
-    _timed_ticks(k, sens.copy(), uv, out, ns, force_col, loop.estimator == "observer", np.zeros((0, 5)),
-                 np.zeros(2, np.int64), np.empty(len(SENSORS)), (st.xs, st.xs.copy(), loop.sensors), est, law_, sup, trk)
-    return out, ns
 
 
 def _size(folder: Path, cc) -> dict | None:
@@ -92,9 +44,9 @@ def bench_controller(loop, st, n_steps: int = 21000, folder=None, cc=None, manif
     ``folder`` if given (it must be of this design: ValueError naming both hashes). JSON: law,
     estimator, ticks, numba -> median_us, p99_us, p999_us, max_us, mean_us; c -> the same,
     build, size {text, data, bss}, state_bytes, outputs_identical."""
-    k, sens, uv = _inputs(loop, n_steps)
-    _numba(loop, st, k[:10], sens[:10], uv[:10])   # compile or load: not timed
-    out, ns = _numba(loop, st, k, sens, uv)
+    k, sens, uv = closed_loop_readings(loop, n_steps)
+    numba_outputs(loop, st, k[:10], sens[:10], uv[:10])   # compile or load: not timed
+    out, ns = numba_outputs(loop, st, k, sens, uv)
     res = {"law": loop.law, "estimator": loop.estimator, "ticks": int(len(k)), "numba": _stats_us(ns)}
     if folder is None:
         return res

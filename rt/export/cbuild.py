@@ -111,4 +111,13 @@ def load(lib, command=()) -> Controller:
     ``command``: how it was built, for the record)."""
     dll = ctypes.CDLL(str(lib))
     dll.ctrl_design_hash.restype = ctypes.c_char_p
+    guard = getattr(dll, "ctrl_selftest", None)
+    if guard is not None:   # exports before the guards have none
+        guard.restype = ctypes.c_int
+        rc = guard()
+        if rc != 0:
+            dll.ctrl_error_text.restype = ctypes.c_char_p
+            dll.ctrl_error_text.argtypes = [ctypes.c_int]
+            raise ValueError(f"{lib}: the C build fails ctrl_init's guard {rc}: "
+                             f"{dll.ctrl_error_text(rc).decode()} (built with: {' '.join(command)})")
     return Controller(dll, Path(lib), list(command), dll.ctrl_design_hash().decode())

@@ -5,10 +5,14 @@ frictionrt_ctrl.c, the batch entry ctrl_batch.c, the harness ctrl_harness.c, the
 copied as they are. Only the numbers are generated, from the controller's design record
 (``frictionrt.rt.export.record``):
 
-    ctrl_config.h       the estimator, the observer's size, the Newton bound, the design hash
+    ctrl_config.h       the estimator, the observer's size, the Newton bound, the design hash,
+                        the parameters' checksum CTRL_PARAM_CHECKSUM (``param_checksum``)
     ctrl_design.h       every parameter as a C99 designated initializer of the template's
-                        structs, in hexadecimal floating literals (the exact bits), and the
-                        state at rest CTRL_INITIAL
+                        structs, in hexadecimal floating literals (the exact bits), the
+                        state at rest CTRL_INITIAL, and CTRL_PARAMS: where each value of the
+                        design record lies, in the record's key order (the checksum's order)
+    golden_in.txt, golden_out.txt   the golden vectors (``frictionrt.rt.export.golden``): what
+                        ``make check`` (ctrl_check.c) runs the compiled controller on
     frictionrt_export.json   what the folder holds: the hash, law, estimator, where the design
                         came from; ``frictionrt replay --c`` reads it
     config.toml         the resolved configuration (for the record; the C does not read it)
@@ -25,10 +29,13 @@ import numpy as np
 
 from frictionrt.observer.step import NEWTON_MAX
 from frictionrt.rt.common.config import dumps
+from frictionrt.rt.export.golden import write_golden
 from frictionrt.rt.export.record import controller_record, design_hash
 
 TEMPLATES = Path(__file__).with_name("templates")
-TEMPLATE_FILES = ("frictionrt_ctrl.h", "frictionrt_ctrl.c", "ctrl_batch.c", "ctrl_harness.c", "Makefile")
+TEMPLATE_FILES = ("frictionrt_ctrl.h", "frictionrt_ctrl.c", "ctrl_batch.c", "ctrl_harness.c", "ctrl_check.c", "ctrl_rt_main.c",
+                  "Makefile")
+GOLDEN_FILES = ("golden_in.txt", "golden_out.txt")
 MANIFEST = "frictionrt_export.json"
 FORMAT = "frictionrt-export-c/1"
 # the fields of the template's parameter structs (frictionrt_ctrl.c), per part of the record
@@ -44,6 +51,10 @@ C_FIELDS = {
     "tip": ("F1",),
 }
 C_NAMES = {"auto": "auto_recover"}   # a C keyword
+C_INT = {"law.law", "law.hold_voltage", "supervisor.enable", "supervisor.auto", "supervisor.observe"}  # C int; other integers int64_t
+STRUCTS = {"tip": "P_TIP", "oracle": "P_ORACLE", "observer": "P_OBSERVER", "law": "P_LAW", "prefilter": "P_PREFILTER",
+           "tracking": "P_TRACKING", "supervisor": "P_SUPERVISOR", "state": "CTRL_INITIAL"}
+FNV_OFFSET, FNV_PRIME = 0xcbf29ce484222325, 0x100000001b3
 C_TYPES = {"oracle": "biquad_params", "prefilter": "biquad_params", "observer": "observer_params",
            "law": "law_params", "tracking": "tracking_params", "supervisor": "supervisor_params", "tip": "tip_params"}
 
@@ -98,6 +109,37 @@ def _struct(name: str, part: str, rec: dict[str, np.ndarray]) -> str:
     return f"static const {C_TYPES[part]} {name} = {{\n" + "\n".join(lines) + "\n};\n"
 
 
+def checksummed(rec: dict[str, np.ndarray]) -> list[str]:
+    """The record's keys the checksum covers, in its order: every parameter and initial state
+    (not ``export.*``, the build's kind)."""
+    return [k for k in sorted(rec) if not k.startswith("export.")]
+
+
+def param_checksum(rec: dict[str, np.ndarray]) -> int:
+    """FNV-1a 64 over the values of ``checksummed`` keys, each as the 8 little-endian bytes of a
+    double (integers and booleans converted exactly): frictionrt_ctrl.c ``ctrl_param_checksum``."""
+    h = FNV_OFFSET
+    for key in checksummed(rec):
+        for byte in np.asarray(rec[key]).astype("<f8").ravel().tobytes():
+            h = ((h ^ byte) * FNV_PRIME) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def _param_table(rec: dict[str, np.ndarray]) -> str:
+    """CTRL_PARAM_LIST: per checksummed key X(type, count, address), an X-macro (no table of
+    pointers in memory: the object keeps no relocated data)."""
+    rows = []
+    for key in checksummed(rec):
+        part, _, field = key.partition(".")
+        a = np.asarray(rec[key])
+        kind = "double" if a.dtype.kind == "f" else "int" if key in C_INT else "int64"
+        member = ".".join(C_NAMES.get(f, f) for f in field.split("."))
+        addr = f"&{STRUCTS[part]}.{member}" + ("[0]" * a.ndim)
+        rows.append(f"    X({kind}, {a.size}, {addr})   /* {key} */")
+    return ("/* where each value of the design record lies, in its key order (ctrl_param_checksum) */\n"
+            "#define CTRL_PARAM_LIST(X) \\\n" + " \\\n".join(rows) + "\n")
+
+
 def design_header(rec: dict[str, np.ndarray], digest: str) -> str:
     """ctrl_design.h: the parameter structs and the state at rest (module docstring)."""
     observe = bool(rec["export.observe"])
@@ -116,6 +158,7 @@ def design_header(rec: dict[str, np.ndarray], digest: str) -> str:
     body = ",\n".join(f"    .{s} = {initializer(rec[f'state.{s}'], '    ')}" for s in slots)
     out.append("/* the state at rest (the run's initial state) */\n"
                f"static const ctrl_state CTRL_INITIAL = {{\n{body}\n}};\n")
+    out.append(_param_table(rec))
     return "\n".join(out)
 
 
@@ -130,7 +173,8 @@ def config_header(rec: dict[str, np.ndarray], digest: str, law: str, rate_hz: fl
             f"#define CTRL_NEWTON_MAX {NEWTON_MAX}  /* the observer's Newton bound: the tick's worst case */\n"
             f"#define CTRL_RATE_HZ {literal(rate_hz)}  /* {rate_hz:g} Hz */\n"
             f"#define CTRL_LAW \"{law}\"\n"
-            f"#define CTRL_DESIGN_HASH \"{digest}\"\n\n#endif\n")
+            f"#define CTRL_DESIGN_HASH \"{digest}\"\n"
+            f"#define CTRL_PARAM_CHECKSUM 0x{param_checksum(rec):016x}ULL  /* of ctrl_design.h's CTRL_PARAMS */\n\n#endif\n")
 
 
 def export_c(loop, state, out: Path, source: str) -> dict:
@@ -145,10 +189,12 @@ def export_c(loop, state, out: Path, source: str) -> dict:
     (out / "ctrl_config.h").write_text(config_header(rec, digest, loop.law, loop.cfg.rt.rate_hz))
     (out / "ctrl_design.h").write_text(design_header(rec, digest))
     (out / "config.toml").write_text(dumps(loop.cfg))
-    manifest = {"format": FORMAT, "design_hash": digest, "law": loop.law, "estimator": loop.estimator,
+    golden = write_golden(out, loop, state, digest)
+    manifest = {"format": FORMAT, "design_hash": digest, "param_checksum": f"{param_checksum(rec):016x}",
+                "law": loop.law, "estimator": loop.estimator,
                 "force_sensor": loop.force_sensor, "rate_hz": loop.cfg.rt.rate_hz, "source": source,
-                "frictionrt": version("frictionrt"),
-                "files": [*TEMPLATE_FILES, "ctrl_config.h", "ctrl_design.h", "config.toml"]}
+                "frictionrt": version("frictionrt"), "golden": golden,
+                "files": [*TEMPLATE_FILES, "ctrl_config.h", "ctrl_design.h", "config.toml", *GOLDEN_FILES]}
     (out / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
     return manifest
 

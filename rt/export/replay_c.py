@@ -25,7 +25,9 @@ from frictionrt.rt.export.generate import check_design, read_manifest
 from frictionrt.rt.export.record import controller_record, design_hash
 from frictionrt.rt.log.design_record import use_logged
 from frictionrt.rt.loop.build import initial_loop_state
-from frictionrt.rt.loop.replay import _overran, compare_bits, logged_faults, open_controller_log, oracle_inputs, seed_of
+from frictionrt.rt.loop.coverage import coverage
+from frictionrt.rt.loop.replay import (_overran, compare_bits, gap_report, logged_faults, open_controller_log, oracle_inputs,
+                                       seed_of)
 
 READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
 
@@ -46,7 +48,10 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     with ``cc`` ``opt`` ``extra`` (``frictionrt.rt.export.cbuild.build``). Returns (summary, outputs): the
     JSON summary ``file``, ``export``, ``design_hash``, ``law``, ``estimator``, ``ticks``,
     ``bit_exact``, ``signals_compared``, ``max_abs_diff_by_signal``, ``first_mismatch_tick``,
-    ``first_mismatch_signals``, ``build`` (the compile command), ``wall_s``; outputs (ticks, 13).
+    ``first_mismatch_signals``, ``build`` (the compile command), ``wall_s``, ``coverage`` (the paths
+    the C's outputs took, ``frictionrt.rt.loop.coverage``), ``compared_ranges``, ``missing_ranges``,
+    ``not_compared_ranges`` (``frictionrt.rt.loop.replay.gap_report``: compared up to the first gap);
+    outputs (ticks, 13).
     ValueError in one line for a bad log, a folder that is no export, an export of another
     design, a missing compiler or a failed build."""
     path, folder = Path(path), Path(folder)
@@ -73,15 +78,19 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     wall = time.perf_counter() - t0
     res = {"file": str(path), "export": str(folder), "design_hash": digest, "log_design_hash": stated, "law": loop.law,
            "estimator": loop.estimator, "ticks": n, "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n),
-           "build": " ".join(ctrl.command), "wall_s": wall, "design": report}
+           "build": " ".join(ctrl.command), "wall_s": wall, "design": report,
+           "coverage": coverage(loop.law, loop.cfg.tracking.F_min_N, loop.cfg.tracking.F_max_N,
+                                {c: out[:, j] for j, c in enumerate(OUTPUTS)})}
     owner = {nm: o for nm, _, o in rec.signals}
     cols = [c for c in OUTPUTS if c in owner and f"/{owner[c]}" in rec.topics]
     if len(cols) < len(OUTPUTS):
         res |= {"bit_exact": None, "signals_compared": cols, "max_abs_diff_by_signal": {},
                 "first_mismatch_tick": None, "first_mismatch_signals": []}
         return res, out
-    ref = rec.log[:, [names.index(c) for c in OUTPUTS]]
-    exact, by_sig, first, at_first = compare_bits(out, ref, OUTPUTS)
+    rows, gaps = gap_report(rec.k, n)
+    res |= gaps
+    ref = rec.log[:rows, [names.index(c) for c in OUTPUTS]]
+    exact, by_sig, first, at_first = compare_bits(out[:rows], ref, OUTPUTS)
     res |= {"bit_exact": exact, "signals_compared": list(OUTPUTS), "max_abs_diff_by_signal": by_sig,
             "first_mismatch_tick": int(rec.k[first]) if first is not None else None,
             "first_mismatch_signals": at_first}

@@ -39,6 +39,7 @@ from frictionrt.rt.log.design_record import use_logged
 from frictionrt.rt.loop import realtime
 from frictionrt.rt.loop.faults import from_json
 from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
+from frictionrt.rt.loop.coverage import coverage
 from frictionrt.rt.loop.build import ESTIMATORS, build_loop, controller_stages, initial_loop_state
 from frictionrt.rt.loop.driver import watch
 from frictionrt.rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
@@ -194,6 +195,30 @@ def compare_bits(out: np.ndarray, ref: np.ndarray, signals) -> tuple[bool, dict[
     return bool(same.all()), by_sig, first, at_first
 
 
+def tick_ranges(k: np.ndarray) -> tuple[list[list[int]], list[list[int]]]:
+    """(the contiguous runs of logged ticks, the missing ones), each a list of [first, last]
+    tick ranges (inclusive), of the increasing ticks k (a log with dropped blocks has gaps)."""
+    k = np.asarray(k)
+    if len(k) == 0:
+        return [], []
+    ends = np.nonzero(np.diff(k) != 1)[0]
+    starts = np.r_[0, ends + 1]
+    ends = np.r_[ends, len(k) - 1]
+    present = [[int(k[a]), int(k[b])] for a, b in zip(starts, ends)]
+    missing = [[int(k[b]) + 1, int(k[a]) - 1] for b, a in zip(ends[:-1], starts[1:])]
+    return present, missing
+
+
+def gap_report(k: np.ndarray, m: int) -> tuple[int, dict]:
+    """(rows to compare, the report) for a replay of m rows of the ticks k: the rows up to the
+    first gap; after it the controller's state is not known (the log carries none to restart
+    from), so later ticks are replayed but not compared, and the log is not called a mismatch for
+    them. Report: ``compared_ranges``, ``missing_ranges``, ``not_compared_ranges`` ([first, last])."""
+    present, missing = tick_ranges(np.asarray(k)[:m])
+    rows = present[0][1] - present[0][0] + 1 if present else 0
+    return rows, {"compared_ranges": present[:1], "missing_ranges": missing, "not_compared_ranges": present[1:]}
+
+
 def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
     """Replay the log at ``path`` (module docstring); the summary of ``replay_outputs``."""
     return replay_outputs(path, paced=paced, fallback_cfg=fallback_cfg, sets=sets)[0]
@@ -208,7 +233,10 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     ``signals_compared``, and ``file``, ``law``, ``estimator``, ``paced``, ``missing_ticks``
     (gaps in the recorded ticks, e.g. dropped blocks), ``max_abs_diff_by_signal``,
     ``first_mismatch_tick``, ``wall_s``, ``realtime_factor`` (simulated / wall time),
-    ``overruns`` (paced), ``interrupted``, ``outputs`` (min, mean, max of each replayed signal).
+    ``overruns`` (paced), ``interrupted``, ``outputs`` (min, mean, max of each replayed signal),
+    ``coverage`` (the paths the replayed outputs took, ``frictionrt.rt.loop.coverage``), and
+    ``compared_ranges``, ``missing_ranges``, ``not_compared_ranges`` (``gap_report``: a log with
+    dropped blocks is compared up to its first gap).
 
     ValueError naming the file for a missing, unreadable or unsuitable file.
     """
@@ -265,9 +293,11 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
         res["realtime"] = rts.describe()
     owner = {nm: o for nm, _, o in rec.signals}
     recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
+    rows, gaps = gap_report(rec.k, m)
+    res |= gaps
     if recorded:
-        ref = rec.log[:m][:, [names.index(c) for c in COMMANDED]]
-        exact, by_sig, first, _ = compare_bits(out, ref, COMMANDED)
+        ref = rec.log[:rows][:, [names.index(c) for c in COMMANDED]]
+        exact, by_sig, first, _ = compare_bits(out[:rows], ref, COMMANDED)
         res |= {"bit_exact": exact, "max_abs_diff": max(by_sig.values(), default=0.0),
                 "signals_compared": list(COMMANDED), "max_abs_diff_by_signal": by_sig,
                 "first_mismatch_tick": int(rec.k[first]) if first is not None else None}
@@ -276,4 +306,6 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
                 "first_mismatch_tick": None}
     res["outputs"] = {c: {"min": float(out[:, j].min(initial=np.inf)), "mean": float(out[:, j].mean()) if m else None,
                           "max": float(out[:, j].max(initial=-np.inf))} for j, c in enumerate(COMMANDED)}
+    res["coverage"] = coverage(law, loop.cfg.tracking.F_min_N, loop.cfg.tracking.F_max_N,
+                               {c: out[:, j] for j, c in enumerate(COMMANDED)})
     return res, rec.k[:m], out

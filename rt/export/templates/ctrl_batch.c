@@ -5,9 +5,14 @@
  * and calls ctrl_run through ctypes (one foreign call per log, not per tick). A target does not
  * need this file.
  */
-#define _POSIX_C_SOURCE 199309L   /* clock_gettime for ctrl_run_timed */
+#define _POSIX_C_SOURCE 199309L   /* clock_gettime for ctrl_run_timed, where the C library has it */
 #include <stddef.h>
 #include <time.h>
+#if defined(CLOCK_MONOTONIC)
+#define CTRL_HAVE_CLOCK 1
+#else
+#define CTRL_HAVE_CLOCK 0         /* e.g. newlib (arm-none-eabi): ctrl_run_timed reports -1 ns */
+#endif
 
 #include "frictionrt_ctrl.h"
 
@@ -17,7 +22,7 @@
  *   overran  n flags: the tick before overran (0 or 1)
  *   faults   n_faults rows of the fault schedule (may be NULL when n_faults is 0)
  *   out      n x CTRL_N_OUTPUTS: the outputs in ctrl_outputs order
- * Returns the number of ticks run (n). */
+ * Returns the number of ticks run (n), or minus ctrl_init's CTRL_ERR_ code (nothing run). */
 int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
                        const ctrl_fault *faults, int n_faults, double *out, int64_t *ns);
 
@@ -36,7 +41,9 @@ int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const do
     ctrl_inputs in;
     ctrl_outputs y;
     int64_t i;
-    ctrl_init(&s);
+    const int rc = ctrl_init(&s);
+    if (rc != CTRL_OK)
+        return -(int64_t)rc;
     in.faults = faults;
     in.n_faults = n_faults;
     for (i = 0; i < n; ++i) {
@@ -54,11 +61,16 @@ int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const do
         (void)uv;
 #endif
         if (ns != NULL) {
+#if CTRL_HAVE_CLOCK
             struct timespec t0, t1;
             clock_gettime(CLOCK_MONOTONIC, &t0);
             ctrl_step(&s, &in, &y);
             clock_gettime(CLOCK_MONOTONIC, &t1);
             ns[i] = (int64_t)(t1.tv_sec - t0.tv_sec) * 1000000000 + (int64_t)(t1.tv_nsec - t0.tv_nsec);
+#else
+            ctrl_step(&s, &in, &y);
+            ns[i] = -1;
+#endif
         } else {
             ctrl_step(&s, &in, &y);
         }
@@ -79,10 +91,11 @@ int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const do
     return n;
 }
 
-/* The state at rest into the caller's buffer of ctrl_state_size() bytes (software in the loop). */
-void ctrl_init_flat(void *state)
+/* The state at rest into the caller's buffer of ctrl_state_size() bytes (software in the loop);
+ * ctrl_init's CTRL_OK or CTRL_ERR_ code. */
+int ctrl_init_flat(void *state)
 {
-    ctrl_init((ctrl_state *)state);
+    return ctrl_init((ctrl_state *)state);
 }
 
 /* One tick through flat arrays, for a caller that cannot build the structs (the numba loop of

@@ -25,7 +25,13 @@ int main(void)
     ctrl_state s;
     ctrl_inputs in;
     ctrl_outputs y;
-    ctrl_init(&s);
+    {
+        const int rc = ctrl_init(&s);
+        if (rc != CTRL_OK) {
+            fprintf(stderr, "ctrl_harness: ctrl_init: %s\n", ctrl_error_text(rc));
+            return 1;
+        }
+    }
     memset(&in, 0, sizeof in);
     in.faults = NULL;
     in.n_faults = 0;

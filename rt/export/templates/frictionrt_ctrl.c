@@ -12,11 +12,15 @@
  *     else a (not fmin/fmax, which treat NaN and -0 otherwise);
  *   - no libm function whose last bits differ between C libraries: the only transcendental
  *     function, the observer's arctan, is fdlibm's algorithm in plain arithmetic (ctrl_atan,
- *     observer/atan.py); fabs and isfinite are exact everywhere.
+ *     observer/atan.py); fabs is exact everywhere, and isfinite is a test of the exponent bits
+ *     (ctrl_isfinite: no __fpclassify call with any C library).
+ *
+ * What a compile-time check cannot see (a contraction default, -funsafe-math-optimizations, an
+ * FPU in flush-to-zero or another rounding mode) ctrl_init checks at run time (ctrl_selftest).
  *
  * Worst-case time of a tick: the observer's implicit friction step is a safeguarded Newton
- * iteration of at most CTRL_NEWTON_MAX (60) iterations (3..8 in practice), each one arctan and
- * a division; everything else is straight-line code with loops of fixed length (the observer's
+ * iteration of at most CTRL_NEWTON_MAX (60) iterations (docs/export-c.md gives the counts
+ * measured on run logs), each one arctan and a division; everything else is straight-line code with loops of fixed length (the observer's
  * CTRL_N_OBS x CTRL_N_OBS matrix-vector product, the fault schedule's rows).
  */
 #include <float.h>
@@ -77,8 +81,8 @@ typedef struct {                                       /* rt/loop/supervisor.py 
 typedef struct { double F1[3]; } tip_params;           /* plant/sensors.py SensorParams.F1[0]: integrator */
 
 /* The generated constants: P_TIP, P_ORACLE or P_OBSERVER, P_LAW, P_PREFILTER, P_TRACKING,
- * P_SUPERVISOR, P_FORCE_COL, and the state at rest CTRL_INITIAL (hexadecimal floating literals:
- * the exact bits of the design). */
+ * P_SUPERVISOR, P_FORCE_COL, the state at rest CTRL_INITIAL (hexadecimal floating literals:
+ * the exact bits of the design) and the checksum's list CTRL_PARAM_LIST. */
 #include "ctrl_design.h"
 
 /* ---- constants of the kernels ------------------------------------------------------------------ */
@@ -99,6 +103,17 @@ enum { S_CODE = 0, S_LATCHED = 1, S_PASSIVE = 2, S_TRIP_TICK = 3, S_CLEAN = 4, S
 
 static const int CHECKED[4] = {0, 1, 3, 4};   /* readings checked (v_tip_meas is derived) */
 static const int PARTNER[4] = {1, 0, 4, 3};   /* the other accelerometer / force sensor */
+
+/* ---- isfinite as a bit test (no library call with any C library) ------------------------------- */
+
+typedef union { double d; uint64_t u; } bits64;
+
+static int ctrl_isfinite(double x)
+{
+    bits64 b;
+    b.d = x;
+    return (b.u & 0x7ff0000000000000ULL) != 0x7ff0000000000000ULL;   /* exponent not all ones */
+}
 
 /* ---- numba's min / max ------------------------------------------------------------------------ */
 
@@ -160,7 +175,7 @@ static double ctrl_atan(double x)
 static double tip_velocity(double *xs, double a_tip)
 {
     const double u0 = xs[1];
-    const double a = isfinite(a_tip) ? a_tip : 0.0;
+    const double a = ctrl_isfinite(a_tip) ? a_tip : 0.0;
     const double v = P_TIP.F1[0] * xs[0] + P_TIP.F1[1] * u0 + P_TIP.F1[2] * (a - u0);
     xs[0] = v;
     xs[1] = a;
@@ -189,8 +204,9 @@ static double friction(double v, double F_N, double *df)
     return c * ctrl_atan(av);
 }
 
-/* Root of g(v) = v - beta f_r(v) - v_star, between 0 and v_star (_implicit_v): safeguarded
- * Newton, at most CTRL_NEWTON_MAX iterations (the tick's worst case). */
+/* Root of g(v) = v - beta f_r(v) - v_star, between 0 and v_star (_implicit_v_iter): safeguarded
+ * Newton that stops on an exact root and on a step within tol before the bracket test, at most
+ * CTRL_NEWTON_MAX iterations (the tick's worst case). */
 static double implicit_v(double v_star, double beta, double F_N)
 {
     double lo = ord_min(0.0, v_star);
@@ -202,15 +218,17 @@ static double implicit_v(double v_star, double beta, double F_N)
         double df, f, g, v_new;
         f = friction(v, F_N, &df);
         g = v - beta * f - v_star;
+        if (g == 0.0)
+            return v;                              /* an exact root */
         if (g > 0.0)
             hi = v;
         else
             lo = v;
         v_new = v - g / (1.0 - beta * df);
+        if (fabs(v_new - v) <= tol)
+            return v_new;                          /* converged, before the bracket test */
         if (!(lo < v_new && v_new < hi))
             v_new = 0.5 * (lo + hi);               /* Newton left the bracket: bisect */
-        if (fabs(v_new - v) <= tol)
-            return v_new;
         v = v_new;
     }
     return v;
@@ -313,7 +331,7 @@ static void sanitise(double *s, const double *ys, double *yc)
 {
     int i;
     for (i = 0; i < CTRL_N_READ; ++i) {
-        if (isfinite(ys[i]))
+        if (ctrl_isfinite(ys[i]))
             s[S_GOOD + i] = ys[i];
         yc[i] = s[S_GOOD + i];
     }
@@ -336,7 +354,7 @@ static int check(int64_t k, double *s, const double *ys, const double *ye, const
     for (j = 0; j < 4; ++j) {
         const int i = CHECKED[j];
         const double v = ys[i];
-        if (!isfinite(v))
+        if (!ctrl_isfinite(v))
             c = SENSOR_NONFINITE;
         else if ((i < 2 && (v <= p->acc_lo || v >= p->acc_hi)) || (i >= 2 && (v <= 0.0 || v >= p->force_hi)))
             c = SENSOR_RANGE;
@@ -352,7 +370,7 @@ static int check(int64_t k, double *s, const double *ys, const double *ye, const
         code = FORCE_DISAGREE;
     /* estimator */
     if (code == NONE) {
-        int bad = !(isfinite(ye[0]) && isfinite(ye[1]));
+        int bad = !(ctrl_isfinite(ye[0]) && ctrl_isfinite(ye[1]));
         if (p->observe) {
 #if CTRL_OBSERVER
             double n2 = 0.0;
@@ -364,7 +382,7 @@ static int check(int64_t k, double *s, const double *ys, const double *ye, const
         }
         if (bad)
             code = OBSERVER_DIVERGENCE;
-        else if (!isfinite(F_set))
+        else if (!ctrl_isfinite(F_set))
             code = COMMAND_NONFINITE;
     }
     (void)z;
@@ -421,7 +439,7 @@ static void latch(int64_t k, double *s, int code)
 static double supervise(int64_t k, double *s, const double *ys, const double *ye, const double *z, double F_set)
 {
     latch(k, s, check(k, s, ys, ye, z, F_set));
-    if (s[S_PASSIVE] != 0.0 || !isfinite(F_set))
+    if (s[S_PASSIVE] != 0.0 || !ctrl_isfinite(F_set))
         return P_SUPERVISOR.F_min;
     return F_set;
 }
@@ -429,9 +447,9 @@ static double supervise(int64_t k, double *s, const double *ys, const double *ye
 /* After the force tracking: record error and saturation, guard V_cmd (_supervise_after). */
 static void supervise_after(int64_t k, double *s, double e, double *yf, double *y)
 {
-    s[S_ERR] = isfinite(e) ? e : 0.0;
+    s[S_ERR] = ctrl_isfinite(e) ? e : 0.0;
     s[S_SAT] = yf[1];
-    if (!isfinite(yf[0])) {
+    if (!ctrl_isfinite(yf[0])) {
         yf[0] = P_SUPERVISOR.V_passive;
         if (s[S_CODE] == NONE)
             latch(k, s, COMMAND_NONFINITE);
@@ -455,9 +473,122 @@ static double inject_observer(int64_t k, const ctrl_fault *F, int n, double v)
 
 /* ---- the tick (rt/loop/tick.py _controller_tick, _controller_done) ---------------------------- */
 
-void ctrl_init(ctrl_state *s)
+/* ---- the guards (ctrl_selftest) --------------------------------------------------------------- */
+
+/* Each operand is read from a volatile, so the compiler cannot fold the expression; each result
+ * is exact in IEEE double arithmetic as written and differs when the build computes otherwise. */
+static int arithmetic_selftest(void)
+{
+    volatile double a = 0x1.00000004p+0, b = 0x1.fffffff8p-1, c = -1.0;   /* 1 + 2^-30, 1 - 2^-30 */
+    volatile double big = 0x1p+53, one = 1.0, three = 3.0, five = 5.0, seven = 7.0;
+    volatile double tiny = 0x1p-1022, half = 0.5, ulp_half = 0x1p-53, odd = 0x1.0000000000001p+0;
+    volatile double r;
+    double acc;
+    r = a * b + c;                    /* a b = 1 - 2^-60 rounds to 1: 0; fused: -2^-60 */
+    if (r != 0.0)
+        return CTRL_ERR_CONTRACTION;
+    acc = c;
+    acc += a * b;                     /* the accumulation form of the matrix-vector products */
+    r = acc;
+    if (r != 0.0)
+        return CTRL_ERR_CONTRACTION;
+    acc = big;                        /* one read: the compiler knows both uses are one value */
+    r = (acc + one) - acc;            /* 2^53 + 1 rounds to 2^53: 0; reassociated: 1 */
+    if (r != 0.0)
+        return CTRL_ERR_REASSOCIATION;
+    acc = three;                      /* one divisor used thrice: what -freciprocal-math turns into 1/3 */
+    r = five / acc + one / acc + seven / acc;   /* correctly rounded quotients; times 1/3 one ulp lower */
+    if (r != 0x1.1555555555556p+2)
+        return CTRL_ERR_RECIPROCAL;
+    r = tiny * half;                  /* 2^-1023, subnormal; flushed: 0 */
+    if (r != 0x1p-1023)
+        return CTRL_ERR_SUBNORMAL;
+    r = one + ulp_half;               /* a tie: to even, 1 (upward: 1 + 2^-52) */
+    if (r != 1.0)
+        return CTRL_ERR_ROUNDING;
+    r = -one - ulp_half;              /* a tie: to even, -1 (downward: -1 - 2^-52) */
+    if (r != -1.0)
+        return CTRL_ERR_ROUNDING;
+    r = odd + ulp_half;               /* a tie from an odd mantissa: to even, 1 + 2^-51 (toward zero: 1 + 2^-52) */
+    if (r != 0x1.0000000000002p+0)
+        return CTRL_ERR_ROUNDING;
+    return CTRL_OK;
+}
+
+/* FNV-1a 64 of one value, as the 8 little-endian bytes of a double. */
+static uint64_t fnv_double(uint64_t h, double x)
+{
+    bits64 b;
+    int j;
+    b.d = x;
+    for (j = 0; j < 8; ++j) {                        /* little-endian bytes, whatever the target's order */
+        h ^= (b.u >> (8 * j)) & 0xffU;
+        h *= 0x100000001b3ULL;                       /* FNV-1a 64: prime */
+    }
+    return h;
+}
+
+static uint64_t sum_double(uint64_t h, const double *p, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        h = fnv_double(h, p[i]);
+    return h;
+}
+
+static uint64_t sum_int(uint64_t h, const int *p, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        h = fnv_double(h, (double)p[i]);
+    return h;
+}
+
+static uint64_t sum_int64(uint64_t h, const int64_t *p, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        h = fnv_double(h, (double)p[i]);
+    return h;
+}
+
+uint64_t ctrl_param_checksum(void)
+{
+    uint64_t h = 0xcbf29ce484222325ULL;            /* FNV-1a 64: offset basis */
+#define CTRL_SUM(kind, n, p) h = sum_##kind(h, p, n);
+    CTRL_PARAM_LIST(CTRL_SUM)
+#undef CTRL_SUM
+    return h;
+}
+
+int ctrl_selftest(void)
+{
+    const int rc = arithmetic_selftest();
+    if (rc != CTRL_OK)
+        return rc;
+    if (ctrl_param_checksum() != CTRL_PARAM_CHECKSUM)
+        return CTRL_ERR_CHECKSUM;
+    return CTRL_OK;
+}
+
+const char *ctrl_error_text(int code)
+{
+    switch (code) {
+    case CTRL_OK: return "ok";
+    case CTRL_ERR_CONTRACTION: return "the build fuses multiply-adds (build with -ffp-contract=off)";
+    case CTRL_ERR_REASSOCIATION: return "the build reassociates additions (no -ffast-math, -funsafe-math-optimizations, -fassociative-math)";
+    case CTRL_ERR_RECIPROCAL: return "the build replaces divisions by reciprocals (no -freciprocal-math)";
+    case CTRL_ERR_SUBNORMAL: return "the FPU flushes subnormals to zero (clear the flush-to-zero / denormals-are-zero mode)";
+    case CTRL_ERR_ROUNDING: return "the FPU does not round to nearest even (set the default rounding mode)";
+    case CTRL_ERR_CHECKSUM: return "the parameters differ from the design (ctrl_design.h edited: export again)";
+    default: return "unknown error";
+    }
+}
+
+int ctrl_init(ctrl_state *s)
 {
     *s = CTRL_INITIAL;
+    return ctrl_selftest();
 }
 
 const char *ctrl_design_hash(void)

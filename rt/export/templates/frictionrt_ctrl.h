@@ -83,8 +83,34 @@ typedef struct ctrl_outputs {
 
 #define CTRL_N_OUTPUTS 13
 
-/* The state at rest (the plant at its preload equilibrium at F0, every filter at steady state). */
-void ctrl_init(ctrl_state *s);
+/* What ctrl_init returns: CTRL_OK, or the first guard that failed (the build must not run). */
+enum {
+    CTRL_OK = 0,
+    CTRL_ERR_CONTRACTION = 1,    /* a * b + c was fused (FMA contraction: -ffp-contract=fast, gnu11 defaults) */
+    CTRL_ERR_REASSOCIATION = 2,  /* (a + b) - a was simplified (-fassociative-math, -funsafe-math-optimizations) */
+    CTRL_ERR_RECIPROCAL = 3,     /* a / b became a * (1 / b) (-freciprocal-math) */
+    CTRL_ERR_SUBNORMAL = 4,      /* subnormals flushed to zero (FPU flush-to-zero or denormals-are-zero mode) */
+    CTRL_ERR_ROUNDING = 5,       /* the rounding mode is not round-to-nearest-even */
+    CTRL_ERR_CHECKSUM = 6        /* the parameters' checksum differs from CTRL_PARAM_CHECKSUM (ctrl_design.h edited) */
+};
+
+/* The state at rest (the plant at its preload equilibrium at F0, every filter at steady state),
+ * after the guards (ctrl_selftest): returns CTRL_OK, or a CTRL_ERR_ code and then the build
+ * would not compute the design's bits: do not run it. */
+int ctrl_init(ctrl_state *s);
+
+/* The guards alone: a short computation on volatile inputs whose result changes when the
+ * compiler fuses or reassociates the arithmetic or the FPU flushes subnormals or rounds
+ * otherwise, then the parameters' checksum. CTRL_OK or the first failing CTRL_ERR_ code. */
+int ctrl_selftest(void);
+
+/* The checksum of the parameters and the state at rest as this build holds them: FNV-1a 64 over
+ * the design record's values in its key order, each as the 8 little-endian bytes of a double
+ * (integers converted), so no struct padding or byte order enters it. */
+uint64_t ctrl_param_checksum(void);
+
+/* A CTRL_ERR_ code in words. */
+const char *ctrl_error_text(int code);
 
 /* One tick: reads *in, advances *s, writes *out. in and out must not alias s. */
 void ctrl_step(ctrl_state *s, const ctrl_inputs *in, ctrl_outputs *out);
