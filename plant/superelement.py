@@ -146,7 +146,7 @@ def check(se: Superelement) -> Superelement:
         raise _fail("contact_area", f"must have one area per contact point ({p},), got {a.shape}")
     bad = np.flatnonzero(~(a > 0) | ~np.isfinite(a))
     if len(bad):
-        raise _fail("contact_area", f"point {bad[0]} has area {a[bad[0]]!r} m^2: every contact point must "
+        raise _fail("contact_area", f"point {bad[0]} has area {float(a[bad[0]])!r} m^2: every contact point must "
                                     "carry a positive area (its share of the interface)")
     for name, shape in (("contact_gap0", (p,)), ("contact_xyz", (p, 3)), ("contact_normal", (p, 3)),
                         ("f_bolts", (n,)), ("adaptive_row", (n,)), ("u_rel_row", (n,)), ("u_rel_direction", (3,))):
@@ -205,7 +205,7 @@ def from_dict(d: dict, source: str = "") -> Superelement:
         if d.get(k) is None:
             raise _fail(k, f"is missing in {source or 'the input'}: a superelement needs M, K, contact_rows and "
                            "contact_area (docs/superelement.md)")
-    units = str(np.asarray(d.get("units", "SI"))).strip() if d.get("units") is not None else "SI"
+    units = "SI" if d.get("units") is None else str(np.asarray(d["units"]).ravel()[0]).strip()
     arr = {}
     for k in ARRAY_KEYS:
         v = d.get(k)
@@ -226,6 +226,10 @@ def from_dict(d: dict, source: str = "") -> Superelement:
     if d.get("adaptive_k") is not None:
         arr["adaptive_k"] = float(np.asarray(d["adaptive_k"]).ravel()[0])
     arr = _convert_units(arr, units)
+    ns = arr["sensor_rows"].shape[0] if "sensor_rows" in arr else 0
+    ne = arr["excitation"].shape[0] if "excitation" in arr else 0
+    sensor_names = _str_tuple(d.get("sensor_names")) or tuple(f"sensor{i}" for i in range(ns))
+    excitation_names = _str_tuple(d.get("excitation_names")) or tuple(f"excitation{i}" for i in range(ne))
     se = Superelement(
         M=arr["M"], K=arr["K"], contact_rows=arr["contact_rows"], contact_area=arr["contact_area"],
         C=arr.get("C"), contact_gap0=arr.get("contact_gap0"), contact_xyz=arr.get("contact_xyz"),
@@ -233,9 +237,9 @@ def from_dict(d: dict, source: str = "") -> Superelement:
         adaptive_k=arr.get("adaptive_k", 0.0), u_rel_row=arr.get("u_rel_row"),
         u_rel_direction=arr.get("u_rel_direction"),
         sensor_rows=arr.get("sensor_rows", np.zeros((0, arr["K"].shape[0] if arr["K"].ndim == 2 else 0))),
-        sensor_names=_str_tuple(d.get("sensor_names")),
+        sensor_names=sensor_names,
         excitation=arr.get("excitation", np.zeros((0, arr["K"].shape[0] if arr["K"].ndim == 2 else 0))),
-        excitation_names=_str_tuple(d.get("excitation_names")), source=source)
+        excitation_names=excitation_names, source=source)
     return check(se)
 
 
