@@ -125,7 +125,7 @@ def reference_superelement(cfg, interface_pitch_m: float = 0.02, pitch_m: float 
     bolt_x = [s.x_m for s in screws]
     x_main = _grid(main.x0_m, main.x0_m + main.length_m, pitch_m, fixed=(x_d0, x_d1))
     # over the damper the interface pitch, shared by both beams
-    inner = _grid(x_d0, x_d1, interface_pitch_m)
+    inner = _grid(x_d0, x_d1, interface_pitch_m, fixed=bolt_x)
     x_main = np.unique(np.r_[x_main[(x_main < x_d0) | (x_main > x_d1)], inner])
     zc_main = main.z0_m
     zc_damp = damper.z0_m

@@ -18,6 +18,9 @@ one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)).
 
 The built-in 2-D plant keeps its own kernel (plant.newmark); this one serves imported structures
 with 2-D (nt = 2, circular limit) or 1-D (nt = 1) friction.
+
+Length: the kernel, its Newton and the design-time build that fills its arrays (including the
+static equilibrium that sets the bolt's reference) are one unit, as plant.newmark and plant.model.
 """
 from __future__ import annotations
 
@@ -404,13 +407,26 @@ def static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None = None, ma
         kc[a::d] = p.k_t
     q = np.linalg.solve(K + (p.G.T * kc) @ p.G, f - p.G.T @ (kc * p.gap0))
     w0 = np.zeros(m // d * p.nt)
-    for _ in range(max_iter):
+
+    def resid(q):
         g = p.G @ q + p.gap0
         lam, w, D = contact_forces(p, g, w0)
-        R = K @ q - f - p.G.T @ lam
+        return K @ q - f - p.G.T @ lam, w, g, D
+
+    R, w, g, D = resid(q)
+    for _ in range(max_iter):
         if np.max(np.abs(R)) <= 1e-10 * max(1.0, np.max(np.abs(f))):
             return q, w, g
-        q = q - np.linalg.solve(K - p.G.T @ D @ p.G, R)
+        dq = np.linalg.solve(K - p.G.T @ D @ p.G, R)
+        r0 = np.linalg.norm(R)
+        alpha = 1.0
+        for _ls in range(30):    # backtracking: a full step can cycle between stick and slip
+            Rn, wn, gn, Dn = resid(q - alpha * dq)
+            if np.linalg.norm(Rn) <= (1.0 - 1e-4 * alpha) * r0:
+                break
+            alpha *= 0.5
+        q = q - alpha * dq
+        R, w, g, D = Rn, wn, gn, Dn
     raise RuntimeError(f"static equilibrium under the bolts did not converge (F_N1 = {F_N1} N): check the "
                        "interface stiffnesses, the bolts' preloads and that the structure is held")
 

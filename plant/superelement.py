@@ -38,6 +38,9 @@ On disk (.npz, ``save`` / ``load``; the same names in a .mat file, v5 or v7.3):
 
 Units: "mm-t-s" is converted on reading (lengths x 1e-3; M, K, C, force vectors per unit q
 x 1e-3: energies in N mm; areas x 1e-6; adaptive_k x 1e3), so every array held in memory is SI.
+
+Length: the format, its checks and its readers are one contract (each reader ends in the same
+``from_dict`` and ``check``); the readers are short and share the names table.
 """
 from __future__ import annotations
 
@@ -490,3 +493,36 @@ def write_op4(se: Superelement, path: str | Path) -> Path:
         mats["ADK"] = (2, np.array([[se.adaptive_k]]))
     OP4().write_op4(str(path), mats, name_order=list(mats), precision="double", is_binary=False)
     return Path(path)
+
+
+def coarsen(se: Superelement, n_clusters: int, seed: int = 0) -> Superelement:
+    """The interface coarsened to n_clusters contact points (a node-clustering hyper-reduction):
+    points grouped by k-means on their coordinates (scipy.cluster.vq.kmeans2, fixed seed), each
+    group replaced by one point with the group's total area and its area-weighted mean gap rows,
+    coordinates, normal and initial gap. The stuck stiffness of a group (k per area x total area,
+    acting on the mean gaps) is the group's as long as the group moves as a rigid patch; the
+    error against the fine interface is a reported figure (docs/superelement.md)."""
+    from scipy.cluster.vq import kmeans2
+    p = se.n_points
+    if not 1 <= n_clusters <= p:
+        raise _fail("clusters", f"{n_clusters} must lie in 1 .. {p} (the interface's points)")
+    if n_clusters == p:
+        return se
+    if se.contact_xyz is None:
+        raise _fail("contact_xyz", "is needed to coarsen the interface (the points' coordinates)")
+    _, label = kmeans2(se.contact_xyz, n_clusters, minit="++", seed=seed)
+    groups = [np.flatnonzero(label == c) for c in range(n_clusters)]
+    groups = sorted((g for g in groups if len(g)), key=lambda g: tuple(se.contact_xyz[g].mean(axis=0)))
+    a = se.contact_area
+    W = np.zeros((len(groups), p))
+    for c, g in enumerate(groups):
+        W[c, g] = a[g] / a[g].sum()
+    normal = None
+    if se.contact_normal is not None:
+        normal = W @ se.contact_normal
+        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return check(replace(se, contact_rows=np.einsum("cp,pdn->cdn", W, se.contact_rows),
+                         contact_area=np.array([a[g].sum() for g in groups]),
+                         contact_gap0=None if se.contact_gap0 is None else W @ se.contact_gap0,
+                         contact_xyz=W @ se.contact_xyz, contact_normal=normal,
+                         source=f"{se.source} coarsened to {len(groups)} points"))

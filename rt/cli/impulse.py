@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from frictionrt.rt.cli.common import add_deprecated, add_force, add_out, fail, refuse_existing
+from frictionrt.rt.cli.structure import add_structure, structure_impulse
 from frictionrt.rt.common.config import adaptive_screw
 
 
@@ -23,10 +24,13 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     add_deprecated(i, "--plot", "-o/--out", dest="plot")
     add_force(i)
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+    add_structure(i)
     return i
 
 
 def cmd_impulse(cfg, args) -> int:
+    if args.structure:
+        return structure_impulse(cfg, args)
     from frictionrt.plant.impulse import impulse_test, plot_frf
     from frictionrt.plant.model import build_plant
     screw = adaptive_screw(cfg)

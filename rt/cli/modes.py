@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from frictionrt.rt.cli.structure import add_structure, structure_modes
+
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
     """Register ``modes`` (parents: frictionrt's --config/--set parser)."""
@@ -13,10 +15,13 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                                    "the effective tangential stiffness k_T [N/m] at the adaptive screw (if the "
                                    "structure has one; docs/plant.md 5.3).")
     m.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+    add_structure(m)
     return m
 
 
 def cmd_modes(cfg, args) -> int:
+    if args.structure:
+        return structure_modes(cfg, args)
     from frictionrt.plant.modes import format_summary, modes_summary
     s = modes_summary(cfg)
     print(json.dumps(s) if args.json else format_summary(s))
