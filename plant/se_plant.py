@@ -46,6 +46,8 @@ N_ENERGY = 4            # E_fric, E_damp, W_exc, W_bolt
 class SEParams(NamedTuple):
     """Constant arrays of the superelement step."""
     omega2: np.ndarray    # (n,) [1/s^2]
+    dyn: np.ndarray       # (n,) 1.0 stepped by Newmark, 0.0 quasi-static (no inertia)
+    qs_theta: float       # quasi-static modes: q1 = (1 + theta) q_static - theta q0 [-]
     c: np.ndarray         # (n,) modal damping [1/s]
     s2: np.ndarray        # (n,) [s^2]
     G: np.ndarray         # (m, n) modal -> gaps [m]
@@ -172,7 +174,10 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
     # --- predictor and the start-point tangential forces
     for i in range(n):
         f = p.b_exc[i] * F_exc + p.b_N1[i] * F_N1 + p.f_const[i]
-        wk.q_pred[i] = q[i] + p.s2[i] * (f + 2.0 / h * qd[i] - p.omega2[i] * q[i])
+        if p.dyn[i] > 0.0:
+            wk.q_pred[i] = q[i] + p.s2[i] * (f + 2.0 / h * qd[i] - p.omega2[i] * q[i])
+        else:   # s2 = (1 + theta) / omega^2: q1 = (1 + theta) omega^-2 (f + (G^T Lambda)) - theta q0
+            wk.q_pred[i] = p.s2[i] * f - p.qs_theta * q[i]
     for i in range(m):
         acc = p.gap0[i]
         for j in range(n):
@@ -240,7 +245,7 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
     for j in range(n):
         q1 = wk.q_pred[j] + p.s2[j] * wk.f_c[j]
         dq = q1 - q[j]
-        qd1 = 2.0 * dq / h - qd[j]
+        qd1 = (2.0 * dq / h - qd[j]) * p.dyn[j]
         e_damp += p.c[j] * 0.25 * (qd[j] + qd1) * (qd[j] + qd1) * h
         w_exc += p.b_exc[j] * F_exc * dq
         w_bolt += p.b_N1[j] * F_N1 * dq
@@ -292,7 +297,7 @@ def _se_step(k, x, u, p, x_next, y, wk):
         acc = p.b_exc[j] * u[0] + p.b_N1[j] * u[1] + p.f_const[j] - p.c[j] * qd[j] - p.omega2[j] * q[j]
         for i in range(m):
             acc += p.G[i, j] * wk.lam[i]
-        wk.qdd[j] = acc
+        wk.qdd[j] = acc * p.dyn[j]
     ns = p.S.shape[0] - 1
     for r in range(ns + 1):
         a0 = 0.0
@@ -450,7 +455,6 @@ def build_se_plant(se: Superelement, cfg, F_N1: float | None = None) -> SEPlant:
     else:
         c = 2.0 * cfg.plant.modal_damping * omega
     h = cfg.dt_s / cfg.plant.substeps
-    s2 = 2.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2)
     nt = se.friction_dims
     d = 1 + nt
     p = se.n_points
@@ -466,10 +470,37 @@ def build_se_plant(se: Superelement, cfg, F_N1: float | None = None) -> SEPlant:
     from frictionrt.rt.common.config import adaptive_screw
     screw = adaptive_screw(cfg)
     F0 = (screw.F_N if screw is not None else 0.0) if F_N1 is None else float(F_N1)
+    b_N1 = -(Phi.T @ r_b)
+    f_const = Phi.T @ f_bolts
+    S_modal = S_rows @ Phi
+    theta = float(cfg.plant.quasi_static_theta)
+    dyn = (omega <= 2 * np.pi * cfg.plant.quasi_static_hz).astype(float)
+    qs = dyn == 0
+    if qs.any() and cfg.plant.condense_quasi_static:
+        # the quasi-static modes replaced by their Ritz modes on the subspace the step reaches,
+        # range(Omega_s^-1 [b_exc, b_N1, f_const, G_s^T]) (as plant.model.condense_quasi_static)
+        loads = np.column_stack([b_exc, b_N1, f_const, G.T])[qs]
+        om = omega[qs]
+        U, sv, _ = np.linalg.svd(loads / om[:, None], full_matrices=False)
+        U = U[:, sv > 1e-12 * sv[0]]
+        sr, Y = np.linalg.eigh(U.T @ (U / om[:, None] ** 2))
+        sr, Y = sr[::-1], Y[:, ::-1]
+        Vr = (U / om[:, None]) @ Y / np.sqrt(sr)
+        nd = int((~qs).sum())
+        T = np.zeros((len(qs), nd + Vr.shape[1]))
+        T[np.flatnonzero(~qs), np.arange(nd)] = 1.0
+        T[np.flatnonzero(qs), nd:] = Vr
+        omega = np.concatenate([omega[~qs], 1.0 / np.sqrt(sr)])
+        c = np.concatenate([c[~qs], np.zeros(len(sr))])
+        dyn = np.concatenate([np.ones(nd), np.zeros(len(sr))])
+        G, b_exc, b_N1, f_const, S_modal = (np.ascontiguousarray(G @ T), T.T @ b_exc, T.T @ b_N1, T.T @ f_const,
+                                            np.ascontiguousarray(S_modal @ T))
+        Phi = Phi @ T
+    c = c * dyn
+    s2 = np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / h * c + 4.0 / h**2), (1.0 + theta) / np.maximum(omega, 1.0) ** 2)
     params = SEParams(
-        omega2=omega**2, c=c, s2=s2, G=G, gap0=gap0, W=np.ascontiguousarray((G * s2) @ G.T),
-        b_exc=b_exc, b_N1=-(Phi.T @ r_b), f_const=Phi.T @ f_bolts, S=np.ascontiguousarray(S_rows @ Phi),
-        bolt_row=Phi.T @ r_b, bolt_k=k_b, bolt_ref=0.0, k_n=k_n, k_t=k_t, mu=np.full(p, itf.mu),
+        omega2=omega**2, dyn=dyn, qs_theta=theta, c=c, s2=s2, G=G, gap0=gap0, W=np.ascontiguousarray((G * s2) @ G.T),
+        b_exc=b_exc, b_N1=b_N1, f_const=f_const, S=S_modal, bolt_row=-b_N1, bolt_k=k_b, bolt_ref=0.0, k_n=k_n, k_t=k_t, mu=np.full(p, itf.mu),
         cn_h=k_n * itf.tau_s / h, ct_h=k_t * itf.tau_s / h, depth=float(itf.dashpot_depth_m), nt=int(nt),
         h=float(h), substeps=int(cfg.plant.substeps), tol=float(cfg.plant.newton_tol_m),
         max_iter=int(cfg.plant.newton_max_iter))
