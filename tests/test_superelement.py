@@ -140,3 +140,19 @@ def test_unknown_suffix_and_missing_file(tmp_path):
     (tmp_path / "x.bdf").write_text("")
     with pytest.raises(S.SuperelementError, match="unknown suffix '.bdf'"):
         S.load(tmp_path / "x.bdf")
+
+
+def test_coarsen_keeps_the_area_and_averages_the_rows():
+    """Node clustering: each cluster's area is its points' sum and its gap rows their area-weighted
+    mean, so a uniform gap field (every point's rows equal) is carried unchanged."""
+    se = _toy(p=12)
+    rng = np.random.default_rng(5)
+    xyz = np.column_stack([np.repeat(np.arange(4) * 0.01, 3), np.tile([-0.01, 0.0, 0.01], 4), np.zeros(12)])
+    area = rng.uniform(1e-4, 3e-4, 12)
+    rows = np.broadcast_to(se.contact_rows[:1], se.contact_rows.shape).copy()
+    se = se.with_(contact_xyz=xyz, contact_area=area, contact_rows=rows)
+    c = S.coarsen(se, 4)
+    assert c.n_points == 4 and c.contact_area.sum() == pytest.approx(area.sum(), rel=1e-14)
+    np.testing.assert_allclose(c.contact_rows, np.broadcast_to(rows[:1], (4, *rows.shape[1:])), rtol=1e-13)
+    with pytest.raises(S.SuperelementError, match="clusters: 13 must lie in 1 .. 12"):
+        S.coarsen(se, 13)
