@@ -4,8 +4,8 @@ The two beams (configuration's plant.beams: the clamped main beam and the damper
 as 27-node hexahedra (scikit-fem's ElementHex2, triquadratic: bending without shear locking),
 assembled with scikit-fem (optional extra [fe]). The interface is node-to-node: the main beam's
 top and the damper's bottom share their (x, y) grid over the damper, and each node pair is one
-contact point with its tributary area (the face's Gauss-Lobatto-free share: the integral of the
-node's shape function over the face, exact for the serendipity of a flat face), gaps
+contact point with its tributary area (the integral of the node's quadratic shape function over
+the face: Simpson's weights h/6, 4h/6, h/6 per element edge, in x times in y), gaps
 
     g_n = u_z(damper bottom) - u_z(main top),   g_t1 = u_x(damper) - u_x(main),   g_t2 = u_y(...) - u_y(...)
 
