@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from frictionrt.rt.cli.structure import add_structure, structure_impulse
 from frictionrt.rt.cli.common import spec_default, add_deprecated, add_force, add_out, fail, refuse_existing
 
 
@@ -25,10 +26,13 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                         "estimated discretisation error: Richardson, order 1 (refined - this: this - coarse); "
                         "about half as long again")
     i.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+    add_structure(i)
     return i
 
 
 def cmd_impulse(cfg, args) -> int:
+    if args.structure:
+        return structure_impulse(cfg, args)
     from frictionrt.jobs import impulse
     if args.plot:
         out = Path(args.plot)

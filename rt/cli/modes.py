@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+from frictionrt.rt.cli.structure import add_structure, structure_modes
+
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
     """Register ``modes`` (parents: frictionrt's --config/--set parser)."""
@@ -12,10 +14,13 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                                    "the effective tangential stiffness k_T [N/m] at the adaptive screw (if the "
                                    "structure has one; docs/plant.md 5.3).")
     m.add_argument("--json", action="store_true", help="one JSON object instead of a table")
+    add_structure(m)
     return m
 
 
 def cmd_modes(cfg, args) -> int:
+    if args.structure:
+        return structure_modes(cfg, args)
     from frictionrt.jobs import modes
     res = modes(cfg)
     print(res.to_json() if args.json else str(res))

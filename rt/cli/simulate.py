@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from frictionrt.rt.cli.structure import add_structure, structure_simulate
 from frictionrt.rt.cli.common import (spec_default, add_estimator, add_controller, add_force, add_out, add_realtime, c_exports, controller_for, deprecated,
                            fail, realtime_notes, refuse_existing, unpaced_realtime)
 
@@ -42,10 +43,13 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                         "VALUE and what the supervisor makes of it: docs/reliability.md")
     add_controller(s)
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
+    add_structure(s)
     return s
 
 
 def cmd_simulate(cfg, args) -> int:
+    if args.structure:
+        return structure_simulate(cfg, args)
     from frictionrt.jobs import simulate
     from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S
     if msg := unpaced_realtime(args):

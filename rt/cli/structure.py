@@ -1,0 +1,88 @@
+"""``--structure FILE``: modes, impulse and simulate on an imported structure (plant.superelement;
+docs/superelement.md). Shared by those verbs; a verb calls the function for its own name."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from frictionrt.rt.cli.common import fail
+
+
+def add_structure(p: argparse.ArgumentParser) -> None:
+    """--structure FILE and --clusters N (the interface coarsened to N points)."""
+    p.add_argument("--structure", metavar="FILE", default=None,
+                   help="an imported structure (a superelement: .npz, .mat v5/v7.3, Matrix Market manifest .json, "
+                        ".op4; docs/superelement.md) instead of the configured beams; the interface's per-area "
+                        "parameters, the step and the damping still come from the configuration")
+    p.add_argument("--clusters", type=int, default=0, metavar="N",
+                   help="with --structure: coarsen the interface to N contact points (node clustering); 0: as read")
+
+
+def _plant(cfg, args):
+    """(plant, None) or (None, exit code) after a one-line error."""
+    from frictionrt.plant.se_analysis import load_plant
+    from frictionrt.plant.superelement import SuperelementError
+    if args.clusters < 0:
+        return None, fail(f"--clusters {args.clusters}: must be >= 0 (0: the interface as read)")
+    try:
+        return load_plant(args.structure, cfg, args.clusters), None
+    except SuperelementError as e:
+        return None, fail(f"--structure {args.structure}: {e}")
+    except RuntimeError as e:
+        return None, fail(f"--structure {args.structure}: {e}")
+
+
+def _fn1(cfg, args, plant) -> float:
+    v = getattr(args, "fn1", None)
+    return plant.F_N1_initial if v is None else float(v)
+
+
+def structure_modes(cfg, args) -> int:
+    from frictionrt.plant.se_analysis import format_modes, modes_summary
+    plant, rc = _plant(cfg, args)
+    if plant is None:
+        return rc
+    s = modes_summary(plant)
+    print(json.dumps(s) if args.json else format_modes(s))
+    return 0
+
+
+def structure_impulse(cfg, args) -> int:
+    from frictionrt.plant.se_analysis import impulse
+    if args.plot:
+        return fail("-o with --structure: the FRF plot of an imported structure is not written yet; use --json")
+    plant, rc = _plant(cfg, args)
+    if plant is None:
+        return rc
+    try:
+        r = impulse(plant, cfg, _fn1(cfg, args, plant))
+    except (ValueError, RuntimeError) as e:
+        return fail(f"--structure {args.structure}: {e}")
+    if args.json:
+        print(json.dumps(r))
+        return 0
+    print(f"impulse test, imported structure, F_N1 = {r['F_N1_N']:g} N, hammer {cfg.impulse.peak_N:g} N, "
+          f"accelerance at {r['sensor']}")
+    print(f"{'linear [Hz]':>11} {'f [Hz]':>9} {'zeta [%]':>9}")
+    for fl, f, z in zip(r["linear_hz"], r["freq_hz"], r["damping_ratio"]):
+        print(f"{fl:>11.2f} {f:>9.2f} {100 * z:>9.3f}")
+    return 0
+
+
+def structure_simulate(cfg, args) -> int:
+    from frictionrt.plant.se_analysis import simulate
+    if args.out:
+        return fail("--out with --structure: logging a run of an imported structure is not supported yet; "
+                    "drop --out (the summary is printed)")
+    if args.law not in (None, "passive") or args.paced or args.controller:
+        return fail("--structure runs the imported plant with the passive joint (constant F_N1) only: drop --law, "
+                    "--paced and --controller")
+    plant, rc = _plant(cfg, args)
+    if plant is None:
+        return rc
+    try:
+        r = simulate(plant, cfg, args.freq, args.amp, args.duration, plant.F_N1_initial)
+    except (ValueError, RuntimeError) as e:
+        return fail(f"--structure {args.structure}: {e}")
+    print(json.dumps(r) if getattr(args, "json", False) else "\n".join(f"{k}: {v}" for k, v in r.items()))
+    return 0
