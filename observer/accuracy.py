@@ -6,6 +6,9 @@ The truth is therefore the plant's signal low-passed without phase (4th-order Bu
 forward-backward, at ``observer.oracle_bandwidth_hz``, the band the oracle passes):
 
     NRMSE(x) = rms(x_hat - x_true) / rms(x_true)   over the last `tail` share of the run.
+
+What the Lyapunov law uses is the size and sign of v_rel: ``sign_error_rate`` (|v_rel|-weighted) and
+the error of its command F* (``lyapunov_command_error``).
 """
 from __future__ import annotations
 
@@ -25,3 +28,43 @@ def nrmse(x_hat: np.ndarray, x_true: np.ndarray, tail: float = TAIL) -> float:
     n = len(x_true)
     s = slice(n - max(int(tail * n), 2), n)
     return float(np.sqrt(np.mean((x_hat[s] - x_true[s]) ** 2) / np.mean(x_true[s] ** 2)))
+
+
+def tail_slice(n: int, tail: float = TAIL) -> slice:
+    """The last `tail` share of n samples (at least 2), as ``nrmse`` takes it."""
+    return slice(n - max(int(tail * n), 2), n)
+
+
+def sign_error_rate(v_hat: np.ndarray, v_true: np.ndarray, tail: float = TAIL) -> float:
+    """Share of |v_true| carried by ticks whose estimate has the wrong sign, over the last `tail`:
+
+        sum |v_true| [sign(v_hat) != sign(v_true)] / sum |v_true|     [-]
+
+    0 for a perfect sign, 0.5 for an estimate that is independent of the truth's sign. Weighted
+    by |v_true|, a wrong sign near a zero crossing (where any estimate is uncertain and the
+    Lyapunov law commands little: F* ~ F_max |v| / eps) counts little."""
+    s = tail_slice(len(v_true), tail)
+    w = np.abs(v_true[s])
+    wrong = np.sign(v_hat[s]) != np.sign(v_true[s])
+    return float(np.sum(w[wrong]) / np.sum(w)) if np.sum(w) > 0 else float("nan")
+
+
+def lyapunov_command(v: np.ndarray, F_min: float, F_max: float, eps: float) -> np.ndarray:
+    """The Lyapunov law's normal-force command F* [N] for relative velocities v [m/s] (SPEC 4,
+    ``frictionrt.tracking.laws._laws_step``, plain NumPy):
+
+        F* = F_max                          if |v| >= eps
+        F* = max(F_max |v| / eps, F_min)    otherwise,      then clipped to [F_min, F_max]"""
+    av = np.abs(v)
+    f = np.where(av >= eps, F_max, np.maximum(F_max * av / eps, F_min))
+    return np.clip(f, F_min, F_max)
+
+
+def lyapunov_command_error(v_hat: np.ndarray, v_true: np.ndarray, F_min: float, F_max: float, eps: float,
+                           tail: float = TAIL) -> tuple[float, float]:
+    """(rms, mean) of F*(v_hat) - F*(v_true) [N] over the last `tail` (``lyapunov_command``): the
+    error of the Lyapunov law's command computed from the estimate against the one computed from
+    the truth at the same instant."""
+    s = tail_slice(len(v_true), tail)
+    d = lyapunov_command(v_hat[s], F_min, F_max, eps) - lyapunov_command(v_true[s], F_min, F_max, eps)
+    return float(np.sqrt(np.mean(d**2))), float(np.mean(d))

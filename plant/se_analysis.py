@@ -8,7 +8,7 @@ import scipy.linalg as sla
 
 from frictionrt.plant.impulse import accelerance_frf, hammer_force, identify
 from frictionrt.plant.se_plant import SEPlant, _se_step, build_se_plant, run, stuck_frequencies_hz
-from frictionrt.plant.superelement import Superelement, coarsen, load
+from frictionrt.plant.superelement import coarsen, load
 from frictionrt.rt.common.clock import _now_ns
 
 N_MODES = 8

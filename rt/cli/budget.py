@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from frictionrt.rt.cli.common import add_realtime, fail, realtime_notes
+from frictionrt.rt.cli.common import add_estimator, add_realtime, fail, realtime_notes
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -20,6 +20,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     g.add_argument("--ticks", type=int, default=105000, metavar="N", help="offline ticks (21000 = 1 s)")
     g.add_argument("--paced-s", type=float, default=5.0, metavar="S", help="paced run length [s]")
     g.add_argument("--law", choices=["passive", "hysteresis", "lyapunov"], default="lyapunov", help="control law")
+    add_estimator(g)
     add_realtime(g)
     g.add_argument("--no-floor", action="store_true", help="leave out the null loop and cyclictest")
     g.add_argument("--json", action="store_true", help="one JSON object instead of a table")
@@ -31,7 +32,7 @@ def cmd_budget(cfg, args) -> int:
     if args.ticks < 1000 or args.paced_s <= 0:
         return fail(f"--ticks {args.ticks} / --paced-s {args.paced_s}: need >= 1000 ticks and a positive paced time")
     try:
-        res = budget(cfg, args.law, args.ticks, args.paced_s, floor=not args.no_floor)
+        res = budget(cfg, args.law, args.ticks, args.paced_s, floor=not args.no_floor, estimator=args.estimator)
     except ValueError as exc:
         return fail(str(exc))
     realtime_notes(res["paced"]["realtime"])

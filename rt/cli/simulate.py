@@ -96,7 +96,10 @@ def cmd_simulate(cfg, args) -> int:
           f"tick median {s['tick_median_us']:.2f} us, overruns {s['overruns']}")
     if "v_rel_nrmse" in s:
         print(f"estimation (last 20 %, against the plant's band-limited truth): NRMSE v_rel {s['v_rel_nrmse']:.3f}, "
-              f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %")
+              f"u_rel {s['u_rel_nrmse']:.3f}; RT1 amplitude u0 error {100 * s['u0_rel_error']:+.1f} %; "
+              f"sign error of v_rel (|v_rel|-weighted) {s['v_rel_sign_error']:.3f}"
+              + (f"; Lyapunov command F* error rms {s['fstar_rms_error_n']:.1f} N, mean {s['fstar_mean_error_n']:+.1f} N"
+                 if "fstar_rms_error_n" in s else ""))
     for f in s["faults"]:
         print(f"fault {f['kind']}{'/' + f['sensor'] if f['sensor'] else ''} at tick {f['tick']}: "
               + (f"{f['name']} (code {f['code']}) detected at tick {f['detected_tick']}, passive at tick "

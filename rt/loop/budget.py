@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from frictionrt.rt.common.config import Config, Estimator
+from frictionrt.rt.common.config import DEFAULT_ESTIMATOR, Config
 from frictionrt.rt.loop.build import COMPONENTS, build_loop
 from frictionrt.rt.loop.floor import cyclictest, null_loop, tails_us
 from frictionrt.rt.loop.driver import run
@@ -20,13 +20,15 @@ def _stats(ns: np.ndarray) -> dict:
             "p999_us": float(np.percentile(us, 99.9)), "max_us": float(us.max())}
 
 
-def budget(cfg: Config, law: str = "lyapunov", ticks: int = 105000, paced_s: float = 5.0, floor: bool = True) -> dict:
-    """JSON: budget_us; components -> name -> median_us, p99_us, p999_us, max_us; total; paced ->
-    ticks, overruns, overrun_rate, late (p50_us, p99_us, p999_us, max_us), drift_us, realtime;
+def budget(cfg: Config, law: str = "lyapunov", ticks: int = 105000, paced_s: float = 5.0, floor: bool = True,
+           estimator: str = DEFAULT_ESTIMATOR) -> dict:
+    """The loop of ``law`` on ``estimator`` ("observer", the default as in ``frictionrt simulate``, or
+    "oracle"). JSON: budget_us, law, estimator; components -> name -> median_us, p99_us, p999_us,
+    max_us; total; paced -> ticks, overruns, overrun_rate, late (p50_us, p99_us, p999_us, max_us), drift_us, realtime;
     with ``floor``, null (the null loop: ticks, overruns, overrun_rate, late, realtime) and
     cyclictest (loops, late_ge_period, late_rate, latency; None when not installed), each run
     for paced_s [s] under the same configuration (rt.priority, rt.cpu, the sleep margin)."""
-    loop = build_loop(cfg, law, Estimator.ORACLE)
+    loop = build_loop(cfg, law, estimator)
     dt = cfg.dt_s
     run(loop, EXC_FREQ_HZ, EXC_AMP_N, 0.01, timing=True)  # compile or load the cache
     r = run(loop, EXC_FREQ_HZ, EXC_AMP_N, ticks * dt, timing=True)
@@ -36,7 +38,7 @@ def budget(cfg: Config, law: str = "lyapunov", ticks: int = 105000, paced_s: flo
     late = p.signal("late_ns")
     n_p = len(late) + p.overruns  # ticks the wall clock allowed for
     drift_us = (p.wall_ns - n_p * dt * 1e9) / 1e3
-    res = {"budget_us": dt * 1e6, "law": law, "ticks": len(r.log), "components": comps, "total": total,
+    res = {"budget_us": dt * 1e6, "law": law, "estimator": estimator, "ticks": len(r.log), "components": comps, "total": total,
            "paced": {"ticks": len(late), "overruns": p.overruns, "overrun_rate": p.overruns / n_p,
                      "late": tails_us(late), "drift_us": float(drift_us),
                      "tick_median_us": float(np.median(p.signal("tick_ns")) / 1e3), "realtime": p.realtime}}
@@ -47,7 +49,8 @@ def budget(cfg: Config, law: str = "lyapunov", ticks: int = 105000, paced_s: flo
 
 
 def format_budget(res: dict) -> str:
-    lines = [f"tick budget {res['budget_us']:.3f} us; law {res['law']}; {res['ticks']} ticks offline",
+    lines = [f"tick budget {res['budget_us']:.3f} us; law {res['law']}, estimator {res.get('estimator', 'oracle')}; "
+             f"{res['ticks']} ticks offline",
              f"{'component':>10} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>9}  [us]"]
     for name, s in [*res["components"].items(), ("total", res["total"])]:
         lines.append(f"{name:>10} {s['median_us']:>8.3f} {s['p99_us']:>8.3f} {s['p999_us']:>8.3f} {s['max_us']:>9.1f}")
