@@ -153,7 +153,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
                                   "or give a new name")
     fault_rows = schedule(list(faults), cfg)
     if not paced and any("cpu_stall" in f for f in faults):
-        raise ValueError("fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; run paced")
+        raise ValueError("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced "
+                         "(paced=True)")
     loop = build_loop(cfg, law, estimator)
     n = check_run_input(loop, freq_hz, amp_n, duration_s, ring=base is not None)  # out: a ring
     late = [f for f, row in zip(faults, fault_rows) if row[2] >= n]

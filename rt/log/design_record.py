@@ -199,8 +199,8 @@ def environment_changes(meta: dict[str, str]) -> list[str]:
     for name in ("python", "numpy", "numba", "llvmlite", "scipy", "control"):
         if isinstance(then, dict) and name in then and then[name] != now.get(name):
             out.append(f"{name} {then[name]} -> {now.get(name)}")
-    changed = changes_since(logged_version(meta))
-    if changed:
+    changed = changes_since(logged_version(meta)) if ("kernel_version" in meta or "kernels" in meta) else []
+    if changed:   # a log frictionrt wrote (a measurement records no kernels)
         out.append(f"kernel version {logged_version(meta)} -> {KERNEL_VERSION} ({'; '.join(changed)})")
     if "kernels" in meta and meta["kernels"] != source_hash():
         out.append(f"kernel sources {meta['kernels']} -> {source_hash()}")
