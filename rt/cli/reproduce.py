@@ -122,8 +122,15 @@ def cmd_reproduce(cfg: Config, args) -> int:
               + f"  {margin:>20} {'-' if shift is None else f'{shift:+.3g}':>14}  {CLAIM_TEXT[c]}")
     for e, v in by_est.items():
         print(f"peak change [dB] (negative: lower than passive), {e} (law: mode: amplitude): "
-              f"{json.dumps(v['peak_change_db'])}")
+              f"{json.dumps(_rounded(v['peak_change_db']))}")
     print(f"wall time [s]: impulse {report['timing_s']['impulse']:.1f}, step-sine {report['timing_s']['step_sine']:.1f}; "
           + sweeps_line(report["timing_s"]["sweeps"]))
     print(f"report: {out / 'report.md'}; figures: {out / 'fig5.png'}, {out / 'fig7.png'}, {out / 'fig8.png'}")
     return 0
+
+
+def _rounded(tree, digits: int = 2):
+    """A nested dict of dB values rounded for people (--json keeps full precision)."""
+    if isinstance(tree, dict):
+        return {k: _rounded(v, digits) for k, v in tree.items()}
+    return None if tree is None else round(float(tree), digits)
