@@ -17,7 +17,7 @@ would scatter the one place where the defaults live.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence  # noqa: F401
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import frictionrt.rt.common  # noqa: F401  (BLAS, numba's target and cache before any kernel loads)
