@@ -379,7 +379,7 @@ def shaker_config(cfg: Config, mass_kg: float, back_emf_Ns_per_m: float) -> Conf
         s, amplifier="voltage", armature_mass_kg=float(mass_kg), force_constant_N_per_A=Bl))
 
 
-def fit_shaker(nominal: Config, data: list[FRFData], calibrated: Fit, bars: bool = False) -> Fit:
+def fit_shaker_frf(nominal: Config, data: list[FRFData], calibrated: Fit, bars: bool = False) -> Fit:
     """The shaker's candidate on FRF files per drive volt (docs/discrepancy.md "The shaker on FRFs per
     drive volt"): the model's H per newton times the force per drive of a voltage-driven shaker
     (plant.shaker.force_ratio, ``shaker_config``) and the profiled force scale, fitted on E, ln k_t,
@@ -574,7 +574,7 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
     if any(d.per_volt for d in data):           # the shaker's two-port, on the drive-voltage tests
         say(f"fit {SHAKER} (voltage-driven shaker)")
-        f = fit_shaker(nominal, data, fits[None], bars=bars)
+        f = fit_shaker_frf(nominal, data, fits[None], bars=bars)
         done[SHAKER] = done_fit(f.theta, f.cfg)
         why_not.pop(SHAKER, None)
         tried = [*candidates, EFFECTS[SHAKER]]
