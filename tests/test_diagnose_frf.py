@@ -395,8 +395,8 @@ def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     the calibration alone, then the shaker's fit from the catalogue start; the ranking names the shaker
     with its armature mass and c_e within 20 % (measured 0.1500 kg, 96.08 N s/m, 10.0003 N/V, dBIC 1.2e5,
     on seed 1; the full diagnosis with the structural candidates on the paper's structure:
-    benchmarks/shaker_two_port.py). Per newton (force measured) the rig refuses the effect: the data
-    need no shaker model."""
+    benchmarks/shaker_two_port.py). The control, an ideal source per volt, names nothing. Per newton
+    (force measured) the rig refuses the effect: the data need no shaker model."""
     from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
     from frictionrt.rt.discrepancy.diagnose.frf import BACK_EMF, SHAKER, fit, fit_shaker_frf
     nominal = load(CONFIGS / "bare_beam.toml")
@@ -414,6 +414,15 @@ def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     assert sh.theta[SHAKER] == pytest.approx(0.15, rel=0.2)
     assert sh.theta[BACK_EMF] == pytest.approx(12.0 ** 2 / 1.5, rel=0.2)
     assert sh.cfg.shaker.amplifier == "voltage" and sh.cfg.shaker.armature_mass_kg == pytest.approx(sh.theta[SHAKER])
+    # the control: an ideal source per volt (no shaker in the truth) names nothing
+    make_frf_campaign(tmp_path / "ideal", "none", seed=1, cfg=nominal, force_scale_N_per_V=10.0)
+    data = prepare(load_frf_folder(tmp_path / "ideal"), nominal)
+    cal = fit(nominal, data, None)
+    sh = fit_shaker_frf(nominal, data, cal)
+    results = [{"effect": None, "theta": cal.theta, "channels": cal.channels, "score": bic(cal.channels, len(cal.theta))},
+               {"effect": SHAKER, "theta": sh.theta, "channels": sh.channels, "group": "FRF",
+                "score": bic(sh.channels, len(sh.theta))}]
+    assert rank(results)[2] is None, (sh.theta, results[0]["score"] - results[1]["score"])
     assert main(["rig", "--effect", "shaker_interaction", "--frf-files", "-o", str(tmp_path / "n")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--force-scale" in err[0] and not (tmp_path / "n").exists()

@@ -35,7 +35,10 @@ frequencies stay and |H| scales like 1 / c, as a force scale would); E alone is 
 the frequencies), so E is fitted as with a force, relative to the nominal density, and s absorbs
 an error in the nominal mass scale (measured: a nominal with rho and E of the beams x 1.2 fits
 s = 1.2008 x the truth, E as before, k_t x 1.2, and names moving_mass 0.004 kg for the screws'
-masses that did not scale).
+masses that did not scale). The constant s is the current-drive limit of the shaker's two-port; on
+drive-voltage tests the shaker in voltage mode is a candidate too (``fit_shaker_frf``: the model's
+H times plant.shaker.force_ratio on the model's driving point, the armature mass and the back-EMF
+damping c_e = Bl^2 / R fitted, the coil's R and L, flexure and stinger the nominal's ``shaker``).
 
 Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.diagnose.frf_modes:
 peaks of all sensors, by shape with >= 3 sensors, else by order: no window around the nominal
