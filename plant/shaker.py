@@ -63,8 +63,9 @@ and its interaction with the structure; Varoto and de Oliveira, "Interaction bet
 exciter and the structure under test", Sound and Vibration 36(10), 2002.
 
 Catalogue-typical defaults (``frictionrt.rt.common.config.Shaker``, a small modal shaker of the
-100 N class, ~7-10 A rated current: Bl = rated force / rated current): R = 1.5 ohm (0.5-4), L = 0.3 mH
-(0.1-1), Bl = 10 N/A (5-30): c_e = 67 N s/m, corner 800 Hz. Only the frequency domain has voltage
+100 N class: representative of the class, not one model's datasheet; Bl estimated as rated force /
+rated current, 45-100 N at a few to ten amperes): R = 1.5 ohm (0.5-4), L = 0.3 mH (0.1-1),
+Bl = 10 N/A (5-30): c_e = 67 N s/m, corner 800 Hz. Only the frequency domain has voltage
 mode (``force_ratio``, ``harmonic_response``); the loop's time-domain stage models current mode
 and ``check_shaker`` refuses voltage mode there.
 """
