@@ -279,8 +279,9 @@ def check_shaker(cfg: Config, model=None) -> None:
         return
     if cfg.shaker.amplifier != "current":
         raise ValueError(f"shaker.amplifier = {cfg.shaker.amplifier!r}: the loop's shaker stage models a current-driven "
-                         "shaker only; use shaker.amplifier=current here (voltage mode is in the frequency domain: "
-                         "the rig's and the diagnosis' FRF files per drive volt)")
+                         "shaker only; use shaker.amplifier=current, or shaker.armature_mass_kg=0 for an ideal force "
+                         "source (voltage mode is in the frequency domain: the rig's and the diagnosis' FRF files "
+                         "per drive volt)")
     rho = coupled_spectral_radius(cfg, model)
     if not rho < 1.0:
         raise ValueError(f"shaker.stinger_N_per_m = {cfg.shaker.stinger_N_per_m:g} N/m: the loop's one-tick "
