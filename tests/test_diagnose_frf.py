@@ -426,3 +426,23 @@ def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     assert main(["rig", "--effect", "shaker_interaction", "--frf-files", "-o", str(tmp_path / "n")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--force-scale" in err[0] and not (tmp_path / "n").exists()
+
+
+def test_a_current_driven_shaker_is_fitted_in_its_mode(tmp_path):
+    """A nominal that describes its shaker in current mode (armature 0.1 kg, the catalogue's) gets the
+    current-driven candidate: the armature mass alone (no back-EMF term), found on a truth of 0.15 kg per
+    drive volt (bare beam, seed 2; measured 0.1500 kg, 10.001 N/V, dBIC 1.2e5, named)."""
+    from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
+    from frictionrt.rt.discrepancy.diagnose.frf import BACK_EMF, SHAKER, fit, fit_shaker_frf
+    bare = load(CONFIGS / "bare_beam.toml")
+    nominal = with_sets(bare, ["shaker.armature_mass_kg=0.1"])
+    make_frf_campaign(tmp_path / "cur", "shaker_interaction", 0.15, seed=2, cfg=bare, force_scale_N_per_V=10.0)
+    data = prepare(load_frf_folder(tmp_path / "cur"), nominal)
+    cal = fit(nominal, data, None)
+    sh = fit_shaker_frf(nominal, data, cal)
+    results = [{"effect": None, "theta": cal.theta, "channels": cal.channels, "score": bic(cal.channels, len(cal.theta))},
+               {"effect": SHAKER, "theta": sh.theta, "channels": sh.channels, "group": "FRF",
+                "score": bic(sh.channels, len(sh.theta))}]
+    assert rank(results)[2] is not None
+    assert BACK_EMF not in sh.theta and sh.cfg.shaker.amplifier == "current"
+    assert sh.theta[SHAKER] == pytest.approx(0.15, rel=0.2)

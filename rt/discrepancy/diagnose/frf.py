@@ -372,14 +372,22 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
         return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
 
-def shaker_config(cfg: Config, mass_kg: float, back_emf_Ns_per_m: float) -> Config:
-    """``cfg`` with its shaker in voltage mode, armature mass ``mass_kg`` [kg] and back-EMF damping
-    c_e = Bl^2 / R [N s/m] at ``cfg``'s coil resistance R (the lab's ohmmeter) and inductance:
-    Bl = sqrt(c_e R) (not validated: a fit's trial point)."""
+def shaker_mode(nominal: Config) -> str:
+    """The amplifier's mode of the shaker candidate: the nominal's ``shaker.amplifier`` where the nominal
+    describes a shaker (armature mass > 0), else "voltage" (FRFs per drive volt without a force)."""
+    return nominal.shaker.amplifier if nominal.shaker.on else "voltage"
+
+
+def shaker_config(cfg: Config, mass_kg: float, back_emf_Ns_per_m: float | None, mode: str = "voltage") -> Config:
+    """``cfg`` with its shaker in amplifier ``mode``, armature mass ``mass_kg`` [kg] and, in voltage mode,
+    back-EMF damping c_e = Bl^2 / R [N s/m] at ``cfg``'s coil resistance R (the lab's ohmmeter) and
+    inductance: Bl = sqrt(c_e R) (not validated: a fit's trial point). In current mode Bl stays ``cfg``'s
+    (the force per drive does not depend on it)."""
     s = cfg.shaker
-    Bl = max(math.sqrt(max(back_emf_Ns_per_m, 0.0) * s.coil_resistance_ohm), 1e-9)
+    Bl = (s.force_constant_N_per_A if mode == "current" else
+          max(math.sqrt(max(back_emf_Ns_per_m, 0.0) * s.coil_resistance_ohm), 1e-9))
     return dataclasses.replace(cfg, shaker=dataclasses.replace(
-        s, amplifier="voltage", armature_mass_kg=float(mass_kg), force_constant_N_per_A=Bl))
+        s, amplifier=mode, armature_mass_kg=float(mass_kg), force_constant_N_per_A=Bl))
 
 
 def fit_shaker_frf(nominal: Config, data: list[FRFData], calibrated: Fit, bars: bool = False) -> Fit:
@@ -390,8 +398,10 @@ def fit_shaker_frf(nominal: Config, data: list[FRFData], calibrated: Fit, bars: 
     Gauss-Newton with Broyden updates, from the calibration with the shaker at the nominal's catalogue
     values (its armature mass, else the effect's default strength; its Bl^2 / R). Known (the nominal's
     ``shaker``): coil resistance and inductance, flexure, stinger. Penalised as ``fit`` outside the
-    plausible ranges of the calibration scales."""
-    names = [*CAL_NAMES, SHAKER, BACK_EMF]
+    plausible ranges of the calibration scales. A nominal whose shaker is on in current mode
+    (``shaker_mode``): the current-driven shaker, its armature mass alone fitted (no back-EMF term)."""
+    mode = shaker_mode(nominal)
+    names = [*CAL_NAMES, SHAKER] + ([BACK_EMF] if mode == "voltage" else [])
     log = np.array([k in LOG_SCALE for k in names])
     c_lo, c_hi = bounds(list(CAL_NAMES), None, nominal)
     lo = to_z(np.r_[c_lo, [SHAKER_BOUNDS[k][0] for k in names[3:]]], log)
@@ -405,7 +415,7 @@ def fit_shaker_frf(nominal: Config, data: list[FRFData], calibrated: Fit, bars: 
     def point(z):
         theta = dict(zip(names, map(float, from_z(z, log))))
         cfg = struct_cfg(nominal, theta, None)
-        return theta, shaker_config(cfg, theta[SHAKER], theta[BACK_EMF])
+        return theta, shaker_config(cfg, theta[SHAKER], theta.get(BACK_EMF), mode)
 
     def evaluate(z):
         x = from_z(z, log)
@@ -417,7 +427,7 @@ def fit_shaker_frf(nominal: Config, data: list[FRFData], calibrated: Fit, bars: 
 
     with watch(SHAKER, bars, point) as ev:
         start = [calibrated.theta[k] for k in CAL_NAMES] + [sh.armature_mass_kg if sh.on else
-                                                            EFFECTS[SHAKER].parameter.default, c_e0]
+                                                            EFFECTS[SHAKER].parameter.default, c_e0][:len(names) - 3]
         z = np.clip(to_z(np.array(start), log), lo, hi)
         run, r = evaluate(z)
         z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, None, lo, hi, steps, MAX_STEPS_FAR,
@@ -576,7 +586,7 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     results = [{"effect": e.name if e else None, "theta": f.theta, "channels": f.channels,
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
     if any(d.per_volt for d in data):           # the shaker's two-port, on the drive-voltage tests
-        say(f"fit {SHAKER} (voltage-driven shaker)")
+        say(f"fit {SHAKER} ({shaker_mode(nominal)}-driven shaker)")
         f = fit_shaker_frf(nominal, data, fits[None], bars=bars)
         done[SHAKER] = done_fit(f.theta, f.cfg)
         why_not.pop(SHAKER, None)
