@@ -36,6 +36,38 @@ R = w_exc / F_exc of the structure,
 
 so F_exc / drive drops where |R| is large (the structure's resonances: force drop-out) and rises
 near the zero of D_a (1 + D_a / k~) + D_a R (the armature on the stinger against the structure).
+
+The electrical port (``shaker.amplifier``): the coil, resistance R (coil, amplifier output and
+cable), inductance L and force constant Bl, gives F_coil = Bl i and the back-EMF Bl x_a':
+
+    L i' + R i + Bl x_a' = V.
+
+In current mode (the default, and everything above) the amplifier forces i = drive / Bl whatever
+the coil's voltage: F_coil = drive. In voltage mode it forces V = (R / Bl) drive (its gain set so
+that the blocked coil's force at DC is the drive: a force scale [N/V] of the amplifier's volts is
+then s = g_V Bl / R), and in the frequency domain, Z_e = R + i omega L,
+
+    F_coil = (R / Z_e) drive - i omega (Bl^2 / Z_e) x_a,
+
+so the armature's dynamic stiffness gains the back-EMF damping c_e = Bl^2 / R below the electrical
+corner R / (2 pi L), and the force per drive becomes
+
+    F_exc / drive = (R / Z_e) / (1 + D_e / k~ + D_e R),    D_e = D_a + i omega Bl^2 / Z_e.
+
+With a stiff stinger the structure sees, at the drive point, the armature's mass, its flexure and
+c_a + c_e (``drive_point_stiffness``): voltage drive damps the modes that move the drive point.
+The current-drive limit is Z_e -> infinity at fixed drive current (R -> infinity with V = R i):
+D_e -> D_a, R / Z_e -> 1 (tests/test_shaker_two_port.py shows it). Reference: McConnell and Varoto,
+"Vibration Testing: Theory and Practice", 2nd ed. (Wiley 2008), the electrodynamic exciter's model
+and its interaction with the structure; Varoto and de Oliveira, "Interaction between a vibration
+exciter and the structure under test", Sound and Vibration 36(10), 2002.
+
+Catalogue-typical defaults (``frictionrt.rt.common.config.Shaker``, a small modal shaker of the
+100 N class: representative of the class, not one model's datasheet; Bl estimated as rated force /
+rated current, 45-100 N at a few to ten amperes): R = 1.5 ohm (0.5-4), L = 0.3 mH (0.1-1),
+Bl = 10 N/A (5-30): c_e = 67 N s/m, corner 800 Hz. Only the frequency domain has voltage
+mode (``force_ratio``, ``harmonic_response``); the loop's time-domain stage models current mode
+and ``check_shaker`` refuses voltage mode there.
 """
 from __future__ import annotations
 
@@ -116,19 +148,100 @@ def _shaker_step(k, x, u, p, x_next, y):
             y[0] = acc
 
 
+def electrical_impedance(cfg: Config, w) -> np.ndarray:
+    """Z_e = R + i omega L [ohm] of the coil at angular frequencies w [rad/s]."""
+    s = cfg.shaker
+    return s.coil_resistance_ohm + 1j * np.asarray(w, float) * s.coil_inductance_H
+
+
+def armature_stiffness(cfg: Config, w) -> np.ndarray:
+    """The armature's dynamic stiffness [N/m] (complex) at w [rad/s]: D_a = k_a + i omega c_a - m_a omega^2,
+    plus the back-EMF term i omega Bl^2 / Z_e in voltage mode (module docstring)."""
+    s = cfg.shaker
+    w = np.asarray(w, float)
+    k_a, c_a = suspension(cfg)
+    D = k_a + 1j * w * c_a - s.armature_mass_kg * w * w
+    if s.amplifier == "voltage":
+        D = D + 1j * w * s.force_constant_N_per_A ** 2 / electrical_impedance(cfg, w)
+    return D
+
+
+def coil_gain(cfg: Config, w) -> np.ndarray:
+    """F_coil / drive [-] of the blocked armature (x_a = 0) at w [rad/s]: 1 in current mode, R / Z_e in
+    voltage mode (the coil's electrical pole at R / L)."""
+    w = np.asarray(w, float)
+    if cfg.shaker.amplifier == "voltage":
+        return cfg.shaker.coil_resistance_ohm / electrical_impedance(cfg, w)
+    return np.ones(w.shape, complex)
+
+
 def force_ratio(cfg: Config, freq_hz, R) -> np.ndarray:
     """F_exc / drive [-] (complex) of the shaker on a structure with driving-point receptance
-    R [m/N] (complex, per frequency) at freq_hz [Hz] (module docstring); 1 with the shaker off."""
+    R [m/N] (complex, per frequency) at freq_hz [Hz] (module docstring), in the amplifier's mode;
+    1 with the shaker off."""
     f = np.atleast_1d(np.asarray(freq_hz, float))
     R = np.broadcast_to(np.asarray(R, complex), f.shape)
     s = cfg.shaker
     if not s.on:
         return np.ones(f.shape, complex)
     w = 2 * np.pi * f
+    k_s = s.stinger_N_per_m + 1j * w * s.stinger_damping_Ns_per_m
+    if s.amplifier == "voltage":
+        D_e = armature_stiffness(cfg, w)
+        return coil_gain(cfg, w) / (1.0 + D_e / k_s + D_e * R)
     k_a, c_a = suspension(cfg)
     D_a = k_a + 1j * w * c_a - s.armature_mass_kg * w * w
-    k_s = s.stinger_N_per_m + 1j * w * s.stinger_damping_Ns_per_m
     return 1.0 / (1.0 + D_a / k_s + D_a * R)
+
+
+def drive_point_stiffness(cfg: Config, freq_hz) -> np.ndarray:
+    """The dynamic stiffness K_sh = -F_exc / w_exc [N/m] (complex) that the shaker with its drive at 0
+    adds at the structure's drive point, at freq_hz [Hz]: stinger and armature in series,
+    1 / K_sh = 1 / k~ + 1 / D_e (module docstring); its mechanical impedance is K_sh / (i omega).
+    0 with the shaker off."""
+    f = np.atleast_1d(np.asarray(freq_hz, float))
+    s = cfg.shaker
+    if not s.on:
+        return np.zeros(f.shape, complex)
+    w = 2 * np.pi * f
+    k_s = s.stinger_N_per_m + 1j * w * s.stinger_damping_Ns_per_m
+    return 1.0 / (1.0 / k_s + 1.0 / armature_stiffness(cfg, w))
+
+
+class HarmonicResponse(NamedTuple):
+    """Complex amplitudes of the shaker on a structure, per frequency: coil voltage V [V], current i [A],
+    armature x_a [m], drive point w [m], coil force F_coil = Bl i [N], stinger force F_exc [N]."""
+    V: np.ndarray
+    i: np.ndarray
+    x_a: np.ndarray
+    w: np.ndarray
+    F_coil: np.ndarray
+    F_exc: np.ndarray
+
+
+def harmonic_response(cfg: Config, freq_hz, R, drive: float = 1.0) -> HarmonicResponse:
+    """The steady state of the shaker (on) driving a structure of driving-point receptance R [m/N]
+    at freq_hz [Hz] with a harmonic drive of amplitude ``drive`` [N, the blocked coil's force at DC]:
+    F_exc = drive x ``force_ratio``, w = R F_exc, x_a = w + F_exc / k~, and the coil's port
+    (current mode: i = drive / Bl, V = Z_e i + Bl i omega x_a; voltage mode: V = R drive / Bl,
+    i = (V - Bl i omega x_a) / Z_e)."""
+    f = np.atleast_1d(np.asarray(freq_hz, float))
+    R = np.broadcast_to(np.asarray(R, complex), f.shape)
+    s = cfg.shaker
+    w = 2 * np.pi * f
+    Bl = s.force_constant_N_per_A
+    k_s = s.stinger_N_per_m + 1j * w * s.stinger_damping_Ns_per_m
+    F_exc = drive * force_ratio(cfg, f, R)
+    w_exc = R * F_exc
+    x_a = w_exc + F_exc / k_s
+    Z_e = electrical_impedance(cfg, w)
+    if s.amplifier == "voltage":
+        V = np.full(f.shape, s.coil_resistance_ohm * drive / Bl, complex)
+        i = (V - Bl * 1j * w * x_a) / Z_e
+    else:
+        i = np.full(f.shape, drive / Bl, complex)
+        V = Z_e * i + Bl * 1j * w * x_a
+    return HarmonicResponse(V, i, x_a, w_exc, Bl * i, F_exc)
 
 
 def coupled_spectral_radius(cfg: Config, model=None, F_N1: float | None = None) -> float:
@@ -159,11 +272,16 @@ def coupled_spectral_radius(cfg: Config, model=None, F_N1: float | None = None) 
 
 def check_shaker(cfg: Config, model=None) -> None:
     """ValueError naming the stinger if the loop with this shaker would be unstable (spectral
-    radius of ``coupled_spectral_radius`` >= 1, on the plant stuck at its initial F_N1); nothing
-    with the shaker off. The defaults leave every eigenvalue's damping at or above the plant's own
+    radius of ``coupled_spectral_radius`` >= 1, on the plant stuck at its initial F_N1), or naming
+    the amplifier in voltage mode (the stage is current mode's); nothing with the shaker off. The defaults leave every eigenvalue's damping at or above the plant's own
     (docs/loop.md); a stinger of 5e7 N/m at 0.1 kg is refused."""
     if not cfg.shaker.on:
         return
+    if cfg.shaker.amplifier != "current":
+        raise ValueError(f"shaker.amplifier = {cfg.shaker.amplifier!r}: the loop's shaker stage models a current-driven "
+                         "shaker only; use shaker.amplifier=current, or shaker.armature_mass_kg=0 for an ideal force "
+                         "source (voltage mode is in the frequency domain: the rig's and the diagnosis' FRF files "
+                         "per drive volt)")
     rho = coupled_spectral_radius(cfg, model)
     if not rho < 1.0:
         raise ValueError(f"shaker.stinger_N_per_m = {cfg.shaker.stinger_N_per_m:g} N/m: the loop's one-tick "

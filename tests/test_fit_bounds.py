@@ -139,3 +139,16 @@ def test_every_optimiser_of_the_diagnosis_is_a_fit_checked_here():
                     for c in ast.walk(fn)):
                 found.add((f.stem, fn.name))
     assert found == set(CHECKED), f"fits not checked by these tests: {found - set(CHECKED)}"
+
+
+def test_the_shaker_candidates_bounds_on_frfs_per_volt_are_valid_configurations():
+    """The FRF-file fit of the voltage-driven shaker (rt.discrepancy.diagnose.frf.fit_shaker_frf) moves the
+    armature mass and c_e = Bl^2 / R within SHAKER_BOUNDS: every corner, on every nominal, validates as the
+    model.toml it writes (Bl = sqrt(c_e R) > 0 also at c_e = 0)."""
+    from frictionrt.rt.discrepancy.diagnose.frf import BACK_EMF, SHAKER, SHAKER_BOUNDS, shaker_config
+    for nominal in nominals():
+        for m in SHAKER_BOUNDS[SHAKER]:
+            for c in SHAKER_BOUNDS[BACK_EMF]:
+                cfg = shaker_config(nominal, m, c)
+                cfg = with_sets(cfg, [f"shaker.force_constant_N_per_A={cfg.shaker.force_constant_N_per_A!r}"])
+                assert loads(dumps(cfg)) == cfg and cfg.shaker.amplifier == "voltage"

@@ -53,6 +53,7 @@ def estimator_of(value) -> Estimator:
     except ValueError:
         raise ValueError(f"estimator {value!r}: give one of {', '.join(ESTIMATORS)}") from None
 PASSIVE_MODES = ("voltage", "tracking")
+AMPLIFIERS = ("current", "voltage")   # shaker.amplifier: the power amplifier's mode (plant/shaker.py)
 INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
 
@@ -415,11 +416,28 @@ class Shaker:
     stinger_N_per_m: float = param(5.0e6, "N/m", lo=0.0, lo_inclusive=False,
                                    doc="stinger axial stiffness k_s (2 mm steel rod, 130 mm: E A / L)")
     stinger_damping_Ns_per_m: float = param(20.0, "N s/m", lo=0.0, doc="stinger axial damping c_s")
+    amplifier: str = param("current", doc="the power amplifier's mode: current = the coil current follows the "
+                                          "drive (F_coil = drive), voltage = the coil voltage follows it (the "
+                                          "coil's electrical port: back-EMF damping Bl^2 / R at the armature)")
+    coil_resistance_ohm: float = param(1.5, "ohm", lo=0.0, lo_inclusive=False,
+                                       doc="R: the coil's DC resistance plus the amplifier's output and cable "
+                                           "resistance (100 N-class modal shakers 0.5-4; an ohmmeter at the terminals)")
+    coil_inductance_H: float = param(3.0e-4, "H", lo=0.0,
+                                     doc="L: the coil's inductance (100 N-class modal shakers 0.1-1 mH)")
+    force_constant_N_per_A: float = param(10.0, "N/A", lo=0.0, lo_inclusive=False,
+                                          doc="Bl: coil force per ampere = back-EMF per m/s (100 N-class modal "
+                                              "shakers 5-30 N/A: rated force / rated current)")
 
     @property
     def on(self) -> bool:
         """False: ideal force source (no shaker stage in the loop)."""
         return self.armature_mass_kg > 0.0
+
+    @property
+    def back_emf_damping_Ns_per_m(self) -> float:
+        """c_e = Bl^2 / R [N s/m]: the damping the coil's back-EMF adds at the armature in voltage mode
+        (below the electrical corner R / (2 pi L)); 0 in current mode."""
+        return self.force_constant_N_per_A ** 2 / self.coil_resistance_ohm if self.amplifier == "voltage" else 0.0
 
 
 @dataclass(frozen=True)
@@ -873,6 +891,8 @@ def validate(cfg: Config) -> None:
     t = cfg.tracking
     if t.law not in LAWS:
         raise ConfigError(f"tracking.law = {t.law!r}: must be one of {', '.join(LAWS)}")
+    if cfg.shaker.amplifier not in AMPLIFIERS:
+        raise ConfigError(f"shaker.amplifier = {cfg.shaker.amplifier!r}: must be one of {', '.join(AMPLIFIERS)}")
     if t.passive_mode not in PASSIVE_MODES:
         raise ConfigError(f"tracking.passive_mode = {t.passive_mode!r}: must be one of {', '.join(PASSIVE_MODES)}")
     if cfg.supervisor.recovery not in RECOVERY:

@@ -175,7 +175,10 @@ _EFFECTS = (
     Effect("shaker_interaction",
            "shaker-structure interaction: the shaker's armature (mass m on its flexure, 20 Hz, 5 %) drives "
            "the excitation point through a stinger (5e6 N/m, 20 N s/m); the force transducer at the stinger's tip "
-           "measures F_exc = k_s (x_a - w_exc) + c_s (x_a' - w_exc') instead of the drive (plant/shaker.py)",
+           "measures F_exc = k_s (x_a - w_exc) + c_s (x_a' - w_exc') instead of the drive (plant/shaker.py); "
+           "the coil's electrical port (R, L, Bl) in the amplifier's mode (shaker.amplifier: current, or voltage "
+           "with the back-EMF damping Bl^2 / R at the armature) shapes the force per drive volt of FRF files "
+           "without a force, where the FRF-file diagnosis fits it (rt.discrepancy.diagnose.frf.fit_shaker_frf)",
            "step-sine tests: F_amp / drive dips at the structure's resonances and rises just below them "
            "(0.1 kg, 10 N, nominal structure at 100 N: 0.58 at the 203 Hz mode-3 peak, 1.54 at 194 Hz; 0.49 at "
            "373 Hz, 1.68 at 364 Hz), the amplitude controller raises the drive there; away from the modes "

@@ -375,13 +375,15 @@ def _diagnose(folder, nominal: Config | None, say, jobs: int | None, dask_addres
 
 def rank(results: list[dict]) -> tuple[dict, list[dict], dict | None]:
     """(calibration alone, the candidates by BIC, the named one or None) of the fits ``results``
-    (calibration alone first; each {"effect", "theta", "channels", "score"}): each candidate gets
-    its "rss_reduction" of its channel group; named only under the three conditions (module
+    (calibration alone first; each {"effect", "theta", "channels", "score"} and an optional "group", the
+    prefix of its channels where it is not its effect's channel's): each candidate gets its "rss_reduction"
+    of its channel group; named only under the three conditions (module
     docstring, step 3)."""
     base = results[0]
     ranked = sorted(results[1:], key=lambda r: r["score"])
     for r in ranked:
-        group = {"structure": "FRF", "actuator": "actuator", "stepsine": SS_CHANNEL}[get(r["effect"]).channel]
+        group = r.get("group") or {"structure": "FRF", "actuator": "actuator",
+                                   "stepsine": SS_CHANNEL}[get(r["effect"]).channel]
         rss = [sum(float(v @ v) for k, v in x["channels"].items() if k.startswith(group)) for x in (r, base)]
         r["rss_reduction"] = 1.0 - rss[0] / rss[1] if rss[1] > 0 else 0.0
     eligible = [r for r, e in ((r, get(r["effect"])) for r in ranked)

@@ -35,7 +35,10 @@ frequencies stay and |H| scales like 1 / c, as a force scale would); E alone is 
 the frequencies), so E is fitted as with a force, relative to the nominal density, and s absorbs
 an error in the nominal mass scale (measured: a nominal with rho and E of the beams x 1.2 fits
 s = 1.2008 x the truth, E as before, k_t x 1.2, and names moving_mass 0.004 kg for the screws'
-masses that did not scale).
+masses that did not scale). The constant s is the current-drive limit of the shaker's two-port; on
+drive-voltage tests the shaker in voltage mode is a candidate too (``fit_shaker_frf``: the model's
+H times plant.shaker.force_ratio on the model's driving point, the armature mass and the back-EMF
+damping c_e = Bl^2 / R fitted, the coil's R and L, flexure and stinger the nominal's ``shaker``).
 
 Stage 1: the measured modes of each test paired with the stuck model's (rt.discrepancy.diagnose.frf_modes:
 peaks of all sensors, by shape with >= 3 sensors, else by order: no window around the nominal
@@ -56,6 +59,7 @@ part used by the next; the plausible ranges and their penalty are rt.discrepancy
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import NamedTuple
@@ -66,6 +70,7 @@ from threadpoolctl import threadpool_limits
 
 from frictionrt.plant.linear_frf import point_accelerances
 from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
+from frictionrt.plant.shaker import force_ratio
 from frictionrt.rt.common.config import Config, with_sets
 from frictionrt.rt.discrepancy.chain import quiet
 from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
@@ -97,6 +102,11 @@ CAL_NAMES = ("E", "k_t", "modal_damping")
 MAX_STEPS_FAR = 30               # stage-2 steps at most (a start a decade off needs more than MAX_STEPS)
 FORCE_SCALE = "force_scale_N_per_V"          # the drive-voltage tests' force scale, a fitted parameter
 FORCE_SCALE_N_PER_V = (1e-3, 1e3)            # its bounds [N/V]: a shaker amplifier's 0.1-100 N/V, widely
+SHAKER = "shaker_interaction"                # the shaker's candidate: its armature mass [kg] under this name
+BACK_EMF = "back_emf_damping_Ns_per_m"       # and its back-EMF damping c_e = Bl^2 / R [N s/m]
+SHAKER_BOUNDS = {SHAKER: (1e-3, 1.0), BACK_EMF: (0.0, 2000.0)}   # their fit's bounds (armature mass > 0: a shaker)
+SHAKER_STEPS = {SHAKER: 0.005, BACK_EMF: 3.0}                    # their finite-difference steps
+DRIVE_POINT = "_shaker_drive"                # the model's output at the excitation point, for the two-port
 BOUND_REL = 0.005                # a parameter within this of a bound (relative; on ln for log-scale ones) is a warning
 LEVEL_DB = 1.0                   # a final fit whose FRFs all lie this far above or below the data [dB] is a warning
 
@@ -237,14 +247,21 @@ def prepare(tests: list[FRFTest], nominal: Config) -> list[FRFData]:
     return out
 
 
-def model_H(cfg: Config, data: list[FRFData]) -> list[dict]:
+def model_H(cfg: Config, data: list[FRFData], shaker: Config | None = None) -> list[dict]:
     """The model's FRFs {sensor: H} on every test's lines at its F_N1, in the test's quantity per
-    newton (``cfg`` holds the sensors' points)."""
+    newton (``cfg`` holds the sensors' points); with ``shaker`` (a configuration whose shaker is on) the
+    drive-voltage tests' per newton of drive: times F_exc / drive of its two-port
+    (plant.shaker.force_ratio) on the model's driving point at the excitation point."""
     model = build_plant(quiet(cfg))
     out = []
     for d in data:
-        Ha = point_accelerances(model, d.points, d.F_N1, d.freq)
-        out.append({s: from_accelerance(h, d.freq, d.quantity) for s, h in Ha.items()})
+        two_port = shaker is not None and d.per_volt
+        pts = d.points | ({DRIVE_POINT: cfg.plant.excitation_point} if two_port else {})
+        Ha = point_accelerances(model, pts, d.F_N1, d.freq)
+        ratio = 1.0
+        if two_port:
+            ratio = force_ratio(shaker, d.freq, -Ha.pop(DRIVE_POINT) / (2 * np.pi * d.freq) ** 2)
+        out.append({s: from_accelerance(h * ratio, d.freq, d.quantity) for s, h in Ha.items()})
     return out
 
 
@@ -355,6 +372,71 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
         return Fit(theta, ch, H, struct_cfg(nominal, theta, effect), dict(zip(names, J.T)))
 
 
+def shaker_mode(nominal: Config) -> str:
+    """The amplifier's mode of the shaker candidate: the nominal's ``shaker.amplifier`` where the nominal
+    describes a shaker (armature mass > 0), else "voltage" (FRFs per drive volt without a force)."""
+    return nominal.shaker.amplifier if nominal.shaker.on else "voltage"
+
+
+def shaker_config(cfg: Config, mass_kg: float, back_emf_Ns_per_m: float | None, mode: str = "voltage") -> Config:
+    """``cfg`` with its shaker in amplifier ``mode``, armature mass ``mass_kg`` [kg] and, in voltage mode,
+    back-EMF damping c_e = Bl^2 / R [N s/m] at ``cfg``'s coil resistance R (the lab's ohmmeter) and
+    inductance: Bl = sqrt(c_e R) (not validated: a fit's trial point). In current mode Bl stays ``cfg``'s
+    (the force per drive does not depend on it)."""
+    s = cfg.shaker
+    Bl = (s.force_constant_N_per_A if mode == "current" else
+          max(math.sqrt(max(back_emf_Ns_per_m, 0.0) * s.coil_resistance_ohm), 1e-9))
+    return dataclasses.replace(cfg, shaker=dataclasses.replace(
+        s, amplifier=mode, armature_mass_kg=float(mass_kg), force_constant_N_per_A=Bl))
+
+
+def fit_shaker_frf(nominal: Config, data: list[FRFData], calibrated: Fit, bars: bool = False) -> Fit:
+    """The shaker's candidate on FRF files per drive volt (docs/discrepancy.md "The shaker on FRFs per
+    drive volt"): the model's H per newton times the force per drive of a voltage-driven shaker
+    (plant.shaker.force_ratio, ``shaker_config``) and the profiled force scale, fitted on E, ln k_t,
+    ln modal_damping, the armature mass (theta[SHAKER], kg) and c_e (theta[BACK_EMF], N s/m) by stage 2's
+    Gauss-Newton with Broyden updates, from the calibration with the shaker at the nominal's catalogue
+    values (its armature mass, else the effect's default strength; its Bl^2 / R). Known (the nominal's
+    ``shaker``): coil resistance and inductance, flexure, stinger. Penalised as ``fit`` outside the
+    plausible ranges of the calibration scales. A nominal whose shaker is on in current mode
+    (``shaker_mode``): the current-driven shaker, its armature mass alone fitted (no back-EMF term)."""
+    mode = shaker_mode(nominal)
+    names = [*CAL_NAMES, SHAKER] + ([BACK_EMF] if mode == "voltage" else [])
+    log = np.array([k in LOG_SCALE for k in names])
+    c_lo, c_hi = bounds(list(CAL_NAMES), None, nominal)
+    lo = to_z(np.r_[c_lo, [SHAKER_BOUNDS[k][0] for k in names[3:]]], log)
+    hi = to_z(np.r_[c_hi, [SHAKER_BOUNDS[k][1] for k in names[3:]]], log)
+    steps = np.r_[fd_steps(list(CAL_NAMES), None), [SHAKER_STEPS[k] for k in names[3:]]]
+    plausible = ranges(nominal, names)
+    n = sum(len(v) for d in data for v in d.ln_h.values())
+    sh = nominal.shaker
+    c_e0 = sh.force_constant_N_per_A ** 2 / sh.coil_resistance_ohm
+
+    def point(z):
+        theta = dict(zip(names, map(float, from_z(z, log))))
+        cfg = struct_cfg(nominal, theta, None)
+        return theta, shaker_config(cfg, theta[SHAKER], theta.get(BACK_EMF), mode)
+
+    def evaluate(z):
+        x = from_z(z, log)
+        theta, shaker = point(z)
+        ch, H, scale = weighted_residuals(data, model_H(struct_cfg(nominal, theta, None), data, shaker))
+        r = np.concatenate([*ch.values(), prior(names, x), penalty(names, x, plausible, n)])
+        ev.seen(z, r)
+        return (ch, H, scale), r
+
+    with watch(SHAKER, bars, point) as ev:
+        start = [calibrated.theta[k] for k in CAL_NAMES] + [sh.armature_mass_kg if sh.on else
+                                                            EFFECTS[SHAKER].parameter.default, c_e0][:len(names) - 3]
+        z = np.clip(to_z(np.array(start), log), lo, hi)
+        run, r = evaluate(z)
+        z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, None, lo, hi, steps, MAX_STEPS_FAR,
+                                                       lambda z: step_box(names, z, log, plausible, lo, hi))
+        theta, shaker = point(z)
+        final = with_sets(shaker, [f"shaker.force_constant_N_per_A={shaker.shaker.force_constant_N_per_A!r}"])
+        return Fit(_theta(names, from_z(z, log), scale), ch, H, final, dict(zip(names, J.T)))
+
+
 def _rms_db(H: np.ndarray, Hm: np.ndarray) -> float:
     return float(np.sqrt(np.mean((20 * np.log10(np.abs(H) / np.abs(Hm))) ** 2)))
 
@@ -402,6 +484,8 @@ def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, nominal: 
     for k, v in theta.items():
         if k == FORCE_SCALE:
             lo, hi, log = *FORCE_SCALE_N_PER_V, True
+        elif k in SHAKER_BOUNDS and effect is None:
+            lo, hi, log = *SHAKER_BOUNDS[k], False
         elif log_bounds and k in log_bounds:
             lo, hi, log = *log_bounds[k], True
         else:
@@ -459,6 +543,10 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
         if not e.implemented:
             why[e.name] = "not implemented yet"
             continue
+        if e.name == SHAKER:
+            why[e.name] = ("the force is measured at the structure (FRFs per newton): no shaker model is needed; "
+                           "FRF files per drive volt (sidecar excitation drive_voltage) try it")
+            continue
         if not e.visible_in_frf_files():
             why[e.name] = "linear stuck-contact FRFs cannot show it (it acts through slip or the actuator)"
             continue
@@ -497,6 +585,16 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
         done[fit_label(eff)] = done_fit(fits[eff].theta, fits[eff].cfg)
     results = [{"effect": e.name if e else None, "theta": f.theta, "channels": f.channels,
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
+    if any(d.per_volt for d in data):           # the shaker's two-port, on the drive-voltage tests
+        say(f"fit {SHAKER} ({shaker_mode(nominal)}-driven shaker)")
+        f = fit_shaker_frf(nominal, data, fits[None], bars=bars)
+        done[SHAKER] = done_fit(f.theta, f.cfg)
+        why_not.pop(SHAKER, None)
+        tried = [*candidates, EFFECTS[SHAKER]]
+        results.append({"effect": SHAKER, "theta": f.theta, "channels": f.channels, "group": "FRF",
+                        "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg})
+    else:
+        tried = candidates
     base, ranked, winner = rank(results)
     final = winner or base
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
@@ -524,14 +622,15 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     m1 = build_plant(quiet(final["cfg"]))
     modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
     out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
-    out["not_tried"] += [e.name for e in implemented() if e not in candidates]   # not visible in linear FRFs, or no place
+    out["not_tried"] += [e.name for e in implemented() if e not in tried]   # not visible in linear FRFs, or no place
     per_volt = any(d.per_volt for d in data)
     offset = level_offset_db(data, final["fit"].H)
     out["level_offset_db"] = round(offset, 4)
-    out["warnings"] = bound_warnings(final["theta"], next((e for e in candidates if e.name == final["effect"]), None),
+    out["warnings"] = bound_warnings(final["theta"], next((e for e in tried if e.name == final["effect"]
+                                                           and e.name != SHAKER), None),
                                      per_volt, nominal) + level_warning(offset, per_volt)
     out["plausibility"] = verdict(plausible, base["theta"], final["theta"], final["effect"],
-                                  [e.name for e in candidates], let_go)
+                                  [e.name for e in tried], let_go)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:
         out["excitation"] = {

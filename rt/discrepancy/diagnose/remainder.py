@@ -100,14 +100,16 @@ def verdict(res: dict) -> str:
     keys = ("calibration_share", "effect_share", "remainder_share")
     pct = dict(zip(keys, percent_split([b[k] for k in keys])))
     named = res["named_effect"]
+    # on FRF files every candidate acts on the FRF channels (the shaker's two-port too)
+    on_frf = named is not None and (get(named).channel == "structure" or res.get("input") == "frf_files")
     if named is None:
         effect = "no effect is named"
-    elif get(named).channel == "structure":
+    elif on_frf:
         effect = f"the named effect ({named}) {pct['effect_share']} %"
     else:
         effect = f"the named effect ({named}) acts on the {get(named).channel} channels, not counted here,"
     if b.get("remainder_within_noise"):
-        rest = ("the remainder is within the noise" if named is None or get(named).channel != "structure" else
+        rest = ("the remainder is within the noise" if named is None or not on_frf else
                 "what remains is within the noise")
         text = (f"Of the structure's gap, calibration explains {pct['calibration_share']} %, {effect} and {rest} "
                 f"(final weighted residuals' rms {b['rms_final']:.2f}, noise 1).")

@@ -133,7 +133,7 @@ def report_md(res: dict, pngs: list[str]) -> str:
     lines += ["", "## Localisation (nominal model vs measurement)", "",
               "```json", json.dumps(res["localisation"], indent=1), "```", "",
               f"Not tried (not implemented yet, or not seen by this input: no step-sine tests for "
-              f"shaker_interaction, FRF files for slip and actuator effects): {_not_tried(res)}.", "",
+              f"shaker_interaction, except on FRF files per drive volt; FRF files for slip and actuator effects): {_not_tried(res)}.", "",
               "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"

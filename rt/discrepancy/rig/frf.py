@@ -23,7 +23,9 @@ has no F_N1 to hold: one test, frf_01.csv, with F_N1_N = 0 in its sidecar.
 The file kinds a lab has (arguments of ``make_frf_campaign``, defaults as above): the
 response as ``quantity`` (rt.log.frf_files.QUANTITIES: H_a / (i w)^(2 - k)), the excitation as a
 drive voltage with a force scale s [N/V] (H per volt = s H per newton: a voltage-driven shaker
-without force transducer; the noise floor is scaled alike), and other sensors {name: (beam, x_m)}
+without force transducer; the noise floor is scaled alike; with a shaker in the truth, armature mass
+> 0, its force per drive ``drive_force_ratio`` multiplies H: the two-port of plant.shaker in the
+configured amplifier mode, so ``--effect shaker_interaction`` shows per volt only), and other sensors {name: (beam, x_m)}
 at massless points added to the true structure (``add_points``) instead of the two accelerometers.
 """
 from __future__ import annotations
@@ -41,6 +43,7 @@ from frictionrt.rt.discrepancy.effects import get
 from frictionrt.rt.log.data_format import ACCELEROMETER_POINTS
 from frictionrt.rt.log.frf_files import FORMAT, FRFTest, from_accelerance, write_frf_csv, write_frf_uff
 from frictionrt.plant.linear_frf import point_accelerances
+from frictionrt.plant.shaker import force_ratio
 from frictionrt.rt.discrepancy.chain import sensor_point
 from frictionrt.rt.discrepancy.rig.campaign import FN1_LEVELS_N, new_folder, true_structure
 
@@ -49,6 +52,15 @@ NOISE_REL = 0.01                         # complex noise rms relative to |H|
 NOISE_FLOOR = 2e-3                       # [(m/s^2)/N] complex noise rms floor
 HOLD_REL = 0.01                          # relative rms of the held F_N1 about its level
 FORCE_N = 1.0                            # [N] excitation force amplitude (low level: contact stuck)
+SHAKER = "shaker_interaction"            # the effect FRF files show only per drive volt (no force measured)
+
+
+def drive_force_ratio(cfg: Config, model, F_N1: float, freq_hz: np.ndarray) -> np.ndarray:
+    """F_exc / drive (complex) of ``cfg``'s shaker (plant.shaker.force_ratio, in its amplifier's mode) on the
+    stuck structure ``model`` at F_N1 [N]: its driving-point receptance R = H_a / (i omega)^2 at the
+    excitation point (plant.linear_frf.point_accelerances)."""
+    ha = point_accelerances(model, {"drive": cfg.plant.excitation_point}, F_N1, freq_hz)["drive"]
+    return force_ratio(cfg, freq_hz, -ha / (2 * np.pi * np.asarray(freq_hz, float)) ** 2)
 
 
 def sensor_points(cfg: Config) -> dict[str, str]:
@@ -83,7 +95,11 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
     ``force_scale_N_per_V`` (given: the excitation is a drive voltage, H per volt = s H per
     newton), ``sensors`` {name: (beam, x_m)} instead of the accelerometers; returns the data files
     written. ValueError for an effect linear FRFs cannot show (``Effect.visible_in_frf_files``)."""
-    if effect != "none" and not get(effect).visible_in_frf_files():
+    if effect != "none" and not get(effect).visible_in_frf_files() and not (
+            effect == SHAKER and force_scale_N_per_V is not None):
+        if effect == SHAKER:
+            raise ValueError(f"effect {effect!r}: with the force measured at the stinger's tip the FRFs per newton do "
+                             "not show the shaker; write FRFs per drive volt (--force-scale N_PER_V)")
         raise ValueError(f"effect {effect!r} leaves the structure linearised with the contact stuck unchanged "
                          "(it acts through slip or the actuator), so linear FRF files cannot show it; write FRFs "
                          "at several force levels (--levels) or a time-series campaign (rig without --frf-files)")
@@ -101,6 +117,9 @@ def make_frf_campaign(out_dir: str | os.PathLike, effect: str = "none", strength
         for j, level in enumerate(levels_n if held else (0.0,)):
             F_N1 = round(level * (1.0 + HOLD_REL * rng.standard_normal()), 2) if held else 0.0
             H = point_accelerances(model, points, F_N1, FREQ_HZ)
+            if force_scale_N_per_V is not None and true.shaker.on:
+                ratio = drive_force_ratio(true, model, F_N1, FREQ_HZ)
+                H = {s: h * ratio for s, h in H.items()}
             for s, h in H.items():
                 z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
                 H[s] = gain * from_accelerance(h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w, FREQ_HZ, quantity)
