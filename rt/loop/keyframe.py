@@ -17,7 +17,8 @@ Parts, in order (``keyframe_parts``; each a flat array of the loop's state, ``Lo
     plant       actuator_x, actuator_y, plant_x, plant_y (the outputs at t_k: the oracle's
                 u_rel, v_rel of tick k), shaker_x, and the contact solver's working vectors
                 (``plant.newmark.PlantWork`` but its factor cache)
-    cache       (``rt.keyframe_plant_cache``) the factor cache of the contact solver (``CACHE``):
+    cache       (``rt.keyframe_plant_cache``) the factor cache of the contact solver (``CACHE``,
+                named cache_<field> in lower case):
                 ~111,000 doubles at the default mesh, which the replay of the plant needs to be
                 bit-exact after a restart; without it the plant restarts with a cold cache
 
@@ -45,7 +46,8 @@ def keyframe_parts(st, cache: bool) -> list[tuple[str, np.ndarray]]:
              ("shaker_x", st.xsh)]
     for name, a in st.plant_work._asdict().items():
         if cache or name not in CACHE:
-            parts.append(("work_" + name, a.reshape(-1)))
+            # ROS 2 field names are lower case: the cache's Z is cache_z, the working vector z work_z
+            parts.append((("cache_" if name in CACHE else "work_") + name.lower(), a.reshape(-1)))
     return parts
 
 
