@@ -205,7 +205,8 @@ def test_sigint_leaves_a_finalised_mcap_and_a_valid_rrd_and_exits_promptly(tmp_p
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
         writer = {m.name: m.metadata for m in reader.iter_metadata()}["frictionrt.writer"]
-    assert summary.statistics.message_count == 6 * n
+    assert summary.statistics.message_count == 6 * n + len(rec.keyframes.k)   # and the key frames of its ticks
+    assert len(rec.keyframes.k) == -(-n // load().rt.keyframe_ticks)
     assert len(summary.chunk_indexes) == summary.statistics.chunk_count == -(-n // chunk_ticks(rec.signals))
     assert writer["written_ticks"] == str(n) and writer["unwritten_ticks"] == str(s["unwritten_ticks"])
     # the .rrd: readable, its blueprint, the same ticks and values as the MCAP file
