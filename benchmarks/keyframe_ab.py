@@ -29,6 +29,7 @@ class _Sink:
 
     def __init__(self, codec):
         self.ring_ticks = None
+        self.error = None
         self.mcap = SimpleNamespace(keyframes=codec)
 
     def start(self, *args, **kwargs):

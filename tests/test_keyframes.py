@@ -123,6 +123,18 @@ def test_the_c_export_restarts_from_a_key_frame_bit_exact(logs, tmp_path, capsys
     r = json.loads(out)
     assert code == 0 and r["bit_exact"] is True, err
     assert r["compared_ranges"] == [[0, 299], [750, 1049]] and r["restarted_from"] == [750] and r["ticks"] == 600
+    # the loop with the C controller (simulate --controller c:DIR) logs the numba loop's key frames:
+    # the C's state is copied into the loop's arrays before each one is taken
+    args = ["simulate", "--law", LAW[est], "--estimator", est, "--freq", "205", "--amp", "5", "--duration", "0.05",
+            "--no-rrd", "--out", str(tmp_path / "sil"), "--json", "--set", f"rt.keyframe_ticks={INTERVAL}",
+            "--controller", f"c:{exp}"]
+    for s in SETS[est]:
+        args += ["--set", s]
+    assert main(args) == 0
+    a, b = read_mcap(tmp_path / "sil.mcap").keyframes, read_mcap(logs[est]).keyframes
+    np.testing.assert_array_equal(a.k, b.k)
+    np.testing.assert_array_equal(a.f.view(np.uint64), b.f.view(np.uint64))
+    np.testing.assert_array_equal(a.i, b.i)
 
 
 def test_a_log_of_format_1_replays_as_before_and_says_why_it_cannot_restart(logs, tmp_path, capsys, monkeypatch):

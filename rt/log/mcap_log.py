@@ -30,6 +30,8 @@ A run's log is a float64 array (ticks, n_sig) whose columns are ``signals`` = (n
                versions, seed, start time, command line); record "signals": "format_version",
                "signals" = JSON list of {name, field, type, unit, owner, column}, "rate_hz",
                "dt_s", "start_ns", "time" (the rule above)
+    key frames (version 2, optional) topic /keyframe with record "keyframes": the loop's state at
+               fixed tick multiples (``frictionrt.rt.log.keyframes``), read into ``McapLog.keyframes``
 
 Reading (``read_mcap``) is driven by each topic's schema, so it also reads:
 

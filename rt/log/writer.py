@@ -29,6 +29,12 @@ writer sets ``clk[CLK_WRITTEN]`` to the tick after it (the rows before may be ov
   ``frictionrt.writer`` holds the count (``run`` callers print it). The thread lowers its own
   priority (nice ``WRITER_NICE``) so that, sharing a core, the scheduler prefers the loop.
 
+**Key frames.** With a key-frame ring (``start(..., keyframes=)``: the loop's state at the ticks
+that are multiples of the interval, rt/loop/keyframe.py) the writer copies the key frames of a
+block's ticks out with the block (a dropped block's go with it) and hands them to the sinks that
+take them (``McapBlockWriter.write_keyframes``) before the block; the ring is sized so that a key
+frame is overwritten no earlier than its tick's row.
+
 The block handed to the sinks is a copy, so a sink may keep it (``Batched``) while the loop
 overwrites the ring. ``ring_s=None``: no ring, the log holds the whole run (nothing dropped).
 

@@ -20,6 +20,12 @@ what the controller read at that tick in the loop (``frictionrt.rt.loop.tick._ru
 and compares every commanded signal (the estimator's outputs, F_set, u0, F_set_filtered, V_cmd,
 saturated, and the supervisor's fault_code, fault_latched, passive) with the recorded one. For the project's own logs the replay is bit-exact.
 
+A log with gaps (dropped blocks, the lost end of a killed run) is replayed across them
+(``replay_plan``): the first run of ticks from the start state, every later one from the first key
+frame in it (the loop's state the log carries at fixed tick multiples, ``frictionrt.rt.loop.keyframe``);
+the ticks between a gap and that key frame are neither replayed nor compared, and a gap is no
+mismatch. A log without key frames (format version 1) is compared up to its first gap.
+
 Non-finite ADC readings (a logged sensor dropout) are fed as they are: the controller saw them,
 and its supervisor sanitises them as in the loop. A file with the sensor topic only (a
 measurement) and the observer as estimator is replayed without comparison: the controller's outputs are reported (``bit_exact`` None).
