@@ -1,7 +1,6 @@
 """Key frames (rt/loop/keyframe.py, rt/log/keyframes.py): the loop's state in the log at fixed tick
 multiples, and replay (numba, --c, --plant) restarting from them after a gap in the log."""
 import json
-import shutil
 
 import numpy as np
 import pytest
@@ -109,32 +108,6 @@ def test_a_dropped_block_replays_bit_exact_after_the_next_key_frame(logs, tmp_pa
     code, out, _ = cli(capsys, "replay", bad, "--json")
     r = json.loads(out)
     assert code == 1 and r["bit_exact"] is False and r["first_mismatch_tick"] >= 750
-
-
-@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
-@pytest.mark.parametrize("est", ["observer", "oracle"])
-def test_the_c_export_restarts_from_a_key_frame_bit_exact(logs, tmp_path, capsys, est):
-    """replay --c of the log with the dropped block: the C's ctrl_state set from key frame 750
-    (ctrl_batch.c ctrl_run_restarts), bit-exact on 0..299 and 750..1049."""
-    exp = tmp_path / "c"
-    assert main(["export-c", "--from-log", str(logs[est]), "-o", str(exp), "--json"]) == 0
-    path = drop_rows(logs[est], tmp_path / "gap.mcap", *GAP)
-    code, out, err = cli(capsys, "replay", path, "--c", exp, "--json")
-    r = json.loads(out)
-    assert code == 0 and r["bit_exact"] is True, err
-    assert r["compared_ranges"] == [[0, 299], [750, 1049]] and r["restarted_from"] == [750] and r["ticks"] == 600
-    # the loop with the C controller (simulate --controller c:DIR) logs the numba loop's key frames:
-    # the C's state is copied into the loop's arrays before each one is taken
-    args = ["simulate", "--law", LAW[est], "--estimator", est, "--freq", "205", "--amp", "5", "--duration", "0.05",
-            "--no-rrd", "--out", str(tmp_path / "sil"), "--json", "--set", f"rt.keyframe_ticks={INTERVAL}",
-            "--controller", f"c:{exp}"]
-    for s in SETS[est]:
-        args += ["--set", s]
-    assert main(args) == 0
-    a, b = read_mcap(tmp_path / "sil.mcap").keyframes, read_mcap(logs[est]).keyframes
-    np.testing.assert_array_equal(a.k, b.k)
-    np.testing.assert_array_equal(a.f.view(np.uint64), b.f.view(np.uint64))
-    np.testing.assert_array_equal(a.i, b.i)
 
 
 def test_a_log_of_format_1_replays_as_before_and_says_why_it_cannot_restart(logs, tmp_path, capsys, monkeypatch):
