@@ -133,6 +133,7 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     from frictionrt.rt.log.writer import open_run_log, run_metadata
     from frictionrt.rt.loop import build_loop, check_run_input, initial_loop_state, run, summary
     from frictionrt.rt.loop.faults import schedule, to_json
+    from frictionrt.rt.loop.keyframe import keyframe_codec
     cfg = _cfg(cfg)
     estimator = estimator_of(estimator)
     check_frequency(freq_hz, cfg, "freq_hz (--freq)")
@@ -169,7 +170,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
             meta = run_metadata(cfg, loop.law, loop.estimator, seed_, freq_hz, amp_n, duration_s, paced, argv=argv)
             meta["faults"] = json.dumps(to_json(fault_rows))
             meta["controller_design"] = design_hash_of(loop, seed_)   # what export-c writes for it
-            writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=rrd, ring_s=ring_s)
+            writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=rrd, ring_s=ring_s,
+                                  keyframes=keyframe_codec(loop, initial_loop_state(loop, seed_)))
             writer.mcap.add_metadata("test", run_test_record(loop, freq_hz, amp_n, duration_s))
             writer.mcap.add_attachment(DESIGN_ATTACHMENT, MEDIA_TYPE,
                                        to_npz(design_arrays(loop, initial_loop_state(loop, seed_))))

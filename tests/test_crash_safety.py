@@ -123,7 +123,9 @@ def test_kill_9_then_recover_gives_every_complete_chunk_bit_exact(killed, tmp_pa
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
         names = [m.name for m in reader.iter_metadata()]
-    assert summary.statistics.message_count == 6 * n and len(summary.chunk_indexes) == r["chunks"]
+    n_kf = len(rec.keyframes.k)   # key frames every rt.keyframe_ticks, in the chunks of their ticks
+    assert n_kf == r["keyframes"] == -(-n // load().rt.keyframe_ticks)
+    assert summary.statistics.message_count == 6 * n + n_kf and len(summary.chunk_indexes) == r["chunks"]
     src_names = [m.name for m in scan(killed).metadata]   # all written at open, before the data
     assert src_names[:2] == ["frictionrt", "signals"] and names == [*src_names, "frictionrt.recover"]
     # the chunks are those of the killed file, byte for byte
@@ -203,7 +205,8 @@ def test_sigint_leaves_a_finalised_mcap_and_a_valid_rrd_and_exits_promptly(tmp_p
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
         writer = {m.name: m.metadata for m in reader.iter_metadata()}["frictionrt.writer"]
-    assert summary.statistics.message_count == 6 * n
+    assert summary.statistics.message_count == 6 * n + len(rec.keyframes.k)   # and the key frames of its ticks
+    assert len(rec.keyframes.k) == -(-n // load().rt.keyframe_ticks)
     assert len(summary.chunk_indexes) == summary.statistics.chunk_count == -(-n // chunk_ticks(rec.signals))
     assert writer["written_ticks"] == str(n) and writer["unwritten_ticks"] == str(s["unwritten_ticks"])
     # the .rrd: readable, its blueprint, the same ticks and values as the MCAP file
@@ -268,3 +271,46 @@ def test_inspect_refuses_bad_files_with_one_line(killed, tmp_path, capsys):
     code, _, err = cli(capsys, "inspect", tmp_path / "text.mcap", "-o", tmp_path / "x.png")
     assert code == 2 and ".rrd" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["text.mcap"]
+
+
+def without_chunk(src, dst, i):
+    """The .part file src without its chunk i (0-based) and that chunk's message indexes: a gap of
+    one chunk's ticks, as a dropped block leaves one, in a file that was then killed."""
+    import struct
+    data = src.read_bytes()
+    pos, out, chunk, skip = 8, [data[:8]], -1, False
+    while pos + 9 <= len(data):
+        op, n = struct.unpack_from("<BQ", data, pos)
+        end = pos + 9 + n
+        if end > len(data):
+            break
+        if op == 0x06:   # chunk
+            chunk += 1
+            skip = chunk == i
+        elif op != 0x07:  # not a message index: the chunk's records have ended
+            skip = False
+        if not skip:
+            out.append(data[pos:end])
+        pos = end
+    out.append(data[pos:])   # the cut record at the end, as the kill left it
+    dst.write_bytes(b"".join(out))
+    return dst
+
+
+def test_a_killed_run_with_a_gap_recovers_and_replays_from_the_next_key_frame(killed, tmp_path, capsys):
+    """The killed file without its second chunk (ticks m..2m-1, m = 823 ticks per chunk), then
+    `recover`: the key frames survive with their chunks (0 and 2100: rt.keyframe_ticks), and
+    replay compares 0..m-1 from rest and 2100.. from the key frame of 2100 bit for bit, 2m..2099
+    not compared."""
+    part = without_chunk(killed, tmp_path / "gap.mcap.part", 1)
+    code, out, err = cli(capsys, "recover", part, "-o", tmp_path / "gap.mcap", "--json")
+    r = json.loads(out)
+    rec = read_mcap(tmp_path / "gap.mcap")
+    m = chunk_ticks(rec.signals)
+    assert code == 0 and r["missing_ticks"] == m and r["keyframes"] >= 2, err
+    assert list(rec.keyframes.k[:2]) == [0, 2100] and r["last_tick"] >= 2100 > 2 * m
+    code, out, err = cli(capsys, "replay", tmp_path / "gap.mcap", "--json")
+    res = json.loads(out)
+    assert code == 0 and res["bit_exact"] is True, err
+    assert res["compared_ranges"] == [[0, m - 1], [2100, r["last_tick"]]] and res["missing_ranges"] == [[m, 2 * m - 1]]
+    assert res["not_compared_ranges"] == [[2 * m, 2099]] and res["restarted_from"] == [2100]

@@ -530,3 +530,30 @@ def test_a_log_with_a_dropped_block_is_compared_up_to_the_gap_and_reports_the_ra
         assert code == 0 and r["bit_exact"] is True and r["missing_ticks"] == 100, (extra, r.get("first_mismatch_tick"))
         assert r["compared_ranges"] == [[0, 399]] and r["missing_ranges"] == [[400, 499]]
         assert r["not_compared_ranges"] == [[500, TICKS - 1]]
+
+
+@pytest.mark.skipif(shutil.which(os.environ.get("CC") or "cc") is None, reason="no C compiler")
+@pytest.mark.parametrize("law,est", [("lyapunov", "observer"), ("hysteresis", "oracle")])
+def test_a_dropped_block_restarts_the_c_from_the_next_key_frame(runs, capsys, tmp_path, law, est):
+    """A 0.05 s log with key frames every 250 ticks, rows 300..599 dropped: replay --c sets the C's
+    ctrl_state from key frame 750 (ctrl_batch.c ctrl_run_restarts) and is bit-exact on 0..299 and
+    750..1049 (the oracle build's u_rel, v_rel of the restart tick from the key frame). The loop with
+    the C controller (simulate --controller c:DIR) logs the numba loop's key frames bit for bit: the
+    C's state is copied into the loop's arrays before each one is taken."""
+    from tests.test_keyframes import drop_rows
+    exp = runs[law, est][1]
+    base = ["simulate", "--law", law, "--estimator", est, "--freq", "205", "--amp", "5", "--duration", "0.05",
+            "--no-rrd", "--json", "--set", "rt.keyframe_ticks=250"]
+    assert main([*base, "--out", str(tmp_path / "numba")]) == 0
+    assert main([*base, "--out", str(tmp_path / "sil"), "--controller", f"c:{exp}"]) == 0
+    a, b = read_mcap(tmp_path / "sil.mcap").keyframes, read_mcap(tmp_path / "numba.mcap").keyframes
+    np.testing.assert_array_equal(a.k, np.arange(0, TICKS, 250))
+    np.testing.assert_array_equal(a.k, b.k)
+    np.testing.assert_array_equal(a.f.view(np.uint64), b.f.view(np.uint64))
+    np.testing.assert_array_equal(a.i, b.i)
+    path = drop_rows(tmp_path / "numba.mcap", tmp_path / "gap.mcap", 300, 600)
+    capsys.readouterr()
+    code, r, err = run(capsys, "replay", path, "--c", exp)
+    assert code == 0 and r["bit_exact"] is True, err
+    assert r["compared_ranges"] == [[0, 299], [750, 1049]] and r["missing_ranges"] == [[300, 599]]
+    assert r["not_compared_ranges"] == [[600, 749]] and r["restarted_from"] == [750] and r["ticks"] == 600

@@ -14,6 +14,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from frictionrt.rt.cli import main
 from frictionrt.rt.log.data_format import validate
+from frictionrt.rt.log.keyframes import TOPIC as KF_TOPIC
 from frictionrt.rt.log.mcap_log import FORMAT_VERSION, read_mcap, tick_time_ns, topics_of
 from frictionrt.rt.log.registry import field_names
 
@@ -52,6 +53,10 @@ def check_ros2_decode(path) -> int:
     rec = read_mcap(path)
     assert rec.version == FORMAT_VERSION
     decoded = ros2_decode(path)
+    keyframes = decoded.pop(KF_TOPIC, None)
+    assert (keyframes is None) == (rec.keyframes is None)
+    if keyframes is not None:
+        check_keyframes_decode(rec, *keyframes)
     assert sorted(decoded) == sorted(rec.topics)
     fields = field_names(rec.signals)
     n = 0
@@ -70,6 +75,24 @@ def check_ros2_decode(path) -> int:
             np.testing.assert_array_equal(v.view(np.uint64), rec.log[rows, c].view(np.uint64))
         n += len(k)
     return n
+
+
+def check_keyframes_decode(rec, times, stamps, values):
+    """The key frames as mcap_ros2 decodes them (fixed-size arrays) equal read_mcap's, bit for
+    bit, at their ticks' times."""
+    kf = rec.keyframes
+    k = np.array(values.pop("tick"))
+    np.testing.assert_array_equal(np.sort(k), kf.k)
+    np.testing.assert_array_equal(times, rec.start_ns + tick_time_ns(k, rec.rate_hz))
+    np.testing.assert_array_equal(stamps, times)
+    order = np.argsort(k)
+    assert list(values) == [n for n, _, size in kf.codec.parts if size]
+    for name, typ, _ in kf.codec.parts:
+        if name in values:
+            got = np.array([np.asarray(v) for v in values[name]])[order]
+            ref = kf.part(name)
+            np.testing.assert_array_equal(got.view(np.uint64) if typ == "float64" else got,
+                                          ref.view(np.uint64) if typ == "float64" else ref)
 
 
 @pytest.fixture(scope="module")
@@ -194,7 +217,7 @@ def test_simulate_writes_a_foxglove_layout_of_the_blueprints_panels(run_log):
     assert {p["title"] for p in plots.values()} == tabs - {"damper"} | {"F_N1 setpoint vs measured",
                                                                          "friction hysteresis: F_t [N] vs u_rel"}
     # every message path is a field of the file as the ROS 2 decoder sees it; every signal is in its tab
-    fields = {t: set(f) - {"tick"} for t, (_, _, f) in ros2_decode(run_log).items()}
+    fields = {t: set(f) - {"tick"} for t, (_, _, f) in ros2_decode(run_log).items() if t != KF_TOPIC}  # no plot
     for p in (p["value"] for plot in plots.values() for p in plot["paths"]):
         topic, field = p.split(".")
         assert field in fields[topic], p
@@ -217,7 +240,8 @@ def test_foxglove_parses_every_schema_and_decodes_every_message(run_log):
     out = subprocess.run(["node", "check.mjs", str(run_log)], cwd=FOXGLOVE_CHECK, capture_output=True, text=True,
                          timeout=120).stdout
     assert 'profile: "ros2"' in out and "schema FAIL" not in out
-    assert out.count("schema ok:") == 6 and "messages decoded 6300" in out
+    assert out.count("schema ok:") == 7 and "messages decoded 6301" in out   # 6 topics x 1050, 1 key frame
+    assert "schema ok: frictionrt/msg/Keyframe" in out
 
 
 AFTER_2020_NS = 1_577_836_800 * 10**9   # 2020-01-01T00:00:00Z [ns since 1970]

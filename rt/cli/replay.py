@@ -12,8 +12,7 @@ import shtab
 from frictionrt.rt.cli.common import add_realtime, fail, realtime_notes, unpaced_realtime
 from frictionrt.rt.loop.coverage import coverage_problem, format_coverage
 
-GAP = (" (dropped blocks): compared up to the first gap only; the log carries no controller state to restart "
-       "from")   # a log's missing ticks, to a controller replay
+GAP = " (dropped blocks, or lost in a crash)"   # a log's missing ticks, to a replay
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -115,6 +114,15 @@ def _print_ranges(res) -> None:
                        ("not_compared_ranges", "not compared")):
         if res.get(key):
             print(f"  {label}: " + ", ".join(f"{a}..{b}" for a, b in res[key]))
+    if res.get("restarted_from"):
+        print("  restarted from the key frames of ticks " + ", ".join(map(str, res["restarted_from"])))
+    if res.get("restart_note"):
+        print(f"  {res['restart_note']}")
+    if res.get("after_cold_restart"):
+        cold = res["after_cold_restart"]
+        print(f"  after a restart with a cold contact-solver cache: {cold['signals_differing']} signals differ "
+              f"to round-off (F_N1 {cold['max_abs_diff_by_signal'].get('F_N1', 0.0):.3g} N); key frames with "
+              "rt.keyframe_plant_cache = true make it bit-exact")
 
 
 def _replay_plant(cfg, args) -> dict:
@@ -130,7 +138,7 @@ def _show_plant(res) -> None:
     print(f"replay --plant {res['file']}{sets}: {res['ticks']} ticks of V_cmd, F_exc into actuator and plant "
           f"({res['wall_s']:.2f} s), failed contact solves {res['failed_solves']}")
     worst = sorted(((v, k) for k, v in res["max_abs_diff_by_signal"].items() if v), reverse=True)[:8]
-    _print_comparison(res, ": replayed up to the first gap only", "no recorded /actuator or /plant signals: nothing "
+    _print_comparison(res, GAP, "no recorded /actuator or /plant signals: nothing "
                       "to compare; replayed", 10, f"{len(res['signals_compared'])} /actuator and /plant signals",
                       "largest |diff| (SI units)", [(k, v) for v, k in worst])
 

@@ -253,6 +253,12 @@ class Rt:
     sleep_margin_rt_us: float = param(30.0, "us", lo=0.0, doc="the same with priority > 0 (the wake-up latency "
                                       "of a SCHED_FIFO thread is short; a full spin would hit the kernel's "
                                       "real-time throttle)")
+    keyframe_ticks: int = param(2100, "-", lo=0, doc="logged runs: the controller's and the plant's state is "
+                                "copied into the log at every tick k with k mod keyframe_ticks = 0 (a key frame, "
+                                "docs/data-format.md), where replay restarts after a gap; 0: none")
+    keyframe_plant_cache: bool = param(False, doc="key frames also hold the contact solver's factor cache "
+                                       "(~0.9 MB each at the default mesh): replay --plant is then bit-exact "
+                                       "after a restart too, not only to round-off")
 
 
 @dataclass(frozen=True)

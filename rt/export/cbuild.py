@@ -46,13 +46,29 @@ class Controller:
     design_hash: str
 
     def run(self, k: np.ndarray, sens: np.ndarray, uv: np.ndarray, overran: np.ndarray,
-            faults: np.ndarray) -> np.ndarray:
+            faults: np.ndarray, restarts=None) -> np.ndarray:
         """Outputs (n, 13) in ``OUTPUTS`` order of ticks k from rest: sens (n, 4) a_tip_meas,
         a_frf_meas, F_strain, F_cell; uv (n, 2) for the oracle's test build; overran (n,);
-        faults (m, 5) the schedule."""
+        faults (m, 5) the schedule; restarts: (positions (r,), ctrl_state images (r, state
+        doubles)): before tick positions[j] the state is set to image j (ctrl_batch.c
+        ``ctrl_run_restarts``)."""
         n = len(k)
         out = np.full((n, N_OUTPUTS), np.nan)
         faults = np.ascontiguousarray(faults, dtype=np.float64).reshape(-1, 5)
+        if restarts is not None and len(restarts[0]):
+            try:
+                f = self.lib.ctrl_run_restarts
+            except AttributeError:
+                raise ValueError(f"{self.path}: no ctrl_run_restarts (an export of an older frictionrt): export it "
+                                 "again to replay across gaps") from None
+            f.restype = ctypes.c_int64
+            f.argtypes = [ctypes.c_int64, _ip, _dp, _dp, _dp, ctypes.c_void_p, ctypes.c_int, _dp, ctypes.c_int64, _ip, _dp]
+            at, states = restarts
+            f(n, np.ascontiguousarray(k, dtype=np.int64), np.ascontiguousarray(sens, dtype=np.float64),
+              np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(overran, dtype=np.float64),
+              faults.ctypes.data if len(faults) else None, len(faults), out, len(at),
+              np.ascontiguousarray(at, dtype=np.int64), np.ascontiguousarray(states, dtype=np.float64))
+            return out
         f = self.lib.ctrl_run
         f.restype = ctypes.c_int64
         f.argtypes = [ctypes.c_int64, _ip, _dp, _dp, _dp, ctypes.c_void_p, ctypes.c_int, _dp]
@@ -77,6 +93,20 @@ class Controller:
         f(n, np.ascontiguousarray(k, dtype=np.int64), np.ascontiguousarray(sens, dtype=np.float64),
           np.ascontiguousarray(uv, dtype=np.float64), np.zeros(n), None, 0, out, ns)
         return out, ns
+
+    def state_offsets(self) -> list[slice]:
+        """Where ctrl_state's members lie, in doubles (ctrl_batch.c ``ctrl_state_offsets``: xs,
+        the estimator's state, xl, xq, xf, sv), as slices; ValueError for an older export."""
+        try:
+            f = self.lib.ctrl_state_offsets
+        except AttributeError:
+            raise ValueError(f"{self.path}: no ctrl_state_offsets (an export of an older frictionrt): export it "
+                             "again") from None
+        f.restype = None
+        f.argtypes = [ctypes.c_void_p]
+        off = np.zeros(7, dtype=np.int64)
+        f(off.ctypes.data)
+        return [slice(int(a), int(b)) for a, b in zip(off[:-1], off[1:])]
 
     def state_bytes(self) -> int:
         """sizeof(ctrl_state) of this build."""

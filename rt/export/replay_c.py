@@ -22,12 +22,13 @@ import numpy as np
 
 from frictionrt.rt.export.cbuild import OUTPUTS, build
 from frictionrt.rt.export.generate import check_design, read_manifest
-from frictionrt.rt.export.record import controller_record, design_hash
+from frictionrt.rt.export.record import TIP_SLOTS, controller_record, design_hash
 from frictionrt.rt.log.design_record import use_logged
 from frictionrt.rt.loop.build import initial_loop_state
 from frictionrt.rt.loop.coverage import coverage
-from frictionrt.rt.loop.replay import (_overran, compare_bits, gap_report, logged_faults, open_controller_log, oracle_inputs,
-                                       seed_of)
+from frictionrt.rt.loop.keyframe import keyframe_parts, load
+from frictionrt.rt.loop.replay import (_overran, compare_bits, controller_restarts, logged_faults, open_controller_log,
+                                       oracle_inputs, replay_plan, seed_of)
 
 READINGS = ("a_tip_meas", "a_frf_meas", "F_strain", "F_cell")
 
@@ -43,6 +44,25 @@ def log_design(path: Path, fallback_cfg=None, sets=()):
     return rec, meta, names, loop, st, report
 
 
+def ctrl_states(ctrl, loop, st, restart) -> np.ndarray:
+    """(restarts, state doubles) ctrl_state images of the key frames in ``restart``
+    (``frictionrt.rt.loop.replay.controller_restarts``): each loaded into a copy of the loop state
+    ``st``, whose parts then fill ctrl_state's members (``frictionrt.rt.export.sil.STATE_PARTS``: the
+    tip integrator's slots of the sensors' state, the estimator's state, RT1, prefilter, PID,
+    supervisor)."""
+    at, kf_f, kf_i = restart[:3]
+    slices = ctrl.state_offsets() if len(at) else []
+    images = np.zeros((len(at), slices[-1].stop if slices else 1))
+    for j in range(len(at)):
+        s = st.copy()
+        parts = keyframe_parts(s, loop.cfg.rt.keyframe_plant_cache)
+        load(parts, kf_f[j], kf_i[j])
+        for sl, x in zip(slices, (s.xs[TIP_SLOTS], s.xe if loop.estimator == "observer" else s.xo, s.xl, s.xq, s.xf,
+                                  s.sv)):
+            images[j, sl] = x
+    return images
+
+
 def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, sets=()) -> tuple[dict, np.ndarray]:
     """Replay the log at ``path`` through the C export in ``folder`` (module docstring), built
     with ``cc`` ``opt`` ``extra`` (``frictionrt.rt.export.cbuild.build``). Returns (summary, outputs): the
@@ -50,8 +70,8 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     ``bit_exact``, ``signals_compared``, ``max_abs_diff_by_signal``, ``first_mismatch_tick``,
     ``first_mismatch_signals``, ``build`` (the compile command), ``wall_s``, ``coverage`` (the paths
     the C's outputs took, ``frictionrt.rt.loop.coverage``), ``compared_ranges``, ``missing_ranges``,
-    ``not_compared_ranges`` (``frictionrt.rt.loop.replay.gap_report``: compared up to the first gap);
-    outputs (ticks, 13).
+    ``not_compared_ranges``, ``restarted_from``, ``restart_note`` (``frictionrt.rt.loop.replay.replay_plan``:
+    after a gap the C restarts from the next key frame); outputs (replayed ticks, 13).
     ValueError in one line for a bad log, a folder that is no export, an export of another
     design, a missing compiler or a failed build."""
     path, folder = Path(path), Path(folder)
@@ -68,16 +88,20 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     if ctrl.design_hash != digest:
         raise ValueError(f"--c {folder}: its ctrl_config.h names design {ctrl.design_hash[:19]}..., its manifest "
                          f"{digest[:19]}...: the folder was edited; export it again")
-    n = len(rec.k)
-    sens = np.ascontiguousarray(rec.log[:, [names.index(c) for c in READINGS]])
-    uv = oracle_inputs(path, rec, names, loop, st)
+    plan = replay_plan(rec)
+    uv, overran, restart = controller_restarts(path, rec, plan, loop, st, oracle_inputs(path, rec, names, loop, st),
+                                               _overran(rec, names, meta, round(loop.cfg.dt_s * 1e9)))
+    ks = rec.k[plan.rows]
+    n = len(ks)
+    sens = np.ascontiguousarray(rec.log[plan.rows][:, [names.index(c) for c in READINGS]])
     faults = logged_faults(path, meta)
-    overran = _overran(rec, names, meta, round(loop.cfg.dt_s * 1e9))
+    states = ctrl_states(ctrl, loop, st, restart)
     t0 = time.perf_counter()
-    out = ctrl.run(rec.k, sens, uv, overran, faults)
+    out = ctrl.run(ks, sens, uv, overran, faults, (plan.restart_at, states))
     wall = time.perf_counter() - t0
     res = {"file": str(path), "export": str(folder), "design_hash": digest, "log_design_hash": stated, "law": loop.law,
-           "estimator": loop.estimator, "ticks": n, "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n),
+           "estimator": loop.estimator, "ticks": n,
+           "missing_ticks": sum(b - a + 1 for a, b in plan.report["missing_ranges"]),
            "build": " ".join(ctrl.command), "wall_s": wall, "design": report,
            "coverage": coverage(loop.law, loop.cfg.tracking.F_min_N, loop.cfg.tracking.F_max_N,
                                 {c: out[:, j] for j, c in enumerate(OUTPUTS)})}
@@ -87,11 +111,10 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
         res |= {"bit_exact": None, "signals_compared": cols, "max_abs_diff_by_signal": {},
                 "first_mismatch_tick": None, "first_mismatch_signals": []}
         return res, out
-    rows, gaps = gap_report(rec.k, n)
-    res |= gaps
-    ref = rec.log[:rows, [names.index(c) for c in OUTPUTS]]
-    exact, by_sig, first, at_first = compare_bits(out[:rows], ref, OUTPUTS)
+    res |= plan.report
+    ref = rec.log[plan.rows][:, [names.index(c) for c in OUTPUTS]]
+    exact, by_sig, first, at_first = compare_bits(out, ref, OUTPUTS)
     res |= {"bit_exact": exact, "signals_compared": list(OUTPUTS), "max_abs_diff_by_signal": by_sig,
-            "first_mismatch_tick": int(rec.k[first]) if first is not None else None,
+            "first_mismatch_tick": int(ks[first]) if first is not None else None,
             "first_mismatch_signals": at_first}
     return res, out

@@ -37,19 +37,33 @@ _F_SET, _V_CMD = OUTPUTS.index("F_set"), OUTPUTS.index("V_cmd")   # the law's, t
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
-def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols, log):
+def _sil_ticks(k0, k1, exc, pace, faults, sens, cstep, ctl, act, plnt, shk, cols, log, kf, sync):
     """Ticks k0 <= k < k1 of the loop (``frictionrt.rt.loop.tick._run_ticks``, untimed: its ``_tick_begin``,
     ``_tick_plant``, ``_tick_log``, ``_tick_done``) with the C controller cstep
     (``ctrl_step_flat``) in place of ``_controller_tick``; ctl = (its state buffer, input (8,),
-    output (13,)). Log row (k - k0) mod len(log) receives the tick's signals. Returns failed plant
-    solves. RT-safe."""
+    output (13,)). Log row (k - k0) mod len(log) receives the tick's signals. kf: the key frames
+    (``_run_ticks``); before one is taken the C's state is copied into the loop's arrays it is
+    taken from, sync = (the loop's arrays in ``STATE_PARTS`` order but the tip integrator's, their
+    offsets in ctrl_state, yl, yf). Returns failed plant solves. RT-safe."""
     paced, period_ns, clk, ts = pace[1], pace[2], pace[4], pace[5]
     cstate, cin, cout = ctl
     ys, yp = sens[2], plnt[2]
+    dsts, offs, yl, yf = sync
     failed = 0
     for k in range(k0, k1):
+        if kf[0] > 0 and k % kf[0] == 0:   # the key frame holds the C's state
+            j = 0
+            for d in dsts:
+                for i in range(d.shape[0]):
+                    d[i] = cstate[offs[j] + i]
+                j += 1
+            if k > k0:
+                yl[0] = cout[_F_SET]
+                yl[1] = cout[_F_SET + 1]
+                yf[0] = cout[_V_CMD]
+                yf[1] = cout[_V_CMD + 1]
         # 1 sensors, injected sensor faults, the numba integrator (its state advances as the loop's)
-        row, t_start, late = _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log)
+        row, t_start, late = _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log, kf)
         if row < 0:
             break
         # 2-4 the C controller on the ADC readings (it integrates a_tip_meas itself)
@@ -153,7 +167,7 @@ class CController:
         loop's state."""
         return [sens[0][TIP_SLOTS], est[5] if self.observe else est[0], law[0], trk[0], trk[5], sup[0]]
 
-    def __call__(self, k0, k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt, shk, cols, log) -> int:
+    def __call__(self, k0, k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt, shk, cols, log, kf) -> int:
         """Ticks k0 <= k < k1 (``frictionrt.rt.loop.tick._run_ticks``' arguments but force_col, observe and
         comp_ns) with the C controller, its state loaded from the loop's controller states and
         stored back after (class docstring). Returns the failed plant solves."""
@@ -163,7 +177,8 @@ class CController:
         for sl, x in zip(self.slices, parts):
             self.state[sl] = x
         ticks = int(clk[CLK_TICKS])
-        failed = _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log)
+        sync = (tuple(parts[1:]), np.array([sl.start for sl in self.slices[1:]], np.int64), yl, yf)
+        failed = _sil_ticks(k0, k1, exc, pace, faults, sens, self.cstep, self.ctl, act, plnt, shk, cols, log, kf, sync)
         # the C's states back (the tip integrator's are the sensors' own: the numba integrator ran
         # beside the C's, the same bits), and the last tick's outputs the loop state keeps
         for sl, x in zip(self.slices[1:], parts[1:]):

@@ -30,6 +30,8 @@ A run's log is a float64 array (ticks, n_sig) whose columns are ``signals`` = (n
                versions, seed, start time, command line); record "signals": "format_version",
                "signals" = JSON list of {name, field, type, unit, owner, column}, "rate_hz",
                "dt_s", "start_ns", "time" (the rule above)
+    key frames (version 2, optional) topic /keyframe with record "keyframes": the loop's state at
+               fixed tick multiples (``frictionrt.rt.log.keyframes``), read into ``McapLog.keyframes``
 
 Reading (``read_mcap``) is driven by each topic's schema, so it also reads:
 
@@ -72,9 +74,12 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
+from frictionrt.rt.log.keyframes import RECORD as KF_RECORD
+from frictionrt.rt.log.keyframes import TOPIC as KF_TOPIC
+from frictionrt.rt.log.keyframes import KeyFrames, KeyframeCodec
 from frictionrt.rt.log.registry import RESERVED, entry_of, field_names, field_type, signal_name
 
-FORMAT_VERSION = 1             # of the log format (metadata signals.format_version; none: version 0)
+FORMAT_VERSION = 2             # of the log format (metadata signals.format_version; none: version 0)
 PROFILE = "ros2"               # the MCAP header's profile (MCAP's well-known ROS 2 profile)
 OWNERS = ("rt", "sensors", "observer", "tracking", "actuator", "plant")
 CDR_LE = b"\x00\x01\x00\x00"   # CDR encapsulation header: plain CDR, little endian
@@ -439,6 +444,7 @@ class McapLog:
     topics: tuple[str, ...]  # topics present in the file, e.g. ("/sensors",)
     version: int = FORMAT_VERSION   # of the log format (0: before ROS 2 names)
     start_ns: int = 0        # stamp of tick 0 [ns since 1970-01-01 UTC] (version 0: 0)
+    keyframes: KeyFrames | None = None   # the key frames (version >= 2, rt/log/keyframes.py), if it has any
 
     @property
     def t(self) -> np.ndarray:
@@ -692,7 +698,7 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
             fast = summary is not None and summary.chunk_indexes and \
                 all(ci.compression in ("zstd", "") for ci in summary.chunk_indexes)
             parts = chunk_messages(f, summary) if fast else iter_messages(reader)
-            known = {"/" + o for o in OWNERS}
+            known = {"/" + o for o in OWNERS} | {KF_TOPIC}
             data: dict[str, tuple[list, list, list]] = {}
             schemas: dict[str, object] = {}
             for (schema, channel), (payloads, times, seqs) in parts:
@@ -711,6 +717,15 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
         raise ValueError(f"{path}: unreadable MCAP log ({type(e).__name__}: {e})") from e
     except ValueError as e:
         raise ValueError(e.args[0] if str(e).startswith(str(path)) else f"{path}: {e}") from None
+    keyframes = None
+    if KF_TOPIC in data and version >= 2 and KF_RECORD in meta:
+        try:
+            codec = KeyframeCodec.from_record(meta[KF_RECORD])
+            if schemas[KF_TOPIC].data != codec.schema_text:
+                raise ValueError(f"the schema of {KF_TOPIC} does not match the 'keyframes' record")
+            keyframes = codec.decode(payload_rows(path, _KfTopic(codec), data[KF_TOPIC][0]))
+        except ValueError as e:
+            raise ValueError(e.args[0] if str(e).startswith(str(path)) else f"{path}: {e}") from None
     present = [name for name in topics if name in data]
     ks, values = {}, {}
     for name in present:
@@ -731,4 +746,16 @@ def read_mcap(path: str | os.PathLike) -> McapLog:
     for name in present:
         log[np.searchsorted(k, ks[name])[:, None], topics[name].columns] = values[name]
     return McapLog(path, signals, log, k, rate_hz, dict(meta.get("frictionrt", {})), tuple(present), version,
-                   start or 0)
+                   start or 0, keyframes)
+
+
+@dataclass(frozen=True)
+class _KfTopic:
+    """What ``payload_rows`` reads of a topic, for the key frames."""
+    codec: KeyframeCodec
+    name: str = KF_TOPIC
+    schema_fields: tuple = ()
+
+    @property
+    def message_size(self) -> int:
+        return self.codec.message_size

@@ -23,8 +23,9 @@ file and cannot be recovered.
 3. writes the ticks to ``dst`` with ``McapBlockWriter`` (schemas, channels, chunks, indexes and
    summary as the run's writer would have written them, ``.part`` renamed at the end), with the
    "frictionrt" record, every other metadata record of the source in its order, and a
-   "frictionrt.recover" record (source, ticks, what was lost). Gaps (dropped blocks of a paced
-   run) stay gaps.
+   "frictionrt.recover" record (source, ticks, what was lost) and the key frames of the salvaged
+   ticks (format version 2), so that replay restarts after the gaps. Gaps (dropped blocks of a
+   paced run) stay gaps.
 
 The output has the source's schemas and channels only if the source carries every topic of its
 "signals" record (as ``simulate --out`` logs do): the block writer writes all of them each tick,
@@ -46,6 +47,7 @@ from mcap.opcode import Opcode
 from mcap.records import Attachment, Chunk, DataEnd, Footer, Metadata, MetadataIndex
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
 
+from frictionrt.rt.log.keyframes import RECORD as KF_RECORD
 from frictionrt.rt.log.mcap_log import MAGIC, check_conversion, read_mcap, tick_runs, topics_of
 from frictionrt.rt.log.writer import McapBlockWriter
 
@@ -181,18 +183,22 @@ def recover(src: str | os.PathLike, dst: str | os.PathLike, overwrite: bool = Fa
         "lost_chunk_ticks": None if s.cut_times_ns is None else [_tick(t, rec) for t in s.cut_times_ns],
         "stop": s.stop if not s.finished else "",
         "metadata": [m.name for m in s.metadata if m.name != "signals"],
+        "keyframes": 0 if rec.keyframes is None else int(sum(rec.keyframes.k <= rec.k[-1])),
     }
     out = dst.with_name(dst.name + ".recover.tmp")  # its .part is never src (NAME.mcap.part -> NAME.mcap)
     try:
-        with McapBlockWriter(out, rec.signals, rec.rate_hz, rec.metadata) as w:
+        kf = rec.keyframes
+        with McapBlockWriter(out, rec.signals, rec.rate_hz, rec.metadata, kf.codec if kf is not None else None) as w:
             for m in s.metadata:
-                if m.name not in ("frictionrt", "signals"):
+                if m.name not in ("frictionrt", "signals", KF_RECORD):
                     w.add_metadata(m.name, m.metadata)
             w.add_metadata("frictionrt.recover", {
                 "source": str(src), "ticks": str(report["ticks"]), "last_tick": str(report["last_tick"]),
                 "lost_bytes": str(report["lost_bytes"]), "report": json.dumps(report)})
             for att in s.attachments:
                 w.add_attachment(att.name, att.media_type, bytes(att.data))
+            if kf is not None:   # the key frames of the salvaged ticks (each goes into its tick's chunk)
+                w.write_keyframes(kf.f, kf.i)
             for a, b in tick_runs(rec.k):
                 w.write_block(int(rec.k[a]), rec.log[a:b])
         os.replace(out, dst)

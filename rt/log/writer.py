@@ -29,6 +29,12 @@ writer sets ``clk[CLK_WRITTEN]`` to the tick after it (the rows before may be ov
   ``frictionrt.writer`` holds the count (``run`` callers print it). The thread lowers its own
   priority (nice ``WRITER_NICE``) so that, sharing a core, the scheduler prefers the loop.
 
+**Key frames.** With a key-frame ring (``start(..., keyframes=)``: the loop's state at the ticks
+that are multiples of the interval, rt/loop/keyframe.py) the writer copies the key frames of a
+block's ticks out with the block (a dropped block's go with it) and hands them to the sinks that
+take them (``McapBlockWriter.write_keyframes``) before the block; the ring is sized so that a key
+frame is overwritten no earlier than its tick's row.
+
 The block handed to the sinks is a copy, so a sink may keep it (``Batched``) while the loop
 overwrites the ring. ``ring_s=None``: no ring, the log holds the whole run (nothing dropped).
 
@@ -89,6 +95,10 @@ from mcap.opcode import Opcode
 from mcap.records import (Attachment, AttachmentIndex, Channel, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
+from frictionrt.rt.log.keyframes import RECORD as KF_RECORD
+from frictionrt.rt.log.keyframes import SCHEMA_NAME as KF_SCHEMA
+from frictionrt.rt.log.keyframes import TOPIC as KF_TOPIC
+from frictionrt.rt.log.keyframes import KeyframeCodec
 from frictionrt.rt.log.mcap_log import (CHUNK_BYTES, MAGIC, PROFILE, check_block, checked_layout, encode_block, part_path,
                          signals_record, stamps_ns, utc_now)
 
@@ -111,9 +121,13 @@ class McapBlockWriter:
     written as ``path.part`` and renamed on close, also when the ``with`` block raises.
     ``add_metadata(name, record)`` adds a metadata record at any time before close."""
 
-    def __init__(self, path: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str]):
+    def __init__(self, path: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str],
+                 keyframes: KeyframeCodec | None = None):
         self.path, self.signals, self.rate_hz, self.topics, self.start_ns = \
             checked_layout(path, signals, rate_hz, metadata)
+        self.keyframes = keyframes   # key frames (rt/log/keyframes.py): their channel comes after the topics'
+        self._kf_pending: list[tuple[int, np.ndarray]] = []   # (tick, message) not yet in a chunk
+        self._n_kf = 0
         self._part = part_path(self.path)
         # one tick's records: per topic the message record; offsets of its variable fields
         self._rec_off, off = [], 0
@@ -141,6 +155,12 @@ class McapBlockWriter:
                          for i, tp in enumerate(self.topics, start=1)]
         self._channels = [Channel(id=i, topic=tp.name, message_encoding="cdr", schema_id=i, metadata={})
                           for i, tp in enumerate(self.topics, start=1)]
+        if keyframes is not None:
+            self._kf_id = len(self.topics) + 1
+            self._schemas.append(Schema(id=self._kf_id, name=KF_SCHEMA, encoding="ros2msg",
+                                        data=keyframes.schema_text))
+            self._channels.append(Channel(id=self._kf_id, topic=KF_TOPIC, message_encoding="cdr",
+                                          schema_id=self._kf_id, metadata={}))
         self._file = open(self._part, "wb")
         try:
             rb = RecordBuilder()
@@ -150,6 +170,8 @@ class McapBlockWriter:
             self._file.write(MAGIC + rb.end())
             self.add_metadata("frictionrt", dict(metadata))
             self.add_metadata("signals", signals_record(self.signals, self.rate_hz, self.start_ns))
+            if keyframes is not None:
+                self.add_metadata(KF_RECORD, keyframes.record())
         except BaseException:
             self._file.close()
             raise
@@ -171,6 +193,15 @@ class McapBlockWriter:
                                                         create_time=0, data_size=len(data), name=name,
                                                         media_type=media_type))
         self._file.write(rec)
+
+    def write_keyframes(self, f: np.ndarray, i: np.ndarray) -> None:
+        """Key frames (``frictionrt.rt.log.keyframes``: float64 rows f, int64 rows i with the tick first)
+        of ticks not yet written, given before the block that holds their ticks; each goes into
+        that tick's chunk before the tick's messages. Ignored without a key-frame layout."""
+        if self.keyframes is None or len(i) == 0:
+            return
+        msgs = self.keyframes.encode(f, i, stamps_ns(i[:, 0], self.rate_hz, self.start_ns))
+        self._kf_pending.extend(zip(i[:, 0].tolist(), msgs))
 
     def write_block(self, k0: int, block: np.ndarray) -> None:
         """Append ticks k0 .. k0 + n - 1; block is float64 (n, n_sig), row i = tick k0 + i.
@@ -208,7 +239,16 @@ class McapBlockWriter:
         n = self._fill
         if n == 0:
             return
-        data = self._buf[:n].tobytes()
+        kf_rows, kf_msgs = self._chunk_keyframes(n)
+        kf_len = _MSG_HEAD + (self.keyframes.message_size if self.keyframes is not None else 0)
+        if kf_rows:   # each key frame's record before its tick's messages
+            pieces, a = [], 0
+            for r, msg in zip(kf_rows, kf_msgs):
+                pieces += [self._buf[a:r].tobytes(), msg]
+                a = r
+            data = b"".join(pieces + [self._buf[a:n].tobytes()])
+        else:
+            data = self._buf[:n].tobytes()
         comp = self._zstd.compress(data)
         times = stamps_ns(self._buf_k[:n], self.rate_hz, self.start_ns)
         t0, t1 = int(times[0]), int(times[-1])
@@ -223,13 +263,25 @@ class McapBlockWriter:
         offsets, pos = {}, idx_start
         entries = np.empty((n, 2), "<u8")
         entries[:, 0] = times
-        rows_off = np.arange(n, dtype=np.uint64) * np.uint64(self.row_bytes)
+        before = np.searchsorted(np.array(kf_rows, np.int64), np.arange(n), side="right")   # key frames at rows <= i
+        rows_off = np.arange(n, dtype=np.uint64) * np.uint64(self.row_bytes) + before.astype(np.uint64) * np.uint64(kf_len)
         for ch, o in enumerate(self._rec_off, start=1):
             entries[:, 1] = rows_off + np.uint64(o)
             rec = struct.pack("<BQHI", Opcode.MESSAGE_INDEX, 2 + 4 + 16 * n, ch, 16 * n) + entries.tobytes()
             self._file.write(rec)
             offsets[ch] = pos
             pos += len(rec)
+        if kf_rows:
+            m = len(kf_rows)
+            kf_entries = np.empty((m, 2), "<u8")
+            kf_entries[:, 0] = times[kf_rows]
+            kf_entries[:, 1] = np.array(kf_rows, np.uint64) * np.uint64(self.row_bytes) + \
+                np.arange(m, dtype=np.uint64) * np.uint64(kf_len)
+            rec = struct.pack("<BQHI", Opcode.MESSAGE_INDEX, 2 + 4 + 16 * m, self._kf_id, 16 * m) + kf_entries.tobytes()
+            self._file.write(rec)
+            offsets[self._kf_id] = pos
+            pos += len(rec)
+            self._n_kf += m
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=t0, message_end_time=t1, chunk_start_offset=start, chunk_length=chunk_len,
             message_index_offsets=offsets, message_index_length=pos - idx_start, compression="zstd",
@@ -239,6 +291,28 @@ class McapBlockWriter:
         self._t_last = t1
         self._n_ticks += n
         self._fill = 0
+
+    def _chunk_keyframes(self, n: int) -> tuple[list[int], list[bytes]]:
+        """(rows, records) of the pending key frames whose ticks are in the open chunk's n rows;
+        those of ticks the chunk does not hold (a dropped block's) are dropped."""
+        if not self._kf_pending:
+            return [], []
+        ks = self._buf_k[:n]
+        rows, recs, keep = [], [], []
+        for k, msg in self._kf_pending:
+            if k > ks[-1]:
+                keep.append((k, msg))
+                continue
+            r = int(np.searchsorted(ks, k))
+            if r < n and ks[r] == k:
+                t = int(stamps_ns(np.array([k]), self.rate_hz, self.start_ns)[0])
+                head = struct.pack("<BQHIQQ", Opcode.MESSAGE, _MSG_HEAD - 9 + len(msg), self._kf_id,
+                                   k & 0xFFFFFFFF, t, t)
+                rows.append(r)
+                recs.append(head + msg.tobytes())
+        self._kf_pending = keep
+        order = sorted(range(len(rows)), key=rows.__getitem__)
+        return [rows[j] for j in order], [recs[j] for j in order]
 
     def _finish(self) -> None:
         """The open chunk, data end, summary (schemas, channels, statistics, chunk and metadata
@@ -258,11 +332,15 @@ class McapBlockWriter:
             groups.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + g0,
                                         group_length=sb.count - g0))
         n_top = len(self.topics)
-        stats = Statistics(message_count=self._n_ticks * n_top, schema_count=n_top, channel_count=n_top,
+        n_ch = len(self._channels)
+        counts = {c.id: self._n_ticks for c in self._channels[:n_top]}
+        if self.keyframes is not None:
+            counts[self._kf_id] = self._n_kf
+        stats = Statistics(message_count=self._n_ticks * n_top + self._n_kf, schema_count=n_ch, channel_count=n_ch,
                            attachment_count=len(self._attachment_indexes), metadata_count=len(self._metadata_indexes),
                            chunk_count=len(self._chunk_indexes), message_start_time=self._t_first,
                            message_end_time=self._t_last,
-                           channel_message_counts={c.id: self._n_ticks for c in self._channels})
+                           channel_message_counts=counts)
         group(Opcode.SCHEMA, self._schemas)
         group(Opcode.CHANNEL, self._channels)
         group(Opcode.STATISTICS, [stats])
@@ -375,13 +453,17 @@ class LogWriter:
         self._closed = False
 
     def start(self, log: np.ndarray, clk: np.ndarray, k0: int, paced: bool, digest=None,
-              ticks: int | None = None) -> None:
+              ticks: int | None = None, keyframes=None) -> None:
         """Start draining ``log`` (tick k0 + i in row i mod len(log); ticks below k0 +
         clk[CLK_TICKS] complete); each block taken out is also folded into ``digest``
         (``frictionrt.rt.loop.digest.RunDigest``) if given. ``ticks``: the run's length, if known; a loop
         whose count has reached it has ended (paced: it overwrites no more rows), before
-        ``finish()`` says so."""
+        ``finish()`` says so. ``keyframes``: (interval, float64 ring, int64 ring) of the loop's key
+        frames (``frictionrt.rt.loop.keyframe``; tick k's in row (k / interval) mod len), taken out with
+        the block that holds their tick and handed to the sinks' ``write_keyframes`` first."""
         self._log, self._clk, self._k0 = log, clk, int(k0)
+        self._kf = keyframes if keyframes is not None and keyframes[0] > 0 else None
+        self.keyframes_written = 0
         self._paced = paced
         self._digest = digest
         self._ticks = ticks
@@ -453,6 +535,7 @@ class LogWriter:
         if n <= 0 or (n < self.block_ticks and not final):
             return False
         block = self._log[(self._next + np.arange(n)) % ring]   # a copy: the loop may overwrite the ring
+        kf = self._take_keyframes(self._k0 + self._next, n)
         if self._paced and self._overwritten(int(self._clk[CLK_TICKS]), final):  # overwritten while copied
             self._next += self.block_ticks
             self.dropped_blocks += 1
@@ -462,10 +545,28 @@ class LogWriter:
         if self._digest is not None:
             self._digest.add(k0, block)
         for s in self.sinks:
+            if kf is not None and hasattr(s, "write_keyframes"):
+                s.write_keyframes(*kf)
             s.write_block(k0, block)
+        if kf is not None:
+            self.keyframes_written += len(kf[1])
         self._next += n
         self.written_ticks += n
         return True
+
+    def _take_keyframes(self, k0: int, n: int):
+        """(float64 rows, int64 rows) copied from the key-frame ring for the ticks k0 .. k0 + n - 1
+        (a row whose tick is not the expected one is left out), or None."""
+        if self._kf is None:
+            return None
+        interval, kf_f, kf_i = self._kf
+        ks = np.arange(-(-k0 // interval) * interval, k0 + n, interval, dtype=np.int64)
+        if len(ks) == 0:
+            return None
+        rows = (ks // interval) % len(kf_f)
+        f, i = kf_f[rows], kf_i[rows]   # copies
+        ok = i[:, 0] == ks
+        return (f[ok], i[ok]) if ok.any() else None
 
     def _overwritten(self, done: int, final: bool) -> bool:
         """Whether the loop, ``done`` ticks complete, may have overwritten the row of tick
@@ -487,6 +588,7 @@ class LogWriter:
                     "dropped_blocks": str(self.dropped_blocks), "block_ticks": str(self.block_ticks),
                     "ring_ticks": str(self.ring_ticks), "written_ticks": str(self.written_ticks),
                     "unwritten_ticks": str(self.unwritten_ticks),
+                    "keyframes_written": str(getattr(self, "keyframes_written", 0)),
                     "error": "" if self.error is None else repr(self.error)})
             except BaseException as exc:
                 self.error = self.error or exc
@@ -498,13 +600,15 @@ class LogWriter:
 
 
 def open_run_log(base: str | os.PathLike, signals, rate_hz: float, metadata: dict[str, str], *,
-                 rrd: bool = True, block_ticks: int = BLOCK_TICKS, ring_s: float | None = RING_S) -> LogWriter:
-    """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata``; the
-    Foxglove layout of the log is written to BASE.foxglove.json (``frictionrt.rt.log.views``)."""
+                 rrd: bool = True, block_ticks: int = BLOCK_TICKS, ring_s: float | None = RING_S,
+                 keyframes: KeyframeCodec | None = None) -> LogWriter:
+    """A LogWriter on BASE.mcap (and BASE.rrd unless rrd is False) with ``metadata`` and, with
+    ``keyframes``, the key-frame channel; the Foxglove layout of the log is written to
+    BASE.foxglove.json (``frictionrt.rt.log.views``)."""
     from frictionrt.rt.log.rrd_log import RrdLogWriter
     from frictionrt.rt.log.views import write_foxglove_layout
     base = Path(base)
-    mcap = McapBlockWriter(base.with_name(base.name + ".mcap"), signals, rate_hz, metadata)
+    mcap = McapBlockWriter(base.with_name(base.name + ".mcap"), signals, rate_hz, metadata, keyframes)
     try:
         layout = write_foxglove_layout(base.with_name(base.name + ".foxglove.json"), mcap.signals)
     except BaseException:

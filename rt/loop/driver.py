@@ -15,6 +15,7 @@ from frictionrt.plant.sensors import output_index as sensor_output_index
 from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_SIZE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, NO_WAIT, _now_ns
 from frictionrt.rt.loop import realtime
 from frictionrt.rt.loop.build import COMPONENTS, Loop, LoopState, controller_stages, initial_loop_state
+from frictionrt.rt.loop.keyframe import keyframe_parts, layout, no_keyframes, ring_rows, views, widths
 from frictionrt.rt.loop.pacing import START_SLACK_NS
 from frictionrt.rt.loop.supervisor import F_END, F_KIND, F_START, F_TARGET, K_DROPOUT, no_faults
 from frictionrt.rt.loop.tick import _run_ticks
@@ -141,6 +142,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     exc = (dt, amp_n, 2 * math.pi * freq_hz)
     cols = (oi["u_rel"], oi["v_rel"], oi["abar_tip"], oi["abar_frf"], ai["F_strain_a"], ai["F_cell_a"], oi["dF_N1"],
             oi[f"w_{exc_point}"], oi[f"v_{exc_point}"])
+    kf = _keyframe_ring(loop, st, writer, n_rows)
     failed = [0]
     t_first = [0]  # paced: the clock [ns] one period before the first deadline
     errors: list[BaseException] = []
@@ -174,11 +176,11 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                 t_first[0] = clk[CLK_DEADLINE] - period_ns
             if controller is not None:
                 failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt,
-                                        shk, cols, log[rows])
+                                        shk, cols, log[rows], kf)
             else:
                 failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
                                         sens, est, law, sup, trk, act, plnt, shk, cols,
-                                        log[rows], comp_ns[rows] if timing else comp_ns)
+                                        log[rows], comp_ns[rows] if timing else comp_ns, kf)
             k = k1
 
     # the compiled loop holds no GIL (nogil): it runs in its own thread while this one shows
@@ -192,7 +194,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
         if writer is not None:
             from frictionrt.rt.loop.digest import RunDigest
             digest = RunDigest(loop.signals)
-            writer.start(log, clk, st.k, paced, digest, n_ticks)
+            writer.start(log, clk, st.k, paced, digest, n_ticks, keyframes=kf[:3])
         interrupted = False
         try:
             if in_thread:
@@ -220,6 +222,22 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
     return Run(loop, freq_hz, amp_n, log, comp_ns if timing else None, int(clk[CLK_OVERRUNS]), paced, int(wall),
                interrupted, st, faults, n_run, digest if len(log) < n_run else None,
                rts.describe() if paced else None)
+
+
+def _keyframe_ring(loop: Loop, st: LoopState, writer, n_rows: int) -> tuple:
+    """The key-frame argument of ``_run_ticks`` (``frictionrt.rt.loop.keyframe``) for a run of ``st``
+    (its parts: views of its arrays) with ``writer``: a prefaulted ring beside the log's n_rows
+    when the writer's MCAP file has a key-frame channel, else none (interval 0). ValueError if
+    that channel's layout is not this loop's."""
+    parts = keyframe_parts(st, loop.cfg.rt.keyframe_plant_cache)
+    codec = getattr(getattr(writer, "mcap", None), "keyframes", None)
+    if codec is None:
+        return no_keyframes(parts)
+    if [tuple(p.values()) for p in layout(parts)] != [tuple(p) for p in codec.parts]:
+        raise ValueError("the log's key-frame layout is not this loop's state (keyframe_codec of another loop)")
+    nf, ni = widths(parts)
+    rows = ring_rows(n_rows, codec.interval)
+    return (codec.interval, realtime.prefaulted((rows, nf)), realtime.prefaulted((rows, ni), np.int64), *views(parts))
 
 
 def watch(target, name: str, clk: np.ndarray, progress=None) -> bool:

@@ -20,6 +20,12 @@ what the controller read at that tick in the loop (``frictionrt.rt.loop.tick._ru
 and compares every commanded signal (the estimator's outputs, F_set, u0, F_set_filtered, V_cmd,
 saturated, and the supervisor's fault_code, fault_latched, passive) with the recorded one. For the project's own logs the replay is bit-exact.
 
+A log with gaps (dropped blocks, the lost end of a killed run) is replayed across them
+(``replay_plan``): the first run of ticks from the start state, every later one from the first key
+frame in it (the loop's state the log carries at fixed tick multiples, ``frictionrt.rt.loop.keyframe``);
+the ticks between a gap and that key frame are neither replayed nor compared, and a gap is no
+mismatch. A log without key frames (format version 1) is compared up to its first gap.
+
 Non-finite ADC readings (a logged sensor dropout) are fed as they are: the controller saw them,
 and its supervisor sanitises them as in the loop. A file with the sensor topic only (a
 measurement) and the observer as estimator is replayed without comparison: the controller's outputs are reported (``bit_exact`` None).
@@ -28,6 +34,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numba
@@ -44,7 +51,9 @@ from frictionrt.rt.loop.build import ESTIMATORS, build_loop, controller_stages, 
 from frictionrt.rt.loop.driver import watch
 from frictionrt.rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from frictionrt.rt.loop.tick import _controller_done, _controller_tick
-from frictionrt.rt.log.mcap_log import read_mcap
+from frictionrt.rt.log.mcap_log import read_mcap, tick_runs
+from frictionrt.rt.loop.keyframe import _keyframe_load, keyframe_parts, views
+from frictionrt.rt.loop.keyframe import layout as keyframe_layout
 from frictionrt.plant.sensors import SENSOR_OUTPUTS
 from frictionrt.rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
 from frictionrt.tracking.force_tracking import FORCE_TRACKING_OUTPUTS
@@ -57,19 +66,26 @@ SENSORS = tuple(n for n, _ in SENSOR_OUTPUTS)
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False)
-def _replay_ticks(ks, sens, uv, overran, out, force_col, observe, faults, pace, yc, est, law, sup, trk):
+def _replay_ticks(ks, sens, uv, overran, out, restart, force_col, observe, faults, pace, yc, est, law, sup, trk):
     """The loop's controller tick (``frictionrt.rt.loop.tick._controller_tick``: estimator, law, supervisor,
     force tracking) for the ticks ks: sens[i] the sensor readings (``SENSOR_OUTPUTS`` order),
     uv[i] the plant's (u_rel, v_rel) the oracle reads at tick ks[i], overran[i] whether the
     tick before overran (the supervisor's overrun check); out[i] receives the estimator's, the
     law's, the prefilter's, the force tracking's and the supervisor's outputs (``COMMANDED``
-    order). pace = (paced, period_ns, margin_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
+    order). restart = (positions i, float64 and int64 key frames, float64 and int64 parts): before
+    tick i = positions[r] the state is set from key frame r (``frictionrt.rt.loop.keyframe._keyframe_load``).
+    pace = (paced, period_ns, margin_ns, clk, ts); est, law, sup, trk as ``_controller_tick``
     takes them. Paced: the loop's deadlines (rt/loop/pacing.py)."""
     paced, period_ns, margin_ns, clk, ts = pace
+    at, kf_f, kf_i, fv, iv = restart
     sv = sup[0]
+    r = 0
     for i in range(ks.shape[0]):
         if clk[CLK_STOP]:
             break
+        if r < at.shape[0] and at[r] == i:
+            _keyframe_load(kf_f[r], kf_i[r], fv, iv)
+            r += 1
         k = ks[i]
         if paced:
             _wait_for_deadline(clk, ts, margin_ns)
@@ -209,14 +225,76 @@ def tick_ranges(k: np.ndarray) -> tuple[list[list[int]], list[list[int]]]:
     return present, missing
 
 
-def gap_report(k: np.ndarray, m: int) -> tuple[int, dict]:
-    """(rows to compare, the report) for a replay of m rows of the ticks k: the rows up to the
-    first gap; after it the controller's state is not known (the log carries none to restart
-    from), so later ticks are replayed but not compared, and the log is not called a mismatch for
-    them. Report: ``compared_ranges``, ``missing_ranges``, ``not_compared_ranges`` ([first, last])."""
-    present, missing = tick_ranges(np.asarray(k)[:m])
-    rows = present[0][1] - present[0][0] + 1 if present else 0
-    return rows, {"compared_ranges": present[:1], "missing_ranges": missing, "not_compared_ranges": present[1:]}
+@dataclass
+class ReplayPlan:
+    """Which rows of a log a replay runs and where it restarts (``replay_plan``)."""
+    rows: np.ndarray        # int64 rows of the log to replay, in order
+    restart_at: np.ndarray  # int64 positions in rows where the state is set from a key frame
+    keyframe: np.ndarray    # int64 the key frame (row of ``McapLog.keyframes``) of each restart
+    report: dict            # compared_ranges, missing_ranges, not_compared_ranges, restarted_from, restart_note
+
+
+def replay_plan(rec) -> ReplayPlan:
+    """The replay of the log ``rec`` (``McapLog``) across its gaps: the first run of contiguous
+    ticks from the start state (if it begins at the run's first tick: metadata start_tick; a file
+    without it, at its first tick), every later run (and a first one that begins later) from the
+    first key frame within it (``frictionrt.rt.log.keyframes``); the ticks between a gap and that key frame
+    (all of a run without one) are not replayed. Report: ``compared_ranges``, ``missing_ranges``,
+    ``not_compared_ranges`` ([first, last] ticks), ``restarted_from`` (the key frames' ticks) and
+    ``restart_note`` (why the replay could not restart after a gap, or None)."""
+    k = np.asarray(rec.k)
+    kf = rec.keyframes
+    start = int(rec.metadata.get("start_tick", k[0] if len(k) else 0))
+    _, missing = tick_ranges(k)
+    if len(k) and k[0] > start:
+        missing.insert(0, [start, int(k[0]) - 1])
+    rows, restart_at, kf_rows, compared, not_compared, restarted = [], [], [], [], [], []
+    n_rows = 0
+    for j, (a, b) in enumerate(tick_runs(k)):
+        r0 = None
+        if j == 0 and k[a] == start:
+            r0 = a
+        elif kf is not None:
+            i = int(np.searchsorted(kf.k, k[a]))
+            if i < len(kf.k) and kf.k[i] <= k[b - 1]:
+                r0 = a + int(kf.k[i] - k[a])
+                restart_at.append(n_rows)
+                kf_rows.append(i)
+                restarted.append(int(kf.k[i]))
+        if r0 is None:
+            not_compared.append([int(k[a]), int(k[b - 1])])
+            continue
+        if r0 > a:
+            not_compared.append([int(k[a]), int(k[r0 - 1])])
+        compared.append([int(k[r0]), int(k[b - 1])])
+        rows.append(np.arange(r0, b))
+        n_rows += b - r0
+    note = None
+    if not_compared and kf is None:
+        note = (f"the log is format version {rec.version}, written before key frames (version 2)" if rec.version < 2
+                else "the log carries no key frames (written with rt.keyframe_ticks = 0)") + \
+            ": the controller's state after a gap is unknown, so the ticks after the first gap are not compared"
+    elif not_compared:
+        note = "the ticks between a gap and the next key frame are not compared (their start state is unknown)"
+    i64 = np.int64
+    return ReplayPlan(np.concatenate(rows).astype(i64) if rows else np.zeros(0, i64), np.array(restart_at, i64),
+                      np.array(kf_rows, i64),
+                      {"compared_ranges": compared, "missing_ranges": missing, "not_compared_ranges": not_compared,
+                       "restarted_from": restarted, "restart_note": note})
+
+
+def restart_states(path: Path, rec, plan: ReplayPlan, parts) -> tuple[np.ndarray, np.ndarray]:
+    """(float64, int64) key-frame rows of the plan's restarts, for the loop state ``parts``
+    (``frictionrt.rt.loop.keyframe.keyframe_parts``); ValueError naming the file if the log's key frames
+    are not of that layout (a --set that changes a state's size)."""
+    if len(plan.restart_at) == 0:
+        return np.zeros((0, 1)), np.zeros((0, 1), np.int64)
+    codec = rec.keyframes.codec
+    if [tuple(p.values()) for p in keyframe_layout(parts)] != list(codec.parts):
+        raise ValueError(f"{path}: the log's key frames do not hold this loop's state (another size of a part: "
+                         "a --set that changes the model?); replay without restarts is not possible")
+    return (np.ascontiguousarray(rec.keyframes.f[plan.keyframe]),
+            np.ascontiguousarray(rec.keyframes.i[plan.keyframe]))
 
 
 def replay(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> dict:
@@ -235,8 +313,9 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     ``first_mismatch_tick``, ``wall_s``, ``realtime_factor`` (simulated / wall time),
     ``overruns`` (paced), ``interrupted``, ``outputs`` (min, mean, max of each replayed signal),
     ``coverage`` (the paths the replayed outputs took, ``frictionrt.rt.loop.coverage``), and
-    ``compared_ranges``, ``missing_ranges``, ``not_compared_ranges`` (``gap_report``: a log with
-    dropped blocks is compared up to its first gap).
+    ``compared_ranges``, ``missing_ranges``, ``not_compared_ranges``, ``restarted_from``,
+    ``restart_note`` (``replay_plan``: after a gap the replay restarts from the next key frame;
+    only the replayed ticks are compared and returned).
 
     ValueError naming the file for a missing, unreadable or unsuitable file.
     """
@@ -251,14 +330,16 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
         raise ValueError(f"{path}: /sensors has missing v_tip_meas samples (first at tick {bad})")
     st = initial_loop_state(loop, seed_of(path, meta, cfg))
     loop, st, design = use_logged(path, loop, st, sets, meta=meta)
-    n = len(rec.k)
-    uv = oracle_inputs(path, rec, names, loop, st)
+    plan = replay_plan(rec)
+    period_ns = round(cfg.dt_s * 1e9)
+    uv, overran, restart = controller_restarts(path, rec, plan, loop, st, oracle_inputs(path, rec, names, loop, st),
+                                               _overran(rec, names, meta, period_ns))
+    ks, sens = rec.k[plan.rows], sens[plan.rows]
+    n = len(ks)
     si = {nm: i for i, nm in enumerate(SENSORS)}
     force_col = si["F_strain" if loop.force_sensor == "strain" else "F_cell"]
     out = np.full((n, len(COMMANDED)), np.nan)
     clk = np.zeros(4, dtype=np.int64)
-    period_ns = round(cfg.dt_s * 1e9)
-    overran = _overran(rec, names, meta, period_ns)
     faults = logged_faults(path, meta)
     errors: list[BaseException] = []
 
@@ -266,14 +347,15 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     with realtime.session(cfg.rt, paced) as rts:
         fixed = (force_col, estimator == "observer", faults, (paced, period_ns, rts.margin_ns, clk, np.zeros(2, np.int64)),
                  np.empty(len(SENSORS)), est, law_, sup, trk)
-        _replay_ticks(rec.k[:0], sens[:0], uv[:0], overran[:0], out[:0], *fixed)  # compile or load: not timed
+        none = (restart[0][:0], *restart[1:])
+        _replay_ticks(ks[:0], sens[:0], uv[:0], overran[:0], out[:0], none, *fixed)  # compile or load: not timed
 
         def worker():
             try:
                 if paced:
                     rts.enter_loop_thread()
                     clk[CLK_DEADLINE] = _now_ns(np.zeros(2, np.int64)) + START_SLACK_NS
-                _replay_ticks(rec.k, sens, uv, overran, out, *fixed)
+                _replay_ticks(ks, sens, uv, overran, out, restart, *fixed)
             except BaseException as exc:
                 errors.append(exc)
 
@@ -286,21 +368,20 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
     m = int(clk[CLK_TICKS])
     out = out[:m]
     res = {"file": str(path), "law": law, "estimator": estimator, "paced": paced, "ticks": m,
-           "missing_ticks": int(rec.k[-1] - rec.k[0] + 1 - n), "interrupted": interrupted,
+           "missing_ticks": sum(b - a + 1 for a, b in plan.report["missing_ranges"]), "interrupted": interrupted,
            "wall_s": wall, "realtime_factor": (m / rec.rate_hz) / wall if wall > 0 else float("inf"),
            "overruns": int(clk[CLK_OVERRUNS]) if paced else 0, "design": design}
     if paced:
         res["realtime"] = rts.describe()
     owner = {nm: o for nm, _, o in rec.signals}
     recorded = all(c in owner and f"/{owner[c]}" in rec.topics for c in COMMANDED)  # an absent topic reads NaN
-    rows, gaps = gap_report(rec.k, m)
-    res |= gaps
+    res |= plan.report
     if recorded:
-        ref = rec.log[:rows][:, [names.index(c) for c in COMMANDED]]
-        exact, by_sig, first, _ = compare_bits(out[:rows], ref, COMMANDED)
+        ref = rec.log[plan.rows[:m]][:, [names.index(c) for c in COMMANDED]]
+        exact, by_sig, first, _ = compare_bits(out, ref, COMMANDED)
         res |= {"bit_exact": exact, "max_abs_diff": max(by_sig.values(), default=0.0),
                 "signals_compared": list(COMMANDED), "max_abs_diff_by_signal": by_sig,
-                "first_mismatch_tick": int(rec.k[first]) if first is not None else None}
+                "first_mismatch_tick": int(ks[first]) if first is not None else None}
     else:
         res |= {"bit_exact": None, "max_abs_diff": None, "signals_compared": [], "max_abs_diff_by_signal": {},
                 "first_mismatch_tick": None}
@@ -308,4 +389,21 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
                           "max": float(out[:, j].max(initial=-np.inf))} for j, c in enumerate(COMMANDED)}
     res["coverage"] = coverage(law, loop.cfg.tracking.F_min_N, loop.cfg.tracking.F_max_N,
                                {c: out[:, j] for j, c in enumerate(COMMANDED)})
-    return res, rec.k[:m], out
+    return res, ks[:m], out
+
+
+def controller_restarts(path: Path, rec, plan: ReplayPlan, loop, st, uv: np.ndarray, overran: np.ndarray):
+    """(uv, overran, restart) of the plan's rows: the oracle's inputs and the overrun flags of the
+    replayed rows, at a restart those the key frame holds (the plant's u_rel, v_rel at t_k; the
+    supervisor's flag of tick k - 1: the rows before are not in the log), and ``_replay_ticks``'
+    restart tuple for the state ``st``. The numba and the C replay both take them here."""
+    parts = keyframe_parts(st, loop.cfg.rt.keyframe_plant_cache)
+    kf_f, kf_i = restart_states(path, rec, plan, parts)
+    uv, overran = uv[plan.rows], overran[plan.rows]
+    if len(plan.restart_at):
+        oi = loop.plant.output_index()
+        yp = rec.keyframes.part("plant_y")[plan.keyframe]
+        if loop.estimator == "oracle":
+            uv[plan.restart_at] = yp[:, [oi["u_rel"], oi["v_rel"]]]
+        overran[plan.restart_at] = rec.keyframes.part("supervisor_x")[plan.keyframe, S_OVERRAN]
+    return np.ascontiguousarray(uv), np.ascontiguousarray(overran), (plan.restart_at, kf_f, kf_i, *views(parts))

@@ -35,7 +35,8 @@ from frictionrt.plant.actuator import ACTUATOR_OUTPUTS
 from frictionrt.rt.loop.tick import _actuate, _copy, _put
 from frictionrt.rt.loop.build import build_loop, initial_loop_state
 from frictionrt.rt.log.design_record import use_logged
-from frictionrt.rt.loop.replay import compare_bits, open_log, seed_of
+from frictionrt.rt.loop.keyframe import CACHE, keyframe_parts, load
+from frictionrt.rt.loop.replay import compare_bits, open_log, replay_plan, restart_states, seed_of
 
 INPUTS = ("F_exc", "V_cmd")
 SUMMARY_SIGNALS = ("F_N1", "V_a", "i", "abar_tip", "abar_frf", "u_rel", "v_rel")  # "outputs" in the JSON
@@ -90,14 +91,15 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
                              "V_cmd (/tracking)")
     if len(rec.k) == 0:
         raise ValueError(f"{path}: the log holds no ticks")
-    if rec.k[0] != 0:
-        raise ValueError(f"{path}: the log starts at tick {int(rec.k[0])}; the plant replay starts from rest "
-                         "at tick 0")
-    gap = np.flatnonzero(np.diff(rec.k) != 1)
-    n = int(gap[0]) + 1 if len(gap) else len(rec.k)
-    u = rec.log[:n][:, [names.index(c) for c in INPUTS]]
+    plan = replay_plan(rec)
+    if rec.k[0] != 0 and not len(plan.restart_at):
+        raise ValueError(f"{path}: the log starts at tick {int(rec.k[0])} and holds no key frame; the plant replay "
+                         "starts from rest at tick 0")
+    n = len(plan.rows)
+    ks = rec.k[plan.rows]
+    u = rec.log[plan.rows][:, [names.index(c) for c in INPUTS]]
     if not np.all(np.isfinite(u)):
-        bad = int(rec.k[:n][~np.all(np.isfinite(u), axis=1)][0])
+        bad = int(ks[~np.all(np.isfinite(u), axis=1)][0])
         raise ValueError(f"{path}: F_exc or V_cmd is missing or not finite (first at tick {bad})")
     law = meta.get("law", cfg.tracking.law)
     estimator = meta.get("estimator", "oracle")
@@ -113,28 +115,50 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
     V_cmd = np.ascontiguousarray(u[:, 1])
     args = (out, st.xa, np.empty_like(st.xa), st.ya, np.zeros(1), loop.actuator, st.xp, np.empty_like(st.xp), st.yp,
             np.zeros(2), loop.plant.params, st.plant_work, np.zeros(2, np.int64))
-    _replay_plant_ticks(rec.k[:0], F_exc[:0], V_cmd[:0], *args)  # compile or load: not timed
+    _replay_plant_ticks(ks[:0], F_exc[:0], V_cmd[:0], *args)  # compile or load: not timed
+    cache = loop.cfg.rt.keyframe_plant_cache
+    if rec.keyframes is not None:   # the observer's state is not replayed here: its size as the log's
+        st.xe = np.zeros(rec.keyframes.part("observer_x").shape[1])
+    parts = keyframe_parts(st, cache)
+    kf_f, kf_i = restart_states(path, rec, plan, parts)
+    cold = loop.plant.new_work()
+    bounds = [0, *plan.restart_at.tolist(), n]
     t0 = time.perf_counter()
-    failed = _replay_plant_ticks(rec.k[:n], F_exc, V_cmd, *args)
+    failed = 0
+    for j, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        if j > 0:   # a restart: the state from the key frame; without its factor cache, the solver's starts cold
+            load(parts, kf_f[j - 1], kf_i[j - 1])
+            if not cache:
+                for name in CACHE:
+                    getattr(st.plant_work, name)[...] = getattr(cold, name)
+        failed += _replay_plant_ticks(ks[a:b], F_exc[a:b], V_cmd[a:b], out[a:b], *args[1:])
     wall = time.perf_counter() - t0
     owner = {nm: o for nm, _, o in rec.signals}
     compared = [c for c in out_names
                 if c in owner and owner[c] in ("actuator", "plant") and "/" + owner[c] in rec.topics]
     res = {"file": str(path), "law": law, "estimator": estimator, "sets": list(sets), "inputs": list(INPUTS),
-           "ticks": n, "missing_ticks": int(rec.k[-1] + 1 - len(rec.k)), "failed_solves": int(failed),
-           "wall_s": wall, "design": design}
+           "ticks": n, "missing_ticks": sum(b - a + 1 for a, b in plan.report["missing_ranges"]),
+           "failed_solves": int(failed), "wall_s": wall, "design": design} | plan.report
+    res["plant_cache"] = "in the key frames" if cache else "cold after a restart (rt.keyframe_plant_cache false)"
     if compared:
         j_out = [out_names.index(c) for c in compared]
-        ref = np.ascontiguousarray(rec.log[:n][:, [names.index(c) for c in compared]])
+        ref = np.ascontiguousarray(rec.log[plan.rows][:, [names.index(c) for c in compared]])
         got = np.ascontiguousarray(out[:, j_out])
-        exact, by_sig, first, _ = compare_bits(got, ref, compared)
+        exact_rows = bounds[1] if len(plan.restart_at) and not cache else n   # bit for bit: up to a cold restart
+        exact, by_sig, first, _ = compare_bits(got[:exact_rows], ref[:exact_rows], compared)
         res |= {"bit_exact": exact, "max_abs_diff": max(by_sig.values(), default=0.0),
                 "signals_compared": compared, "max_abs_diff_by_signal": by_sig,
-                "first_mismatch_tick": int(rec.k[first]) if first is not None else None}
+                "first_mismatch_tick": int(ks[first]) if first is not None else None}
+        if exact_rows < n:   # after a restart with a cold cache: agreement to round-off, measured
+            _, cold_by_sig, cold_first, _ = compare_bits(got[exact_rows:], ref[exact_rows:], compared)
+            res["after_cold_restart"] = {
+                "signals_differing": sum(1 for v in cold_by_sig.values() if v),
+                "max_abs_diff_by_signal": {c: v for c, v in cold_by_sig.items() if c in SUMMARY_SIGNALS + ("F_N1",)},
+                "first_differing_tick": int(ks[exact_rows + cold_first]) if cold_first is not None else None}
     else:
         res |= {"bit_exact": None, "max_abs_diff": None, "signals_compared": [], "max_abs_diff_by_signal": {},
                 "first_mismatch_tick": None}
     res["outputs"] = {c: {"min": float(out[:, j].min()), "mean": float(out[:, j].mean()),
                           "max": float(out[:, j].max())}
                       for j, c in enumerate(out_names) if c in SUMMARY_SIGNALS}
-    return res, rec.k[:n], out, out_names
+    return res, ks, out, out_names

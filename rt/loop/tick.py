@@ -46,6 +46,7 @@ from frictionrt.plant.sensors import _sensors_read, _tip_velocity
 from frictionrt.plant.sensors import output_index as sensor_output_index
 from frictionrt.plant.shaker import _shaker_step
 from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_STOP, CLK_TICKS, CLK_WRITTEN, _now_ns
+from frictionrt.rt.loop.keyframe import _keyframe_put
 from frictionrt.rt.loop.pacing import _next_deadline, _wait_for_deadline
 from frictionrt.rt.loop.supervisor import (S_OVERRAN, S_PASSIVE, _inject_actuator, _inject_observer, _inject_sensors, _sanitise,
                                 _stall_ns, _supervise, _supervise_after)
@@ -173,7 +174,7 @@ def _controller_done(out, row, c, observe, est, law, sup, trk):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
-def _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log):
+def _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log, kf):
     """The start of tick k of ticks run from k0 into ``log`` and its stage 1. Returns (its row
     (k - k0) mod len(log), the clock [ns] at its start, its lateness [ns] (paced, else 0)), or
     row -1 on a stop request (nothing done).
@@ -184,7 +185,7 @@ def _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log):
     at t_k through the sensors (ADC readings into ys); injected faults act on the readings, before
     the controller's tip integrator (ys[2] = v_tip_meas); then an injected CPU stall. Arguments
     as ``_run_ticks`` takes them. The loop and the C controller's loop (rt/export/sil.py) both
-    call this. RT-safe."""
+    call this. With kf (``_run_ticks``) a key frame of tick k is copied before stage 1. RT-safe."""
     timing, paced, period_ns, margin_ns, clk, ts = pace
     xs, xs_n, ys, ys_prev, yc, us, sens_p, rng = sens
     ya, yp = act[2], plnt[2]
@@ -201,6 +202,7 @@ def _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log):
         _wait_for_deadline(clk, ts, margin_ns)
     t_start = _now_ns(ts)
     late = t_start - clk[CLK_DEADLINE] if paced else 0
+    _keyframe_put(k, kf)   # the state between ticks k - 1 and k (its ring row is free: the wait above)
     us[0] = yp[col_a_tip]
     us[1] = yp[col_a_frf]
     us[2] = ya[col_strain]
@@ -273,7 +275,7 @@ def _tick_done(clk, paced, period_ns, t_end):
 
 @numba.njit(cache=True, nogil=True, _nrt=False)  # no allocation, no reference counting
 def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, sup, trk, act, plnt, shk, cols,
-               log, comp_ns):
+               log, comp_ns, kf):
     """Run ticks k0 <= k < k1 (see the module docstring); states are advanced in place.
 
     The stages' arrays come in tuples (x: state, x_n: next state, y: outputs, u: inputs, p:
@@ -284,7 +286,9 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
     as ``_controller_tick`` takes them; act = (xa, xa_n, ya, ua, act_p); plnt = (xp, xp_n, yp,
     up, plant_p, plant_wk); shk = (shake, xsh, xsh_n, ush, ysh, sh_p); cols = the columns of yp
     and ya the stages read (u_rel, v_rel, abar_tip, abar_frf, F_strain_a, F_cell_a, dF_N1, w and
-    v at the excitation point).
+    v at the excitation point); kf = (interval, float64 ring, int64 ring, float64 parts, int64
+    parts): the key frames (``frictionrt.rt.loop.keyframe._keyframe_put``, at the start of every tick
+    that is a multiple of the interval, once its ring row may be overwritten; interval 0: none).
 
     observe selects the estimator: False the oracle (states xo), True the observer (states xe;
     inputs: the measured tip velocity and force-cell reading). faults: the fault schedule
@@ -309,7 +313,7 @@ def _run_ticks(k0, k1, exc, pace, force_col, observe, faults, sens, est, law, su
     failed = 0
     for k in range(k0, k1):
         # the ring's row, the deadline; 1 sensors (injected faults on the readings, before the tip integrator)
-        row, t_start, late = _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log)
+        row, t_start, late = _tick_begin(k, k0, pace, faults, sens, act, plnt, cols, log, kf)
         if row < 0:
             break
         t1 = _now_ns(ts) if timing else 0

@@ -7,6 +7,7 @@
  */
 #define _POSIX_C_SOURCE 199309L   /* clock_gettime for ctrl_run_timed, where the C library has it */
 #include <stddef.h>
+#include <string.h>
 #include <time.h>
 #if defined(CLOCK_MONOTONIC)
 #define CTRL_HAVE_CLOCK 1
@@ -32,15 +33,37 @@ int64_t ctrl_run(int64_t n, const int64_t *k, const double *sens, const double *
     return ctrl_run_timed(n, k, sens, uv, overran, faults, n_faults, out, NULL);
 }
 
+static int64_t run_ticks(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
+                         const ctrl_fault *faults, int n_faults, double *out, int64_t *ns,
+                         int64_t n_restart, const int64_t *restart_at, const double *states);
+
 /* As ctrl_run; with ns not NULL, ns[i] receives the time of tick i's ctrl_step [ns]
  * (CLOCK_MONOTONIC around the call: `frictionrt bench controller --c DIR`). */
 int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
                        const ctrl_fault *faults, int n_faults, double *out, int64_t *ns)
 {
+    return run_ticks(n, k, sens, uv, overran, faults, n_faults, out, ns, 0, NULL, NULL);
+}
+
+/* As ctrl_run, and before tick i = restart_at[r] (increasing) the state is set to states[r], an
+ * image of ctrl_state (ctrl_state_size() bytes, doubles only: ctrl_state_offsets) the caller built
+ * from a log's key frame: a replay that restarts after a gap in the log (`frictionrt replay
+ * LOG.mcap --c DIR`). The members and the key frame's parts: docs/export-c.md. */
+int64_t ctrl_run_restarts(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
+                          const ctrl_fault *faults, int n_faults, double *out,
+                          int64_t n_restart, const int64_t *restart_at, const double *states)
+{
+    return run_ticks(n, k, sens, uv, overran, faults, n_faults, out, NULL, n_restart, restart_at, states);
+}
+
+static int64_t run_ticks(int64_t n, const int64_t *k, const double *sens, const double *uv, const double *overran,
+                         const ctrl_fault *faults, int n_faults, double *out, int64_t *ns,
+                         int64_t n_restart, const int64_t *restart_at, const double *states)
+{
     ctrl_state s;
     ctrl_inputs in;
     ctrl_outputs y;
-    int64_t i;
+    int64_t i, r = 0;
     const int rc = ctrl_init(&s);
     if (rc != CTRL_OK)
         return -(int64_t)rc;
@@ -48,6 +71,10 @@ int64_t ctrl_run_timed(int64_t n, const int64_t *k, const double *sens, const do
     in.n_faults = n_faults;
     for (i = 0; i < n; ++i) {
         double *o = out + i * CTRL_N_OUTPUTS;
+        if (r < n_restart && restart_at[r] == i) {
+            memcpy(&s, states + r * (int64_t)(sizeof(ctrl_state) / sizeof(double)), sizeof(ctrl_state));
+            ++r;
+        }
         in.k = k[i];
         in.a_tip_meas = sens[4 * i];
         in.a_frf_meas = sens[4 * i + 1];
