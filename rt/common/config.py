@@ -53,6 +53,9 @@ def estimator_of(value) -> Estimator:
     except ValueError:
         raise ValueError(f"estimator {value!r}: give one of {', '.join(ESTIMATORS)}") from None
 PASSIVE_MODES = ("voltage", "tracking")
+# the plant's time step (plant.newmark): the trapezoidal rule with the discrete-gradient normal impulse
+# (default), or generalized-alpha (Chung & Hulbert 1993) with its spectral radius plant.step_rho_inf
+STEP_SCHEMES = ("trapezoidal", "generalized_alpha")
 INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
 
@@ -235,6 +238,15 @@ class Plant:
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
     fallback_split: int = param(4, "-", lo=2, hi=64,
                                 doc="a substep whose contact solve fails is redone as this many")
+    step_scheme: str = param("trapezoidal", doc="the plant's step (docs/plant.md 2.9): trapezoidal = average "
+                             "acceleration with the discrete-gradient normal impulse, the tangential dashpots' "
+                             "weight at the step's start and the quasi-static theta above; generalized_alpha = "
+                             "second order with the high frequencies damped to step_rho_inf per step (its "
+                             "quasi-static modes take theta = step_rho_inf, the dashpots' weight at the "
+                             "extrapolated mid-step gap, no period matching)")
+    step_rho_inf: float = param(0.8, "-", lo=0.0, hi=1.0,
+                                doc="generalized_alpha: the step's spectral radius at omega h -> infinity "
+                                    "(1: no numerical damping, the trapezoidal rule; 0: the most)")
 
 
 @dataclass(frozen=True)
@@ -873,6 +885,8 @@ def validate(cfg: Config) -> None:
     t = cfg.tracking
     if t.law not in LAWS:
         raise ConfigError(f"tracking.law = {t.law!r}: must be one of {', '.join(LAWS)}")
+    if p.step_scheme not in STEP_SCHEMES:
+        raise ConfigError(f"plant.step_scheme = {p.step_scheme!r}: must be one of {', '.join(STEP_SCHEMES)}")
     if t.passive_mode not in PASSIVE_MODES:
         raise ConfigError(f"tracking.passive_mode = {t.passive_mode!r}: must be one of {', '.join(PASSIVE_MODES)}")
     if cfg.supervisor.recovery not in RECOVERY:
