@@ -1,7 +1,8 @@
-"""The plant step's observed order, one scheme against another in the same run (docs/plant.md 2.9).
+"""The plant step's observed order, one scheme against another in the same run (docs/plant.md 2.8).
 
     python -m benchmarks.step_order [--substeps 1 2 4 8 64] [--fn1 40 100]
                                     [--schemes trapezoidal generalized_alpha] [--set KEY=VALUE ...]
+    python -m benchmarks.step_order --rho 0.5 0.65 0.8 0.9 [--substeps 1 2 64] [--fn1 40 100]
 
 Per hammer level F_N1, per case (slipping: the configured mu; stuck: mu = 2) and per step scheme
 (plant.step_scheme) the default plant's simulated hammer test (benchmarks.joint_convergence.hammer,
@@ -10,7 +11,8 @@ reference. Printed per scheme and substeps: the FRF error weighted by the refere
 (plant.measures.weighted_error_db) over 50-1200 Hz and per band of modes 2-5 [dB], the rms of dB,
 and the observed order between successive halvings, p = (e_S - e_2S) / 6.02; then the distance
 between the schemes' references (their limits are the same model). Figures with the case's wall
-time; the runs are sequential (one process).
+time; the runs are sequential (one process). With --rho: generalized-alpha at each spectral radius
+plant.step_rho_inf and each substeps count but the last, against its rho = 0.8 run at the last.
 """
 from __future__ import annotations
 
@@ -36,6 +38,27 @@ def errors(rows: dict[int, dict], ref: dict) -> dict[int, dict]:
                 "rms_db": measures.rms_db(r["H"], ref["H"])} for s, r in rows.items()}
 
 
+def rho_sweep(base, args, subs, s_ref) -> int:
+    """Generalized-alpha's weighted error [dB] per rho_inf and substeps against rho_inf = 0.8 at s_ref."""
+    for F_N1 in args.fn1:
+        for case, case_sets in CASES:
+            if case not in args.cases:
+                continue
+            cfg = with_sets(base, case_sets + ["plant.step_scheme=generalized_alpha"])
+            ref = hammer(with_sets(cfg, ["plant.step_rho_inf=0.8", f"plant.substeps={s_ref}"]), F_N1)
+            print(f"\n## F_N1 = {F_N1:g} N, {case}: generalized-alpha's weighted error [dB] (modes 2-5's bands) "
+                  f"against rho_inf 0.8 at {s_ref} substeps\n")
+            print("| rho_inf | " + " | ".join(f"{s}" for s in subs) + " |")
+            print("| --- |" + " --- |" * len(subs), flush=True)
+            for rho in args.rho:
+                rows = {s: hammer(with_sets(cfg, [f"plant.step_rho_inf={rho}", f"plant.substeps={s}"]), F_N1)
+                        for s in subs}
+                e = errors(rows, ref)
+                print(f"| {rho:g} | " + " | ".join(f"{e[s]['weighted_db']:.1f} ({', '.join(f'{b:.1f}' for b in e[s]['band_db'])})"
+                                                   for s in subs) + " |", flush=True)
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--substeps", type=int, nargs="+", default=[1, 2, 4, 8, 64],
@@ -43,12 +66,15 @@ def main(argv=None) -> int:
     ap.add_argument("--fn1", type=float, nargs="+", default=[40.0, 100.0], help="F_N1 levels [N] (default 40 100)")
     ap.add_argument("--schemes", nargs="+", default=list(STEP_SCHEMES), choices=STEP_SCHEMES)
     ap.add_argument("--cases", nargs="+", default=[c for c, _ in CASES], choices=[c for c, _ in CASES])
+    ap.add_argument("--rho", type=float, nargs="+", default=None, help="generalized-alpha's rho_inf sweep")
     ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
     args = ap.parse_args(argv)
     if sorted(args.substeps) != args.substeps or args.substeps[0] < 1 or len(args.substeps) < 2:
         ap.error(f"--substeps {args.substeps}: give two or more increasing positive counts, the reference last")
     base = load(None, args.sets)
     subs, s_ref = args.substeps[:-1], args.substeps[-1]
+    if args.rho:
+        return rho_sweep(base, args, subs, s_ref)
     for F_N1 in args.fn1:
         for case, case_sets in CASES:
             if case not in args.cases:

@@ -168,7 +168,7 @@ def _interface_dashpot_at(gn0, gn1, gt0, gt1, cn_h, ct_h, depth, gs):
                      S(x) = x^2 (3 - 2 x)                                 (smoothstep)
 
     (here with s = S(min(1, -min(0, gs) / depth)) at a normal gap gs [m] given before the step:
-    ``_interface_dashpot`` takes gs = g_n0, the generalized-alpha step an extrapolated mid-step gap)
+    ``_interface_dashpot`` takes gs = g_n0, the generalized-alpha step the extrapolated end gap)
 
     Both vanish for a pair open over the whole step and are continuous where it opens or
     closes. The tangential one fades in over the penetration `depth` [m], with its weight s

@@ -284,8 +284,9 @@ def _inverse_solve(X, piv, b, y, n):
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
 def _normal_alpha(g0, g1, k_n, af):
-    """A pair's normal spring force at the generalized-alpha point, Lambda_n = af f_n(g0) +
-    (1 - af) f_n(g1) with f_n = k_n max(0, -g) [N], its derivative in g1 [N/m], and True if the
+    """A pair's normal spring force weighted between the step's ends, Lambda_n = af f_n(g0) +
+    (1 - af) f_n(g1) with f_n = k_n max(0, -g) [N] (the generalized-alpha step: af = 0, the
+    end-point force), its derivative in g1 [N/m], and True if the
     pair opens or closes within the step. Piecewise affine in g1 (no hyperbola: Newton is exact
     within a piece). RT-safe."""
     f0 = -k_n * g0 if g0 < 0.0 else 0.0
@@ -821,16 +822,18 @@ def _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk,
     the Newton iterations, or -1 with the state untouched if the contact solve did not converge.
 
     Generalized-alpha (Chung & Hulbert 1993) per stepped mode, the balance taken at the alpha
-    point with the contact force Lambda = af lambda(g0) + (1 - af) lambda(g1) (``_normal_alpha``):
+    point with the contact force af lambda_0 + (1 - af) lambda_1, lambda_0 the last step's end-point
+    force (state lam_prev), lambda_1 = lambda(g1) the end-point law (``_normal_alpha`` with weight 0):
 
         m ((1 - am) a1 + am a0) + c ((1 - af) v1 + af v0) + omega^2 ((1 - af) q1 + af q0) = f + (G^T Lambda)_i
         q1 = q0 + h v0 + h^2 ((1/2 - beta) a0 + beta a1),   v1 = v0 + h ((1 - gamma) a0 + gamma a1)
 
     (m, c: p.m_step, p.c_step, period-matched as for the trapezoid: plant.model.alpha_period_matched),
-    so q1 = q_pred + s2 G^T Lambda with s2 = h^2 beta / ((1 - am) m + (1 - af) (gamma h c + beta h^2 omega^2)),
-    the form the contact solve takes. Its quasi-static modes balance at the same point,
-    (1 - af) q1 + af q0 = q_static: theta = af / (1 - af) = rho_inf. The tangential dashpots' weight
-    is taken at the extrapolated mid-step gap g_n0 + h/2 rate. RT-safe.
+    so q1 = q_pred + s2 G^T lambda_1 with s2 = (1 - af) h^2 beta / ((1 - am) m + (1 - af) (gamma h c +
+    beta h^2 omega^2)), the form the contact solve takes. The quasi-static modes balance at the end
+    point (theta = 0: q1 = Omega^-2 (f + G^T lambda_1)). a0 is the stored acceleration plus the jump of
+    the held inputs since the last step, b (F - F_prev) / m. The tangential dashpots' weight is taken
+    at the extrapolated end gap g_n0 + h rate. RT-safe.
     """
     b_exc, b_N1, f_const, omega2, G, c, k_t = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c_step, p.k_t
     m_step = p.m_step
@@ -841,7 +844,8 @@ def _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk,
     npair = m // 2
     a2 = 2.0 / h
     # a quasi-static mode's surplus work per (omega^2 dq^2): (1 - theta) / (2 (1 + theta)) >= 0
-    qs_loss = 0.5 * (1.0 - p.qs_theta) / (1.0 + p.qs_theta)
+    # (generalized-alpha: not booked; its balance's residual is the step's numerical dissipation)
+    qs_loss = 0.5 * (1.0 - p.qs_theta) / (1.0 + p.qs_theta) if p.scheme == 0 else 0.0
     ga = p.scheme == 1
     am, af, beta, gamma = p.ga_am, p.ga_af, p.ga_beta, p.ga_gamma
     hb = 0.5 - beta

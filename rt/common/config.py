@@ -238,12 +238,13 @@ class Plant:
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
     fallback_split: int = param(4, "-", lo=2, hi=64,
                                 doc="a substep whose contact solve fails is redone as this many")
-    step_scheme: str = param("trapezoidal", doc="the plant's step (docs/plant.md 2.9): trapezoidal = average "
+    step_scheme: str = param("trapezoidal", doc="the plant's step (docs/plant.md 2.8): trapezoidal = average "
                              "acceleration with the discrete-gradient normal impulse, the tangential dashpots' "
                              "weight at the step's start and the quasi-static theta above; generalized_alpha = "
-                             "second order with the high frequencies damped to step_rho_inf per step (its "
-                             "quasi-static modes take theta = step_rho_inf, the dashpots' weight at the "
-                             "extrapolated mid-step gap, no period matching)")
+                             "second order with the high frequencies damped to step_rho_inf per step, the "
+                             "quasi-static modes and the contact law at the step's end (no theta lag), the "
+                             "dashpots' weight at the extrapolated end gap; more accurate from 2 substeps on, "
+                             "not at 1")
     step_rho_inf: float = param(0.8, "-", lo=0.0, hi=1.0,
                                 doc="generalized_alpha: the step's spectral radius at omega h -> infinity "
                                     "(1: no numerical damping, the trapezoidal rule; 0: the most)")
