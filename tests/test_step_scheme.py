@@ -62,3 +62,20 @@ def test_observed_order_two_on_the_linear_stuck_case():
     assert np.all((orders > 1.8) & (orders < 2.2)), orders
     # deterministic: the same run gives the same bits
     assert np.array_equal(_stuck_response("generalized_alpha", 2), _stuck_response("generalized_alpha", 2))
+
+
+def test_a_log_without_the_scheme_fields_replays_with_the_trapezoid_only():
+    """A design logged before the step-scheme fields existed lacks them: replay keeps the rebuilt
+    value where it is the field's declared default (the trapezoid's), and refuses otherwise."""
+    from typing import NamedTuple
+
+    from frictionrt.rt.log.design_record import _rebuilt
+
+    class P(NamedTuple):
+        a: np.ndarray
+        scheme: int = 0
+
+    logged = {"p.a": np.arange(3.0)}
+    assert _rebuilt(P(np.zeros(3), 0), "p", logged).a.tolist() == [0.0, 1.0, 2.0]
+    with pytest.raises(KeyError):
+        _rebuilt(P(np.zeros(3), 1), "p", logged)
