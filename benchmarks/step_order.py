@@ -54,8 +54,8 @@ def rho_sweep(base, args, subs, s_ref) -> int:
                 rows = {s: hammer(with_sets(cfg, [f"plant.step_rho_inf={rho}", f"plant.substeps={s}"]), F_N1)
                         for s in subs}
                 e = errors(rows, ref)
-                print(f"| {rho:g} | " + " | ".join(f"{e[s]['weighted_db']:.1f} ({', '.join(f'{b:.1f}' for b in e[s]['band_db'])})"
-                                                   for s in subs) + " |", flush=True)
+                cells = [f"{e[s]['weighted_db']:.1f} ({', '.join(f'{b:.1f}' for b in e[s]['band_db'])})" for s in subs]
+                print(f"| {rho:g} | " + " | ".join(cells) + " |", flush=True)
     return 0
 
 
@@ -99,8 +99,8 @@ def main(argv=None) -> int:
             if len(refs) == 2:
                 a, b = (refs[s] for s in args.schemes)
                 print(f"\nthe references' distance ({args.schemes[0]} against {args.schemes[1]}, {s_ref} substeps): "
-                      f"weighted {measures.weighted_error_db(a['H'], b['H']):.1f} dB, rms {measures.rms_db(a['H'], b['H']):.3f} dB",
-                      flush=True)
+                      f"weighted {measures.weighted_error_db(a['H'], b['H']):.1f} dB, "
+                      f"rms {measures.rms_db(a['H'], b['H']):.3f} dB", flush=True)
     return 0
 
 

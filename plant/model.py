@@ -251,8 +251,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         theta = 0.0
         m_step, c_step = alpha_period_matched(omega, c, cfg.plant.modal_damping, dyn, h, cfg.plant.period_match,
                                               (am, af, beta, gamma))
-        s2, s2_fine = (np.where(dyn > 0, (1.0 - af) * hh**2 * beta / ((1.0 - am) * m_step + (1.0 - af) * (gamma * hh * c_step
-                                                                                          + beta * hh**2 * omega**2)),
+        s2, s2_fine = (np.where(dyn > 0, (1.0 - af) * hh**2 * beta
+                                / ((1.0 - am) * m_step + (1.0 - af) * (gamma * hh * c_step + beta * hh**2 * omega**2)),
                                 (1.0 + theta) / np.maximum(omega, 1.0)**2) for hh in (h, h_fine))
     else:
         m_step, c_step = period_matched(omega, c, cfg.plant.modal_damping, dyn, h, cfg.plant.period_match)

@@ -1030,7 +1030,8 @@ def _plant_step(k, x, u, p, x_next, y, wk):
             _forget_factors(pattern)  # the kept factors belong to W, not W_fine
             it = 0
             for _ in range(p.fine_split):
-                it_f = _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk, p.h_fine, p.s2_fine, p.W_fine)
+                it_f = _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk,
+                                p.h_fine, p.s2_fine, p.W_fine)
                 it = -1 if (it_f < 0 or it < 0) else it + it_f
             _forget_factors(pattern)
         iters = -1 if (it < 0 or iters < 0) else iters + it
