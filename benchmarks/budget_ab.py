@@ -1,12 +1,15 @@
 """The whole tick against another tree of the project, alternating: `frictionrt budget --no-floor` A/B.
 
     python -m benchmarks.budget_ab OTHER_TREE [--rounds 12] [--paced-s 2] [--law lyapunov]
+                                [--set-a KEY=VALUE ...] [--set-b KEY=VALUE ...]
 
 OTHER_TREE is another checkout of the project (e.g. `git worktree add ../base 891904d`, the tree
-before issue 31). Each round runs `budget --no-floor --json` once in that tree and once in this one,
-alternating, each in its own Python process started in the tree's folder (so that it imports that
-tree's code, with this environment's packages): the machine's slow and fast phases fall on both
-alike. Printed per tree: the median over the rounds [min..max] of the tick's median, p99 and p99.9,
+before issue 31), or this one (`.`) to compare two configurations: --set-a applies to OTHER_TREE's
+runs, --set-b to this tree's. Each round runs `budget --no-floor --json` once in that tree and once
+in this one, alternating, each in its own Python process started in the tree's folder with the
+tree's own environment (TREE/.venv/bin/python where it exists: the package imports as frictionrt.*
+through the environment's editable install, so another tree's code needs its own environment;
+else this one's): the machine's slow and fast phases fall on both alike. Printed per tree: the median over the rounds [min..max] of the tick's median, p99 and p99.9,
 the plant's median and p99.9, and the paced run's tick median and missed periods (docs/plant.md 6.4).
 A run that fails is reported with its stderr's last line and the benchmark exits 1.
 """
@@ -30,11 +33,15 @@ FIGURES = {"tick median": ("total", "median_us"), "tick p99": ("total", "p99_us"
            "paced missed": ("paced", "overruns")}
 
 
-def budget_in(tree: Path, paced_s: float, law: str) -> dict:
-    """`budget --no-floor --json` run by ``tree``'s own code (cwd first on sys.path)."""
-    code = ("import sys; from rt.cli import main; "
-            f"sys.exit(main(['budget', '--no-floor', '--json', '--paced-s', '{paced_s}', '--law', '{law}']))")
-    p = subprocess.run([sys.executable, "-c", code], cwd=tree, capture_output=True, text=True)
+def budget_in(tree: Path, paced_s: float, law: str, sets: list[str] = ()) -> dict:
+    """`budget --no-floor --json` run by ``tree``'s own code (its own environment where it has one)."""
+    args = ["budget", "--no-floor", "--json", "--paced-s", str(paced_s), "--law", law]
+    for kv in sets:
+        args += ["--set", kv]
+    code = f"import sys; from frictionrt.rt.cli import main; sys.exit(main({args!r}))"
+    venv = tree / ".venv" / "bin" / "python"
+    p = subprocess.run([str(venv) if venv.exists() else sys.executable, "-c", code], cwd=tree,
+                       capture_output=True, text=True)
     if p.returncode != 0:
         last = (p.stderr.strip().splitlines() or ["(no stderr)"])[-1]
         raise RuntimeError(f"budget in {tree} exited {p.returncode}: {last}")
@@ -52,21 +59,25 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=12, help="alternating runs per tree (default: 12)")
     ap.add_argument("--paced-s", type=float, default=2.0, help="paced run length [s] (default: 2)")
     ap.add_argument("--law", default="lyapunov", choices=["passive", "hysteresis", "lyapunov"])
+    ap.add_argument("--set-a", action="append", default=[], metavar="KEY=VALUE", help="configuration of the A side")
+    ap.add_argument("--set-b", action="append", default=[], metavar="KEY=VALUE", help="configuration of the B side")
     args = ap.parse_args()
     if not (args.other / "rt" / "cli").is_dir():
         print(f"benchmarks.budget_ab: error: {args.other} is not a checkout of this project (no rt/cli); "
               "make one with `git worktree add DIR COMMIT`", file=sys.stderr)
         return 2
     trees = {"other": args.other.resolve(), "this": HERE}
+    sets = {"other": args.set_a, "this": args.set_b}
     runs = {name: [] for name in trees}
     try:
         for _ in tqdm(range(args.rounds), desc="A/B rounds", unit="round"):
             for name, tree in trees.items():
-                runs[name].append(budget_in(tree, args.paced_s, args.law))
+                runs[name].append(budget_in(tree, args.paced_s, args.law, sets[name]))
     except RuntimeError as exc:
         print(f"benchmarks.budget_ab: {exc}", file=sys.stderr)
         return 1
-    print(f"| [us] | {trees['other']} | {trees['this']} |")
+    head = {name: f"{trees[name]}" + (f" {' '.join(sets[name])}" if sets[name] else "") for name in trees}
+    print(f"| [us] | {head['other']} | {head['this']} |")
     print("| --- | --- | --- |")
     for label, (where, key) in FIGURES.items():
         cells = []

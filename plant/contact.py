@@ -155,11 +155,20 @@ def _normal_impulse(g0, g1, k_n):
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
+    """``_interface_dashpot_at`` with the fade-in weight taken at the start gap gn0 (see there). RT-safe."""
+    return _interface_dashpot_at(gn0, gn1, gt0, gt1, cn_h, ct_h, depth, gn0)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _interface_dashpot_at(gn0, gn1, gt0, gt1, cn_h, ct_h, depth, gs):
     """Mean force of the interface dashpots over a step (Kelvin-Voigt, c = k tau). RT-safe.
 
         normal:      Lambda_dn = -(c_n/h) (min(0, g_n1) - min(0, g_n0))   (penetration change)
         tangential:  Lambda_dt = -(c_t/h) s (g_t1 - g_t0),   s = S(min(1, -min(0, g_n0) / depth)),
                      S(x) = x^2 (3 - 2 x)                                 (smoothstep)
+
+    (here with s = S(min(1, -min(0, gs) / depth)) at a normal gap gs [m] given before the step:
+    ``_interface_dashpot`` takes gs = g_n0, the generalized-alpha step the extrapolated end gap)
 
     Both vanish for a pair open over the whole step and are continuous where it opens or
     closes. The tangential one fades in over the penetration `depth` [m], with its weight s
@@ -179,7 +188,7 @@ def _interface_dashpot(gn0, gn1, gt0, gt1, cn_h, ct_h, depth):
         return 0.0, 0.0, 0.0, 0.0, 0.0
     dp_dg = 1.0 if gn1 < 0.0 else 0.0
     dgt = gt1 - gt0
-    x = -p0 / depth
+    x = -(gs if gs < 0.0 else 0.0) / depth
     if x >= 1.0:
         return -cn_h * (p1 - p0), -ct_h * dgt, -cn_h * dp_dg, 0.0, -ct_h
     s = x * x * (3.0 - 2.0 * x)

@@ -20,7 +20,7 @@ from frictionrt.plant.newmark import FACTOR_SLOTS, MAX_UPDATES, N_ENERGY, PlantP
 from frictionrt.plant.structure import Structure, build_structure
 from frictionrt.rt.common.blas import check as check_blas
 from frictionrt.rt.common.codegen import check as check_codegen
-from frictionrt.rt.common.config import Config
+from frictionrt.rt.common.config import STEP_SCHEMES, Config
 
 RIGID_BODY_RAD_S = 2 * np.pi * 0.1  # below 0.1 Hz a substructure mode is a rigid-body mode
 
@@ -51,7 +51,13 @@ class PlantModel:
 
     @property
     def state_size(self) -> int:
-        return 2 * self.n + (2 + self.n_sliders) * self.n_pairs + N_ENERGY
+        return 2 * self.n + (2 + self.n_sliders) * self.n_pairs + N_ENERGY + self._n_scheme_state
+
+    @property
+    def _n_scheme_state(self) -> int:
+        """Slots of the generalized-alpha step's own state: accelerations of the stepped modes and
+        the pairs' normal gap rates (none for the trapezoid)."""
+        return self.params.n_dyn + 3 * self.n_pairs + 2 if self.params.scheme == 1 else 0
 
     def state_slots(self) -> dict[str, slice]:
         """Named slots of the state vector (the one table the kernel's offsets follow); the
@@ -62,6 +68,13 @@ class PlantModel:
         slots = {"q": slice(0, n), "qd": slice(n, 2 * n),
                  "w": slice(2 * n, 2 * n + nw), "g": slice(2 * n + nw, o)}
         slots.update({nm: slice(o + i, o + i + 1) for i, nm in enumerate(names)})
+        if self.params.scheme == 1:   # generalized-alpha: a (n_dyn) [1/s^2 modal], gap rates (p) [m/s]
+            o += len(names)
+            slots["acc"] = slice(o, o + self.params.n_dyn)
+            o += self.params.n_dyn
+            slots["lam_prev"] = slice(o, o + 2 * p)
+            slots["gn_rate"] = slice(o + 2 * p, o + 3 * p)
+            slots["u_prev"] = slice(o + 3 * p, o + 3 * p + 2)
         return slots
 
     def output_labels(self) -> list[tuple[str, str]]:
@@ -103,7 +116,7 @@ class PlantModel:
                          d_fact=np.zeros((K, 3 * p)), upd=np.zeros(1 + 2 * MAX_UPDATES, dtype=i64),
                          upd_delta=np.zeros(MAX_UPDATES), cap=np.zeros((MAX_UPDATES, MAX_UPDATES + 1)),
                          Z=np.zeros((K, p, m)), z_ok=np.zeros((K, p), dtype=i64), slot=np.zeros(2, dtype=i64),
-                         last_use=np.zeros(K, dtype=i64), key=np.zeros(K, dtype=i64))
+                         last_use=np.zeros(K, dtype=i64), key=np.zeros(K, dtype=i64), gs=np.zeros(p))
 
     def initial_state(self, F_N1: float | None = None) -> np.ndarray:
         """Static equilibrium under the screw forces (sliders from zero), at rest."""
@@ -114,6 +127,9 @@ class PlantModel:
         x[sl["q"]] = q
         x[sl["w"]] = w
         x[sl["g"]] = g
+        if "lam_prev" in sl:   # generalized-alpha: the pairs' end-point forces of the static state
+            x[sl["lam_prev"]] = contact_forces(self, g, w)[0]
+            x[sl["u_prev"]] = (0.0, F)   # the inputs the static state holds
         return x
 
     def step(self, k: int, x: np.ndarray, u: np.ndarray, x_next: np.ndarray, y: np.ndarray,
@@ -153,6 +169,61 @@ def period_matched(omega: np.ndarray, c: np.ndarray, zeta: float, dyn: np.ndarra
     return m_step, c_step
 
 
+def generalized_alpha(rho_inf: float) -> tuple[float, float, float, float]:
+    """(alpha_m, alpha_f, beta, gamma) of generalized-alpha with spectral radius rho_inf at
+    omega h -> infinity, second order and with the least low-frequency damping for it (Chung &
+    Hulbert 1993, eq. 25): alpha_m = (2 rho - 1)/(rho + 1), alpha_f = rho/(rho + 1),
+    gamma = 1/2 - alpha_m + alpha_f, beta = (1 - alpha_m + alpha_f)^2 / 4. rho_inf = 1 gives
+    (1/2, 1/2, 1/4, 1/2): the trapezoidal rule."""
+    r = float(rho_inf)
+    am, af = (2.0 * r - 1.0) / (r + 1.0), r / (r + 1.0)
+    return am, af, 0.25 * (1.0 - am + af) ** 2, 0.5 - am + af
+
+
+def alpha_amplification(m: float, c: float, k: float, h: float, coef) -> np.ndarray:
+    """The 3 x 3 map (q, v, a)_n -> (q, v, a)_n+1 of one free mode (mass m, damping c, stiffness k)
+    under generalized-alpha with coef = (alpha_m, alpha_f, beta, gamma) and step h (design time)."""
+    am, af, beta, gamma = coef
+    # rows: the balance at the alpha point, then the Newmark updates of q and v, in (q1, v1, a1)
+    A1 = np.array([[(1 - af) * k, (1 - af) * c, (1 - am) * m], [1.0, 0.0, -beta * h * h], [0.0, 1.0, -gamma * h]])
+    A0 = np.array([[-af * k, -af * c, -am * m], [1.0, h, (0.5 - beta) * h * h], [0.0, 1.0, (1 - gamma) * h]])
+    return np.linalg.solve(A1, A0)
+
+
+def alpha_period_matched(omega: np.ndarray, c: np.ndarray, zeta: float, dyn: np.ndarray, h: float, on: bool,
+                         coef) -> tuple[np.ndarray, np.ndarray]:
+    """(m_step [-], c_step [1/s]) of the stepped modes under generalized-alpha: per mode with
+    omega h < PERIOD_MATCH_MAX the modal mass and damping for which the step's free mode has the
+    frequency omega and the damping ratio zeta (the principal eigenvalues of ``alpha_amplification``
+    at exp((-zeta +- i sqrt(1 - zeta^2)) omega h)), by Newton on (ln m, c) from (0, c); 1 and c
+    elsewhere and where ``on`` is False (the trapezoid's counterpart: ``period_matched``)."""
+    m_step, c_step = np.ones_like(omega), np.array(c, dtype=float)
+    if not on:
+        return m_step, c_step
+    for i in np.flatnonzero((dyn > 0) & (omega > 0.0) & (omega * h < PERIOD_MATCH_MAX)):
+        w = float(omega[i])
+        target = np.array([-zeta * w * h, np.sqrt(1.0 - zeta**2) * w * h])
+
+        def resid(x):
+            lam = np.linalg.eigvals(alpha_amplification(np.exp(x[0]), x[1], w * w, h, coef))
+            lp = lam[np.argmax(np.abs(lam.imag))]
+            return np.array([np.log(abs(lp)), abs(np.angle(lp))]) - target
+
+        x = np.array([0.0, float(c[i])])
+        for _ in range(30):
+            r = resid(x)
+            if np.max(np.abs(r)) < 1e-14 * w * h:
+                break
+            J = np.empty((2, 2))
+            for j, dx in enumerate((1e-7, 1e-7 * max(w, 1.0))):
+                xp = x.copy()
+                xp[j] += dx
+                J[:, j] = (resid(xp) - r) / dx
+            x = x - np.linalg.solve(J, r)
+        m_step[i], c_step[i] = np.exp(x[0]), x[1]
+    return m_step, c_step
+
+
 def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``)."""
     check_codegen()  # the kernels' fixed code-generation target (rt/common/codegen.py)
@@ -173,9 +244,20 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     h = cfg.dt_s / cfg.plant.substeps
     h_fine = h / cfg.plant.fallback_split
     theta = float(cfg.plant.quasi_static_theta)
-    m_step, c_step = period_matched(omega, c, cfg.plant.modal_damping, dyn, h, cfg.plant.period_match)
-    s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c_step + 4.0 / hh**2 * m_step),
-                            (1.0 + theta) / np.maximum(omega, 1.0)**2) for hh in (h, h_fine))
+    scheme = STEP_SCHEMES.index(cfg.plant.step_scheme)
+    # the trapezoid's are generalized-alpha's at rho_inf = 1 (the contact laws weigh their end points by them)
+    am, af, beta, gamma = generalized_alpha(cfg.plant.step_rho_inf if scheme == 1 else 1.0)
+    if scheme == 1:   # the quasi-static modes and the contact law at the end point (theta = 0)
+        theta = 0.0
+        m_step, c_step = alpha_period_matched(omega, c, cfg.plant.modal_damping, dyn, h, cfg.plant.period_match,
+                                              (am, af, beta, gamma))
+        s2, s2_fine = (np.where(dyn > 0, (1.0 - af) * hh**2 * beta
+                                / ((1.0 - am) * m_step + (1.0 - af) * (gamma * hh * c_step + beta * hh**2 * omega**2)),
+                                (1.0 + theta) / np.maximum(omega, 1.0)**2) for hh in (h, h_fine))
+    else:
+        m_step, c_step = period_matched(omega, c, cfg.plant.modal_damping, dyn, h, cfg.plant.period_match)
+        s2, s2_fine = (np.where(dyn > 0, 2.0 / (omega**2 + 2.0 / hh * c_step + 4.0 / hh**2 * m_step),
+                                (1.0 + theta) / np.maximum(omega, 1.0)**2) for hh in (h, h_fine))
     G = np.ascontiguousarray(st.gap_rows @ Phi)
     out_rows = np.ascontiguousarray(np.vstack([st.point_rows, st.u_rel_row]) @ Phi)
     params = PlantParams(
@@ -193,7 +275,8 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
         stribeck_v=float(cfg.plant.interface.stribeck_velocity_m_s), **iwan_fractions(cfg),
         bolt_rows=np.ascontiguousarray(st.bolt_rows @ Phi), bolt_k=st.bolt_k.copy(), bolt_F=st.bolt_F.copy(),
         bolt_ref=np.zeros(len(st.bolt_k)), bolt_adaptive=int(st.adaptive),
-        n_dyn=0, gq_exc=np.zeros(0), gq_N1=np.zeros(0), gq_const=np.zeros(0))   # set last (_with_quasi_static_loads)
+        n_dyn=0, gq_exc=np.zeros(0), gq_N1=np.zeros(0), gq_const=np.zeros(0),   # set last (_with_quasi_static_loads)
+        scheme=scheme, ga_am=am, ga_af=af, ga_beta=beta, ga_gamma=gamma, law_w0=0.0 if scheme == 1 else 0.5)
     model = PlantModel(cfg, st, params, Phi, omega, reduced)
     model = PlantModel(cfg, st, _with_bolt_reference(model, cfg.actuator.F0_N), Phi, omega, reduced)
     if cfg.plant.condense_quasi_static:

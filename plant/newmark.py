@@ -58,6 +58,7 @@ import numpy as np
 
 from frictionrt.plant.contact import (
     _interface_dashpot,
+    _interface_dashpot_at,
     _iwan_pair,
     _jenkins_pair,
     _normal_impulse,
@@ -124,6 +125,13 @@ class PlantParams(NamedTuple):
     bolt_F: np.ndarray     # (n_b,) preload of each ordinary bolt [N] (the adaptive screw's: the input F_N1)
     bolt_ref: np.ndarray   # (n_b,) separation at which a bolt carries its preload [m]
     bolt_adaptive: int     # index of the adaptive screw among the bolts
+    scheme: int = 0        # the step: 0 trapezoidal, 1 generalized-alpha (``_substep``; plant.step_scheme)
+    ga_am: float = 0.5     # generalized-alpha alpha_m, alpha_f, beta, gamma (Chung & Hulbert 1993) [-]
+    ga_af: float = 0.5
+    ga_beta: float = 0.25
+    ga_gamma: float = 0.5
+    law_w0: float = 0.5    # weight of the start point's force in the contact law's Lambda (0.5: the trapezoid's
+                           # mean, 0: generalized-alpha's end-point force)
 
 
 class PlantWork(NamedTuple):
@@ -164,6 +172,7 @@ class PlantWork(NamedTuple):
     slot: np.ndarray       # (2,) int64: the slot whose factors the step uses, and a use counter
     last_use: np.ndarray   # (K + 1,) int64 the counter at each slot's last use (least recently used is refactorised)
     key: np.ndarray        # (K + 1,) int64 per slot: a hash of its pattern, compared before the pattern itself
+    gs: np.ndarray         # (p,) normal gap at which the tangential dashpots' fade-in weight is taken [m]
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
@@ -273,6 +282,19 @@ def _inverse_solve(X, piv, b, y, n):
         b[i] = acc
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
+def _normal_alpha(g0, g1, k_n, af):
+    """A pair's normal spring force weighted between the step's ends, Lambda_n = af f_n(g0) +
+    (1 - af) f_n(g1) with f_n = k_n max(0, -g) [N] (the generalized-alpha step: af = 0, the
+    end-point force), its derivative in g1 [N/m], and True if the
+    pair opens or closes within the step. Piecewise affine in g1 (no hyperbola: Newton is exact
+    within a piece). RT-safe."""
+    f0 = -k_n * g0 if g0 < 0.0 else 0.0
+    if g1 < 0.0:
+        return af * f0 - (1.0 - af) * k_n * g1, -(1.0 - af) * k_n, not (g0 < 0.0)
+    return af * f0, 0.0, g0 < 0.0
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
 def _contact_laws(g, w_old, p, wk, inv_h):
     """Evaluate the mean contact force Lambda(g0 = wk.g0, g1 = g) of every pair.
@@ -293,6 +315,10 @@ def _contact_laws(g, w_old, p, wk, inv_h):
     g0, k_n, k_t, mu, c_n, c_t, depth = wk.g0, p.k_n, p.k_t, wk.mu_eff, p.c_n, p.c_t, p.dashpot_depth
     kf, qf = p.iwan_k, p.iwan_q
     ne = kf.shape[0]
+    ga = p.scheme == 1
+    af = p.law_w0
+    wt = 1.0 - af   # weight of the end point's force in Lambda (0.5: the trapezoid)
+    gs = wk.gs
     n_act = 0
     same = True
     for j in range(g.shape[0] // 2):
@@ -311,7 +337,10 @@ def _contact_laws(g, w_old, p, wk, inv_h):
             code[j] = 0
             same = same and pattern[j] == 0
             continue
-        ln, dln, moved = _normal_impulse(g0[2 * j], g[2 * j], k_n[j])
+        if ga:
+            ln, dln, moved = _normal_alpha(g0[2 * j], g[2 * j], k_n[j], af)
+        else:
+            ln, dln, moved = _normal_impulse(g0[2 * j], g[2 * j], k_n[j])
         if ne > 1:  # Iwan element
             lt0 = 0.0
             for i in range(ne):
@@ -319,25 +348,25 @@ def _contact_laws(g, w_old, p, wk, inv_h):
             fn1, lt1, dtn, dtt, c = _iwan_pair(g[2 * j], g[2 * j + 1], w_old, w_new, j * ne, k_n[j], k_t[j],
                                                mu[j], kf, qf, pattern[j], SLIP_TIE)
             lam[2 * j] = ln
-            lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+            lam[2 * j + 1] = af * lt0 + wt * lt1 if ga else 0.5 * (lt0 + lt1)
             lam1[2 * j] = fn1
             lam1[2 * j + 1] = lt1
             d[3 * j] = dln
-            d[3 * j + 1] = 0.5 * dtn
-            d[3 * j + 2] = 0.5 * dtt
+            d[3 * j + 1] = wt * dtn
+            d[3 * j + 2] = wt * dtt
             if moved:
                 c = TRANSITION
         else:  # Jenkins element
             fn1, lt1, wn, _, dtn, dtt = _jenkins_pair(g[2 * j], g[2 * j + 1], w_old[j], k_n[j], k_t[j], mu[j])
             lt0 = -k_t[j] * (g0[2 * j + 1] - w_old[j])
             lam[2 * j] = ln
-            lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+            lam[2 * j + 1] = af * lt0 + wt * lt1 if ga else 0.5 * (lt0 + lt1)
             lam1[2 * j] = fn1
             lam1[2 * j + 1] = lt1
             w_new[j] = wn
             d[3 * j] = dln
-            d[3 * j + 1] = 0.5 * dtn
-            d[3 * j + 2] = 0.5 * dtt
+            d[3 * j + 1] = wt * dtn
+            d[3 * j + 2] = wt * dtt
             if moved:
                 c = TRANSITION
             elif fn1 == 0.0:
@@ -357,13 +386,13 @@ def _contact_laws(g, w_old, p, wk, inv_h):
                         dtn = mu[j] * k_n[j] * sgn
                         dtt = 0.0
                         c = pattern[j]
-                        lam[2 * j + 1] = 0.5 * (lt0 + lt1)
+                        lam[2 * j + 1] = af * lt0 + wt * lt1 if ga else 0.5 * (lt0 + lt1)
                         lam1[2 * j + 1] = lt1
                         w_new[j] = wn
-                        d[3 * j + 1] = 0.5 * dtn
+                        d[3 * j + 1] = wt * dtn
                         d[3 * j + 2] = 0.0
-        ldn, ldt, ddn, ddtn, ddtt = _interface_dashpot(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
-                                                               c_n[j] * inv_h, c_t[j] * inv_h, depth)
+        ldn, ldt, ddn, ddtn, ddtt = _interface_dashpot_at(g0[2 * j], g[2 * j], g0[2 * j + 1], g[2 * j + 1],
+                                                          c_n[j] * inv_h, c_t[j] * inv_h, depth, gs[j])
         lam[2 * j] += ldn
         lam[2 * j + 1] += ldt
         lamd[2 * j] = ldn
@@ -612,14 +641,15 @@ def _reversals_to_stick(g, w_old, W, p, wk):
     and the law stay the true ones; only the step's piece changes. RT-safe."""
     code, pattern, d, r_, lam1, k_t = wk.code, wk.pattern[wk.slot[0]], wk.d, wk.r, wk.lam1, p.k_t
     m = g.shape[0]
+    wt = 1.0 - p.law_w0   # weight of the end point's force (0.5: the trapezoid)
     for j in range(code.shape[0]):
         c, c_prev = code[j], pattern[j]
         if (c == 2 and c_prev == 3) or (c == 3 and c_prev == 2):
-            dlam = 0.5 * (-k_t[j] * (g[2 * j + 1] - w_old[j]) - lam1[2 * j + 1])
+            dlam = wt * (-k_t[j] * (g[2 * j + 1] - w_old[j]) - lam1[2 * j + 1])
             for i in range(m):
                 r_[i] += W[2 * j + 1, i] * dlam
             d[3 * j + 1] = 0.0
-            d[3 * j + 2] -= 0.5 * k_t[j]
+            d[3 * j + 2] -= wt * k_t[j]
             code[j] = 1
 
 
@@ -732,7 +762,7 @@ def _contact_newton(g, g_pred, w_old, W, p, wk, inv_h):
             for j in range(npair):
                 pattern[j] = code[j]
         _jacobian_solve(r_, dg, W, wk, n_act)
-        if it < PLAIN_ITER:
+        if it < PLAIN_ITER and p.scheme == 0:   # the discrete gradient's exact transition
             jt = _one_transition(code)
             if jt >= 0:
                 _transition_step(jt, g, dg, W, p, wk, n_act, inv_h)
@@ -784,11 +814,26 @@ def _forget_factors(pattern):
 
 # inlined into _plant_step (two call sites): measured ~5 % faster per step at 9 and 33 pairs
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH, inline="always")
-def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
-    """One Newmark substep of length h (modal compliance s2, Delassus matrix W), in place on
-    the state views q, qd, w, g and the energy accumulators en = (E_fric, E_damp, W_exc,
-    W_screw). Returns the Newton iterations, or -1 with the state untouched if the contact
-    solve did not converge. RT-safe.
+def _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk, h, s2, W):
+    """One substep of length h (modal compliance s2, Delassus matrix W), in place on the state
+    views q, qd, w, g, the energy accumulators en = (E_fric, E_damp, W_exc, W_screw) and, for the
+    generalized-alpha step (p.scheme 1), its algorithmic accelerations qdd_a (n_dyn,) and the pairs'
+    mean normal gap rates over the last substep rate (p,) (both empty for the trapezoid). Returns
+    the Newton iterations, or -1 with the state untouched if the contact solve did not converge.
+
+    Generalized-alpha (Chung & Hulbert 1993) per stepped mode, the balance taken at the alpha
+    point with the contact force af lambda_0 + (1 - af) lambda_1, lambda_0 the last step's end-point
+    force (state lam_prev), lambda_1 = lambda(g1) the end-point law (``_normal_alpha`` with weight 0):
+
+        m ((1 - am) a1 + am a0) + c ((1 - af) v1 + af v0) + omega^2 ((1 - af) q1 + af q0) = f + (G^T Lambda)_i
+        q1 = q0 + h v0 + h^2 ((1/2 - beta) a0 + beta a1),   v1 = v0 + h ((1 - gamma) a0 + gamma a1)
+
+    (m, c: p.m_step, p.c_step, period-matched as for the trapezoid: plant.model.alpha_period_matched),
+    so q1 = q_pred + s2 G^T lambda_1 with s2 = (1 - af) h^2 beta / ((1 - am) m + (1 - af) (gamma h c +
+    beta h^2 omega^2)), the form the contact solve takes. The quasi-static modes balance at the end
+    point (theta = 0: q1 = Omega^-2 (f + G^T lambda_1)). a0 is the stored acceleration plus the jump of
+    the held inputs since the last step, b (F - F_prev) / m. The tangential dashpots' weight is taken
+    at the extrapolated end gap g_n0 + h rate. RT-safe.
     """
     b_exc, b_N1, f_const, omega2, G, c, k_t = p.b_exc, p.b_N1, p.f_const, p.omega2, p.G, p.c_step, p.k_t
     m_step = p.m_step
@@ -799,11 +844,34 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
     npair = m // 2
     a2 = 2.0 / h
     # a quasi-static mode's surplus work per (omega^2 dq^2): (1 - theta) / (2 (1 + theta)) >= 0
-    qs_loss = 0.5 * (1.0 - p.qs_theta) / (1.0 + p.qs_theta)
+    # (generalized-alpha: not booked; its balance's residual is the step's numerical dissipation)
+    qs_loss = 0.5 * (1.0 - p.qs_theta) / (1.0 + p.qs_theta) if p.scheme == 0 else 0.0
+    ga = p.scheme == 1
+    am, af, beta, gamma = p.ga_am, p.ga_af, p.ga_beta, p.ga_gamma
+    hb = 0.5 - beta
     # --- predictor: linear part with the contact forces off
     for i in range(n):
         f = b_exc[i] * F_exc + b_N1[i] * F_N1 + f_const[i]
         q_pred[i] = q[i] + s2[i] * (f + a2 * m_step[i] * qd[i] - omega2[i] * q[i])
+    if ga:   # the stepped modes' generalized-alpha predictor (a loop of its own: the trapezoid's is unchanged)
+        for i in range(p.n_dyn):   # the start point's contact force G_d^T lambda_0 (f_c is scratch until the corrector)
+            f_c[i] = 0.0
+        for r in range(m):
+            lr = lam_prev[r]
+            if lr != 0.0:
+                for i in range(p.n_dyn):
+                    f_c[i] += G[r, i] * lr
+        s2a = 1.0 / (1.0 - af)   # s2 holds (1 - af) h^2 beta / D: the end force's share
+        dF_exc, dF_N1 = F_exc - u_prev[0], F_N1 - u_prev[1]   # the held inputs' jump at this step's start
+        for i in range(p.n_dyn):
+            f = b_exc[i] * F_exc + b_N1[i] * F_N1 + f_const[i] + af * f_c[i]
+            # the acceleration jumps with the inputs: without it the velocity update integrates the old
+            # regime's over a share of the step (an O(h) error per jump: first order under held inputs)
+            a0 = qdd_a[i] + (b_exc[i] * dF_exc + b_N1[i] * dF_N1) / m_step[i]
+            qp = q[i] + h * qd[i] + h * h * hb * a0
+            vp = qd[i] + h * (1.0 - gamma) * a0
+            q_pred[i] = qp + s2a * s2[i] * (f - am * m_step[i] * a0 - c[i] * ((1.0 - af) * vp + af * qd[i])
+                                            - omega2[i] * ((1.0 - af) * qp + af * q[i]))
     # g_pred = G q_pred. A quasi-static mode's predictor is q_pred = -theta q + s2 f (s2 omega^2 =
     # 1 + theta), and their gaps G_s q_s are the gaps g less the stepped modes' G_d q_d (the state's
     # g is G q to the Newton tolerance, 1e-18 m), so only the stepped modes' columns are read:
@@ -818,6 +886,9 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
             acc += G[r, i] * q_g[i]
         g_pred[r] = acc
         g0[r] = g[r]
+    gs = wk.gs
+    for j in range(npair):   # the normal gap at which the tangential dashpots' weight is taken
+        gs[j] = g0[2 * j] + h * rate[j] if ga else g0[2 * j]
     if p.static_excess > 0.0:
         _stribeck_update(qd, p, wk)
     # --- contact: g1 = g_pred + W Lambda(g0, g1), Newton started from g0
@@ -838,7 +909,21 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
             lt = lam[2 * j + 1]
             for i in range(n):
                 f_c[i] += G[2 * j, i] * ln + G[2 * j + 1, i] * lt
-    for i in range(n_dyn):  # the stepped modes
+    for i in range(n_dyn if ga else 0):  # the stepped modes, generalized-alpha
+        dq = q_pred[i] - q[i] + s2[i] * f_c[i]
+        a0 = qdd_a[i] + (b_exc[i] * (F_exc - u_prev[0]) + b_N1[i] * (F_N1 - u_prev[1])) / m_step[i]
+        a1 = (dq - h * qd[i] - h * h * hb * a0) / (h * h * beta)
+        qd_new = qd[i] + h * ((1.0 - gamma) * a0 + gamma * a1)
+        qdd_a[i] = a1
+        v_mid = 0.5 * (qd[i] + qd_new)
+        dE_damp += h * c[i] * v_mid * v_mid
+        dW_exc += b_exc[i] * dq
+        f_screw = b_N1[i] * F_N1 + f_const[i]
+        dW_screw += f_screw * dq
+        q[i] += dq
+        qd[i] = qd_new
+        qdd_lin[i] = (b_exc[i] * F_exc + f_screw - c[i] * qd_new - omega2[i] * q[i]) / m_step[i]
+    for i in range(0 if ga else n_dyn):  # the stepped modes, trapezoid
         dq = q_pred[i] - q[i] + s2[i] * f_c[i]
         qd_new = a2 * dq - qd[i]
         v_mid = 0.5 * (qd[i] + qd_new)
@@ -872,6 +957,13 @@ def _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, h, s2, W):
                 w[i] = w_new[i]
         # the interface dashpots dissipate -lamd . dg >= 0
         dE_damp -= lamd[2 * j] * (g[2 * j] - g0[2 * j]) + lamd[2 * j + 1] * (g[2 * j + 1] - g0[2 * j + 1])
+    if ga:
+        for j in range(npair):
+            rate[j] = (g[2 * j] - g0[2 * j]) / h
+            lam_prev[2 * j] = lam[2 * j] if code[j] != 0 else 0.0
+            lam_prev[2 * j + 1] = lam[2 * j + 1] if code[j] != 0 else 0.0
+        u_prev[0] = F_exc
+        u_prev[1] = F_N1
     en[0] += dE_fric
     en[1] += dE_damp
     en[2] += F_exc * dW_exc
@@ -919,17 +1011,27 @@ def _plant_step(k, x, u, p, x_next, y, wk):
     g = x_next[2 * n + n_w:2 * n + n_w + m]
     e = 2 * n + n_w + m
     en = x_next[e:e + N_ENERGY]
+    e += N_ENERGY
+    n_acc = p.n_dyn if p.scheme == 1 else 0   # generalized-alpha: accelerations, end forces, normal gap rates
+    n_lam = m if p.scheme == 1 else 0
+    qdd_a = x_next[e:e + n_acc]
+    lam_prev = x_next[e + n_acc:e + n_acc + n_lam]
+    o_r = e + n_acc + n_lam
+    n_r = npair if p.scheme == 1 else 0
+    rate = x_next[o_r:o_r + n_r]
+    u_prev = x_next[o_r + n_r:o_r + n_r + (2 if p.scheme == 1 else 0)]
     F_exc, F_N1 = u[0], u[1]
     iters = 0
     fallbacks = 0
     for _ in range(p.substeps):
-        it = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h, p.s2, p.W)
+        it = _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk, p.h, p.s2, p.W)
         if it < 0:
             fallbacks += 1
             _forget_factors(pattern)  # the kept factors belong to W, not W_fine
             it = 0
             for _ in range(p.fine_split):
-                it_f = _substep(q, qd, w, g, en, F_exc, F_N1, p, wk, p.h_fine, p.s2_fine, p.W_fine)
+                it_f = _substep(q, qd, w, g, en, qdd_a, lam_prev, rate, u_prev, F_exc, F_N1, p, wk,
+                                p.h_fine, p.s2_fine, p.W_fine)
                 it = -1 if (it_f < 0 or it < 0) else it + it_f
             _forget_factors(pattern)
         iters = -1 if (it < 0 or iters < 0) else iters + it

@@ -94,12 +94,17 @@ def from_npz(data: bytes) -> dict[str, np.ndarray]:
 
 def _rebuilt(tup, prefix: str, logged: dict[str, np.ndarray]):
     """tup with every field replaced by the logged one (same type, shape and dtype), or KeyError /
-    TypeError naming the first field that does not fit."""
+    TypeError naming the first field that does not fit. A number the log lacks is kept where it
+    equals its field's declared default (a field added to a kernel's parameters with the value that
+    keeps the earlier kernel's behaviour, e.g. the plant's step scheme)."""
     values = {}
+    defaults = getattr(tup, "_field_defaults", {})
     for name, v in zip(tup._fields, tup):
         key = f"{prefix}.{name}"
         if hasattr(v, "_fields"):
             values[name] = _rebuilt(v, key, logged)
+            continue
+        if key not in logged and name in defaults and not isinstance(v, np.ndarray) and v == defaults[name]:
             continue
         a = logged[key]
         if isinstance(v, np.ndarray):
