@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean foxglove check-targets
+.PHONY: demo test test-slow bench clean foxglove check-targets
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -22,8 +22,12 @@ demo: $(STAMP)
 
 # two workers for the suite, then the timing tests alone (pyproject.toml, marker `timing`)
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing"
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing and not slow"
 	$(BIN)/python -m pytest -q -m timing
+
+# the whole diagnoses and reproductions the suite covers by cheaper twins (marker `slow`; ~25 min on 2 cores)
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m slow
 
 # Foxglove's own decoder for tests/test_log_formats.py (Node.js and npm; the test is skipped without it)
 foxglove:
