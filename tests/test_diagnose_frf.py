@@ -254,7 +254,10 @@ def test_force_scale_absorbs_the_mass_scale(one_level):
     assert res["fitted_parameters"]["E"] == pytest.approx(ref["fitted_parameters"]["E"], rel=5e-3)
 
 
-@pytest.mark.parametrize("e_nominal", [0.56, 0.7, 1.4, 1.77], ids=["E-44%", "E-30%", "E+40%", "E+77%"])
+# the two extremes in the suite; the starts between them in `make test-slow`
+@pytest.mark.parametrize("e_nominal", [0.56, pytest.param(0.7, marks=pytest.mark.slow),
+                                       pytest.param(1.4, marks=pytest.mark.slow), 1.77],
+                         ids=["E-44%", "E-30%", "E+40%", "E+77%"])
 def test_calibration_from_far_away(one_level, e_nominal):
     """A nominal E 44 or 30 % low, 40 or 77 % high (frequencies -25 %, -16 %, +18 %, +33 %) whose user
     says so (diagnosis.uncertainty.E_rel = 0.9: E within nominal x 0.1..1.9; the default 0.05 would

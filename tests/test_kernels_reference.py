@@ -534,6 +534,7 @@ def test_contact_newton_matches_reference(model):
         counts += np.bincount(state, minlength=4)
         n_moved += int(moved.sum())
         wk.g0[:] = g0
+        wk.gs[:] = g0[0::2]    # the fade-in's gap: the start gap (the trapezoid's, as _substep sets it)
         g = g_pred.copy()
         it = _contact_newton(g, g_pred, w0, P.W, P, wk, 1.0 / P.h)
         assert it >= 0, "kernel Newton did not converge"

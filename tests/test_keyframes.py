@@ -67,7 +67,7 @@ def test_a_key_frame_is_the_state_a_run_has_at_its_tick(logs):
     st = run(build_loop(cfg, "lyapunov", "observer"), 205.0, 5.0, 500 / 21000).final
     j = kf.at(500)
     parts = keyframe_parts(st, True)
-    assert [n for n, _ in parts] == [n for n, _, _ in kf.codec.parts] and len(parts) == 47
+    assert [n for n, _ in parts] == [n for n, _, _ in kf.codec.parts] and len(parts) == 48
     for name, a in parts:
         got = kf.part(name)[j]
         assert np.array_equal(got.view(np.uint64) if a.dtype == np.float64 else got,
