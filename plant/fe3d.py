@@ -309,6 +309,7 @@ def full_stuck_frequencies_hz(info: dict, se_full: Superelement, k_n: np.ndarray
     if se_full.adaptive_row is not None:
         r = sp.csr_matrix(se_full.adaptive_row[None])
         K = K + se_full.adaptive_k * (r.T @ r)
-    lam = spla.eigsh(K.tocsc(), k=n_modes, M=info["M_full"].tocsc(), sigma=0.0, which="LM",
+    v0 = np.random.default_rng(0).standard_normal(K.shape[0])   # ARPACK's start: fixed, so the same bits each run
+    lam = spla.eigsh(K.tocsc(), k=n_modes, M=info["M_full"].tocsc(), sigma=0.0, which="LM", v0=v0,
                      return_eigenvectors=False)
     return np.sort(np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi))

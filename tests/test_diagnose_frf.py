@@ -392,6 +392,16 @@ def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
 
 # --- the shaker as a two-port on FRF files per drive volt ----------------------------------------------
 
+def shaker_against_calibration(cal, sh) -> list[dict]:
+    """``campaign.rank``'s input for calibration alone and the shaker candidate on FRF files (its BIC
+    scored on the FRF channels, as the diagnosis groups it)."""
+    from frictionrt.rt.discrepancy.diagnose.campaign import bic
+    from frictionrt.rt.discrepancy.diagnose.frf import SHAKER
+    return [{"effect": None, "theta": cal.theta, "channels": cal.channels, "score": bic(cal.channels, len(cal.theta))},
+            {"effect": SHAKER, "theta": sh.theta, "channels": sh.channels, "group": "FRF",
+             "score": bic(sh.channels, len(sh.theta))}]
+
+
 def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     """A truth driven by a voltage-mode shaker (armature 0.15 kg, Bl 12 N/A, R 1.5 ohm: c_e = Bl^2 / R =
     96 N s/m; the nominal's catalogue Bl is 10 N/A, 67 N s/m) at the bare beam's excitation point (the
@@ -401,7 +411,7 @@ def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     on seed 1; the full diagnosis with the structural candidates on the paper's structure:
     benchmarks/shaker_two_port.py). The control, an ideal source per volt, names nothing. Per newton
     (force measured) the rig refuses the effect: the data need no shaker model."""
-    from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
+    from frictionrt.rt.discrepancy.diagnose.campaign import rank
     from frictionrt.rt.discrepancy.diagnose.frf import BACK_EMF, SHAKER, fit, fit_shaker_frf
     nominal = load(CONFIGS / "bare_beam.toml")
     truth = with_sets(nominal, ["shaker.amplifier=voltage", "shaker.force_constant_N_per_A=12.0"])
@@ -410,9 +420,7 @@ def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     data = prepare(load_frf_folder(d), nominal)
     cal = fit(nominal, data, None)
     sh = fit_shaker_frf(nominal, data, cal)
-    results = [{"effect": None, "theta": cal.theta, "channels": cal.channels, "score": bic(cal.channels, len(cal.theta))},
-               {"effect": SHAKER, "theta": sh.theta, "channels": sh.channels, "group": "FRF",
-                "score": bic(sh.channels, len(sh.theta))}]
+    results = shaker_against_calibration(cal, sh)
     _, _, winner = rank(results)
     assert winner is not None and winner["effect"] == SHAKER, results[1]["score"] - results[0]["score"]
     assert sh.theta[SHAKER] == pytest.approx(0.15, rel=0.2)
@@ -423,9 +431,7 @@ def test_a_voltage_driven_shaker_is_named_on_frfs_per_volt(tmp_path, capsys):
     data = prepare(load_frf_folder(tmp_path / "ideal"), nominal)
     cal = fit(nominal, data, None)
     sh = fit_shaker_frf(nominal, data, cal)
-    results = [{"effect": None, "theta": cal.theta, "channels": cal.channels, "score": bic(cal.channels, len(cal.theta))},
-               {"effect": SHAKER, "theta": sh.theta, "channels": sh.channels, "group": "FRF",
-                "score": bic(sh.channels, len(sh.theta))}]
+    results = shaker_against_calibration(cal, sh)
     assert rank(results)[2] is None, (sh.theta, results[0]["score"] - results[1]["score"])
     assert main(["rig", "--effect", "shaker_interaction", "--frf-files", "-o", str(tmp_path / "n")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -436,7 +442,7 @@ def test_a_current_driven_shaker_is_fitted_in_its_mode(tmp_path):
     """A nominal that describes its shaker in current mode (armature 0.1 kg, the catalogue's) gets the
     current-driven candidate: the armature mass alone (no back-EMF term), found on a truth of 0.15 kg per
     drive volt (bare beam, seed 2; measured 0.1500 kg, 10.001 N/V, dBIC 1.2e5, named)."""
-    from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
+    from frictionrt.rt.discrepancy.diagnose.campaign import rank
     from frictionrt.rt.discrepancy.diagnose.frf import BACK_EMF, SHAKER, fit, fit_shaker_frf
     bare = load(CONFIGS / "bare_beam.toml")
     nominal = with_sets(bare, ["shaker.armature_mass_kg=0.1"])
@@ -444,9 +450,7 @@ def test_a_current_driven_shaker_is_fitted_in_its_mode(tmp_path):
     data = prepare(load_frf_folder(tmp_path / "cur"), nominal)
     cal = fit(nominal, data, None)
     sh = fit_shaker_frf(nominal, data, cal)
-    results = [{"effect": None, "theta": cal.theta, "channels": cal.channels, "score": bic(cal.channels, len(cal.theta))},
-               {"effect": SHAKER, "theta": sh.theta, "channels": sh.channels, "group": "FRF",
-                "score": bic(sh.channels, len(sh.theta))}]
+    results = shaker_against_calibration(cal, sh)
     assert rank(results)[2] is not None
     assert BACK_EMF not in sh.theta and sh.cfg.shaker.amplifier == "current"
     assert sh.theta[SHAKER] == pytest.approx(0.15, rel=0.2)

@@ -36,7 +36,11 @@ def test_reduced_stuck_frequencies_within_half_a_percent_of_the_full_fe(ref):
     f_full = fe3d.full_stuck_frequencies_hz(finfo, full, i.k_n_area * se.contact_area, i.k_t_area * se.contact_area)
     f_red = stuck_frequencies_hz(build_se_plant(se, cfg), closed_only=False)[:8]
     assert np.all(np.abs(f_red / f_full - 1) < 5e-3), (f_red, f_full)
-    assert np.all(f_red >= f_full * (1 - 1e-9))      # a Ritz reduction never softens
+    # a Ritz reduction never softens; to the eigen solves' precision on this penalty-stiffened system
+    # (highest / lowest eigenvalue ~1e8, times the rounding: ~1e-8..1e-7 relative in the lowest frequency;
+    # seen 9.5e-8 below the full model's in one fresh-clone run, 1e-9 in others), far below a softening
+    # the reduction could cause (its error is +0.01..+0.14 % here)
+    assert np.all(f_red >= f_full * (1 - 1e-6)), (f_red / f_full - 1)
     assert se.contact_area.sum() == pytest.approx(cfg.plant.beams[1].length_m * cfg.plant.beams[1].width_m, rel=1e-12)
 
 
