@@ -30,7 +30,9 @@ def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys
     """Calibrated on 1.35 and 2.7 V (0.5 and 1 N), the harmonic balance predicts the 27 V FRF at least 3x
     closer than the linear model calibrated on the same files, with the force scale within 5 % (the issue's
     figure; 15 % here until issue 32, for the whole plan's +9 % on the earlier plant), and it is
-    the softening mode the report finds; the linear model's damping ends on its bound (10) and is warned.
+    the softening mode the report finds; the linear model's damping ends on its bound (10) and is warned;
+    at the calibration levels the harmonic balance fits no worse than the linear model by their common
+    objective (measured: 0.81 against 12.32; 27 V at 1.09 against 9.76 dB with both fitted on the bands).
     Measured on the converged plant (issue 32; mode 3's band only, 16 lines a level; 65 s on a shared
     2-core machine): 27 V at 1.09 against 9.77 dB (9.0x), force scale 0.3662 (-1.0 %). Issue 31's 7.24
     against 9.86 dB (measured at 76c42ef, on the uniform 10 mm default before the graded one) no longer holds. (On the earlier per-pair plant: 0.94 against 9.91 dB here, and the
@@ -46,6 +48,11 @@ def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys
     p = {x["level_n"]: x for x in res["prediction"]}
     assert not p[27.0]["calibrated_on"] and p[1.35]["calibrated_on"]
     assert p[27.0]["gap_linear_db"] > 3.0 * p[27.0]["gap_nonlinear_db"], p[27.0]
+    assert p[27.0]["better"] == "nonlinear"
+    # at the calibration levels, by the objective both models are fitted on (the modes' bands), the harmonic
+    # balance is no worse than its stuck limit, the linear model; so it is not refused
+    c = res["calibration_gap"]
+    assert c["nonlinear"] <= c["linear"] and not c["refused"] and not res["nonlinear"]["stuck_limit"], c
     assert sorted(f.name for f in out.iterdir()) == ["diagnose.json", "levels.png", "model.toml", "report.md"]
     assert json.loads((out / "diagnose.json").read_text()) == res
 
@@ -121,3 +128,34 @@ def test_an_interrupted_diagnosis_keeps_its_fits(folder, tmp_path, capsys, monke
     assert load(out / "model.toml").plant.interface.mu == pytest.approx(0.4 * mu, rel=1e-4)
     assert "harmonic balance: 5model" in err and "the 2 fits done so far are in" in err
     assert err.rstrip().splitlines()[-1].endswith(" s wall")
+
+
+def test_a_harmonic_balance_fit_worse_than_its_stuck_limit_is_refused(folder, monkeypatch):
+    """calibration_gap's rule: the harmonic balance with its joints stuck is the linear model, so a
+    harmonic-balance fit that ends worse than the linear fit on the same lines (here forced: each fit
+    returns mu x 0.2 from its start, the joint slipping far too early) is refused; the stuck limit is
+    kept, so the nonlinear model's gaps equal the linear model's at every level and nothing is named."""
+    import numpy as np
+
+    import frictionrt.rt.discrepancy.diagnose.levels as levels
+    from frictionrt.rt.discrepancy.diagnose.frf import weighted_residuals
+    from frictionrt.rt.discrepancy.diagnose.levels import calibration_gap
+
+    assert calibration_gap({"a": np.array([1.0, 1.0])}, {"a": np.array([1.0, 1.001])})["refused"]
+    assert not calibration_gap({"a": np.array([1.0, 1.0])}, {"a": np.array([1.0, 1.0])})["refused"]
+
+    def slipping(nominal, data, lv, start, effect, method="df", bars=False):
+        theta = {k: start.get(k, 1.0) for k in levels.CAL_NAMES} | {"mu": 0.2} | (
+            {k: v for k, v in start.items() if k == levels.FORCE_SCALE}) | (
+            {effect.name: effect.nominal} if effect else {})
+        cfg = levels._cfg(nominal, theta, effect)
+        H = levels.nonlinear_H(cfg, data, lv, theta.get(levels.FORCE_SCALE, 1.0), method)
+        return {"theta": theta, "channels": weighted_residuals(data, H, profile_scale=False)[0], "cfg": cfg,
+                "evaluations": 1}
+    monkeypatch.setattr(levels, "fit_nonlinear", slipping)
+    res = diagnose_levels(folder, [1.35, 2.7])
+    c = res["calibration_gap"]
+    assert c["refused"] and c["nonlinear"] > c["linear"] and res["nonlinear"]["stuck_limit"], c
+    assert res["named_effect"] is None and "mu" not in res["nonlinear"]["fitted"]
+    for p in res["prediction"]:
+        assert p["gap_nonlinear_db"] == p["gap_linear_db"] and p["better"] == "linear", p

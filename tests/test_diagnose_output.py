@@ -146,6 +146,7 @@ def test_levels_report_has_residual_panels(tmp_path):
     res = {"_plots": plots, "level_unit": "N", "calibrate_on_n": [1.0], "softening_band_hz": [100.0, 200.0],
            "prediction": [], "softening_mode": 3, "named_effect": None, "harmonic_method": "df", "contact_note": None,
            "nonlinear": {"fitted": {"E": 1.0}}, "linear": {"fitted": {"E": 1.0}}, "warnings": [],
+           "calibration_gap": {"linear": 2.0, "nonlinear": 1.5, "refused": False},
            "plausibility": {"note": "fine", "let_go": None, "ranges": {}}}
     figs = []
     real = plt.Figure.savefig

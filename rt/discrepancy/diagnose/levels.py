@@ -22,9 +22,10 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
   prediction reports where a closed pair's normal gap swings more than its static gap (``contact_note``).
 
 Residuals: rt.discrepancy.diagnose.frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
-noise, every sensor; the linear model's on all lines, the harmonic balance's on the modes' bands only
-(``mode_bands``: +-``HALF_WIDTH`` around each measured mode, where the joint shows; each band weighted
-to the same total, so that a lab's dense lines at a high mode do not outvote a low mode's). Fit:
+noise, every sensor; both models on the modes' bands only (``mode_bands``: +-``HALF_WIDTH`` around each
+measured mode, where the joint shows; each band weighted to the same total, so that a lab's dense lines at
+a high mode do not outvote a low mode's), and compared at the calibration levels by that objective
+(``calibration_gap``: a harmonic-balance fit worse than its stuck limit, the linear model, is refused). Fit:
 scipy.optimize.least_squares (trust-region reflective) in the logarithms of the scales, within
 ``fit_bounds``, from the linear calibration's E, k_t and damping and mu x 1 (the
 candidate from its default strength, moved as strength / its range: scipy's finite-difference step is
@@ -214,6 +215,18 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
             "cfg": _cfg(nominal, theta, effect), "evaluations": int(sol.nfev)}
 
 
+def calibration_gap(linear: dict, nonlinear: dict) -> dict:
+    """The two models at the calibration levels by the objective both are fitted on: the rms of the
+    weighted residuals (ln|H_meas| - ln|H_model|) / sigma_k over the modes' bands' lines (``mode_bands``;
+    1 is the noise), from their channels ``linear`` and ``nonlinear``. The harmonic balance with its
+    joints closed and stuck is the linear model, so its best fit can be no worse than the linear one:
+    a fit that ends worse stopped in another valley or at its bounds (mu cannot reach the stuck limit
+    within the configuration's range), and is refused, the stuck limit kept ("refused": True)."""
+    rms = [float(np.sqrt(np.mean(np.concatenate(list(ch.values())) ** 2))) for ch in (linear, nonlinear)]
+    return {"measure": "rms of (ln|H_meas| - ln|H_model|) / sigma_k over the modes' bands at the calibration levels",
+            "linear": round(rms[0], 4), "nonlinear": round(rms[1], 4), "refused": rms[1] > rms[0]}
+
+
 def gap_db(d: FRFData, h: dict, band: tuple[float, float] | None) -> float:
     """RMS of 20 log10|H_meas / H_model| over the lines in ``band`` [Hz] (None: all), every sensor [dB]."""
     e = []
@@ -310,13 +323,14 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     """The fits and the prediction of ``_diagnose_levels``; each fit, once done, also into ``done``
     {name: {"fitted", "cfg", ...}} (what an interruption keeps)."""
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
-    say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N")
-    lin = fit(nominal, dc, None, bars=bars, label="linear")
+    db = [mode_bands(d) for d in dc]
+    lines = sum(len(d.freq) for d in db)
+    say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N on {lines} lines of the modes' bands")
+    lin = fit(nominal, db, None, bars=bars, label="linear")
     done["linear"] = done_fit(lin.theta, lin.cfg)
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
-    db = [mode_bands(d) for d in dc]
-    say(f"harmonic balance ({method}), calibration only, on {sum(len(d.freq) for d in db)} lines of the modes' bands")
+    say(f"harmonic balance ({method}), calibration only, on the same lines")
     fits = {}
     for eff in [None, *map(get, CANDIDATES)]:
         if eff is not None:
@@ -327,16 +341,23 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
     base, ranked, winner = rank(results)
     final = winner or base
-    winner_effect = next((e for e in fits if e is not None and e.name == final["effect"]), None)
+    calibration = calibration_gap(lin.channels, final["channels"])
+    if calibration["refused"]:
+        winner, final = None, None
+    winner_effect = next((e for e in fits if winner and e is not None and e.name == winner["effect"]), None)
     per_volt = any(d.per_volt for d in data)
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
-    plausibility = verdict(plausible, fits[None]["theta"], final["theta"], final["effect"], list(CANDIDATES)) | {
-        "linear_outside": outside(lin.theta, plausible)}
+    plausibility = verdict(plausible, fits[None]["theta"], (final or base)["theta"], (final or base)["effect"],
+                           list(CANDIDATES)) | {"linear_outside": outside(lin.theta, plausible)}
     say("prediction at the other levels")
     hb = []
-    H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0), method, hb)
     H_lin = [{s: h * lin.theta.get(FORCE_SCALE, 1.0) if d.per_volt else h for s, h in hs.items()}
              for d, hs in zip(data, H_lin)]
+    if final is not None:
+        H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0), method, hb)
+    else:    # the stuck limit: the linear model (the joint's contact closed and stuck in the harmonic balance)
+        H_nl = H_lin
+        nonlinear_H(base["cfg"], data, levels, base["theta"].get(FORCE_SCALE, 1.0), method, hb)
     band = softening_band(nominal, data, levels)
     pred = []
     for i, (d, a) in enumerate(zip(data, levels)):
@@ -344,7 +365,10 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
              "gap_linear_db": gap_db(d, H_lin[i], band[:2]), "gap_nonlinear_db": gap_db(d, H_nl[i], band[:2]),
              "gap_linear_all_db": gap_db(d, H_lin[i], None), "gap_nonlinear_all_db": gap_db(d, H_nl[i], None)}
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
+        g["better"] = "nonlinear" if g["gap_nonlinear_db"] < g["gap_linear_db"] else "linear"
         pred.append(g | contact_of(hb[i]))
+    stuck = final is None
+    final = final or {"theta": lin.theta, "cfg": lin.cfg, "effect": None}
     return {"input": "frf_levels", "calibrate_on_n": lc, "levels_n": sorted(set(levels)),
             "level_unit": "V" if any(d.per_volt for d in data) else "N", "harmonic_method": method,
             "softening_band_hz": [round(band[0], 2), round(band[1], 2)], "softening_mode": band[2],
@@ -353,15 +377,16 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
                          "rss_reduction": round(r["rss_reduction"], 4),
                          "fitted": rounded(r["theta"])} for r in ranked],
             "linear": {"fitted": rounded(lin.theta)},
-            "nonlinear": {"fitted": rounded(final["theta"]),
+            "nonlinear": {"fitted": rounded(final["theta"]), "stuck_limit": stuck,
                           "evaluations": fits[None]["evaluations"],
                           "lines": {d.name: [len(b.freq), len(d.freq)] for d, b in zip(dc, db)}},
+            "calibration_gap": calibration,
             "prediction": pred,
             "contact_note": contact_note(pred, method, "V" if per_volt else "N",
                                          any(isinstance(a, RandomLevel) for a in levels)),
             "plausibility": plausibility,
             "warnings": [w | {"model": "linear"} for w in bound_warnings(lin.theta, None, per_volt, nominal)]
-                        + [w | {"model": "harmonic balance"} for w in bound_warnings(
-                            final["theta"], winner_effect, per_volt, nominal, fit_bounds(nominal))],
+                        + ([] if stuck else [w | {"model": "harmonic balance"} for w in bound_warnings(
+                            final["theta"], winner_effect, per_volt, nominal, fit_bounds(nominal))]),
             "_config": final["cfg"],
             "_plots": [(d.name, a, d.freq, d.H, h0, h1) for d, a, h0, h1 in zip(data, levels, H_lin, H_nl)]}

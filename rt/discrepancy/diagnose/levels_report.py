@@ -18,17 +18,29 @@ def summary(res: dict) -> str:
              f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
              f"named effect: {res['named_effect'] or 'no missing effect found'}",
              f"fitted (harmonic balance): {fitted_text(res['nonlinear']['fitted'])}",
+             calibration_line(res),
              *([f"note: {res['contact_note']}"] if res["contact_note"] else []),
              *[f"warning ({w['model']}): {w['parameter']} = {w['value']:g} at its bound {w['bound']:g}: {w['fix']}"
                for w in res["warnings"]],
              *summary_lines(res["plausibility"]),
              f"level [{res['level_unit']}]  calibrated  gap linear / harmonic balance [dB] (softening band; all lines)  "
-             "ratio"]
+             "ratio  better"]
     for p in res["prediction"]:
         lines.append(f"  {p['level_n']:>7g}  {'yes' if p['calibrated_on'] else 'no':>10}  "
                      f"{p['gap_linear_db']:.3f} / {p['gap_nonlinear_db']:.3f}  ({p['gap_linear_all_db']:.3f} / "
-                     f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}")
+                     f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}  {p['better']}")
     return "\n".join(lines)
+
+
+def calibration_line(res: dict) -> str:
+    """The two models at the calibration levels by their common objective, and a refused harmonic-balance fit."""
+    c = res["calibration_gap"]
+    text = (f"at the calibration levels (rms of the weighted log-magnitude residual over the modes' bands, 1 = noise): "
+            f"linear {c['linear']:g}, harmonic balance {c['nonlinear']:g}")
+    if c["refused"]:
+        text += ("; the harmonic balance's fit ended worse than its stuck limit (the linear model): refused, "
+                 "the stuck limit kept")
+    return text
 
 
 def write_levels_report(res: dict, out: str | Path) -> Path:
@@ -57,8 +69,8 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
         fig.savefig(tmp / "levels.png", dpi=110)
         plt.close(fig)
         rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "
-                f"{p['gap_nonlinear_db']} | {p['ratio']} | {p['gap_linear_all_db']} | {p['gap_nonlinear_all_db']} |"
-                for p in res["prediction"]]
+                f"{p['gap_nonlinear_db']} | {p['ratio']} | {p['better']} | {p['gap_linear_all_db']} | "
+                f"{p['gap_nonlinear_all_db']} |" for p in res["prediction"]]
         (tmp / "report.md").write_text("\n".join([
             "# Amplitude dependence: calibrated at some levels, predicted at the others", "",
             f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}. Softening mode "
@@ -69,8 +81,10 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
                                                                      else ""), "",
             f"Harmonic-balance calibration: `{json.dumps(res['nonlinear']['fitted'])}`; linear: "
             f"`{json.dumps(res['linear']['fitted'])}`.", "",
-            f"| level [{res['level_unit']}] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | linear, all lines | "
-            "harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- |", *rows, "",
+            calibration_line(res)[0].upper() + calibration_line(res)[1:] + ".", "",
+            f"| level [{res['level_unit']}] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | better "
+            "| linear, all lines | harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- | --- |",
+            *rows, "",
             *(["", "## Warnings: parameters on a bound", "", "| model | parameter | value | bound | fix |",
                "| --- | --- | --- | --- | --- |"]
               + [f"| {w['model']} | {w['parameter']} | {w['value']:g} | {w['bound']:g} | {w['fix']} |"
