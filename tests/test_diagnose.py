@@ -273,6 +273,7 @@ def fit_against_calibration_alone(campaigns, effect) -> dict:
 OWN_FORM_CONTINUED = {"E": 1.0398, "k_t": 1.0409, "mu": 0.8978, "modal_damping": 1.0311, "dispersion": 0.0022}
 
 
+@pytest.mark.slow   # ~100 s of one worker (its own campaign on the graded joint); micro_slip's check in the suite is the twin above
 def test_micro_slip_at_0_6_x_is_named_from_the_calibration_that_took_its_damping(tmp_path):
     """micro_slip at 0.6 x its default spread (0.3) on the rig's own form, seed 3: calibration alone
     from the diagnosis's continued point (damping x 1.03 for the truth's 0.94: it took the effect's
