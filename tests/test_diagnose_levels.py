@@ -53,6 +53,10 @@ def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys
     # balance is no worse than its stuck limit, the linear model; so it is not refused
     c = res["calibration_gap"]
     assert c["nonlinear"] <= c["linear"] and not c["refused"] and not res["nonlinear"]["stuck_limit"], c
+    # the contact opens at 27 V (df's note): predicted there by aft from the df calibration too, and aft, which
+    # holds the opening, is closer than the linear model
+    assert p[27.0]["normal_ratio_max"] > 1.0 and "gap_aft_db" in p[27.0] and "predicted there by aft" in res["contact_note"]
+    assert p[27.0]["gap_aft_db"] < p[27.0]["gap_linear_db"], p[27.0]
     assert sorted(f.name for f in out.iterdir()) == ["diagnose.json", "levels.png", "model.toml", "report.md"]
     assert json.loads((out / "diagnose.json").read_text()) == res
 

@@ -280,9 +280,13 @@ def contact_note(pred: list[dict], method: str, unit: str, random: bool = False)
         return (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} rms a closed pair's normal gap (its rms x sqrt(2)) "
                 "swings more than its static gap: the contact opens and closes, which the random tests' "
                 "linearisation keeps linear (no method of --calibrate-on holds it for random tests yet)")
-    return (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} a closed pair's normal gap swings more than its static "
+    text = (f"at {', '.join(f'{a:g}' for a in gaping)} {unit} a closed pair's normal gap swings more than its static "
             "gap (normal ratio > 1): the contact opens and closes in the cycle, which method df keeps linear; "
             "--harmonic-method aft holds it")
+    if any("gap_aft_db" in g for g in pred):
+        text += (" (predicted there by aft from this calibration: gap_aft_db; a calibration by aft costs several "
+                 "times df's per model evaluation, so it runs only when asked)")
+    return text
 
 
 def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None,
@@ -367,6 +371,13 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
         g["better"] = "nonlinear" if g["gap_nonlinear_db"] < g["gap_linear_db"] else "linear"
         pred.append(g | contact_of(hb[i]))
+    gaping = [i for i, g in enumerate(pred) if g["normal_ratio_max"] > 1.0]
+    if method == "df" and final is not None and gaping and not any(isinstance(a, RandomLevel) for a in levels):
+        say(f"prediction by method aft where the contact opens ({len(gaping)} levels), from this calibration")
+        H_aft = nonlinear_H(final["cfg"], [data[i] for i in gaping], [levels[i] for i in gaping],
+                            final["theta"].get(FORCE_SCALE, 1.0), "aft")
+        for i, h in zip(gaping, H_aft):
+            pred[i] |= {"gap_aft_db": gap_db(data[i], h, band[:2]), "gap_aft_all_db": gap_db(data[i], h, None)}
     stuck = final is None
     final = final or {"theta": lin.theta, "cfg": lin.cfg, "effect": None}
     return {"input": "frf_levels", "calibrate_on_n": lc, "levels_n": sorted(set(levels)),

@@ -28,7 +28,8 @@ def summary(res: dict) -> str:
     for p in res["prediction"]:
         lines.append(f"  {p['level_n']:>7g}  {'yes' if p['calibrated_on'] else 'no':>10}  "
                      f"{p['gap_linear_db']:.3f} / {p['gap_nonlinear_db']:.3f}  ({p['gap_linear_all_db']:.3f} / "
-                     f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}  {p['better']}")
+                     f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}  {p['better']}"
+                     + (f"  (aft {p['gap_aft_db']:.3f} / {p['gap_aft_all_db']:.3f})" if "gap_aft_db" in p else ""))
     return "\n".join(lines)
 
 
@@ -70,7 +71,7 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
         plt.close(fig)
         rows = [f"| {p['level_n']:g} | {'yes' if p['calibrated_on'] else 'no'} | {p['gap_linear_db']} | "
                 f"{p['gap_nonlinear_db']} | {p['ratio']} | {p['better']} | {p['gap_linear_all_db']} | "
-                f"{p['gap_nonlinear_all_db']} |" for p in res["prediction"]]
+                f"{p['gap_nonlinear_all_db']} | {p.get('gap_aft_db', '')} |" for p in res["prediction"]]
         (tmp / "report.md").write_text("\n".join([
             "# Amplitude dependence: calibrated at some levels, predicted at the others", "",
             f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}. Softening mode "
@@ -83,7 +84,8 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
             f"`{json.dumps(res['linear']['fitted'])}`.", "",
             calibration_line(res)[0].upper() + calibration_line(res)[1:] + ".", "",
             f"| level [{res['level_unit']}] | calibrated on | gap linear [dB] | gap harmonic balance [dB] | ratio | better "
-            "| linear, all lines | harmonic balance, all lines |", "| --- | --- | --- | --- | --- | --- | --- | --- |",
+            "| linear, all lines | harmonic balance, all lines | aft from this calibration [dB] |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
             *rows, "",
             *(["", "## Warnings: parameters on a bound", "", "| model | parameter | value | bound | fix |",
                "| --- | --- | --- | --- | --- |"]
