@@ -16,7 +16,7 @@ from frictionrt.rt.common.config import load
 @pytest.fixture(scope="module")
 def designs():
     cfg = load()
-    return design_amplitude(cfg, peaks={}), design_amplitude(cfg)
+    return design_amplitude(cfg, peaks={}), design_amplitude(cfg), design_amplitude(cfg, jenkins=True)
 
 
 def _full(blocks_j, N):
@@ -33,7 +33,7 @@ def _full(blocks_j, N):
 def test_blocks_at_ratio_one_are_the_papers_discrete_model(designs):
     """With r = 1 the blocks are the paper's A_d and B_dT (both exact ZOH of the same model: expm
     of 3 x 3 against cont2discrete's 15 x 15, round-off apart), and A_d has nothing outside them."""
-    (od, ap), _ = designs
+    (od, ap), *_ = designs
     p = od.params
     N = len(od.model.omega)
     for j in range(len(AMP_GRID_M)):
@@ -59,48 +59,81 @@ def test_ratios_follow_the_peaks_and_hold_beyond():
 
 
 def _reference_step(x, u, p, a):
-    """The step in plain NumPy (amplitude_step's docstring), full 2N matrices."""
-    N = len(x) // 2
-    e = u[0] - p.C_meas @ x
-    z = x + p.M * e
+    """The step in plain NumPy (amplitude_step's docstring), full 2N matrices; with the Jenkins
+    joint (a.k_j > 0) the slider is x[2N] and the force the spring's, clamped at mu |F_N|."""
+    n = len(p.M)
+    N = n // 2
+    jen = a.k_j > 0
+    e = u[0] - p.C_meas @ x[:n]
+    z = x[:n] + p.M * e
     v = p.C_v @ z
     c = p.mu * u[1] * 2 / np.pi
-    f = c * np.arctan(p.alpha * v)
+    q = p.mu * abs(u[1])
+    f = np.clip(a.k_j * (p.C_u @ z - x[n]) / (1 - a.k_j * p.D_u), -q, q) if jen else c * np.arctan(p.alpha * v)
     y = np.array([p.C_u @ z + p.D_u * f, v, e, f])
     blk = np.empty((N, 6))
     for i in range(N):
         amp = a.scale[i] * np.hypot(z[i], z[N + i] * a.inv_omega[i])
         blk[i] = [np.interp(amp, a.grid, a.blocks[i, :, m]) for m in range(6)]
     A, B = _full(blk, N)
+    if jen:
+        u_star, c_u = p.C_u @ A @ z, p.C_u @ B + p.D_u
+        f = a.k_j * (u_star - x[n]) / (1 - a.k_j * c_u)
+        s = x[n] if abs(f) <= q else u_star + c_u * np.clip(f, -q, q) - np.clip(f, -q, q) / a.k_j
+        return np.append(A @ z + B * np.clip(f, -q, q), s), y
     v_next = _implicit_v(p.C_v @ A @ z, p.C_v @ B, u[1], p.mu, p.alpha)
     return A @ z + B * c * np.arctan(p.alpha * v_next), y
 
 
-def test_step_against_numpy_reference(designs):
+@pytest.mark.parametrize("jenkins", [False, True])
+def test_step_against_numpy_reference(designs, jenkins):
     """The compiled step against the reference on states spread over the grid (modes 2-5 at
-    0.3-40 um of u_rel: on, between and beyond the grid points), F_N 40 and 600 N, 20 draws."""
-    _, (od, ap) = designs
+    0.3-40 um of u_rel: on, between and beyond the grid points), F_N 40 and 600 N, 20 draws; the
+    Jenkins joint's slider within +-2 um of u_rel (both stick and slip are met: counted)."""
+    od, ap = designs[2 if jenkins else 1]
     p = od.params
     N = len(od.model.omega)
+    m = 2 * N + jenkins
     rng = np.random.default_rng(3)
+    slipped = 0
     for _ in range(20):
-        x = np.zeros(2 * N)
+        x = np.zeros(m)
         for i in range(1, 5):
             q = 10 ** rng.uniform(np.log10(0.3e-6), np.log10(40e-6)) / ap.scale[i]
             ph = rng.uniform(0, 2 * np.pi)
             x[i], x[N + i] = q * np.cos(ph), -q * od.model.omega[i] * np.sin(ph)
+        if jenkins:
+            x[2 * N] = od.params.C_u @ x[:2 * N] + rng.uniform(-2e-6, 2e-6)
         u = np.array([rng.normal(0, 1e-3), rng.choice([40.0, 600.0])])
-        x_next, y, w = np.empty(2 * N), np.empty(4), np.empty(2 * N)
+        x_next, y, w = np.empty(m), np.empty(4), np.empty(2 * N)
         _amplitude_step(0, x, u, p, ap, w, x_next, y)
         x_ref, y_ref = _reference_step(x, u, p, ap)
         assert np.allclose(y, y_ref, rtol=1e-12, atol=1e-18)
         assert np.allclose(x_next, x_ref, rtol=1e-9, atol=1e-12 * np.max(np.abs(x_ref)))
+        slipped += jenkins and x_next[2 * N] != x[2 * N]
+    if jenkins:
+        assert 0 < slipped < 20
+
+
+def test_jenkins_joint_holds_below_its_slip_limit_and_slides_at_it(designs):
+    """The joint stuck (F_N large): the slider stays and the force is the spring's, |f| < mu F_N;
+    F_N = 0: no force, the slider follows u_rel (it slides freely)."""
+    od, ap = designs[2]
+    p = od.params
+    n = len(p.M)
+    x = np.zeros(n + 1)
+    x[3] = 2e-6 / ap.scale[3]
+    xn, y, w = np.empty(n + 1), np.empty(4), np.empty(n)
+    _amplitude_step(0, x, np.array([0.0, 1e6]), p, ap, w, xn, y)
+    assert xn[n] == 0.0 and 0.0 < abs(y[3]) < p.mu * 1e6
+    _amplitude_step(0, x, np.array([0.0, 0.0]), p, ap, w, xn, y)
+    assert y[3] == 0.0 and xn[n] == pytest.approx(p.C_u @ xn[:n], rel=1e-12)
 
 
 def test_flat_schedule_is_the_papers_step(designs):
     """r = 1: the paper's observer: the same outputs bit for bit (the same arithmetic), the next
     state to the round-off of the block-wise product."""
-    (od, ap), _ = designs
+    (od, ap), *_ = designs
     p = od.params
     n = len(p.M)
     x = np.random.default_rng(5).normal(0, 1e-4, n)
@@ -115,7 +148,7 @@ def test_flat_schedule_is_the_papers_step(designs):
 
 def test_error_dynamics_stable_at_every_grid_amplitude(designs):
     """The paper's gain with every mode at its scheduled frequency: spectral radius < 1."""
-    _, (od, ap) = designs
+    _, (od, ap), _ = designs
     p = od.params
     N = len(od.model.omega)
     I_MC = np.eye(2 * N) - np.outer(p.M, p.C_meas)
