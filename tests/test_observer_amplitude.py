@@ -9,6 +9,7 @@ import pytest
 from frictionrt.observer.amplitude import AMP_GRID_M, design_amplitude, frequency_ratios, mode_blocks
 from frictionrt.observer.amplitude_step import _amplitude_step
 from frictionrt.observer.step import _implicit_v, _observer_step
+from frictionrt.plant.model import build_plant
 from frictionrt.rt.cli import main
 from frictionrt.rt.common.config import load
 
@@ -16,7 +17,9 @@ from frictionrt.rt.common.config import load
 @pytest.fixture(scope="module")
 def designs():
     cfg = load()
-    return design_amplitude(cfg, peaks={}), design_amplitude(cfg), design_amplitude(cfg, jenkins=True)
+    plant = build_plant(cfg)
+    return (design_amplitude(cfg, plant, peaks={}), design_amplitude(cfg, plant),
+            design_amplitude(cfg, plant, jenkins=True))
 
 
 def _full(blocks_j, N):
