@@ -183,3 +183,18 @@ def test_c_export_refuses_the_amplitude_kind_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "'amplitude'" in err[0] and "--estimator observer" in err[0]
     assert not (tmp_path / "c").exists()
+
+
+def test_supervisor_catches_a_diverging_amplitude_observer():
+    """The supervisor's observer checks run on this kind: a state mismatch injected at 0.05 s is
+    observer_divergence within 5 ticks (as for the paper's observer), the loop then passive."""
+    from frictionrt.rt.loop import build_loop, run, summary
+    from frictionrt.rt.loop.faults import schedule
+    from frictionrt.rt.loop.supervisor import FAULT_CODES
+    cfg = load()
+    r = run(build_loop(cfg, "lyapunov", "amplitude"), 196.0, 5.0, 0.08,
+            faults=schedule(["observer_mismatch@0.05"], cfg))
+    f = summary(r)["faults"][0]
+    assert f["name"] == "observer_divergence" and FAULT_CODES[f["code"]] == f["name"]
+    assert 0 <= f["detected_tick"] - 1050 <= 5 and f["passive_tick"] - f["detected_tick"] <= 1
+    assert r.signal("passive")[f["passive_tick"]:].all()
