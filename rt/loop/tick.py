@@ -8,7 +8,8 @@ One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order
                  to the beams' separation (plant output dF_N1) -> ADC readings of the bolt force
     2 estimator  oracle: the plant's true u_rel, v_rel at t_k, band-limited (observer.oracle),
                  or observer: the Kalman-designed nonlinear observer on the measured tip
-                 velocity and the force cell's F_N (observer.step)
+                 velocity and the force cell's F_N (observer.step), or its amplitude-following
+                 kind (observer.amplitude_step; est's amplitude grid not empty)
     3 law        F* (passive, hysteresis-optimal with RT1, Lyapunov)
     3s supervisor checks the tick (rt.loop.supervisor); on a fault F* := F_min in this tick
     4 tracking   V_cmd = feedforward + PID on the law's force sensor
