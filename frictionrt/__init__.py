@@ -11,7 +11,8 @@ Jobs: ``load_config``, ``show_config``, ``modes``, ``impulse``, ``simulate``, ``
 ``reproduce``, ``tune``, ``replay``, ``export_c``, ``effects``, ``rig``, ``diagnose``,
 ``diagnose_frf_arrays``, ``import_frf``. Each returns a ``Result`` (``.to_dict()`` is what the
 command line's ``--json`` prints; ``.plot()`` a matplotlib Figure); ``tune`` its ``TuneResult``.
-``Estimator.OBSERVER`` (the default) and ``Estimator.ORACLE`` say what the laws run on.
+``Estimator.OBSERVER`` (the default), ``Estimator.ORACLE`` and ``Estimator.AMPLITUDE`` (the
+observer with each mode's frequency following its amplitude) say what the laws run on.
 
 The packages beneath: ``frictionrt.rt`` (loop, logs, experiments, the discrepancy workflow, the
 command line), ``frictionrt.plant``, ``frictionrt.observer``, ``frictionrt.tracking``. Importing

@@ -157,11 +157,12 @@ def spec_default(key: str) -> str:
 def add_estimator(p: argparse.ArgumentParser, both: bool = False) -> None:
     """--estimator: what the laws run on (``Estimator``; the observer by default); ``both``: also
     "both", the default then (reproduce: the claims on the observer, the oracle beside them)."""
-    from frictionrt.rt.common.config import DEFAULT_ESTIMATOR, ESTIMATORS
-    choices = (*ESTIMATORS, "both") if both else ESTIMATORS
+    from frictionrt.rt.common.config import ALL_ESTIMATORS, DEFAULT_ESTIMATOR
+    choices = (*ALL_ESTIMATORS, "both") if both else ALL_ESTIMATORS
     p.add_argument("--estimator", choices=choices, default="both" if both else DEFAULT_ESTIMATOR.value,
                    help="observer: the paper's Kalman-designed observer on the tip accelerometer and the force cell; "
-                        "oracle: the plant's own band-limited u_rel, v_rel (the upper bound)"
+                        "oracle: the plant's own band-limited u_rel, v_rel (the upper bound); amplitude: the paper's observer "
+                        "with each mode's frequency following its amplitude"
                         + ("; both: the claims on the observer, the oracle beside them" if both else ""))
 
 

@@ -53,6 +53,9 @@ def cmd_export_c(cfg, args) -> int:
     from frictionrt.jobs import export_c
     from frictionrt.rt.export.generate import MANIFEST
     out = Path(args.out)
+    if args.from_log is None and args.estimator not in ("observer", "oracle"):  # before the design is built
+        return fail(f"estimator {args.estimator!r}: the C export has templates for the observer and the oracle only; "
+                    "export with --estimator observer or oracle")
     try:
         m = export_c(cfg, out=out, law=args.law, estimator=args.estimator, from_log=args.from_log, sets=args.sets,
                      force=args.force).to_dict()

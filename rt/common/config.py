@@ -35,23 +35,27 @@ class Estimator(enum.StrEnum):
 
     ``OBSERVER``: the paper's Kalman-designed nonlinear observer on the tip accelerometer and the
     force cell (docs/observer.md), the default everywhere; ``ORACLE``: the plant's own u_rel,
-    v_rel, band-limited (the upper bound a perfect estimate gives). Members are strings, so
-    ``Estimator.OBSERVER == "observer"``."""
+    v_rel, band-limited (the upper bound a perfect estimate gives); ``AMPLITUDE``: the paper's
+    observer with each mode's frequency following that mode's amplitude (observer/amplitude.py,
+    docs/observer.md). Members are strings, so ``Estimator.OBSERVER == "observer"``."""
     OBSERVER = "observer"
     ORACLE = "oracle"
+    AMPLITUDE = "amplitude"
 
 
-ESTIMATORS = tuple(e.value for e in Estimator)   # ("observer", "oracle"): the default first
+ESTIMATORS = (Estimator.OBSERVER.value, Estimator.ORACLE.value)   # the reproduction's pair: the default first
+ALL_ESTIMATORS = tuple(e.value for e in Estimator)                # every kind (what --estimator accepts)
+OBSERVERS = (Estimator.OBSERVER.value, Estimator.AMPLITUDE.value)  # the kinds that run an observer (state z)
 DEFAULT_ESTIMATOR = Estimator.OBSERVER
 
 
 def estimator_of(value) -> Estimator:
-    """``value`` ("observer", "oracle" or an ``Estimator``) as an ``Estimator``; ValueError naming
-    the choices otherwise."""
+    """``value`` ("observer", "oracle", "amplitude" or an ``Estimator``) as an ``Estimator``;
+    ValueError naming the choices otherwise."""
     try:
         return Estimator(value)
     except ValueError:
-        raise ValueError(f"estimator {value!r}: give one of {', '.join(ESTIMATORS)}") from None
+        raise ValueError(f"estimator {value!r}: give one of {', '.join(ALL_ESTIMATORS)}") from None
 PASSIVE_MODES = ("voltage", "tracking")
 AMPLIFIERS = ("current", "voltage")   # shaker.amplifier: the power amplifier's mode (plant/shaker.py)
 # the plant's time step (plant.newmark): the trapezoidal rule with the discrete-gradient normal impulse

@@ -47,7 +47,7 @@ import numpy as np
 
 from frictionrt.rt.experiments.claims import claim_c1, claim_c2, claim_c3, claim_c4, claim_c5, claim_c6, peak_change_db
 from frictionrt.rt.common.config import Config
-from frictionrt.rt.common.config import ESTIMATORS, Estimator
+from frictionrt.rt.common.config import ALL_ESTIMATORS, ESTIMATORS, Estimator
 from frictionrt.rt.loop import Designs, Loop, build_loop
 from frictionrt.rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
 from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, ErrorEstimate, annotate, coarser, margins,
@@ -303,8 +303,8 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     from frictionrt.plant.modes import bare_beam_bending_hz
     plan.check(cfg)
     estimators = tuple(dict.fromkeys(estimators))
-    if not estimators or not set(estimators) <= set(ESTIMATORS):
-        raise ValueError(f"estimators {list(estimators)}: give one or more of {', '.join(ESTIMATORS)}")
+    if not estimators or not set(estimators) <= set(ALL_ESTIMATORS):
+        raise ValueError(f"estimators {list(estimators)}: give one or more of {', '.join(ALL_ESTIMATORS)}")
     say = stage or (lambda text: None)
     t0 = time.perf_counter()
     say(f"impulse test at F_N1 = {plan.impulse_fn1_n:g} N")

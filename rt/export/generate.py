@@ -179,7 +179,11 @@ def config_header(rec: dict[str, np.ndarray], digest: str, law: str, rate_hz: fl
 
 def export_c(loop, state, out: Path, source: str) -> dict:
     """Write the export of ``loop`` started from ``state`` into the folder ``out`` (created if
-    missing); ``source`` says where the design came from. Returns the manifest."""
+    missing); ``source`` says where the design came from. Returns the manifest. ValueError for an
+    estimator the templates do not hold (the amplitude-following observer), before anything is written."""
+    if loop.estimator not in ("observer", "oracle"):
+        raise ValueError(f"estimator {loop.estimator!r}: the C export has templates for the observer and the "
+                         "oracle only; export with --estimator observer or oracle")
     rec = controller_record(loop, state)
     digest = design_hash(rec)
     out = Path(out)

@@ -31,9 +31,11 @@ TIP_SLOTS = slice(6, 8)  # plant.sensors.SENSOR_SLOTS v_tip, a_tip_meas_in
 
 
 def controller_record(loop, state) -> dict[str, np.ndarray]:
-    """The controller's numbers of ``loop`` started from ``state`` (module docstring)."""
+    """The controller's numbers of ``loop`` started from ``state`` (module docstring); the
+    amplitude-following observer's blocks as "amplitude.*" (its design hash; the C templates do
+    not hold that kind, ``export_c`` refuses it)."""
     arrays = design_arrays(loop, state)
-    observe = loop.estimator == "observer"
+    observe = loop.observes
     est = "observer" if observe else "oracle"
     rec = {"tip.F1": np.ascontiguousarray(arrays["params.sensors.F1"][0])}
     for key, a in arrays.items():
@@ -43,6 +45,9 @@ def controller_record(loop, state) -> dict[str, np.ndarray]:
     rec["state.xs"] = np.ascontiguousarray(arrays["state.xs"][TIP_SLOTS])
     for slot in ("xe" if observe else "xo", "xl", "xq", "xf", "sv"):
         rec[f"state.{slot}"] = arrays[f"state.{slot}"]
+    if loop.estimator == "amplitude":
+        for name, a in loop.amplitude._asdict().items():
+            rec[f"amplitude.{name}"] = np.ascontiguousarray(a)
     rec["export.observe"] = np.array(observe)
     rec["export.force_col"] = np.array(output_index()["F_strain" if loop.force_sensor == "strain" else "F_cell"],
                                        dtype=np.int64)

@@ -59,6 +59,6 @@ def numba_outputs(loop, st, k, sens, uv):
     est, law_, sup, trk = controller_stages(loop, st)
     out = np.full((len(k), 13), np.nan)
     ns = np.zeros(len(k), dtype=np.int64)
-    _timed_ticks(k, sens.copy(), uv, out, ns, force_col, loop.estimator == "observer", np.zeros((0, 5)),
+    _timed_ticks(k, sens.copy(), uv, out, ns, force_col, loop.observes, np.zeros((0, 5)),
                  np.zeros(2, np.int64), np.empty(len(SENSORS)), (st.xs, st.xs.copy(), loop.sensors), est, law_, sup, trk)
     return out, ns

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from frictionrt.observer.amplitude import AmplitudeParams, design_amplitude, no_amplitude
 from frictionrt.observer.kalman import ObserverParams, design_observer
 from frictionrt.observer.oracle import ORACLE_OUTPUTS, build_oracle
 from frictionrt.observer.step import OBSERVER_OUTPUTS
@@ -21,7 +22,8 @@ from frictionrt.plant.sensors import SENSOR_OUTPUTS, SensorParams, build_sensors
 from frictionrt.plant.sensors import initial_state as sensors_initial_state
 from frictionrt.plant.sensors import output_index as sensor_output_index
 from frictionrt.plant.shaker import ShakerParams, build_shaker, check_shaker
-from frictionrt.rt.common.config import DEFAULT_ESTIMATOR, ESTIMATORS, Config, estimator_of, require_adaptive_screw  # noqa: F401  (ESTIMATORS: the face)
+from frictionrt.rt.common.config import (ALL_ESTIMATORS, DEFAULT_ESTIMATOR, ESTIMATORS, OBSERVERS, Config,  # noqa: F401  (ESTIMATORS: the face)
+                                         estimator_of, require_adaptive_screw)
 from frictionrt.rt.common.noise import new_rng
 from frictionrt.rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
 from frictionrt.rt.loop.supervisor import initial_state as supervisor_initial_state
@@ -54,6 +56,12 @@ class Loop:
     shaker: ShakerParams | None = None          # built by build_loop (P = 0: ideal force source)
     plant_rest: np.ndarray | None = None        # built by build_loop: the plant's state at rest at F0
     #                                             (plant.initial_state, a static solve: 6.5 ms, once per loop, not per run)
+    amplitude: AmplitudeParams | None = None    # the amplitude-following blocks (estimator "amplitude"), else of size 0
+
+    @property
+    def observes(self) -> bool:
+        """True when an observer kind runs (state z in LoopState.xe), False for the oracle."""
+        return self.estimator in OBSERVERS
 
     def column(self, name: str) -> int:
         return next(i for i, (n, _, _) in enumerate(self.signals) if n == name)
@@ -117,14 +125,19 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = DEFAULT_EST
     plant = designs.plant(cfg)
     sensor = SENSOR_OF_LAW[law]
     design = designs.force_tracking(cfg, sensor)
+    amplitude = no_amplitude()
     if estimator == "observer":
         observer = (design_observer(cfg, plant) if observer_cfg is None else design_observer(observer_cfg)).params
+    elif estimator == "amplitude":
+        od, amplitude = design_amplitude(cfg, plant) if observer_cfg is None else design_amplitude(observer_cfg)
+        observer = od.params
     else:
         observer = _no_observer()
     check_shaker(cfg, plant)
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
                 build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator,
-                build_supervisor(cfg, estimator == "observer"), build_shaker(cfg), plant.initial_state(cfg.actuator.F0_N))
+                build_supervisor(cfg, estimator in OBSERVERS), build_shaker(cfg), plant.initial_state(cfg.actuator.F0_N),
+                amplitude)
 
 
 def _no_observer() -> ObserverParams:
@@ -169,9 +182,12 @@ def controller_stages(loop: Loop, st: LoopState) -> tuple:
     """(est, law, sup, trk): the controller's arrays as ``frictionrt.rt.loop.tick._controller_tick`` takes
     them, the states those of ``st`` (advanced in place by the ticks), inputs, outputs and next
     states fresh scratch (but yl, yf: st's). The loop (``frictionrt.rt.loop.driver.run``), the replay and
-    ``bench controller`` build them here."""
+    ``bench controller`` build them here. est ends with the amplitude-following blocks and their
+    scratch (size 0 unless that kind runs)."""
+    amp = no_amplitude() if loop.amplitude is None else loop.amplitude
     est = (st.xo, np.empty_like(st.xo), np.zeros(len(ORACLE_OUTPUTS)), np.zeros(2), loop.oracle,
-           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer)
+           st.xe, np.empty_like(st.xe), np.zeros(len(OBSERVER_OUTPUTS)), np.zeros(2), loop.observer,
+           amp, np.zeros(len(st.xe) if len(amp.grid) else 0))
     law = (st.xl, np.empty_like(st.xl), st.yl, np.zeros(2), loop.law_params)
     sup = (st.sv, np.zeros(len(SUPERVISOR_OUTPUTS)), loop.supervisor)
     trk = (st.xq, np.empty_like(st.xq), np.zeros(1), np.zeros(1), loop.prefilter,
@@ -193,7 +209,7 @@ def initial_loop_state(loop: Loop, seed: int) -> LoopState:
     ys[si["F_strain"]] = ys[si["F_cell"]] = ya[0]  # the readings at rest (noise-free)
     # the sensors' sampled-force filters carry dF_N1 in the loop's form: 0 at rest (g = g_ref)
     return LoopState(xs=sensors_initial_state(loop.sensors, F_N1=0.0), ys=ys,
-                     xo=rest_state(loop.oracle, (0.0, 0.0)), xe=np.zeros(loop.observer.M.shape[0]), xl=np.zeros(len(LAWS_SLOTS)),
+                     xo=rest_state(loop.oracle, (0.0, 0.0)), xe=np.zeros(loop.observer.M.shape[0] + (loop.amplitude is not None and loop.amplitude.k_j > 0.0)), xl=np.zeros(len(LAWS_SLOTS)),
                      yl=np.zeros(len(LAWS_OUTPUTS)), xq=rest_state(loop.prefilter, (cfg.tracking.F_min_N,)),
                      xf=tracking_initial_state(ya[0]), yf=np.zeros(len(FORCE_TRACKING_OUTPUTS)),
                      sv=supervisor_initial_state(ys), xa=xa, ya=ya,

@@ -178,7 +178,7 @@ def run(loop: Loop, freq_hz: float, amp_n: float, duration_s: float, *, paced: b
                 failed[0] += controller(st.k + k, st.k + k1, exc, pace, faults, sens, est, law, sup, trk, act, plnt,
                                         shk, cols, log[rows], kf)
             else:
-                failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.estimator == "observer", faults,
+                failed[0] += _run_ticks(st.k + k, st.k + k1, exc, pace, force_col, loop.observes, faults,
                                         sens, est, law, sup, trk, act, plnt, shk, cols,
                                         log[rows], comp_ns[rows] if timing else comp_ns, kf)
             k = k1

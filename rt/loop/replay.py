@@ -47,7 +47,7 @@ from frictionrt.rt.loop import realtime
 from frictionrt.rt.loop.faults import from_json
 from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
 from frictionrt.rt.loop.coverage import coverage
-from frictionrt.rt.loop.build import ESTIMATORS, build_loop, controller_stages, initial_loop_state
+from frictionrt.rt.loop.build import ALL_ESTIMATORS, build_loop, controller_stages, initial_loop_state
 from frictionrt.rt.loop.driver import watch
 from frictionrt.rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from frictionrt.rt.loop.tick import _controller_done, _controller_tick
@@ -163,7 +163,7 @@ def open_controller_log(path: Path, fallback_cfg=None, sets=(), readings=SENSORS
     if len(rec.k) == 0:
         raise ValueError(f"{path}: the log holds no ticks")
     estimator = meta.get("estimator", "oracle" if "/plant" in rec.topics else "observer")
-    if estimator not in ESTIMATORS:
+    if estimator not in ALL_ESTIMATORS:
         raise ValueError(f"{path}: unknown estimator {estimator!r} in the metadata")
     try:
         loop = build_loop(cfg, meta.get("law", cfg.tracking.law), estimator)
@@ -345,7 +345,7 @@ def replay_outputs(path, *, paced: bool = False, fallback_cfg=None, sets=()) -> 
 
     est, law_, sup, trk = controller_stages(loop, st)
     with realtime.session(cfg.rt, paced) as rts:
-        fixed = (force_col, estimator == "observer", faults, (paced, period_ns, rts.margin_ns, clk, np.zeros(2, np.int64)),
+        fixed = (force_col, loop.observes, faults, (paced, period_ns, rts.margin_ns, clk, np.zeros(2, np.int64)),
                  np.empty(len(SENSORS)), est, law_, sup, trk)
         none = (restart[0][:0], *restart[1:])
         _replay_ticks(ks[:0], sens[:0], uv[:0], overran[:0], out[:0], none, *fixed)  # compile or load: not timed

@@ -8,7 +8,8 @@ One tick k, t_k = k dt (int64 tick, never accumulated time), in this fixed order
                  to the beams' separation (plant output dF_N1) -> ADC readings of the bolt force
     2 estimator  oracle: the plant's true u_rel, v_rel at t_k, band-limited (observer.oracle),
                  or observer: the Kalman-designed nonlinear observer on the measured tip
-                 velocity and the force cell's F_N (observer.step)
+                 velocity and the force cell's F_N (observer.step), or its amplitude-following
+                 kind (observer.amplitude_step; est's amplitude grid not empty)
     3 law        F* (passive, hysteresis-optimal with RT1, Lyapunov)
     3s supervisor checks the tick (rt.loop.supervisor); on a fault F* := F_min in this tick
     4 tracking   V_cmd = feedforward + PID on the law's force sensor
@@ -39,6 +40,7 @@ import math
 
 import numba
 
+from frictionrt.observer.amplitude_step import _amplitude_step
 from frictionrt.observer.step import _observer_step
 from frictionrt.plant.actuator import _actuator_step
 from frictionrt.plant.newmark import _plant_step
@@ -94,12 +96,12 @@ def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing
     """Stages 2-4 of tick k with the supervisor, on the readings ys (``SENSOR_OUTPUTS``) and the
     plant's u_rel [m], v_rel [m/s] (read by the oracle only): the loop and the replay both run
     this. The stages' arrays come in four tuples (a call of more than ~30 arguments cannot be
-    inlined): est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p), law = (xl, xl_n, yl,
+    inlined): est = (xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p, amp_p, we), law = (xl, xl_n, yl,
     ul, law_p), sup = (sv, ysv, sv_p), trk = (xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p). yc receives the readings the controller uses (non-finite ones replaced by the last
     finite, ``frictionrt.rt.loop.supervisor._sanitise``); ye, yl, yq, yf, ysv the stages' outputs; next states
     into x*_n; the supervisor state sv is advanced in place. Returns the clock [ns] after the
     estimator, the law, the supervisor and the tracking if timing, else zeros. RT-safe."""
-    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
+    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p, amp_p, we = est
     xl, xl_n, yl, ul, law_p = law
     sv, ysv, sv_p = sup
     xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
@@ -109,7 +111,10 @@ def _controller_tick(k, ys, yc, u_rel, v_rel, force_col, observe, faults, timing
         ue[0] = yc[COL_V_TIP]
         ue[1] = yc[COL_F_CELL]
         _inject_observer(k, faults, ue)
-        _observer_step(k, xe, ue, obs_p, xe_n, ye)
+        if amp_p.grid.shape[0] > 0:  # the amplitude-following kind
+            _amplitude_step(k, xe, ue, obs_p, amp_p, we, xe_n, ye)
+        else:
+            _observer_step(k, xe, ue, obs_p, xe_n, ye)
     else:
         uo[0] = u_rel
         uo[1] = v_rel
@@ -154,7 +159,7 @@ def _controller_done(out, row, c, observe, est, law, sup, trk):
     """After ``_controller_tick``: its outputs (estimator, law, prefilter, force tracking,
     supervisor: ``COMMANDED`` order) into out[row, c:], and its next states become its states.
     The loop and the replay both call it. Returns the next column. RT-safe."""
-    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p = est
+    xo, xo_n, yo, uo, oracle_p, xe, xe_n, ye, ue, obs_p, amp_p, we = est
     xl, xl_n, yl, ul, law_p = law
     sv, ysv, sv_p = sup
     xq, xq_n, yq, uq, pre_p, xf, xf_n, yf, uf, ft_p = trk
