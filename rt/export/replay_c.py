@@ -71,7 +71,9 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     ``first_mismatch_signals``, ``build`` (the compile command), ``wall_s``, ``coverage`` (the paths
     the C's outputs took, ``frictionrt.rt.loop.coverage``), ``compared_ranges``, ``missing_ranges``,
     ``not_compared_ranges``, ``restarted_from``, ``restart_note`` (``frictionrt.rt.loop.replay.replay_plan``:
-    after a gap the C restarts from the next key frame); outputs (replayed ticks, 13).
+    after a gap the C restarts from the next key frame); outputs (replayed ticks, 13). A float32 export
+    (``frictionrt.rt.export.float32``) is compared against its stated bound instead: ``precision``,
+    ``equivalence`` (per output max abs and rms of float32 - log), ``within_bound``; ``bit_exact`` None.
     ValueError in one line for a bad log, a folder that is no export, an export of another
     design, a missing compiler or a failed build."""
     path, folder = Path(path), Path(folder)
@@ -95,9 +97,13 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     n = len(ks)
     sens = np.ascontiguousarray(rec.log[plan.rows][:, [names.index(c) for c in READINGS]])
     faults = logged_faults(path, meta)
-    states = ctrl_states(ctrl, loop, st, restart)
+    float32 = manifest.get("precision") == "float32"
+    if float32 and len(plan.restart_at):
+        raise ValueError(f"--c {folder}: a float32 export replays a log without gaps only (this one restarts at "
+                         f"{len(plan.restart_at)} key frames); replay it with a double export")
+    states = None if float32 else ctrl_states(ctrl, loop, st, restart)
     t0 = time.perf_counter()
-    out = ctrl.run(ks, sens, uv, overran, faults, (plan.restart_at, states))
+    out = ctrl.run(ks, sens, uv, overran, faults, None if float32 else (plan.restart_at, states))
     wall = time.perf_counter() - t0
     res = {"file": str(path), "export": str(folder), "design_hash": digest, "log_design_hash": stated, "law": loop.law,
            "estimator": loop.estimator, "ticks": n,
@@ -113,6 +119,12 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
         return res, out
     res |= plan.report
     ref = rec.log[plan.rows][:, [names.index(c) for c in OUTPUTS]]
+    if float32:   # not the double controller's bits: its difference from them against the stated bound
+        from frictionrt.rt.export.float32 import differences
+        diff = differences(out, ref, n * loop.cfg.dt_s)
+        res |= {"precision": "float32", "bit_exact": None, "signals_compared": list(OUTPUTS),
+                "equivalence": diff["by_signal"], "within_bound": diff["within_bound"]}
+        return res, out
     exact, by_sig, first, at_first = compare_bits(out, ref, OUTPUTS)
     res |= {"bit_exact": exact, "signals_compared": list(OUTPUTS), "max_abs_diff_by_signal": by_sig,
             "first_mismatch_tick": int(ks[first]) if first is not None else None,
