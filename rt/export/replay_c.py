@@ -26,7 +26,7 @@ from frictionrt.rt.export.record import TIP_SLOTS, controller_record, design_has
 from frictionrt.rt.log.design_record import use_logged
 from frictionrt.rt.loop.build import initial_loop_state
 from frictionrt.rt.loop.coverage import coverage
-from frictionrt.rt.loop.keyframe import keyframe_parts, load
+from frictionrt.rt.loop.keyframe import keyframe_parts, load, logged_patterns
 from frictionrt.rt.loop.replay import (_overran, compare_bits, controller_restarts, logged_faults, open_controller_log,
                                        oracle_inputs, replay_plan, seed_of)
 
@@ -44,18 +44,19 @@ def log_design(path: Path, fallback_cfg=None, sets=()):
     return rec, meta, names, loop, st, report
 
 
-def ctrl_states(ctrl, loop, st, restart) -> np.ndarray:
+def ctrl_states(ctrl, loop, st, restart, patterns: bool = True) -> np.ndarray:
     """(restarts, state doubles) ctrl_state images of the key frames in ``restart``
     (``frictionrt.rt.loop.replay.controller_restarts``): each loaded into a copy of the loop state
     ``st``, whose parts then fill ctrl_state's members (``frictionrt.rt.export.sil.STATE_PARTS``: the
     tip integrator's slots of the sensors' state, the estimator's state, RT1, prefilter, PID,
-    supervisor)."""
+    supervisor). ``patterns``: whether the key frames carry the plant cache's patterns
+    (``frictionrt.rt.loop.keyframe.logged_patterns``)."""
     at, kf_f, kf_i = restart[:3]
     slices = ctrl.state_offsets() if len(at) else []
     images = np.zeros((len(at), slices[-1].stop if slices else 1))
     for j in range(len(at)):
         s = st.copy()
-        parts = keyframe_parts(s, loop.cfg.rt.keyframe_plant_cache)
+        parts = keyframe_parts(s, loop.cfg.rt.keyframe_plant_cache, patterns)
         load(parts, kf_f[j], kf_i[j])
         for sl, x in zip(slices, (s.xs[TIP_SLOTS], s.xe if loop.estimator == "observer" else s.xo, s.xl, s.xq, s.xf,
                                   s.sv)):
@@ -101,7 +102,7 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     if float32 and len(plan.restart_at):
         raise ValueError(f"--c {folder}: a float32 export replays a log without gaps only (this one restarts at "
                          f"{len(plan.restart_at)} key frames); replay it with a double export")
-    states = None if float32 else ctrl_states(ctrl, loop, st, restart)
+    states = None if float32 else ctrl_states(ctrl, loop, st, restart, logged_patterns(rec.keyframes))
     t0 = time.perf_counter()
     out = ctrl.run(ks, sens, uv, overran, faults, None if float32 else (plan.restart_at, states))
     wall = time.perf_counter() - t0
