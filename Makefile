@@ -41,6 +41,7 @@ TARGET_PACKAGES = clang gcc-aarch64-linux-gnu qemu-user gcc-arm-none-eabi libnew
 check-targets: $(STAMP)
 	apt-get install -y --no-install-recommends $(TARGET_PACKAGES)
 	$(BIN)/python -m pytest -q -p no:xdist tests/test_export_c.py -k "golden or guard or refuses_a_build or preempt or aarch64 or cortex or clang"
+	$(BIN)/python -m pytest -q -p no:xdist tests/test_export_float32.py
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/plant.py

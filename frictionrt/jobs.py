@@ -413,12 +413,15 @@ def replay(path: str | Path, cfg: Cfg = None, *, c: str | Path | None = None, pl
 
 
 def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estimator: str = DEFAULT_ESTIMATOR,
-             from_log: str | Path | None = None, sets: Sequence[str] = (), force: bool = False) -> Result:
+             from_log: str | Path | None = None, sets: Sequence[str] = (), force: bool = False,
+             precision: str = "double") -> Result:
     """The controller as C99 (``frictionrt export-c``; docs/export-c.md): tip integrator, estimator,
     law, supervisor, prefilter and force tracking of ``law`` (None: tracking.law) on ``estimator``,
     designed from ``cfg``, or the design stored in the log ``from_log`` (``sets``: overrides on its
     configuration), written into the folder ``out`` (with ``force`` an existing one is replaced as a
-    whole). ``.to_dict()``: the manifest (law, estimator, design_hash, source, ...) and "folder"."""
+    whole). ``precision`` "double" (bit-exact with the numba controller) or "float32" (the
+    single-precision kind, rt/export/float32.py: observer build only, needs a C compiler).
+    ``.to_dict()``: the manifest (law, estimator, design_hash, source, ...) and "folder"."""
     from frictionrt.rt.common.files import write_folder
     from frictionrt.rt.export.generate import export_c as write_export
     out = Path(out)
@@ -436,6 +439,10 @@ def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estima
         loop = build_loop(cfg, law, estimator_of(estimator))
         st = initial_loop_state(loop, cfg.rt.seed)
         source = "the resolved configuration"
+    if precision == "float32":
+        from frictionrt.rt.export.float32 import export_float32 as write_export
+    elif precision != "double":
+        raise ValueError(f"precision {precision!r}: give double or float32")
     m = write_folder(out, force, lambda: write_export(loop, st, out, source))
     return Result("export-c", m | {"folder": str(out)})
 

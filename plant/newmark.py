@@ -804,6 +804,49 @@ def _stribeck_update(qd, p, wk):
         mu_eff[j] = _stribeck_mu(mu[j], s, v, v_s)
 
 
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
+def refactor_kept(W, wk):
+    """Rebuild the factor cache of wk from what a key frame keeps of it: each kept slot's pattern
+    and Jacobian entries at its factorisation (wk.pattern, wk.d_fact; a slot of pattern -1 holds
+    none). Each slot is factorised with ``_contact_newton``'s own expressions (J_aa = I - W_aa
+    dLambda_a/dg_a over the pattern's active pairs in index order, ``_lu_factor``, and for all but
+    the transitions' slot ``_triangular_inverses``), the current slot (wk.slot[0]) last so that
+    wk.LU holds its LU, and every Woodbury row is marked stale (wk.z_ok = 0: recomputed from the
+    factors when next needed, as in the run). The factors are functions of W, the pattern and
+    d_fact only, so the cache equals the run's bit for bit (benchmarks/plant_cache_refactor.py).
+    Returns the slots refactorised. Not RT-safe in time (a restart's work); no allocation."""
+    pattern, d_fact, act = wk.pattern, wk.d_fact, wk.act
+    K1, npair = pattern.shape
+    cur = wk.slot[0]
+    done = 0
+    for t in range(K1 + 1):
+        s = t if t < K1 else cur
+        if (t < K1 and s == cur) or pattern[s, 0] == -1:
+            continue
+        n_act = 0
+        for j in range(npair):
+            if pattern[s, j] != 0:
+                act[n_act] = j
+                n_act += 1
+        d = d_fact[s]
+        LU = wk.LU
+        ma = 2 * n_act
+        for ra in range(ma):
+            i = 2 * act[ra // 2] + ra % 2
+            for b in range(n_act):
+                j = act[b]
+                LU[ra, 2 * b] = -(W[i, 2 * j] * d[3 * j] + W[i, 2 * j + 1] * d[3 * j + 1])
+                LU[ra, 2 * b + 1] = -W[i, 2 * j + 1] * d[3 * j + 2]
+            LU[ra, ra] += 1.0
+        _lu_factor(LU, wk.piv[s], ma)
+        if s < K1 - 1:
+            _triangular_inverses(LU, wk.Jinv[s], ma)
+        for j in range(npair):
+            wk.z_ok[s, j] = 0
+        done += 1
+    return done
+
+
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
 def _forget_factors(pattern):
     """Mark every slot's factors as belonging to no pattern (wk.pattern, (K, p)). RT-safe."""

@@ -57,12 +57,14 @@ def cmd_bench(cfg, args) -> int:
 def cmd_bench_controller(cfg, args) -> int:
     """``bench controller``: per-tick figures [us] of numba and the C export (rt/export/bench.py)."""
     from frictionrt.rt.export.bench import bench_controller, format_bench
-    from frictionrt.rt.export.generate import read_manifest
+    from frictionrt.rt.export.generate import read_manifest, require_double
     from frictionrt.rt.loop import build_loop, initial_loop_state
     if args.steps < 1000:
         return fail(f"--steps {args.steps}: need at least 1000 steps")
     try:
         manifest = read_manifest(Path(args.c)) if args.c else None
+        if manifest is not None:
+            require_double(manifest, f"--c {args.c}")
         loop = build_loop(cfg, args.law, args.estimator)
         res = bench_controller(loop, initial_loop_state(loop, cfg.rt.seed), args.steps, args.c, args.cc, manifest)
     except ValueError as exc:

@@ -215,7 +215,7 @@ def c_exports(specs, runs) -> dict[tuple[str, str], Path]:
     none) by the (law, estimator) each was exported for, among ``runs``, the (law, estimator) pairs
     the verb runs. ValueError in one line for another form, a folder that is no export, an export
     of a law and estimator the verb does not run ("an export of another design"), two for one."""
-    from frictionrt.rt.export.generate import read_manifest
+    from frictionrt.rt.export.generate import read_manifest, require_double
     specs = [] if specs is None else [specs] if isinstance(specs, str) else list(specs)
     out: dict[tuple[str, str], Path] = {}
     for spec in specs:
@@ -225,6 +225,7 @@ def c_exports(specs, runs) -> dict[tuple[str, str], Path]:
             raise ValueError(f"--controller {spec!r}: give c:DIR (a folder of frictionrt export-c) or numba")
         folder = Path(spec[2:])
         m = read_manifest(folder)
+        require_double(m, f"--controller {spec}")
         key = (m.get("law"), m.get("estimator"))
         if key not in runs:
             raise ValueError(f"--controller {spec}: an export of another design ({m['design_hash'][:19]}..., "

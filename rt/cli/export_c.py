@@ -28,7 +28,8 @@ EXAMPLES = """examples:
   frictionrt export-c --law lyapunov -o ctrl_lyap && make -C ctrl_lyap check
   frictionrt simulate --law lyapunov --estimator observer --freq 223.6 --amp 5 --out logs/lyap
   frictionrt replay logs/lyap.mcap --c ctrl_lyap
-  frictionrt export-c --from-log logs/lyap.mcap -o ctrl_lyap --force"""
+  frictionrt export-c --from-log logs/lyap.mcap -o ctrl_lyap --force
+  frictionrt export-c --law lyapunov --precision float32 -o ctrl_lyap_f32 && make -C ctrl_lyap_f32 check"""
 
 
 def add_parser(sub, parents) -> argparse.ArgumentParser:
@@ -44,6 +45,10 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     p.add_argument("--from-log", metavar="RUN.mcap", default=None,
                    help="export the design a run log carries (its configuration, law, estimator and design "
                         "arrays; --law, --estimator do not apply)").complete = shtab.FILE
+    p.add_argument("--precision", choices=["double", "float32"], default="double",
+                   help="double: bit-exact with the numba controller (default); float32: single precision for a "
+                        "core with a single-precision FPU only (Cortex-M4F), within a stated bound of the double "
+                        "controller, its own golden vectors (observer build; needs a C compiler at export time)")
     add_force(p, "an existing folder as a whole")
     p.add_argument("--json", action="store_true", help="the manifest as one JSON object")
     return p
@@ -58,7 +63,7 @@ def cmd_export_c(cfg, args) -> int:
                     "export with --estimator observer or oracle")
     try:
         m = export_c(cfg, out=out, law=args.law, estimator=args.estimator, from_log=args.from_log, sets=args.sets,
-                     force=args.force).to_dict()
+                     force=args.force, precision=args.precision).to_dict()
     except FileExistsError:
         return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
     except ValueError as exc:
@@ -67,7 +72,8 @@ def cmd_export_c(cfg, args) -> int:
         print(json.dumps(m))
         return 0
     print(f"export-c {out}: law {m['law']}, estimator {m['estimator']}{' (test build)' if m['estimator'] == 'oracle' else ''}, "
-          f"design {m['design_hash']}")
-    print(f"  from {m['source']}; {MANIFEST}, C sources, Makefile (make -C {out}), harness ctrl_harness, "
+          f"design {m['design_hash']}" + (", float32 kind" if m.get("precision") == "float32" else ""))
+    harness = "" if m.get("precision") == "float32" else "harness ctrl_harness, "
+    print(f"  from {m['source']}; {MANIFEST}, C sources, Makefile (make -C {out}), {harness}"
           f"golden vectors ({m['golden']['ticks']} ticks: make -C {out} check)")
     return 0

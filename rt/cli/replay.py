@@ -56,7 +56,8 @@ def cmd_replay(cfg, args) -> int:
     except ValueError as exc:
         return fail(str(exc))
     realtime_notes(res.get("realtime"))
-    code = 1 if res["bit_exact"] is False else (130 if res.get("interrupted") else 0)
+    code = 1 if res["bit_exact"] is False or res.get("within_bound") is False else \
+        (130 if res.get("interrupted") else 0)
     problem = coverage_problem(res["coverage"]) if args.require_coverage and "coverage" in res else None
     if problem and code == 0:
         code = 1
@@ -158,7 +159,12 @@ def _show_c(res) -> None:
     if res["missing_ticks"]:
         print(f"  the log misses {res['missing_ticks']} ticks{GAP}")
         _print_ranges(res)
-    if res["bit_exact"] is None:
+    if res.get("precision") == "float32":
+        print(f"  float32 export, against its stated bound: {'within' if res['within_bound'] else 'OUTSIDE'}")
+        for sig, d in res["equivalence"].items():
+            print(f"    {sig:<15} " + (f"max |diff| {d['max_abs']:.3g} (bound {d['bound']:g}), rms {d['rms']:.3g}"
+                                      if "max_abs" in d else f"{d['ticks_differ']} ticks differ"))
+    elif res["bit_exact"] is None:
         print("  the log records no controller outputs: nothing to compare")
     elif res["bit_exact"]:
         print(f"  bit-exact: {len(res['signals_compared'])} signals x {res['ticks']} ticks "

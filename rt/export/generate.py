@@ -230,3 +230,12 @@ def check_design(manifest: dict, digest: str, loop, option: str, whose: str, hin
         raise ValueError(f"{option}: an export of another design ({manifest['design_hash'][:19]}..., "
                          f"{manifest['law']}/{manifest['estimator']}) than {whose} ({digest[:19]}..., "
                          f"{loop.law}/{loop.estimator}){hint}")
+
+
+def require_double(manifest: dict, option: str) -> None:
+    """ValueError in one line when ``manifest`` is of a float32 export (``frictionrt.rt.export.float32``):
+    software in the loop and the controller benchmark need the double kind's bits and state layout."""
+    if manifest.get("precision", "double") != "double":
+        raise ValueError(f"{option}: a {manifest['precision']} export runs on its target and in replay --c only "
+                         "(its own bound, not the double controller's bits); give a double export (export-c "
+                         "without --precision)")

@@ -26,7 +26,7 @@ from frictionrt.rt.export.record import TIP_SLOTS, controller_record, design_has
 from frictionrt.rt.log.design_record import use_logged
 from frictionrt.rt.loop.build import initial_loop_state
 from frictionrt.rt.loop.coverage import coverage
-from frictionrt.rt.loop.keyframe import keyframe_parts, load
+from frictionrt.rt.loop.keyframe import keyframe_parts, load, logged_patterns
 from frictionrt.rt.loop.replay import (_overran, compare_bits, controller_restarts, logged_faults, open_controller_log,
                                        oracle_inputs, replay_plan, seed_of)
 
@@ -44,18 +44,19 @@ def log_design(path: Path, fallback_cfg=None, sets=()):
     return rec, meta, names, loop, st, report
 
 
-def ctrl_states(ctrl, loop, st, restart) -> np.ndarray:
+def ctrl_states(ctrl, loop, st, restart, patterns: bool = True) -> np.ndarray:
     """(restarts, state doubles) ctrl_state images of the key frames in ``restart``
     (``frictionrt.rt.loop.replay.controller_restarts``): each loaded into a copy of the loop state
     ``st``, whose parts then fill ctrl_state's members (``frictionrt.rt.export.sil.STATE_PARTS``: the
     tip integrator's slots of the sensors' state, the estimator's state, RT1, prefilter, PID,
-    supervisor)."""
+    supervisor). ``patterns``: whether the key frames carry the plant cache's patterns
+    (``frictionrt.rt.loop.keyframe.logged_patterns``)."""
     at, kf_f, kf_i = restart[:3]
     slices = ctrl.state_offsets() if len(at) else []
     images = np.zeros((len(at), slices[-1].stop if slices else 1))
     for j in range(len(at)):
         s = st.copy()
-        parts = keyframe_parts(s, loop.cfg.rt.keyframe_plant_cache)
+        parts = keyframe_parts(s, loop.cfg.rt.keyframe_plant_cache, patterns)
         load(parts, kf_f[j], kf_i[j])
         for sl, x in zip(slices, (s.xs[TIP_SLOTS], s.xe if loop.estimator == "observer" else s.xo, s.xl, s.xq, s.xf,
                                   s.sv)):
@@ -71,7 +72,9 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     ``first_mismatch_signals``, ``build`` (the compile command), ``wall_s``, ``coverage`` (the paths
     the C's outputs took, ``frictionrt.rt.loop.coverage``), ``compared_ranges``, ``missing_ranges``,
     ``not_compared_ranges``, ``restarted_from``, ``restart_note`` (``frictionrt.rt.loop.replay.replay_plan``:
-    after a gap the C restarts from the next key frame); outputs (replayed ticks, 13).
+    after a gap the C restarts from the next key frame); outputs (replayed ticks, 13). A float32 export
+    (``frictionrt.rt.export.float32``) is compared against its stated bound instead: ``precision``,
+    ``equivalence`` (per output max abs and rms of float32 - log), ``within_bound``; ``bit_exact`` None.
     ValueError in one line for a bad log, a folder that is no export, an export of another
     design, a missing compiler or a failed build."""
     path, folder = Path(path), Path(folder)
@@ -95,9 +98,13 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
     n = len(ks)
     sens = np.ascontiguousarray(rec.log[plan.rows][:, [names.index(c) for c in READINGS]])
     faults = logged_faults(path, meta)
-    states = ctrl_states(ctrl, loop, st, restart)
+    float32 = manifest.get("precision") == "float32"
+    if float32 and len(plan.restart_at):
+        raise ValueError(f"--c {folder}: a float32 export replays a log without gaps only (this one restarts at "
+                         f"{len(plan.restart_at)} key frames); replay it with a double export")
+    states = None if float32 else ctrl_states(ctrl, loop, st, restart, logged_patterns(rec.keyframes))
     t0 = time.perf_counter()
-    out = ctrl.run(ks, sens, uv, overran, faults, (plan.restart_at, states))
+    out = ctrl.run(ks, sens, uv, overran, faults, None if float32 else (plan.restart_at, states))
     wall = time.perf_counter() - t0
     res = {"file": str(path), "export": str(folder), "design_hash": digest, "log_design_hash": stated, "law": loop.law,
            "estimator": loop.estimator, "ticks": n,
@@ -113,6 +120,12 @@ def replay_c(path, folder, *, cc=None, opt="-O2", extra=(), fallback_cfg=None, s
         return res, out
     res |= plan.report
     ref = rec.log[plan.rows][:, [names.index(c) for c in OUTPUTS]]
+    if float32:   # not the double controller's bits: its difference from them against the stated bound
+        from frictionrt.rt.export.float32 import differences
+        diff = differences(out, ref, n * loop.cfg.dt_s)
+        res |= {"precision": "float32", "bit_exact": None, "signals_compared": list(OUTPUTS),
+                "equivalence": diff["by_signal"], "within_bound": diff["within_bound"]}
+        return res, out
     exact, by_sig, first, at_first = compare_bits(out, ref, OUTPUTS)
     res |= {"bit_exact": exact, "signals_compared": list(OUTPUTS), "max_abs_diff_by_signal": by_sig,
             "first_mismatch_tick": int(ks[first]) if first is not None else None,

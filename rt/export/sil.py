@@ -24,7 +24,7 @@ import numpy as np
 
 from frictionrt.rt.common.clock import CLK_TICKS
 from frictionrt.rt.export.cbuild import N_OUTPUTS, OUTPUTS, build, load
-from frictionrt.rt.export.generate import check_design, read_manifest
+from frictionrt.rt.export.generate import check_design, read_manifest, require_double
 from frictionrt.rt.export.record import TIP_SLOTS, controller_record, design_hash
 from frictionrt.rt.loop.build import controller_stages, initial_loop_state
 from frictionrt.rt.loop.driver import run
@@ -113,6 +113,7 @@ class CController:
     def __init__(self, loop, folder, seed: int, cc=None):
         folder = Path(folder)
         m = read_manifest(folder)
+        require_double(m, f"--controller c:{folder}")
         digest = design_hash(controller_record(loop, initial_loop_state(loop, seed)))
         check_design(m, digest, loop, f"--controller c:{folder}", "this run's")
         self.folder, self.cc, self.design_hash = folder, cc, digest

@@ -16,11 +16,13 @@ Parts, in order (``keyframe_parts``; each a flat array of the loop's state, ``Lo
                 supervisor_x (its overrun flag: whether tick k - 1 overran)
     plant       actuator_x, actuator_y, plant_x, plant_y (the outputs at t_k: the oracle's
                 u_rel, v_rel of tick k), shaker_x, and the contact solver's working vectors
-                (``plant.newmark.PlantWork`` but its factor cache)
-    cache       (``rt.keyframe_plant_cache``) the factor cache of the contact solver (``CACHE``,
-                named cache_<field> in lower case):
-                ~111,000 doubles at the default mesh, which the replay of the plant needs to be
-                bit-exact after a restart; without it the plant restarts with a cold cache
+                (``plant.newmark.PlantWork`` but its factor cache), and of the cache the
+                ``PATTERNS`` (each kept slot's pattern of pair states and Jacobian entries, its
+                key and last use, the current slot: ~3,100 values at the default mesh), from
+                which the plant's replay refactorises the cache after a restart, bit for bit
+    cache       (``rt.keyframe_plant_cache``) the rest of the contact solver's factor cache
+                (``CACHE``, named cache_<field> in lower case): ~109,000 doubles at the default
+                mesh, the factors themselves (a restart then needs no refactorisation)
 
 float64 parts go to one ring, int64 parts (with the tick in column 0) to another.
 """
@@ -35,20 +37,31 @@ CONTROLLER_PARTS = ("sensors_x", "oracle_x", "observer_x", "law_x", "law_y", "pr
 PLANT_PARTS = ("actuator_x", "actuator_y", "plant_x", "plant_y", "shaker_x")
 CACHE = ("LU", "Jinv", "piv", "pattern", "d_fact", "Z", "z_ok", "last_use", "key", "slot")
 """``PlantWork`` fields of the contact solver's factor cache (key-framed with rt.keyframe_plant_cache)."""
+PATTERNS = ("pattern", "d_fact", "last_use", "key", "slot")
+"""The part of ``CACHE`` every key frame carries (a few thousand values): what the factors are a
+function of, so that a restart refactorises them bit for bit (``frictionrt.plant.newmark.refactor_kept``)."""
 
 
-def keyframe_parts(st, cache: bool) -> list[tuple[str, np.ndarray]]:
+def keyframe_parts(st, cache: bool, patterns: bool = True) -> list[tuple[str, np.ndarray]]:
     """(name, flat view) of each key-frame part of the loop state ``st`` (module docstring);
-    views, so that reading them reads the state and assigning into them sets it."""
+    views, so that reading them reads the state and assigning into them sets it. ``patterns``:
+    the cache's ``PATTERNS`` without the rest (False: the layout of logs written before they were
+    key-framed, ``logged_patterns``)."""
     parts = [("sensors_x", st.xs), ("oracle_x", st.xo), ("observer_x", st.xe), ("law_x", st.xl), ("law_y", st.yl),
              ("prefilter_x", st.xq), ("tracking_x", st.xf), ("tracking_y", st.yf), ("supervisor_x", st.sv),
              ("actuator_x", st.xa), ("actuator_y", st.ya), ("plant_x", st.xp), ("plant_y", st.yp),
              ("shaker_x", st.xsh)]
     for name, a in st.plant_work._asdict().items():
-        if cache or name not in CACHE:
+        if cache or name not in CACHE or (patterns and name in PATTERNS):
             # ROS 2 field names are lower case: the cache's Z is cache_z, the working vector z work_z
             parts.append((("cache_" if name in CACHE else "work_") + name.lower(), a.reshape(-1)))
     return parts
+
+
+def logged_patterns(keyframes) -> bool:
+    """Whether a log's key frames (a read log's ``keyframes``, or None) carry the cache's
+    ``PATTERNS`` (logs written before they did have the rest of the state only)."""
+    return keyframes is None or any(p[0] == "cache_pattern" for p in keyframes.codec.parts)
 
 
 def layout(parts) -> list[dict]:

@@ -52,7 +52,7 @@ from frictionrt.rt.loop.driver import watch
 from frictionrt.rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from frictionrt.rt.loop.tick import _controller_done, _controller_tick
 from frictionrt.rt.log.mcap_log import read_mcap, tick_runs
-from frictionrt.rt.loop.keyframe import _keyframe_load, keyframe_parts, views
+from frictionrt.rt.loop.keyframe import _keyframe_load, keyframe_parts, logged_patterns, views
 from frictionrt.rt.loop.keyframe import layout as keyframe_layout
 from frictionrt.plant.sensors import SENSOR_OUTPUTS
 from frictionrt.rt.loop.supervisor import S_OVERRAN, SUPERVISOR_OUTPUTS
@@ -397,7 +397,7 @@ def controller_restarts(path: Path, rec, plan: ReplayPlan, loop, st, uv: np.ndar
     replayed rows, at a restart those the key frame holds (the plant's u_rel, v_rel at t_k; the
     supervisor's flag of tick k - 1: the rows before are not in the log), and ``_replay_ticks``'
     restart tuple for the state ``st``. The numba and the C replay both take them here."""
-    parts = keyframe_parts(st, loop.cfg.rt.keyframe_plant_cache)
+    parts = keyframe_parts(st, loop.cfg.rt.keyframe_plant_cache, logged_patterns(rec.keyframes))
     kf_f, kf_i = restart_states(path, rec, plan, parts)
     uv, overran = uv[plan.rows], overran[plan.rows]
     if len(plan.restart_at):

@@ -17,7 +17,10 @@ sensors). Nothing downstream of it feeds back into the replayed part: the actuat
 one-way (the structure does not act back on the stack, plant.actuator) and the sensors,
 estimator, law and tracking only read the plant. So the replay is open-loop, and for the
 project's own logs bit-exact: the same kernels see the same inputs in the same order from the
-same initial state (the contact solver's cache included). Cutting at the actuator's output
+same initial state (the contact solver's cache included). After a gap the replay restarts from
+the next key frame, which carries the cache's patterns (``frictionrt.rt.loop.keyframe.PATTERNS``):
+the factors are refactorised from them (``frictionrt.plant.newmark.refactor_kept``), bit for bit, or
+taken whole from a log written with rt.keyframe_plant_cache. Cutting at the actuator's output
 (F_N1) would leave the actuator model unchecked, and F_N1 is not measurable on a rig.
 
 Any changed parameter (``--set plant.interface.mu=0.3``) shows as a mismatch. A file without
@@ -32,10 +35,11 @@ import numba
 import numpy as np
 
 from frictionrt.plant.actuator import ACTUATOR_OUTPUTS
+from frictionrt.plant.newmark import refactor_kept
 from frictionrt.rt.loop.tick import _actuate, _copy, _put
 from frictionrt.rt.loop.build import build_loop, initial_loop_state
 from frictionrt.rt.log.design_record import use_logged
-from frictionrt.rt.loop.keyframe import CACHE, keyframe_parts, load
+from frictionrt.rt.loop.keyframe import CACHE, PATTERNS, keyframe_parts, load, logged_patterns
 from frictionrt.rt.loop.replay import compare_bits, open_log, replay_plan, restart_states, seed_of
 
 INPUTS = ("F_exc", "V_cmd")
@@ -119,18 +123,25 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
     cache = loop.cfg.rt.keyframe_plant_cache
     if rec.keyframes is not None:   # the observer's state is not replayed here: its size as the log's
         st.xe = np.zeros(rec.keyframes.part("observer_x").shape[1])
-    parts = keyframe_parts(st, cache)
+    patterns = logged_patterns(rec.keyframes)
+    parts = keyframe_parts(st, cache, patterns)
     kf_f, kf_i = restart_states(path, rec, plan, parts)
     cold = loop.plant.new_work()
     bounds = [0, *plan.restart_at.tolist(), n]
     t0 = time.perf_counter()
     failed = 0
     for j, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
-        if j > 0:   # a restart: the state from the key frame; without its factor cache, the solver's starts cold
+        if j > 0:   # a restart: the state from the key frame; the factor cache from it, refactorised or cold
             load(parts, kf_f[j - 1], kf_i[j - 1])
             if not cache:
+                wk = st.plant_work
                 for name in CACHE:
-                    getattr(st.plant_work, name)[...] = getattr(cold, name)
+                    if not (patterns and name in PATTERNS):
+                        getattr(wk, name)[...] = getattr(cold, name)
+                if patterns:   # the factors from the kept patterns, bit for bit (wk.act is scratch there)
+                    act = wk.act.copy()
+                    refactor_kept(loop.plant.params.W, wk)
+                    wk.act[...] = act
         failed += _replay_plant_ticks(ks[a:b], F_exc[a:b], V_cmd[a:b], out[a:b], *args[1:])
     wall = time.perf_counter() - t0
     owner = {nm: o for nm, _, o in rec.signals}
@@ -139,12 +150,14 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
     res = {"file": str(path), "law": law, "estimator": estimator, "sets": list(sets), "inputs": list(INPUTS),
            "ticks": n, "missing_ticks": sum(b - a + 1 for a, b in plan.report["missing_ranges"]),
            "failed_solves": int(failed), "wall_s": wall, "design": design} | plan.report
-    res["plant_cache"] = "in the key frames" if cache else "cold after a restart (rt.keyframe_plant_cache false)"
+    res["plant_cache"] = ("in the key frames" if cache else "refactorised from the key frames' patterns" if patterns
+                          else "cold after a restart (a log without the cache's patterns in its key frames)")
+    exact_all = cache or patterns
     if compared:
         j_out = [out_names.index(c) for c in compared]
         ref = np.ascontiguousarray(rec.log[plan.rows][:, [names.index(c) for c in compared]])
         got = np.ascontiguousarray(out[:, j_out])
-        exact_rows = bounds[1] if len(plan.restart_at) and not cache else n   # bit for bit: up to a cold restart
+        exact_rows = bounds[1] if len(plan.restart_at) and not exact_all else n   # bit for bit: up to a cold restart
         exact, by_sig, first, _ = compare_bits(got[:exact_rows], ref[:exact_rows], compared)
         res |= {"bit_exact": exact, "max_abs_diff": max(by_sig.values(), default=0.0),
                 "signals_compared": compared, "max_abs_diff_by_signal": by_sig,
