@@ -111,7 +111,7 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
              estimator: str = DEFAULT_ESTIMATOR, duration_s: float = 1.0, paced: bool = False,
              seed: int | None = None, out: str | Path | None = None, force: bool = False, rrd: bool = True,
              ring_s: float = 1.0, faults: Sequence[str] = (), controller_of=None, progress: bool = False,
-             argv: Sequence[str] | None = None) -> Result:
+             argv: Sequence[str] | None = None, structure: str | Path | None = None, clusters: int = 0) -> Result:
     """The closed loop at 21 kHz with a sine force of ``amp_n`` [N] at ``freq_hz`` [Hz] for
     ``duration_s`` [s] (``frictionrt simulate``): ``law`` (None: tracking.law) on ``estimator``.
     With ``out`` ("logs/run" or "logs/run.mcap"), every signal is logged to run.mcap, run.rrd (unless
@@ -119,7 +119,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     ``ring_s`` [s]. ``faults``: specs ``"KIND[/SENSOR][=VALUE]@TIME[:DURATION]"`` (docs/reliability.md);
     ``controller_of(loop)``: the loop's controller (a C export's, ``frictionrt.rt.export.sil``; None:
     numba's); ``argv``: the command line the log records (None: this process's); ``seed``: the sensor
-    noise's (None: rt.seed). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
+    noise's (None: rt.seed); ``structure``: a superelement file (docs/superelement.md) as the plant,
+    its interface coarsened to ``clusters`` points if > 0, recorded in the log (path, SHA-256). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
     fn1_mean_n [N], actuator_energy_j [J], the estimate's NRMSE, overruns, log paths, ...);
     ``.run``: the ``Run`` with every signal (``.run.signal("F_N1")``); ``.plot()``: the response
     and F_N1 over the last 50 ms."""
@@ -156,7 +157,9 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     if not paced and any("cpu_stall" in f for f in faults):
         raise ValueError("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced "
                          "(paced=True)")
-    loop = build_loop(cfg, law, estimator)
+    from frictionrt.rt.loop.structure import structure_of
+    structure_ = None if structure is None else structure_of(structure, clusters)
+    loop = build_loop(cfg, law, estimator, structure=structure_)
     n = check_run_input(loop, freq_hz, amp_n, duration_s, ring=base is not None)  # out: a ring
     late = [f for f, row in zip(faults, fault_rows) if row[2] >= n]
     if late:
@@ -170,6 +173,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
             meta = run_metadata(cfg, loop.law, loop.estimator, seed_, freq_hz, amp_n, duration_s, paced, argv=argv)
             meta["faults"] = json.dumps(to_json(fault_rows))
             meta["controller_design"] = design_hash_of(loop, seed_)   # what export-c writes for it
+            if structure_ is not None:
+                meta["structure"] = structure_.record()
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=rrd, ring_s=ring_s,
                                   keyframes=keyframe_codec(loop, initial_loop_state(loop, seed_)))
             writer.mcap.add_metadata("test", run_test_record(loop, freq_hz, amp_n, duration_s))

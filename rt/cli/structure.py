@@ -71,12 +71,9 @@ def structure_impulse(cfg, args) -> int:
 
 def structure_simulate(cfg, args) -> int:
     from frictionrt.plant.se_analysis import simulate
-    if args.out:
-        return fail("--out with --structure: logging a run of an imported structure is not supported yet; "
-                    "drop --out (the summary is printed)")
-    if args.law not in (None, "passive") or args.paced or args.controller:
-        return fail("--structure runs the imported plant with the passive joint (constant F_N1) only: drop --law, "
-                    "--paced and --controller")
+    if args.out or args.law not in (None, "passive") or args.paced or args.controller:
+        return fail("--plant-only runs the imported plant alone with the passive joint (constant F_N1): drop "
+                    "--out, --law, --paced and --controller (or --plant-only for the closed loop)")
     plant, rc = _plant(cfg, args)
     if plant is None:
         return rc
