@@ -418,12 +418,16 @@ def replay(path: str | Path, cfg: Cfg = None, *, c: str | Path | None = None, pl
 
 
 def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estimator: str = DEFAULT_ESTIMATOR,
-             from_log: str | Path | None = None, sets: Sequence[str] = (), force: bool = False) -> Result:
+             from_log: str | Path | None = None, sets: Sequence[str] = (), force: bool = False,
+             structure: str | Path | None = None, clusters: int = 0) -> Result:
     """The controller as C99 (``frictionrt export-c``; docs/export-c.md): tip integrator, estimator,
     law, supervisor, prefilter and force tracking of ``law`` (None: tracking.law) on ``estimator``,
     designed from ``cfg``, or the design stored in the log ``from_log`` (``sets``: overrides on its
     configuration), written into the folder ``out`` (with ``force`` an existing one is replaced as a
-    whole). ``.to_dict()``: the manifest (law, estimator, design_hash, source, ...) and "folder"."""
+    whole); ``structure``: a superelement file as the plant the controller is designed for (its
+    observer's model and the golden vectors' closed loop), coarsened to ``clusters`` points if > 0
+    (with ``from_log``, the log's own structure is used). ``.to_dict()``: the manifest (law,
+    estimator, design_hash, source, ...) and "folder"."""
     from frictionrt.rt.common.files import write_folder
     from frictionrt.rt.export.generate import export_c as write_export
     out = Path(out)
@@ -432,15 +436,19 @@ def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estima
     if not out.parent.exists():
         raise ValueError(f"out {out}: folder {out.parent} does not exist")
     cfg = _cfg(cfg)
+    if from_log is not None and structure is not None:
+        raise ValueError("--structure with --from-log: the log names its own structure; drop --structure")
     if from_log is not None:
         from frictionrt.rt.export.replay_c import log_design
         _, _, _, loop, st, report = log_design(Path(from_log), cfg, list(sets))
         source = f"the log {from_log} ({report['why']})"
     else:
         from frictionrt.rt.loop import build_loop, initial_loop_state
-        loop = build_loop(cfg, law, estimator_of(estimator))
+        from frictionrt.rt.loop.structure import structure_of
+        structure_ = None if structure is None else structure_of(structure, clusters)
+        loop = build_loop(cfg, law, estimator_of(estimator), structure=structure_)
         st = initial_loop_state(loop, cfg.rt.seed)
-        source = "the resolved configuration"
+        source = "the resolved configuration" + ("" if structure_ is None else f" on the structure {structure_.path}")
     m = write_folder(out, force, lambda: write_export(loop, st, out, source))
     return Result("export-c", m | {"folder": str(out)})
 

@@ -8,6 +8,10 @@ import json
 from frictionrt.rt.cli.common import fail
 
 
+NOT_ON_STRUCTURE = ("compare", "frf", "reproduce", "tune", "rig", "diagnose")
+"""Verbs that take --structure only to refuse it in one line (rt.cli.app): not on an imported structure yet."""
+
+
 def add_structure(p: argparse.ArgumentParser) -> None:
     """--structure FILE and --clusters N (the interface coarsened to N points)."""
     p.add_argument("--structure", metavar="FILE", default=None,
