@@ -140,12 +140,13 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
 
 
 LAW_PARTICIPATION = 1e-3   # a mode the laws act on: |t phi_i| >= this x the largest among the computed modes
+LINEARISATION_FORCES = 8  # F_N1 on a geometric grid over [F_min, F_max]: the first that closes a point at the adaptive bolt
 AT_BOLT_WEIGHT = 0.1       # a point at the adaptive bolt: its weight in u_rel_row >= this x the largest weight
 
 
-def adaptive_points(cfg: Config, plant) -> tuple[np.ndarray, np.ndarray]:
+def adaptive_points(cfg: Config, plant, F_N1: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(closed, at_adaptive): boolean masks over an imported structure's contact points. closed: the
-    points the bolts close at F_N1 = tracking.F_min_N (the plant's static equilibrium). at_adaptive:
+    points the bolts close at F_N1 (default tracking.F_min_N; the plant's static equilibrium). at_adaptive:
     the closed points nearer to the adaptive bolt than to the preload, i.e. nearer (``contact_xyz``)
     to x_A, the centre of the points that make up ``u_rel_row``, than to x_N, the centre of the
     closed points' normal forces at F_min (the preload's centre, which the ordinary bolts
@@ -157,7 +158,7 @@ def adaptive_points(cfg: Config, plant) -> tuple[np.ndarray, np.ndarray]:
     p = plant.params
     se = plant.se
     d = 1 + p.nt
-    x0 = plant.initial_state(cfg.tracking.F_min_N)
+    x0 = plant.initial_state(cfg.tracking.F_min_N if F_N1 is None else F_N1)
     g_n = x0[plant.state_slots()["g"]][0::d]
     closed = g_n < 0.0
     w = np.linalg.lstsq(se.contact_rows[:, 1, :].T, se.u_rel_row, rcond=None)[0]
@@ -176,7 +177,10 @@ def build_observer_model_se(cfg: Config, plant) -> ObserverModel:
     """The observer's linear model of an imported structure (``plant.se_plant.SEPlant``), in the
     superelement's own coordinates q (M, K, and the adaptive bolt's spring k_b r r^T):
 
-    * the contact linearised at the static equilibrium at F_N1 = tracking.F_min_N: the closed
+    * the contact linearised at the static equilibrium at F_N1 = tracking.F_min_N (or, if no point
+      at the adaptive bolt is closed there, at the first of ``LINEARISATION_FORCES`` forces
+      geometrically spaced up to tracking.F_max_N that closes one: a coarsened interface's
+      clusters may open where the fine one's points are closed): the closed
       points stuck (k_n on g_n, k_t on each tangential gap) except those at the adaptive bolt
       (``adaptive_points``), which keep their normal spring and their second tangential one but are
       free along the first tangential direction (u_rel's: the friction f_r acts there); open points
@@ -189,7 +193,7 @@ def build_observer_model_se(cfg: Config, plant) -> ObserverModel:
       torsion modes, which u_rel does not see, are skipped); D_u the static correction of u_rel
       with the full compliance (module docstring).
 
-    Raises ValueError if no closed point is at the adaptive bolt, the tied structure moves as a
+    Raises ValueError if no point at the adaptive bolt closes up to F_max, the tied structure moves as a
     rigid body, the superelement has no u_rel_row, no sensor 'tip' or no excitation, or has fewer
     such modes than asked for."""
     se = plant.se
@@ -202,10 +206,15 @@ def build_observer_model_se(cfg: Config, plant) -> ObserverModel:
     if not se.excitation.size:
         raise ValueError("observer: the superelement has no excitation row")
     itf = cfg.plant.interface
-    closed, at = adaptive_points(cfg, plant)
-    if not at.any():
-        raise ValueError("observer: no closed contact point at the adaptive bolt at F_N1 = tracking.F_min_N; "
-                         "check plant.interface and the bolts' rows")
+    t_ = cfg.tracking
+    for F_lin in np.geomspace(t_.F_min_N, t_.F_max_N, LINEARISATION_FORCES) if t_.F_min_N > 0 else [t_.F_max_N]:
+        closed, at = adaptive_points(cfg, plant, float(F_lin))
+        if at.any():
+            break
+    else:
+        raise ValueError(f"observer: no contact point near the adaptive bolt is closed at any F_N1 in "
+                         f"[{t_.F_min_N:g}, {t_.F_max_N:g}] N (tracking.F_min_N, F_max_N); check plant.interface, the "
+                         "bolts' rows and u_rel_row (a coarser interface: --clusters)")
     K = se.K.copy()
     if se.adaptive_row is not None:
         K += float(se.adaptive_k) * np.outer(se.adaptive_row, se.adaptive_row)

@@ -411,7 +411,16 @@ def contact_forces(p: SEParams, g: np.ndarray, w_old: np.ndarray):
 
 def static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None = None, max_iter: int = 100):
     """K q = f_const + b_N1 F_N1 + G^T lambda(G q + gap0, w = 0); Newton from the all-closed, all-stuck
-    solution. Returns (q, w, g). RuntimeError if it does not converge."""
+    solution. Returns (q, w, g). RuntimeError if it does not converge or a Newton matrix is singular
+    (nothing holds the structure in some direction)."""
+    try:
+        return _static_equilibrium(p, F_N1, K, max_iter)
+    except np.linalg.LinAlgError:
+        raise RuntimeError(f"static equilibrium under the bolts: singular stiffness at F_N1 = {F_N1:g} N (the "
+                           "closed points do not hold the structure; a coarsened interface: other --clusters)") from None
+
+
+def _static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None, max_iter: int):
     K = np.diag(p.omega2) if K is None else K
     f = p.f_const + p.b_N1 * F_N1
     m = p.G.shape[0]
