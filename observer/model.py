@@ -139,7 +139,9 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
         l_springs=l_springs)
 
 
-LAW_PARTICIPATION = 1e-3   # a mode the laws act on: |t phi_i| >= this x the largest among the computed modes
+LAW_PARTICIPATION = 1e-6   # a mode the laws act on: |t phi_i| >= this x the largest among the computed modes
+#                            (a symmetric structure's lateral and torsion modes: 1e-12..1e-9; the first bending
+#                            mode of the 3-D reference: 1.6e-3)
 LINEARISATION_FORCES = 8  # F_N1 on a geometric grid over [F_min, F_max]: the first that closes a point at the adaptive bolt
 AT_BOLT_WEIGHT = 0.1       # a point at the adaptive bolt: its weight in u_rel_row >= this x the largest weight
 
@@ -189,8 +191,8 @@ def build_observer_model_se(cfg: Config, plant) -> ObserverModel:
       at the adaptive bolt) as the generalised force -t^T f_r; the measurement is the velocity of
       the sensor named 'tip', the excitation the first of ``excitation``;
     * modal truncation to the first ``observer.n_modes`` modes the laws act on: those with
-      |t phi_i| >= ``LAW_PARTICIPATION`` x the largest (a 3-D structure's lateral bending and
-      torsion modes, which u_rel does not see, are skipped); D_u the static correction of u_rel
+      |t phi_i| >= ``LAW_PARTICIPATION`` x the largest among the lowest max(4 N + 20, 40) (a 3-D
+      structure's lateral bending and torsion modes, which u_rel does not see, are skipped); D_u the static correction of u_rel
       with the full compliance (module docstring).
 
     Raises ValueError if no point at the adaptive bolt closes up to F_max, the tied structure moves as a
