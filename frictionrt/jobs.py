@@ -111,7 +111,7 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
              estimator: str = DEFAULT_ESTIMATOR, duration_s: float = 1.0, paced: bool = False,
              seed: int | None = None, out: str | Path | None = None, force: bool = False, rrd: bool = True,
              ring_s: float = 1.0, faults: Sequence[str] = (), controller_of=None, progress: bool = False,
-             argv: Sequence[str] | None = None) -> Result:
+             argv: Sequence[str] | None = None, structure: str | Path | None = None, clusters: int = 0) -> Result:
     """The closed loop at 21 kHz with a sine force of ``amp_n`` [N] at ``freq_hz`` [Hz] for
     ``duration_s`` [s] (``frictionrt simulate``): ``law`` (None: tracking.law) on ``estimator``.
     With ``out`` ("logs/run" or "logs/run.mcap"), every signal is logged to run.mcap, run.rrd (unless
@@ -119,7 +119,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     ``ring_s`` [s]. ``faults``: specs ``"KIND[/SENSOR][=VALUE]@TIME[:DURATION]"`` (docs/reliability.md);
     ``controller_of(loop)``: the loop's controller (a C export's, ``frictionrt.rt.export.sil``; None:
     numba's); ``argv``: the command line the log records (None: this process's); ``seed``: the sensor
-    noise's (None: rt.seed). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
+    noise's (None: rt.seed); ``structure``: a superelement file (docs/superelement.md) as the plant,
+    its interface coarsened to ``clusters`` points if > 0, recorded in the log (path, SHA-256). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
     fn1_mean_n [N], actuator_energy_j [J], the estimate's NRMSE, overruns, log paths, ...);
     ``.run``: the ``Run`` with every signal (``.run.signal("F_N1")``); ``.plot()``: the response
     and F_N1 over the last 50 ms."""
@@ -156,7 +157,9 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     if not paced and any("cpu_stall" in f for f in faults):
         raise ValueError("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced "
                          "(paced=True)")
-    loop = build_loop(cfg, law, estimator)
+    from frictionrt.rt.loop.structure import structure_of
+    structure_ = None if structure is None else structure_of(structure, clusters)
+    loop = build_loop(cfg, law, estimator, structure=structure_)
     n = check_run_input(loop, freq_hz, amp_n, duration_s, ring=base is not None)  # out: a ring
     late = [f for f, row in zip(faults, fault_rows) if row[2] >= n]
     if late:
@@ -170,6 +173,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
             meta = run_metadata(cfg, loop.law, loop.estimator, seed_, freq_hz, amp_n, duration_s, paced, argv=argv)
             meta["faults"] = json.dumps(to_json(fault_rows))
             meta["controller_design"] = design_hash_of(loop, seed_)   # what export-c writes for it
+            if structure_ is not None:
+                meta["structure"] = structure_.record()
             writer = open_run_log(base, loop.signals, 1.0 / cfg.dt_s, meta, rrd=rrd, ring_s=ring_s,
                                   keyframes=keyframe_codec(loop, initial_loop_state(loop, seed_)))
             writer.mcap.add_metadata("test", run_test_record(loop, freq_hz, amp_n, duration_s))
@@ -414,14 +419,17 @@ def replay(path: str | Path, cfg: Cfg = None, *, c: str | Path | None = None, pl
 
 def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estimator: str = DEFAULT_ESTIMATOR,
              from_log: str | Path | None = None, sets: Sequence[str] = (), force: bool = False,
-             precision: str = "double") -> Result:
+             precision: str = "double", structure: str | Path | None = None, clusters: int = 0) -> Result:
     """The controller as C99 (``frictionrt export-c``; docs/export-c.md): tip integrator, estimator,
     law, supervisor, prefilter and force tracking of ``law`` (None: tracking.law) on ``estimator``,
     designed from ``cfg``, or the design stored in the log ``from_log`` (``sets``: overrides on its
     configuration), written into the folder ``out`` (with ``force`` an existing one is replaced as a
     whole). ``precision`` "double" (bit-exact with the numba controller) or "float32" (the
     single-precision kind, rt/export/float32.py: observer build only, needs a C compiler).
-    ``.to_dict()``: the manifest (law, estimator, design_hash, source, ...) and "folder"."""
+    ``structure``: a superelement file as the plant the controller is designed for (its
+    observer's model and the golden vectors' closed loop), coarsened to ``clusters`` points if > 0
+    (with ``from_log``, the log's own structure is used). ``.to_dict()``: the manifest (law,
+    estimator, design_hash, source, ...) and "folder"."""
     from frictionrt.rt.common.files import write_folder
     from frictionrt.rt.export.generate import export_c as write_export
     out = Path(out)
@@ -430,15 +438,19 @@ def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estima
     if not out.parent.exists():
         raise ValueError(f"out {out}: folder {out.parent} does not exist")
     cfg = _cfg(cfg)
+    if from_log is not None and structure is not None:
+        raise ValueError("--structure with --from-log: the log names its own structure; drop --structure")
     if from_log is not None:
         from frictionrt.rt.export.replay_c import log_design
         _, _, _, loop, st, report = log_design(Path(from_log), cfg, list(sets))
         source = f"the log {from_log} ({report['why']})"
     else:
         from frictionrt.rt.loop import build_loop, initial_loop_state
-        loop = build_loop(cfg, law, estimator_of(estimator))
+        from frictionrt.rt.loop.structure import structure_of
+        structure_ = None if structure is None else structure_of(structure, clusters)
+        loop = build_loop(cfg, law, estimator_of(estimator), structure=structure_)
         st = initial_loop_state(loop, cfg.rt.seed)
-        source = "the resolved configuration"
+        source = "the resolved configuration" + ("" if structure_ is None else f" on the structure {structure_.path}")
     if precision == "float32":
         from frictionrt.rt.export.float32 import export_float32 as write_export
     elif precision != "double":

@@ -88,6 +88,9 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
     Raises ValueError if the tied structure is not fixed against rigid-body motion, or if the
     configuration asks for more modes than it has.
     """
+    from frictionrt.plant.se_plant import SEPlant
+    if isinstance(plant, SEPlant):
+        return build_observer_model_se(cfg, plant)
     st = build_structure(cfg)
     p = cfg.plant
     itf = p.interface
@@ -134,3 +137,125 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
         C_meas=np.concatenate([zN, tip @ Phi]), C_u=np.concatenate([tPhi, zN]), C_v=np.concatenate([zN, tPhi]),
         D_u=-(static_full - static_kept), x_tied=x_tied, l_tied=l_tied, x_springs=x_springs,
         l_springs=l_springs)
+
+
+LAW_PARTICIPATION = 1e-6   # a mode the laws act on: |t phi_i| >= this x the largest among the computed modes
+#                            (a symmetric structure's lateral and torsion modes: 1e-12..1e-9; the first bending
+#                            mode of the 3-D reference: 1.6e-3)
+LINEARISATION_FORCES = 8  # F_N1 on a geometric grid over [F_min, F_max]: the first that closes a point at the adaptive bolt
+AT_BOLT_WEIGHT = 0.1       # a point at the adaptive bolt: its weight in u_rel_row >= this x the largest weight
+
+
+def adaptive_points(cfg: Config, plant, F_N1: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(closed, at_adaptive): boolean masks over an imported structure's contact points. closed: the
+    points the bolts close at F_N1 (default tracking.F_min_N; the plant's static equilibrium). at_adaptive:
+    the closed points nearer to the adaptive bolt than to the preload, i.e. nearer (``contact_xyz``)
+    to x_A, the centre of the points that make up ``u_rel_row``, than to x_N, the centre of the
+    closed points' normal forces at F_min (the preload's centre, which the ordinary bolts
+    dominate); the analogue of the built-in model's pressure-cone footprint around the adaptive
+    screw. The points of u_rel_row are those of the least-squares weights
+    u_rel_row = sum_i w_i contact_rows[i, 1] with w_i >= ``AT_BOLT_WEIGHT`` max(w) (the format
+    documents u_rel_row as the area-weighted mean first-direction slip under the adaptive bolt's
+    head); x_A is their w-weighted centre. Without ``contact_xyz``: those points, where closed."""
+    p = plant.params
+    se = plant.se
+    d = 1 + p.nt
+    x0 = plant.initial_state(cfg.tracking.F_min_N if F_N1 is None else F_N1)
+    g_n = x0[plant.state_slots()["g"]][0::d]
+    closed = g_n < 0.0
+    w = np.linalg.lstsq(se.contact_rows[:, 1, :].T, se.u_rel_row, rcond=None)[0]
+    under = w >= AT_BOLT_WEIGHT * w.max()
+    if se.contact_xyz is None:
+        return closed, closed & under
+    xyz = se.contact_xyz
+    f = p.k_n * np.maximum(-g_n, 0.0)
+    x_A = (w[under] @ xyz[under]) / w[under].sum()
+    x_N = (f @ xyz) / f.sum()
+    near_A = np.linalg.norm(xyz - x_A, axis=1) < np.linalg.norm(xyz - x_N, axis=1)
+    return closed, closed & near_A
+
+
+def build_observer_model_se(cfg: Config, plant) -> ObserverModel:
+    """The observer's linear model of an imported structure (``plant.se_plant.SEPlant``), in the
+    superelement's own coordinates q (M, K, and the adaptive bolt's spring k_b r r^T):
+
+    * the contact linearised at the static equilibrium at F_N1 = tracking.F_min_N (or, if no point
+      at the adaptive bolt is closed there, at the first of ``LINEARISATION_FORCES`` forces
+      geometrically spaced up to tracking.F_max_N that closes one: a coarsened interface's
+      clusters may open where the fine one's points are closed): the closed
+      points stuck (k_n on g_n, k_t on each tangential gap) except those at the adaptive bolt
+      (``adaptive_points``), which keep their normal spring and their second tangential one but are
+      free along the first tangential direction (u_rel's: the friction f_r acts there); open points
+      carry nothing;
+    * the friction force f_r acts on the superelement's ``u_rel_row`` t (the documented direction
+      at the adaptive bolt) as the generalised force -t^T f_r; the measurement is the velocity of
+      the sensor named 'tip', the excitation the first of ``excitation``;
+    * modal truncation to the first ``observer.n_modes`` modes the laws act on: those with
+      |t phi_i| >= ``LAW_PARTICIPATION`` x the largest among the lowest max(4 N + 20, 40) (a 3-D
+      structure's lateral bending and torsion modes, which u_rel does not see, are skipped); D_u the static correction of u_rel
+      with the full compliance (module docstring).
+
+    Raises ValueError if no point at the adaptive bolt closes up to F_max, the tied structure moves as a
+    rigid body, the superelement has no u_rel_row, no sensor 'tip' or no excitation, or has fewer
+    such modes than asked for."""
+    se = plant.se
+    if se.u_rel_row is None or not np.any(se.u_rel_row):
+        raise ValueError("observer: the superelement has no u_rel_row (the relative tangential displacement at "
+                         "the adaptive bolt the laws act on; docs/superelement.md)")
+    if "tip" not in se.sensor_names:
+        raise ValueError(f"observer: the measurement needs a sensor named 'tip'; the superelement's sensors: "
+                         f"{list(se.sensor_names)}")
+    if not se.excitation.size:
+        raise ValueError("observer: the superelement has no excitation row")
+    itf = cfg.plant.interface
+    t_ = cfg.tracking
+    for F_lin in np.geomspace(t_.F_min_N, t_.F_max_N, LINEARISATION_FORCES) if t_.F_min_N > 0 else [t_.F_max_N]:
+        closed, at = adaptive_points(cfg, plant, float(F_lin))
+        if at.any():
+            break
+    else:
+        raise ValueError(f"observer: no contact point near the adaptive bolt is closed at any F_N1 in "
+                         f"[{t_.F_min_N:g}, {t_.F_max_N:g}] N (tracking.F_min_N, F_max_N); check plant.interface, the "
+                         "bolts' rows and u_rel_row (a coarser interface: --clusters)")
+    K = se.K.copy()
+    if se.adaptive_row is not None:
+        K += float(se.adaptive_k) * np.outer(se.adaptive_row, se.adaptive_row)
+    d = se.friction_dims + 1
+    k_n = itf.k_n_area * se.contact_area
+    k_t = itf.k_t_area * se.contact_area
+    for i in np.flatnonzero(closed):
+        R = se.contact_rows[i]
+        K += k_n[i] * np.outer(R[0], R[0])
+        for a in range(2 if at[i] else 1, d):   # at the adaptive bolt: free along t1 (u_rel's direction)
+            K += k_t[i] * np.outer(R[a], R[a])
+    M = se.M
+    N = cfg.observer.n_modes
+    n_eig = min(se.n, max(4 * N + 20, 40))
+    lam, Phi = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), subset_by_index=[0, n_eig - 1])
+    if lam[0] <= (2 * np.pi * 0.1) ** 2:
+        raise ValueError(f"observer: the tied structure has a mode at {np.sqrt(max(lam[0], 0)) / 2 / np.pi:.3g} Hz "
+                         "(rigid-body motion): the points the bolts close must hold it")
+    t = se.u_rel_row
+    part = np.abs(t @ Phi)
+    keep = np.flatnonzero(part >= LAW_PARTICIPATION * part.max())[:N]
+    if len(keep) < N:
+        raise ValueError(f"observer.n_modes = {N}: the imported structure has only {len(keep)} modes the laws act "
+                         f"on among its lowest {n_eig}")
+    lam, Phi = lam[keep], Phi[:, keep]
+    omega = np.sqrt(lam)
+    zeta = cfg.observer.modal_damping
+    tip = se.sensor_rows[list(se.sensor_names).index("tip")]
+    tPhi = t @ Phi
+    Z = np.zeros((N, N))
+    A = np.block([[Z, np.eye(N)], [-np.diag(lam), -np.diag(2 * zeta * omega)]])
+    zN = np.zeros(N)
+    static_full = float(t @ np.linalg.solve(K, t))
+    static_kept = float(np.sum(tPhi**2 / lam))
+    x = se.contact_xyz[:, 0] if se.contact_xyz is not None else np.arange(se.n_points, dtype=float)
+    area = se.contact_area
+    return ObserverModel(
+        omega=omega, zeta=zeta, A=A,
+        B_T=np.concatenate([zN, -tPhi]), B_F=np.concatenate([zN, Phi.T @ se.excitation[0]]),
+        C_meas=np.concatenate([zN, tip @ Phi]), C_u=np.concatenate([tPhi, zN]), C_v=np.concatenate([zN, tPhi]),
+        D_u=-(static_full - static_kept), x_tied=x[closed & ~at], l_tied=area[closed & ~at], x_springs=x[at],
+        l_springs=area[at])

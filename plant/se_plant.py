@@ -270,7 +270,10 @@ def _se_step(k, x, u, p, x_next, y, wk):
     x = [q (n), qd (n), w (p nt), g (p d), E_fric, E_damp, W_exc, W_bolt]; u = (F_exc [N], F_N1 [N]).
     y = [sensor displacements (s), velocities (s), accelerations (s), u_rel [m], v_rel [m/s],
          F_b [N] adaptive bolt force, E_fric, E_damp, W_exc, W_bolt [J], Newton iterations,
-         refactorisations, failed substeps]. Returns the Newton iterations (-1 if a substep failed).
+         refactorisations, failed substeps, the sensors' mean accelerations over the step
+         (v(t_k+1) - v(t_k)) / dt (s) [m/s^2] (what an anti-aliased accelerometer sees, as
+         plant.newmark's abar), the adaptive bolt's separation force k_b (s - s_ref) [N]].
+    Returns the Newton iterations (-1 if a substep failed).
     """
     n = p.omega2.shape[0]
     m = p.G.shape[0]
@@ -324,6 +327,13 @@ def _se_step(k, x, u, p, x_next, y, wk):
     y[o + 5] = wk.counts[0]
     y[o + 6] = wk.counts[1]
     y[o + 7] = failed
+    inv_dt = 1.0 / (p.h * p.substeps)
+    for r in range(ns):
+        acc = 0.0
+        for j in range(n):
+            acc += p.S[r, j] * (qd[j] - x[n + j])
+        y[o + 8 + r] = acc * inv_dt
+    y[o + 8 + ns] = p.bolt_k * (sep - p.bolt_ref)
     return -1 if failed else its
 
 
@@ -362,7 +372,7 @@ class SEPlant:
         return ([(f"w_{x}", "m") for x in s] + [(f"v_{x}", "m/s") for x in s] + [(f"a_{x}", "m/s^2") for x in s]
                 + [("u_rel", "m"), ("v_rel", "m/s"), ("F_N1", "N"), ("E_fric", "J"), ("E_damp", "J"),
                    ("W_exc", "J"), ("W_screw", "J"), ("newton_iter", "-"), ("refactorisations", "-"),
-                   ("substep_fallbacks", "-")])
+                   ("substep_fallbacks", "-")] + [(f"abar_{x}", "m/s^2") for x in s] + [("dF_N1", "N")])
 
     def output_index(self) -> dict[str, int]:
         return {nm: i for i, (nm, _) in enumerate(self.output_labels())}
@@ -401,7 +411,16 @@ def contact_forces(p: SEParams, g: np.ndarray, w_old: np.ndarray):
 
 def static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None = None, max_iter: int = 100):
     """K q = f_const + b_N1 F_N1 + G^T lambda(G q + gap0, w = 0); Newton from the all-closed, all-stuck
-    solution. Returns (q, w, g). RuntimeError if it does not converge."""
+    solution. Returns (q, w, g). RuntimeError if it does not converge or a Newton matrix is singular
+    (nothing holds the structure in some direction)."""
+    try:
+        return _static_equilibrium(p, F_N1, K, max_iter)
+    except np.linalg.LinAlgError:
+        raise RuntimeError(f"static equilibrium under the bolts: singular stiffness at F_N1 = {F_N1:g} N (the "
+                           "closed points do not hold the structure; a coarsened interface: other --clusters)") from None
+
+
+def _static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None, max_iter: int):
     K = np.diag(p.omega2) if K is None else K
     f = p.f_const + p.b_N1 * F_N1
     m = p.G.shape[0]

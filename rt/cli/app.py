@@ -17,6 +17,7 @@ import shtab
 
 from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, import_frf, inspect, modes,
                     observer, recover, replay, reproduce, rig, simulate, tune, validate)
+from frictionrt.rt.cli.structure import NOT_ON_STRUCTURE, add_structure
 from frictionrt.rt.cli.common import (Parser, actuator_verb, add_common, fail, json_errors, realtime_sets,
                                       split_negative_lists)
 from frictionrt.rt.common.config import ConfigError, load, require_adaptive_screw
@@ -51,8 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "option, generated from this parser (README, \"Shell completion\")")
     add_common(ap, top=True)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for verb in VERBS.values():
-        verb.add_parser(sub, parents=[common])
+    for name, verb in VERBS.items():
+        p = verb.add_parser(sub, parents=[common])
+        if name in NOT_ON_STRUCTURE:
+            add_structure(p)
     return ap
 
 
@@ -98,6 +101,9 @@ def _main(args) -> int:
             require_adaptive_screw(cfg, verb)   # one line instead of a failure deep in the loop's design
     except ConfigError as exc:
         return fail(str(exc))
+    if getattr(args, "structure", None) and args.command in NOT_ON_STRUCTURE:
+        return fail(f"{args.command} --structure: not on an imported structure yet (modes, impulse, simulate, replay and "
+                    "export-c are; docs/superelement.md); drop --structure")
     try:
         return COMMANDS[args.command](cfg, args)
     except RuntimeError as exc:  # a run that failed numerically: say so, no traceback

@@ -13,6 +13,7 @@ from pathlib import Path
 import shtab
 
 from frictionrt.rt.cli.common import spec_default, add_estimator, add_force, add_out, fail
+from frictionrt.rt.cli.structure import add_structure
 
 DESCRIPTION = """Write the controller of the resolved configuration (or, with --from-log, of the design a run
 log carries) as self-contained C99 into the folder DIR: frictionrt_ctrl.h / .c (ctrl_init, ctrl_step on plain
@@ -51,6 +52,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
                         "controller, its own golden vectors (observer build; needs a C compiler at export time)")
     add_force(p, "an existing folder as a whole")
     p.add_argument("--json", action="store_true", help="the manifest as one JSON object")
+    add_structure(p)
     return p
 
 
@@ -63,7 +65,8 @@ def cmd_export_c(cfg, args) -> int:
                     "export with --estimator observer or oracle")
     try:
         m = export_c(cfg, out=out, law=args.law, estimator=args.estimator, from_log=args.from_log, sets=args.sets,
-                     force=args.force, precision=args.precision).to_dict()
+                     force=args.force, precision=args.precision, structure=args.structure,
+                     clusters=args.clusters).to_dict()
     except FileExistsError:
         return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
     except ValueError as exc:

@@ -44,12 +44,20 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     add_controller(s)
     s.add_argument("--json", action="store_true", help="the summary as one JSON object")
     add_structure(s)
+    s.add_argument("--plant-only", action="store_true",
+                   help="with --structure: the imported plant alone with the passive joint (constant F_N1), no "
+                        "actuator or controller; prints its step's wall time and Newton iterations")
     return s
 
 
 def cmd_simulate(cfg, args) -> int:
-    if args.structure:
+    if args.structure and args.plant_only:
         return structure_simulate(cfg, args)
+    if args.plant_only:
+        return fail("--plant-only: with --structure FILE only (the imported plant alone, passive joint)")
+    if args.structure and (args.paced or args.controller):
+        return fail("--paced and --controller with --structure: not on an imported structure yet; drop them "
+                    "(the loop runs offline with numba's controller)")
     from frictionrt.jobs import simulate
     from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S
     if msg := unpaced_realtime(args):
@@ -71,7 +79,8 @@ def cmd_simulate(cfg, args) -> int:
         res = simulate(cfg, freq_hz=args.freq, amp_n=args.amp, law=args.law, estimator=args.estimator,
                        duration_s=args.duration, paced=args.paced, seed=args.seed, out=args.out, force=args.force,
                        rrd=not args.no_rrd, ring_s=args.ring, faults=args.fault, progress=not args.json,
-                       controller_of=(lambda loop: controller_for(exports, loop, seed)) if exports else None)
+                       controller_of=(lambda loop: controller_for(exports, loop, seed)) if exports else None,
+                       structure=args.structure, clusters=args.clusters)
     except ValueError as exc:
         return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("ring ", "--ring ", 1)
                     if str(exc).startswith(("freq_hz", "ring ")) else str(exc))

@@ -8,6 +8,10 @@ import json
 from frictionrt.rt.cli.common import fail
 
 
+NOT_ON_STRUCTURE = ("compare", "frf", "reproduce", "tune", "rig", "diagnose")
+"""Verbs that take --structure only to refuse it in one line (rt.cli.app): not on an imported structure yet."""
+
+
 def add_structure(p: argparse.ArgumentParser) -> None:
     """--structure FILE and --clusters N (the interface coarsened to N points)."""
     p.add_argument("--structure", metavar="FILE", default=None,
@@ -71,12 +75,9 @@ def structure_impulse(cfg, args) -> int:
 
 def structure_simulate(cfg, args) -> int:
     from frictionrt.plant.se_analysis import simulate
-    if args.out:
-        return fail("--out with --structure: logging a run of an imported structure is not supported yet; "
-                    "drop --out (the summary is printed)")
-    if args.law not in (None, "passive") or args.paced or args.controller:
-        return fail("--structure runs the imported plant with the passive joint (constant F_N1) only: drop --law, "
-                    "--paced and --controller")
+    if args.out or args.law not in (None, "passive") or args.paced or args.controller:
+        return fail("--plant-only runs the imported plant alone with the passive joint (constant F_N1): drop "
+                    "--out, --law, --paced and --controller (or --plant-only for the closed loop)")
     plant, rc = _plant(cfg, args)
     if plant is None:
         return rc

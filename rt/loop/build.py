@@ -25,6 +25,7 @@ from frictionrt.plant.shaker import ShakerParams, build_shaker, check_shaker
 from frictionrt.rt.common.config import (ALL_ESTIMATORS, DEFAULT_ESTIMATOR, ESTIMATORS, OBSERVERS, Config,  # noqa: F401  (ESTIMATORS: the face)
                                          estimator_of, require_adaptive_screw)
 from frictionrt.rt.common.noise import new_rng
+from frictionrt.rt.loop.structure import Structure, build_structure_plant
 from frictionrt.rt.loop.supervisor import SUPERVISOR_OUTPUTS, SupervisorParams, build_supervisor
 from frictionrt.rt.loop.supervisor import initial_state as supervisor_initial_state
 from frictionrt.tracking.force_tracking import FORCE_TRACKING_OUTPUTS, SENSOR_OF_LAW, ForceTrackingDesign, design_force_tracking
@@ -57,6 +58,7 @@ class Loop:
     plant_rest: np.ndarray | None = None        # built by build_loop: the plant's state at rest at F0
     #                                             (plant.initial_state, a static solve: 6.5 ms, once per loop, not per run)
     amplitude: AmplitudeParams | None = None    # the amplitude-following blocks (estimator "amplitude"), else of size 0
+    structure: Structure | None = None          # an imported structure (rt.loop.structure) as the plant; None: the beams
 
     @property
     def observes(self) -> bool:
@@ -98,8 +100,12 @@ class Designs:
             self._made[key] = make()
         return self._made[key]
 
-    def plant(self, cfg: Config) -> PlantModel:
-        """``build_plant(cfg)``, built once per distinct (cfg.rt, cfg.plant, cfg.actuator)."""
+    def plant(self, cfg: Config, structure: Structure | None = None) -> PlantModel:
+        """``build_plant(cfg)``, built once per distinct (cfg.rt, cfg.plant, cfg.actuator); with an
+        imported ``structure``, its plant (``rt.loop.structure.build_structure_plant``)."""
+        if structure is not None:
+            return self._get(("structure", structure, cfg.rt, cfg.plant, cfg.actuator),
+                             lambda: build_structure_plant(cfg, structure))
         return self._get(("plant", cfg.rt, cfg.plant, cfg.actuator), lambda: build_plant(cfg))
 
     def force_tracking(self, cfg: Config, sensor: str) -> ForceTrackingDesign:
@@ -110,11 +116,15 @@ class Designs:
 
 
 def build_loop(cfg: Config, law: str | None = None, estimator: str = DEFAULT_ESTIMATOR,
-               observer_cfg: Config | None = None, designs: Designs | None = None) -> Loop:
+               observer_cfg: Config | None = None, designs: Designs | None = None,
+               structure: Structure | None = None) -> Loop:
     """Design time: plant, actuator, sensors, estimator, law and the force-tracking design for
     its sensor. The observer is designed from ``observer_cfg`` if given (a model that differs
     from the plant: robustness studies), else from cfg. ``designs``: the plant and force-tracking
     designs already made for other loops of the same study (``Designs``; None: made here).
+    ``structure``: an imported structure (``rt.loop.structure``) as the plant instead of the
+    configured beams; its observer is designed from the superelement
+    (``frictionrt.observer.model.build_observer_model_se``).
 
     Raises ValueError (from the design) if the force-tracking loop would be unstable, or for an
     unknown estimator, or ConfigError if the structure has no adaptive screw."""
@@ -122,22 +132,32 @@ def build_loop(cfg: Config, law: str | None = None, estimator: str = DEFAULT_EST
     law = cfg.tracking.law if law is None else law
     estimator = estimator_of(estimator).value
     designs = Designs() if designs is None else designs
-    plant = designs.plant(cfg)
+    plant = designs.plant(cfg, structure)
     sensor = SENSOR_OF_LAW[law]
     design = designs.force_tracking(cfg, sensor)
     amplitude = no_amplitude()
     if estimator == "observer":
-        observer = (design_observer(cfg, plant) if observer_cfg is None else design_observer(observer_cfg)).params
+        if observer_cfg is None:
+            observer = design_observer(cfg, plant).params
+        else:
+            observer = design_observer(observer_cfg, None if structure is None else
+                                       designs.plant(observer_cfg, structure)).params
     elif estimator == "amplitude":
+        if structure is not None:
+            raise ValueError("estimator amplitude with an imported structure: its schedule is the built-in beams' "
+                             "only; use --estimator observer")
         od, amplitude = design_amplitude(cfg, plant) if observer_cfg is None else design_amplitude(observer_cfg)
         observer = od.params
     else:
         observer = _no_observer()
+    if structure is not None and cfg.shaker.on:
+        raise ValueError("shaker.on with an imported structure: the shaker stage is the built-in beams' only; "
+                         "use shaker.armature_mass_kg=0 (an ideal force source)")
     check_shaker(cfg, plant)
     return Loop(cfg, law, plant, build_actuator(cfg), build_sensors(cfg), build_oracle(cfg), observer,
                 build_prefilter(cfg), build_laws(cfg, law), design, sensor, loop_signals(plant), estimator,
                 build_supervisor(cfg, estimator in OBSERVERS), build_shaker(cfg), plant.initial_state(cfg.actuator.F0_N),
-                amplitude)
+                amplitude, structure)
 
 
 def _no_observer() -> ObserverParams:

@@ -48,6 +48,7 @@ from frictionrt.rt.loop.faults import from_json
 from frictionrt.rt.common.clock import CLK_DEADLINE, CLK_OVERRUNS, CLK_STOP, CLK_TICKS, _now_ns
 from frictionrt.rt.loop.coverage import coverage
 from frictionrt.rt.loop.build import ALL_ESTIMATORS, build_loop, controller_stages, initial_loop_state
+from frictionrt.rt.loop.structure import logged_structure
 from frictionrt.rt.loop.driver import watch
 from frictionrt.rt.loop.pacing import START_SLACK_NS, _next_deadline, _wait_for_deadline
 from frictionrt.rt.loop.tick import _controller_done, _controller_tick
@@ -165,8 +166,9 @@ def open_controller_log(path: Path, fallback_cfg=None, sets=(), readings=SENSORS
     estimator = meta.get("estimator", "oracle" if "/plant" in rec.topics else "observer")
     if estimator not in ALL_ESTIMATORS:
         raise ValueError(f"{path}: unknown estimator {estimator!r} in the metadata")
+    structure = logged_structure(meta, log_path=path)
     try:
-        loop = build_loop(cfg, meta.get("law", cfg.tracking.law), estimator)
+        loop = build_loop(cfg, meta.get("law", cfg.tracking.law), estimator, structure=structure)
     except ValueError as exc:
         raise ValueError(f"{path}: the stored configuration cannot be built ({exc})") from None
     return rec, cfg, names, loop

@@ -38,6 +38,7 @@ from frictionrt.plant.actuator import ACTUATOR_OUTPUTS
 from frictionrt.plant.newmark import refactor_kept
 from frictionrt.rt.loop.tick import _actuate, _copy, _put
 from frictionrt.rt.loop.build import build_loop, initial_loop_state
+from frictionrt.rt.loop.structure import logged_structure
 from frictionrt.rt.log.design_record import use_logged
 from frictionrt.rt.loop.keyframe import CACHE, PATTERNS, keyframe_parts, load, logged_patterns
 from frictionrt.rt.loop.replay import compare_bits, open_log, replay_plan, restart_states, seed_of
@@ -108,7 +109,8 @@ def replay_plant_outputs(path, *, fallback_cfg=None, sets=()) -> tuple[dict, np.
     law = meta.get("law", cfg.tracking.law)
     estimator = meta.get("estimator", "oracle")
     try:
-        loop = build_loop(cfg, law, "oracle")  # the estimator plays no part here: no observer design
+        loop = build_loop(cfg, law, "oracle",  # the estimator plays no part here: no observer design
+                          structure=logged_structure(meta, log_path=path))
     except ValueError as exc:
         raise ValueError(f"{path}: the configuration cannot be built ({exc})") from None
     st = initial_loop_state(loop, seed_of(path, meta, cfg))

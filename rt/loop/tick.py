@@ -43,7 +43,7 @@ import numba
 from frictionrt.observer.amplitude_step import _amplitude_step
 from frictionrt.observer.step import _observer_step
 from frictionrt.plant.actuator import _actuator_step
-from frictionrt.plant.newmark import _plant_step
+from frictionrt.plant.plant_step import plant_step
 from frictionrt.plant.sensors import _sensors_read, _tip_velocity
 from frictionrt.plant.sensors import output_index as sensor_output_index
 from frictionrt.plant.shaker import _shaker_step
@@ -88,7 +88,7 @@ def _actuate(k, F_exc, V_cmd, xa, xa_n, ya, ua, act_p, xp, xp_n, yp, up, plant_p
     t5 = _now_ns(ts) if timing else 0
     up[0] = F_exc
     up[1] = 0.5 * (F_start + ya[0])
-    return _plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk), t5
+    return plant_step(k, xp, up, plant_p, xp_n, yp, plant_wk), t5
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
