@@ -282,6 +282,9 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     if cfg.plant.condense_quasi_static:
         model = condense_quasi_static(model)
     model = PlantModel(cfg, st, _with_quasi_static_loads(model.params), model.Phi, model.omega, reduced)
+    if cfg.plant.period_match_stuck and cfg.plant.period_match:   # docs/plant.md 2.9
+        from frictionrt.plant.stuck_match import stuck_period_matched
+        model = PlantModel(cfg, st, stuck_period_matched(model)[0], model.Phi, model.omega, reduced)
     for a in model.params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
