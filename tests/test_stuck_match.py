@@ -16,7 +16,7 @@ def models():
 def _pole_errors(model, s_ref):
     s = poles(step_map(model), model.params.h)
     s = s[np.argmin(np.abs(np.log(s[:, None] / s_ref[None, :])), axis=0)]
-    return np.abs(s / s_ref - 1.0)
+    return np.abs(s.imag / s_ref.imag - 1.0)   # the frequencies: the matching keeps the dampings
 
 
 def test_the_step_map_is_the_kernel_about_its_fixed_point(models):
@@ -29,9 +29,9 @@ def test_the_step_map_is_the_kernel_about_its_fixed_point(models):
 
 
 def test_stuck_matching_puts_the_stuck_poles_on_the_limit(models):
-    """The open-contact matching leaves the contact-coupled stuck poles off the step's limit
-    (measured: up to 3.7 % in f at 2.6 kHz, 0.1 % at 1054 Hz, damping +12..+280 %); the stuck matching
-    puts every pole below omega h = 1 on it (the Gauss-Newton's stop, 1e-11 of s h, is ~1e-9 of s)."""
+    """The open-contact matching leaves the contact-coupled stuck poles' frequencies off the step's
+    limit (measured: -3.1 % at 2.4 kHz, -0.10 % at 1050 Hz); the stuck matching puts every pole below
+    omega h = 1 on it (its stop, 1e-10 of Im s h, is at most 3.4e-8 of Im s, at the 9.7 Hz pole)."""
     default, matched = models
     s_ref = reference_poles(default, 1.0)
     assert len(s_ref) >= 10
