@@ -16,7 +16,7 @@ import argparse
 import numpy as np
 
 from benchmarks.entry import run_main
-from frictionrt.plant.model import build_plant
+from frictionrt.plant.model import build_plant, stuck_reference
 from frictionrt.plant.stuck_match import poles, reference_poles, step_map
 from frictionrt.rt.common.config import STEP_SCHEMES, load, with_sets
 
@@ -26,7 +26,8 @@ VARIANTS = (("open-contact matching", ["plant.period_match_stuck=false"]),
 
 def pole_table(cfg, F_N1: float) -> None:
     """Per reference pole below omega h = 1: f [Hz], zeta [%], and each variant's offsets."""
-    ref = reference_poles(build_plant(with_sets(cfg, ["plant.period_match_stuck=false"])), 1.0, F_N1)
+    h = build_plant(cfg).params.h
+    ref = reference_poles(stuck_reference(cfg), h, 1.0, F_N1)
     cols = []
     for _, sets in VARIANTS:
         model = build_plant(with_sets(cfg, sets))

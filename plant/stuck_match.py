@@ -106,19 +106,18 @@ def _one_substep(p: PlantParams) -> PlantParams:
     return p._replace(substeps=1)
 
 
-def reference_poles(model, omega_h_max: float, F_N1: float | None = None) -> np.ndarray:
-    """The stuck system's poles [1/s] with Im s h < omega_h_max, stepped with h / REFERENCE_SPLIT (at
-    most REFERENCE_MAX substeps per controller step) with the open-contact period matching: the
-    step's limit."""
-    from frictionrt.plant.model import build_plant
-    from frictionrt.rt.common.config import with_sets
-    cfg = model.cfg
-    sets = [f"plant.substeps={min(REFERENCE_MAX, cfg.plant.substeps * REFERENCE_SPLIT)}"]
-    if getattr(cfg.plant, "period_match_stuck", False):
-        sets.append("plant.period_match_stuck=false")
-    ref = build_plant(with_sets(cfg, sets), model.reduced)
+def reference_substeps(substeps: int) -> int:
+    """Substeps per controller step of the reference plant: REFERENCE_SPLIT times ``substeps``, at
+    most REFERENCE_MAX (plant.substeps' bound)."""
+    return min(REFERENCE_MAX, int(substeps) * REFERENCE_SPLIT)
+
+
+def reference_poles(ref, h: float, omega_h_max: float, F_N1: float | None = None) -> np.ndarray:
+    """The stuck system's poles [1/s] with Im s h < omega_h_max of the reference plant ``ref`` (the
+    same configuration at ``reference_substeps`` with the open-contact period matching:
+    plant.model.stuck_reference; one of its substeps), h the matched plant's substep [s]."""
     s = poles(step_map(ref, _one_substep(ref.params), F_N1), ref.params.h)
-    return np.sort_complex(s[s.imag * model.params.h < omega_h_max])
+    return np.sort_complex(s[s.imag * h < omega_h_max])
 
 
 def _paired(s: np.ndarray, s_ref: np.ndarray) -> np.ndarray:
@@ -130,10 +129,10 @@ def _paired(s: np.ndarray, s_ref: np.ndarray) -> np.ndarray:
     return out
 
 
-def stuck_period_matched(model, omega_h_max: float = 1.0, F_N1: float | None = None) -> tuple[PlantParams, dict]:
+def stuck_period_matched(model, ref, omega_h_max: float = 1.0, F_N1: float | None = None) -> tuple[PlantParams, dict]:
     """The model's params with the stepped modes' modal masses m_step chosen so that the stuck,
     preloaded system's stepped poles with Im s h < omega_h_max have the frequencies Im s of
-    ``reference_poles`` (Gauss-Newton in ln m, minimum-norm steps from the open-contact values, the
+    ``reference_poles`` of the reference plant ``ref`` (Gauss-Newton in ln m, minimum-norm steps from the open-contact values, the
     Jacobian by differences once and then Broyden's updates). The dampings c_step stay the open-contact
     ones: matching the damping too asks for negative c on some open-contact modes (the trapezoid's
     quasi-static lag damps the stuck modes), which would feed energy into the joint where it opens.
@@ -141,7 +140,7 @@ def stuck_period_matched(model, omega_h_max: float = 1.0, F_N1: float | None = N
     poles [1/s] and the iterations."""
     p0 = model.params
     h, n_dyn = p0.h, p0.n_dyn
-    s_ref = reference_poles(model, omega_h_max, F_N1)
+    s_ref = reference_poles(ref, h, omega_h_max, F_N1)
     m0, c0 = p0.m_step[:n_dyn].copy(), p0.c_step[:n_dyn].copy()
 
     def resid(x):

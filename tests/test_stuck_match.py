@@ -3,7 +3,7 @@ step's linear map read off the kernel, and the matched stepped poles against the
 import numpy as np
 import pytest
 
-from frictionrt.plant.model import build_plant
+from frictionrt.plant.model import build_plant, stuck_reference
 from frictionrt.plant.stuck_match import poles, reference_poles, step_map
 from frictionrt.rt.common.config import load
 
@@ -33,7 +33,7 @@ def test_stuck_matching_puts_the_stuck_poles_on_the_limit(models):
     limit (measured: -3.1 % at 2.4 kHz, -0.10 % at 1050 Hz); the stuck matching puts every pole below
     omega h = 1 on it (its stop, 1e-10 of Im s h, is at most 3.4e-8 of Im s, at the 9.7 Hz pole)."""
     default, matched = models
-    s_ref = reference_poles(default, 1.0)
+    s_ref = reference_poles(stuck_reference(default.cfg), default.params.h, 1.0)
     assert len(s_ref) >= 10
     assert np.max(_pole_errors(default, s_ref)) > 1e-2
     assert np.max(_pole_errors(matched, s_ref)) < 1e-7
