@@ -18,9 +18,10 @@ from frictionrt.plant.contact import _jenkins_pair
 from frictionrt.plant.craig_bampton import craig_bampton
 from frictionrt.plant.newmark import FACTOR_SLOTS, MAX_UPDATES, N_ENERGY, PlantParams, PlantWork, _plant_step
 from frictionrt.plant.structure import Structure, build_structure
+from frictionrt.plant.stuck_match import reference_substeps, stuck_period_matched
 from frictionrt.rt.common.blas import check as check_blas
 from frictionrt.rt.common.codegen import check as check_codegen
-from frictionrt.rt.common.config import STEP_SCHEMES, Config
+from frictionrt.rt.common.config import STEP_SCHEMES, Config, with_sets
 
 RIGID_BODY_RAD_S = 2 * np.pi * 0.1  # below 0.1 Hz a substructure mode is a rigid-body mode
 
@@ -282,10 +283,21 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     if cfg.plant.condense_quasi_static:
         model = condense_quasi_static(model)
     model = PlantModel(cfg, st, _with_quasi_static_loads(model.params), model.Phi, model.omega, reduced)
+    if cfg.plant.period_match_stuck and cfg.plant.period_match:   # docs/plant.md 2.9
+        params = stuck_period_matched(model, stuck_reference(cfg, reduced))[0]
+        model = PlantModel(cfg, st, params, model.Phi, model.omega, reduced)
     for a in model.params:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
     return model
+
+
+def stuck_reference(cfg: Config, reduced: bool | None = None) -> PlantModel:
+    """The plant whose stuck poles ``plant.period_match_stuck`` matches: the same configuration at
+    ``plant.stuck_match.reference_substeps`` substeps with the open-contact period matching only
+    (docs/plant.md 2.9)."""
+    return build_plant(with_sets(cfg, [f"plant.substeps={reference_substeps(cfg.plant.substeps)}",
+                                       "plant.period_match_stuck=false"]), reduced)
 
 
 CONDENSE_RTOL = 1e-12  # directions of the reachable subspace below this relative size are round-off

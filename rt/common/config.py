@@ -238,6 +238,10 @@ class Plant:
                                          "(2/h) tan(omega h / 2), and matched damping, so that the trapezoidal "
                                          "rule's modes keep their exact frequency and damping (no period "
                                          "elongation; docs/plant.md 2.2); false: the plain trapezoid")
+    period_match_stuck: bool = param(False, doc="with period_match: choose the stepped modes' modal masses and "
+                                               "dampings so that the stuck, preloaded system's stepped poles below "
+                                               "omega h = 1 equal those of the same step at h / 64, instead of "
+                                               "matching each open-contact mode alone (docs/plant.md 2.9)")
     newton_tol_m: float = param(1e-18, "m", lo=0.0, lo_inclusive=False,
                                 doc="contact Newton tolerance on the gaps (plus 64 eps max|gap|)")
     newton_max_iter: int = param(40, "-", lo=1, hi=1000)
