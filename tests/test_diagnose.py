@@ -350,11 +350,9 @@ def test_true_parameters_fit_the_frfs_at_noise_level(campaigns):
     assert all(v > 5.0 for v in rms_nominal.values()), rms_nominal   # scatter alone: far outside the noise
 
 
-def test_no_effect_names_nothing_and_the_report_folder_is_complete(campaigns, tmp_path, capsys):
-    from rerun.chunk import RrdReader
-
-    out = tmp_path / "report"
-    assert main(["--set", UNIFORM, "diagnose", str(campaigns("none")), "--json", "--out", str(out)]) == 0
+@pytest.mark.slow   # the whole clean diagnosis, ~300 s of one worker; the suite's twin is the FRF files' (test_diagnose_frf.py)
+def test_no_effect_names_nothing(campaigns, capsys):
+    assert main(["--set", UNIFORM, "diagnose", str(campaigns("none")), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert res["named_effect"] is None, res["ranking"]
     # the best candidate explains little and at a negligible strength, i.e. within 5 % of the way from
@@ -371,12 +369,35 @@ def test_no_effect_names_nothing_and_the_report_folder_is_complete(campaigns, tm
     effect = EFFECTS[top["effect"]]
     assert top["rss_reduction"] < 0.25
     assert abs(top["fitted"][effect.name] - effect.nominal) < 0.05 * abs(effect.parameter.default - effect.nominal), top
+
+
+def at_nominal_fits(nominal, data, effect, **kwargs):
+    """A stand-in for ``fit_structure`` that returns the nominal scales at once (the report's tests: what
+    the diagnosis writes, not what it fits)."""
+    from frictionrt.rt.discrepancy.diagnose.structure import StructureFit, struct_cfg
+    th = {"E": 1.0, "k_t": 1.0, "mu": 1.0, "modal_damping": 1.0, "dispersion": 0.0} | (
+        {effect.name: effect.parameter.default} if effect else {})
+    run = run_shape(nominal, data)
+    return StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, effect), {})
+
+
+def test_the_report_folder_is_complete(tmp_path, capsys, monkeypatch):
+    """``diagnose --out`` on a short clean campaign (0.3 s impulse tests), the structure fits stood in
+    for by the nominal scales (``at_nominal_fits``; the whole diagnosis is test_no_effect_names_nothing's):
+    diagnose.json as printed, model.toml, report.md, the rrd and a plot per test; the rrd holds per impulse
+    test the gap measured - model [dB] on the frequency timeline, whose rms over the bins is the report's
+    FRF gap (same windows, same band), one blueprint, the report as a document."""
+    from rerun.chunk import RrdReader
+    nominal = _nominal("none")
+    folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3, cfg=nominal)[0].parent
+    monkeypatch.setattr(campaign_module, "fit_structure", at_nominal_fits)
+    out = tmp_path / "report"
+    assert main(["--set", UNIFORM, "diagnose", str(folder), "--jobs", "1", "--json", "--out", str(out)]) == 0
+    res = json.loads(capsys.readouterr().out)
     assert json.loads((out / "diagnose.json").read_text()) == res
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["diagnose.json", "model.toml", "report.md", "diagnosis.rrd"]
         + [f"frf_impulse_0{j}.png" for j in (1, 2, 3)] + [f"actuator_actuator_0{j}.png" for j in (1, 2, 3)])
-    # the rrd: per impulse test the gap measured - model [dB] on the frequency timeline; its rms over the
-    # bins is the report's FRF gap (same windows, same band); one blueprint; the report as a document
     reader = RrdReader(out / "diagnosis.rrd")
     assert len(reader.blueprints()) == 1
     gap = {}
@@ -393,8 +414,8 @@ def _records(path):
         return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
 
 
-def test_files_validate_and_do_not_reveal_the_effect(campaigns):
-    clean, hidden = campaigns("none"), campaigns("clamp_compliance")
+def test_files_validate_and_do_not_reveal_the_effect(short_campaigns):
+    clean, hidden = short_campaigns("none"), short_campaigns("clamp_compliance")
     files = sorted(p.name for p in clean.glob("*.mcap"))
     assert files == sorted(p.name for p in hidden.glob("*.mcap")) and len(files) == 6
     for name in files:
@@ -476,9 +497,7 @@ def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
     then KeyboardInterrupt): exit 130, the report folder holds calibration alone (with the actuator's c_v)
     and the first candidate (diagnose.json as printed, model.toml the candidate's configuration), the
     candidates' progress bar and the wall time on stderr, no traceback."""
-    import frictionrt.rt.discrepancy.diagnose.campaign as campaign
     from frictionrt.rt.common.config import load
-    from frictionrt.rt.discrepancy.diagnose.structure import StructureFit, struct_cfg
     nominal = _nominal("none")
     folder = make_campaign(tmp_path / "c", "none", seed=SEED, record_s=0.3, cfg=nominal)[0].parent
     struct_eff = [e for e in implemented() if e.channel == "structure"]
@@ -486,11 +505,8 @@ def test_an_interrupted_diagnosis_keeps_its_fits(tmp_path, capsys, monkeypatch):
     def at_nominal(nominal, data, effect, **kwargs):
         if effect is not None and effect is not struct_eff[0]:
             raise KeyboardInterrupt
-        th = {"E": 1.0, "k_t": 1.0, "mu": 1.0, "modal_damping": 1.0, "dispersion": 0.0} | (
-            {effect.name: effect.parameter.default} if effect else {})
-        run = run_shape(nominal, data)
-        return StructureFit(th, {f"FRF {s}": v for s, v in run.r.items()}, run, struct_cfg(nominal, th, effect), {})
-    monkeypatch.setattr(campaign, "fit_structure", at_nominal)
+        return at_nominal_fits(nominal, data, effect)
+    monkeypatch.setattr(campaign_module, "fit_structure", at_nominal)
     out = tmp_path / "report"
     assert main(["--set", UNIFORM, "diagnose", str(folder), "--jobs", "1", "--json", "--out", str(out)]) == 130
     printed, err = capsys.readouterr()
