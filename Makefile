@@ -26,7 +26,8 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing and not slow" --durations=25
 	$(BIN)/python -m pytest -q -m timing
 
-# the whole diagnoses and reproductions the suite covers by cheaper twins (marker `slow`; ~25 min on 2 cores)
+# the whole diagnoses and reproductions the suite covers by cheaper twins (marker `slow`; their last single
+# durations add to ~40 worker-minutes, so ~20 min or more on 2 cores; not timed as a whole)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m slow
 
