@@ -160,6 +160,6 @@ def test_a_harmonic_balance_fit_worse_than_its_stuck_limit_is_refused(folder, mo
     res = diagnose_levels(folder, [1.35, 2.7])
     c = res["calibration_gap"]
     assert c["refused"] and c["nonlinear"] > c["linear"] and res["nonlinear"]["stuck_limit"], c
-    assert res["named_effect"] is None and "mu" not in res["nonlinear"]["fitted"]
+    assert res["named_effect"] is None and "mu" not in res["nonlinear"]["fitted"] and res["contact_note"] is None
     for p in res["prediction"]:
         assert p["gap_nonlinear_db"] == p["gap_linear_db"] and p["better"] == "linear", p

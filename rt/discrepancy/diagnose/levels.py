@@ -271,9 +271,10 @@ def contact_of(r) -> dict:
 
 def contact_note(pred: list[dict], method: str, unit: str, random: bool = False) -> str | None:
     """The report's note for method df where the prediction rows ``pred`` (``contact_of`` keys, level_n in
-    ``unit``) have a normal ratio above 1; None for aft or a joint that stays closed. ``random``: the levels are
+    ``unit``; None where the stuck limit was kept) have a normal ratio above 1; None for aft or a joint that
+    stays closed. ``random``: the levels are
     random tests (rt.discrepancy.diagnose.random_level: the ratio of the normal gap's rms-equivalent sine)."""
-    gaping = [g["level_n"] for g in pred if g["normal_ratio_max"] > 1.0]
+    gaping = [g["level_n"] for g in pred if (g["normal_ratio_max"] or 0.0) > 1.0]
     if method != "df" or not gaping:
         return None
     if random:
@@ -361,7 +362,6 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
         H_nl = nonlinear_H(final["cfg"], data, levels, final["theta"].get(FORCE_SCALE, 1.0), method, hb)
     else:    # the stuck limit: the linear model (the joint's contact closed and stuck in the harmonic balance)
         H_nl = H_lin
-        nonlinear_H(base["cfg"], data, levels, base["theta"].get(FORCE_SCALE, 1.0), method, hb)
     band = softening_band(nominal, data, levels)
     pred = []
     for i, (d, a) in enumerate(zip(data, levels)):
@@ -370,8 +370,8 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
              "gap_linear_all_db": gap_db(d, H_lin[i], None), "gap_nonlinear_all_db": gap_db(d, H_nl[i], None)}
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
         g["better"] = "nonlinear" if g["gap_nonlinear_db"] < g["gap_linear_db"] else "linear"
-        pred.append(g | contact_of(hb[i]))
-    gaping = [i for i, g in enumerate(pred) if g["normal_ratio_max"] > 1.0]
+        pred.append(g | (contact_of(hb[i]) if hb else {"normal_ratio_max": None, "open_fraction_max": None}))
+    gaping = [i for i, g in enumerate(pred) if (g["normal_ratio_max"] or 0.0) > 1.0]
     if method == "df" and final is not None and gaping and not any(isinstance(a, RandomLevel) for a in levels):
         say(f"prediction by method aft where the contact opens ({len(gaping)} levels), from this calibration")
         H_aft = nonlinear_H(final["cfg"], [data[i] for i in gaping], [levels[i] for i in gaping],
