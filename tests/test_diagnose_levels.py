@@ -26,7 +26,32 @@ def folder(tmp_path_factory):
     return out
 
 
-def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys):
+@pytest.mark.slow   # the same diagnosis with the candidates' fits (micro_slip, the clamp: ~40 % of its CPU)
+def test_no_candidate_is_named_on_a_campaign_without_an_effect(folder, tmp_path, capsys):
+    """The whole diagnosis of the campaign below (no hidden effect): neither candidate (micro_slip,
+    clamp_compliance) is named, and the prediction is the calibration's (the suite's twin below)."""
+    res = _levels_cli(folder, tmp_path, capsys)
+    assert res["named_effect"] is None and {r["effect"] for r in res["ranking"]} == {"micro_slip", "clamp_compliance"}
+    _assert_predicts_the_higher_level(res, tmp_path / "report")
+
+
+def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys, monkeypatch):
+    """The suite's twin of the test above, calibration alone (the candidates' fits are ~40 % of the
+    diagnosis's CPU, profiled, and nothing here asserts on them): see ``_assert_predicts_the_higher_level``."""
+    import frictionrt.rt.discrepancy.diagnose.levels as levels
+    monkeypatch.setattr(levels, "CANDIDATES", ())
+    res = _levels_cli(folder, tmp_path, capsys)
+    assert res["named_effect"] is None and res["ranking"] == []
+    _assert_predicts_the_higher_level(res, tmp_path / "report")
+
+
+def _levels_cli(folder, tmp_path, capsys) -> dict:
+    """diagnose --calibrate-on 1.35,2.7 --json --out tmp_path/report on ``folder``: the printed result."""
+    assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(tmp_path / "report")]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def _assert_predicts_the_higher_level(res: dict, out) -> None:
     """Calibrated on 1.35 and 2.7 V (0.5 and 1 N), the harmonic balance predicts the 27 V FRF at least 3x
     closer than the linear model calibrated on the same files, with the force scale within 5 % (the issue's
     figure; 15 % here until issue 32, for the whole plan's +9 % on the earlier plant), and it is
@@ -39,9 +64,6 @@ def test_the_harmonic_balance_predicts_the_higher_level(folder, tmp_path, capsys
     whole 50-1200 Hz plan of seed 3 0.75 against 10.44 dB with the scale +9 %: there k_t, mu and the
     damping trade with it, with method aft as well: docs/discrepancy.md.) The 3x and the 5 % are the
     issue's figures, not re-tuned: the measured 9.0x and -1.0 % are well inside."""
-    out = tmp_path / "report"
-    assert main(["diagnose", str(folder), "--calibrate-on", "1.35,2.7", "--json", "--out", str(out)]) == 0
-    res = json.loads(capsys.readouterr().out)
     assert res["softening_mode"] == 3 and res["calibrate_on_n"] == [1.35, 2.7] and res["level_unit"] == "V"
     assert res["nonlinear"]["fitted"]["force_scale_N_per_V"] == pytest.approx(SCALE, rel=0.05)
     assert {(w["model"], w["parameter"]) for w in res["warnings"]} >= {("linear", "modal_damping")}
