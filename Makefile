@@ -20,9 +20,11 @@ demo: $(STAMP)
 	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 -o logs/compare_laws.png --force
 	$(BIN)/frictionrt reproduce --quick --out logs/reproduce_quick --force
 
-# two workers for the suite (its 25 slowest tests listed, for the budget), then the timing tests alone
-# (pyproject.toml, marker `timing`)
+# the kernels compiled once, on two processes (frictionrt/warm.py: two workers that start together would each
+# compile them in full; a path that fails is reported and the suite still runs), then two workers for the suite (its 25 slowest tests listed, for the budget), then
+# the timing tests alone (pyproject.toml, marker `timing`)
 test: $(STAMP)
+	-$(BIN)/python -m frictionrt.warm --jobs 2
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not timing and not slow" --durations=25
 	$(BIN)/python -m pytest -q -m timing
 

@@ -294,3 +294,12 @@ def test_simulate_o_names_the_log_file_and_the_old_rrd_spelling_says_so(tmp_path
     assert err.strip() == f"frictionrt: note: -o {tmp_path / 'b.rrd'} is deprecated and goes in the next release; " \
                           f"say -o {tmp_path / 'b.mcap'}"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.foxglove.json", "a.mcap", "b.foxglove.json", "b.mcap"]
+
+
+def test_warm_refuses_a_bad_job_count(capsys):
+    """python -m frictionrt.warm (the kernels compiled ahead; make test runs it): --jobs 0 is one line, exit 2."""
+    from frictionrt.warm import ROUNDS, main as warm_main
+    assert warm_main(["--jobs", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "warm: --jobs 0: give 1 or more processes"
+    assert all(f.__doc__ for r in ROUNDS for f in r)   # each path says what it compiles (the module's list)
