@@ -11,10 +11,12 @@ mode's own amplitude:
     a_i = |t phi_i| sqrt(q_i^2 + (q_i' / omega_i)^2)          mode i's share of u_rel's amplitude [m]
     omega_i(a_i) = r_i(a_i) omega_i,   r_i piecewise linear in a_i on the grid ``AMP_GRID_M``
 
-with r_i from the plant's own passive step-sine peaks (``PLANT_PEAKS``: the peak over the plant's
-sliding-joint linearisation at F_min, ``frictionrt.plant.modes.sliding_joint_hz``, against the
-passive u_rel amplitude at that peak; r = 1 at a = 0, the linearisation, and held beyond the last
-point). Modes without a measured peak keep r = 1.
+with r_i from the plant's own passive peaks (the peak over the plant's sliding-joint linearisation
+at F_min, ``frictionrt.plant.modes.sliding_joint_hz``, against the passive u_rel amplitude at that
+peak; r = 1 at a = 0, the linearisation, and held beyond the last point): on the default plant the
+step-sine's (``PLANT_PEAKS``), on another the harmonic balance's
+(``frictionrt.observer.amplitude_schedule``; ``schedule_peaks`` chooses). Modes without a point
+keep r = 1.
 
 In modal coordinates the model is a set of decoupled 2 x 2 blocks, so the exact zero-order hold of
 mode i at a grid amplitude is a 2 x 2 matrix and a 2-vector (the friction input's column):
@@ -55,7 +57,7 @@ AMP_GRID_M = (0.0, 0.5e-6, 1.0e-6, 2.0e-6, 4.0e-6, 8.0e-6, 16.0e-6, 32.0e-6, 64.
 # 12.4); mode 4 at 20 N (not measured by the reproduction); mode 5 (its peak, 0.990 of the
 # linearisation at 1.5-4.5 um, is the passive joint's; under a law that presses the joint the mode
 # moves up, and the model moved onto the passive peak is worse: docs/observer.md).
-# On another plant the ratios are carried over as they are.
+# Another plant gets its own schedule by harmonic balance (``schedule_peaks``).
 PLANT_PEAKS: dict[int, tuple[tuple[float, float], ...]] = {
     2: ((25.956e-6, 0.98990), (66.093e-6, 0.98780), (255.520e-6, 0.98682)),
     3: ((4.574e-6, 0.99111), (12.394e-6, 0.98307)),
@@ -103,6 +105,18 @@ def frequency_ratios(n_modes: int, grid=AMP_GRID_M, peaks=None) -> np.ndarray:
     return r
 
 
+def schedule_peaks(cfg: Config, plant=None) -> dict[int, tuple[tuple[float, float], ...]]:
+    """The schedule's points for the configuration: ``PLANT_PEAKS`` (the measured step-sine table)
+    where its plant is the default's (``frictionrt.observer.amplitude_schedule.plant_key``), else
+    the points computed from its own plant by harmonic balance
+    (``frictionrt.observer.amplitude_schedule.harmonic_peaks``; costly the first time, then cached)."""
+    from frictionrt.observer.amplitude_schedule import harmonic_peaks, plant_key
+    from frictionrt.rt.common.config import load
+    if plant_key(cfg) == plant_key(load()):
+        return PLANT_PEAKS
+    return harmonic_peaks(cfg, plant)
+
+
 def mode_blocks(omega: float, zeta: float, b: float, dt: float) -> np.ndarray:
     """(6,) exact ZOH of one mode, A = [[0, 1], [-omega^2, -2 zeta omega]], input column [0, b],
     over dt [s] (module docstring): Ad row-major, then bd."""
@@ -117,13 +131,15 @@ def mode_blocks(omega: float, zeta: float, b: float, dt: float) -> np.ndarray:
 
 def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False) -> tuple[ObserverDesign, AmplitudeParams]:
     """The paper's design (its gain, its outputs) and the amplitude-following blocks (module
-    docstring). ``peaks``: the schedule's measured points (default ``PLANT_PEAKS``). ``jenkins``:
+    docstring). ``peaks``: the schedule's points (default ``schedule_peaks``: the measured table on
+    the default plant, harmonic balance on another). ``jenkins``:
     the joint as a Jenkins element (``joint_stiffness`` in series with the slider mu F_N) instead
     of the regularised Coulomb force, its stuck linearisation checked for stability too.
 
     Raises ValueError if the error dynamics with the paper's gain are unstable at a grid amplitude
     (every mode at its r_i(a_j)), as ``design_observer`` does for its own model."""
     design = design_observer(cfg, plant)
+    peaks = schedule_peaks(cfg, plant) if peaks is None else peaks
     model = design.model
     p = design.params
     N = len(model.omega)

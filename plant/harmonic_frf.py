@@ -91,9 +91,13 @@ class HarmonicSystem(NamedTuple):
     Y_g: np.ndarray          # (2n, 2p) first-order modal load of unit pair forces (lambda_n, lambda_t)
 
 
+U_REL = "u_rel"   # a sensor "point" that is the damper's relative displacement u_rel (the plant's output row)
+
+
 def harmonic_system(model: PlantModel, points: dict[str, str], F_N1: float | None = None) -> HarmonicSystem:
     """Design the harmonic balance of the plant preloaded at F_N1 [N] (None: the configured
-    initial value), sensors {name: plant point}. Raises ValueError for an unknown point or for
+    initial value), sensors {name: plant point, or ``U_REL``: the damper's relative displacement,
+    whose "accelerance" is -Omega^2 u_rel^ / F}. Raises ValueError for an unknown point or for
     Stribeck friction (not described)."""
     cfg = model.cfg
     if cfg.plant.interface.static_excess > 0.0:
@@ -102,7 +106,7 @@ def harmonic_system(model: PlantModel, points: dict[str, str], F_N1: float | Non
                          "(rt.experiments.stepsine) for Stribeck friction")
     st = model.structure
     for name, pt in points.items():
-        if pt not in st.point_names:
+        if pt not in st.point_names and pt != U_REL:
             raise ValueError(f"sensor {name!r} at point {pt!r}: not a plant point; the points are "
                              f"{', '.join(st.point_names)}")
     p = model.params
@@ -115,7 +119,7 @@ def harmonic_system(model: PlantModel, points: dict[str, str], F_N1: float | Non
     n = len(lin.b)
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-lin.K, -(lin.C_m + lin.C_c)]])
     lam, V = np.linalg.eig(A)
-    rows = p.out_rows[[st.point_names.index(pt) for pt in points.values()]]
+    rows = p.out_rows[[len(st.point_names) if pt == U_REL else st.point_names.index(pt) for pt in points.values()]]
     Y = np.linalg.solve(V, np.vstack([np.zeros((n, 1 + p.G.shape[0])), np.column_stack([lin.b, p.G.T])]))
     return HarmonicSystem(names=tuple(points), closed=closed, k_n=p.k_n.copy(), k_t=p.k_t.copy(), mu=p.mu.copy(),
                           q=p.mu * p.k_n * np.maximum(-g0[0::2], 0.0), kf=p.iwan_k.copy(), qf=p.iwan_q.copy(),

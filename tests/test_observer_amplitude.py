@@ -1,6 +1,6 @@
 """The amplitude-following observer (observer/amplitude.py, observer/amplitude_step.py): its
 blocks against the paper's discrete model, its compiled step against a plain NumPy reference,
-its schedule, and the kind in the loop (replay bit-exact, the C export refusing it)."""
+its schedule, and the kind in the loop (replay bit-exact; its C export: tests/test_export_amplitude.py)."""
 import json
 
 import numpy as np
@@ -176,13 +176,6 @@ def test_replay_of_the_amplitude_kind_is_bit_exact(amp_log, capsys):
     assert code == 0 and r["bit_exact"] is True and r["max_abs_diff"] == 0.0
     assert (r["estimator"], r["ticks"]) == ("amplitude", 2100)
     assert r["outputs"]["V_cmd"]["max"] > r["outputs"]["V_cmd"]["min"]
-
-
-def test_c_export_refuses_the_amplitude_kind_in_one_line(tmp_path, capsys):
-    code = main(["export-c", "--law", "hysteresis", "--estimator", "amplitude", "-o", str(tmp_path / "c")])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and "'amplitude'" in err[0] and "--estimator observer" in err[0]
-    assert not (tmp_path / "c").exists()
 
 
 def test_supervisor_catches_a_diverging_amplitude_observer():

@@ -60,9 +60,9 @@ def cmd_export_c(cfg, args) -> int:
     from frictionrt.jobs import export_c
     from frictionrt.rt.export.generate import MANIFEST
     out = Path(args.out)
-    if args.from_log is None and args.estimator not in ("observer", "oracle"):  # before the design is built
-        return fail(f"estimator {args.estimator!r}: the C export has templates for the observer and the oracle only; "
-                    "export with --estimator observer or oracle")
+    if args.precision == "float32" and args.from_log is None and args.estimator != "observer":  # before the design
+        return fail(f"export-c --precision float32: only the observer build (--estimator observer), not "
+                    f"{args.estimator!r}; export {args.estimator} without --precision (the double kind)")
     try:
         m = export_c(cfg, out=out, law=args.law, estimator=args.estimator, from_log=args.from_log, sets=args.sets,
                      force=args.force, precision=args.precision, structure=args.structure,

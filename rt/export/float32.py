@@ -88,6 +88,9 @@ def _f32(x) -> np.ndarray:
 def realise(rec: dict[str, np.ndarray]) -> dict:
     """The float32 parameters and state at rest of the double design record ``rec`` (module
     docstring): a dict of part -> {field: float32 / integer array}."""
+    if "amplitude.grid" in rec:
+        raise ValueError("export-c --precision float32: only the observer build (--estimator observer), not "
+                         "'amplitude'; export amplitude without --precision (the double kind)")
     if not bool(rec["export.observe"]):
         raise ValueError("export-c --precision float32: only the observer build (--estimator observer); the oracle "
                          "is a test build of the double kind")

@@ -56,7 +56,7 @@ def _hex(a: np.ndarray) -> np.ndarray:
 def write_golden(folder: Path, loop, state, digest: str) -> dict:
     """golden_in.txt and golden_out.txt into folder (module docstring); returns the coverage."""
     k, sens, uv, out = golden_vectors(loop, state)
-    observe = loop.estimator == "observer"
+    observe = loop.observes
     cols = [sens[:, SENSORS.index(c)] for c in INPUTS[1:5]]
     bits = [_hex(c) for c in cols]
     if not observe:

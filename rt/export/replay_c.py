@@ -58,7 +58,7 @@ def ctrl_states(ctrl, loop, st, restart, patterns: bool = True) -> np.ndarray:
         s = st.copy()
         parts = keyframe_parts(s, loop.cfg.rt.keyframe_plant_cache, patterns)
         load(parts, kf_f[j], kf_i[j])
-        for sl, x in zip(slices, (s.xs[TIP_SLOTS], s.xe if loop.estimator == "observer" else s.xo, s.xl, s.xq, s.xf,
+        for sl, x in zip(slices, (s.xs[TIP_SLOTS], s.xe if loop.observes else s.xo, s.xl, s.xq, s.xf,
                                   s.sv)):
             images[j, sl] = x
     return images

@@ -117,7 +117,7 @@ class CController:
         digest = design_hash(controller_record(loop, initial_loop_state(loop, seed)))
         check_design(m, digest, loop, f"--controller c:{folder}", "this run's")
         self.folder, self.cc, self.design_hash = folder, cc, digest
-        self.observe = loop.estimator == "observer"
+        self.observe = loop.observes
         work = tempfile.mkdtemp(prefix="frictionrt-sil-")   # the library stays for the copies to load
         weakref.finalize(self, shutil.rmtree, work, True)
         self._link(build(folder, cc, workdir=work))

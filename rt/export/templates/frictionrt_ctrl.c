@@ -13,7 +13,8 @@
  *   - no libm function whose last bits differ between C libraries: the only transcendental
  *     function, the observer's arctan, is fdlibm's algorithm in plain arithmetic (ctrl_atan,
  *     observer/atan.py); fabs is exact everywhere, and isfinite is a test of the exponent bits
- *     (ctrl_isfinite: no __fpclassify call with any C library).
+ *     (ctrl_isfinite: no __fpclassify call with any C library); the amplitude-following
+ *     observer's square root is correctly rounded by IEEE 754, as the instruction (ctrl_sqrt).
  *
  * What a compile-time check cannot see (a contraction default, -funsafe-math-optimizations, an
  * FPU in flush-to-zero or another rounding mode) ctrl_init checks at run time (ctrl_selftest).
@@ -21,13 +22,17 @@
  * Worst-case time of a tick: the observer's implicit friction step is a safeguarded Newton
  * iteration of at most CTRL_NEWTON_MAX (60) iterations (docs/export-c.md gives the counts
  * measured on run logs), each one arctan and a division; everything else is straight-line code with loops of fixed length (the observer's
- * CTRL_N_OBS x CTRL_N_OBS matrix-vector product, the fault schedule's rows).
+ * CTRL_N_OBS x CTRL_N_OBS matrix-vector product, or the amplitude-following observer's per-mode
+ * search of at most CTRL_N_GRID grid points and 2 x 2 blocks, the fault schedule's rows).
  */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
 
 #include "frictionrt_ctrl.h"
+#if CTRL_AMPLITUDE && defined(__SSE2__)
+#include <emmintrin.h>                              /* ctrl_sqrt: the SSE2 square root instruction */
+#endif
 
 #if !defined(FLT_EVAL_METHOD) || FLT_EVAL_METHOD != 0
 #error "frictionrt_ctrl needs FLT_EVAL_METHOD == 0 (doubles evaluated in double precision, e.g. SSE2 rather than the x87)"
@@ -50,6 +55,17 @@ typedef struct {                                                   /* observer/k
     double C_u[CTRL_N_OBS], C_v[CTRL_N_OBS], CvA[CTRL_N_OBS];
     double beta, D_u, mu, alpha;
 } observer_params;
+#endif
+
+#if CTRL_AMPLITUDE
+typedef struct {                                                   /* observer/amplitude.py AmplitudeParams */
+    double grid[CTRL_N_GRID];                       /* a mode's share of u_rel's amplitude [m], ascending */
+    double blocks[CTRL_N_OBS / 2][CTRL_N_GRID][6];  /* per mode and grid point: Ad (row-major), bd */
+    double scale[CTRL_N_OBS / 2];                   /* |t phi_i| [m per modal unit] */
+    double inv_omega[CTRL_N_OBS / 2];               /* 1 / omega_i [s] */
+    double k_j[1];                                  /* > 0: the Jenkins joint's stiffness [N/m]; 0: Coulomb
+                                                     * (one element: the design record's shape) */
+} amplitude_params;
 #endif
 
 typedef struct { double a, b; } rt1_params;                        /* tracking/rt1.py RT1Params */
@@ -80,7 +96,7 @@ typedef struct {                                       /* rt/loop/supervisor.py 
 
 typedef struct { double F1[3]; } tip_params;           /* plant/sensors.py SensorParams.F1[0]: integrator */
 
-/* The generated constants: P_TIP, P_ORACLE or P_OBSERVER, P_LAW, P_PREFILTER, P_TRACKING,
+/* The generated constants: P_TIP, P_ORACLE or P_OBSERVER (and P_AMPLITUDE), P_LAW, P_PREFILTER, P_TRACKING,
  * P_SUPERVISOR, P_FORCE_COL, the state at rest CTRL_INITIAL (hexadecimal floating literals:
  * the exact bits of the design) and the checksum's list CTRL_PARAM_LIST. */
 #include "ctrl_design.h"
@@ -234,6 +250,7 @@ static double implicit_v(double v_star, double beta, double F_N)
     return v;
 }
 
+#if !CTRL_AMPLITUDE
 /* One tick of the observer (_observer_step): y = (u_rel_hat, v_rel_hat, innovation, f_r_hat). */
 static void observer_step(const double *x, double y_meas, double F_N, double *x_next, double *y)
 {
@@ -262,6 +279,117 @@ static void observer_step(const double *x, double y_meas, double F_N, double *x_
             acc += p->A_d[i][j] * x[j];
         x_next[i] = acc;
     }
+}
+#endif /* !CTRL_AMPLITUDE */
+#endif
+
+#if CTRL_AMPLITUDE
+/* ---- the amplitude-following observer (observer/amplitude_step.py) ----------------------------- */
+
+/* sqrt, correctly rounded (IEEE 754 requires it of every implementation, as LLVM's sqrt that numba
+ * calls): the instruction itself, so that the object calls no library function (a libm sqrt
+ * sets errno for a negative argument, and the compiler keeps the call for it). */
+#if defined(__SSE2__)
+static double ctrl_sqrt(double x)
+{
+    return _mm_cvtsd_f64(_mm_sqrt_sd(_mm_setzero_pd(), _mm_set_sd(x)));
+}
+#elif defined(__aarch64__)
+static double ctrl_sqrt(double x)
+{
+    double r;
+    __asm__("fsqrt %d0, %d1" : "=w"(r) : "w"(x));
+    return r;
+}
+#else
+static double ctrl_sqrt(double x)
+{
+    return sqrt(x);                                 /* correctly rounded in any IEEE 754 (C99 Annex F) libm */
+}
+#endif
+
+static double clamp_q(double f, double q)          /* _clamp: f into [-q, q] */
+{
+    return f > q ? q : (f < -q ? -q : f);
+}
+
+/* One tick of the amplitude-following observer (_amplitude_step): the paper's measurement update
+ * and outputs, then per mode its blocks interpolated at the mode's amplitude
+ * a_i = |t phi_i| sqrt(q_i^2 + (q_i' / omega_i)^2), and the time update with the friction at the
+ * end-of-tick velocity (or the Jenkins joint's return mapping when k_j > 0). */
+static void amplitude_step(const double *x, double y_meas, double F_N, double *x_next, double *y)
+{
+    const observer_params *p = &P_OBSERVER;
+    const amplitude_params *a = &P_AMPLITUDE;
+    enum { N = CTRL_N_OBS / 2, G = CTRL_N_GRID };
+    double w[CTRL_N_OBS];                           /* the interpolated bd per mode */
+    double e = y_meas, v_hat = 0.0, u_lin = 0.0, df, f_k, f_next;
+    double v_star = 0.0, beta = 0.0, u_star = 0.0, c_u = p->D_u, s = 0.0;
+    const double k_j = a->k_j[0];
+    const int jenkins = k_j > 0.0;
+    const double q_slip = p->mu * fabs(F_N);
+    int i;
+    for (i = 0; i < CTRL_N_OBS; ++i)
+        e -= p->C_meas[i] * x[i];
+    for (i = 0; i < CTRL_N_OBS; ++i) {
+        const double zi = x[i] + p->M[i] * e;
+        x_next[i] = zi;
+        v_hat += p->C_v[i] * zi;
+        u_lin += p->C_u[i] * zi;
+    }
+    if (jenkins) {
+        s = x[CTRL_N_OBS];
+        f_k = clamp_q(k_j * (u_lin - s) / (1.0 - k_j * p->D_u), q_slip);
+    } else {
+        f_k = friction(v_hat, F_N, &df);
+    }
+    y[0] = u_lin + p->D_u * f_k;
+    y[1] = v_hat;
+    y[2] = e;
+    y[3] = f_k;
+    /* per mode: the blocks at its amplitude, A z into x_next, bd into w */
+    for (i = 0; i < N; ++i) {
+        const double q = x_next[i], qd = x_next[N + i];
+        const double r = qd * a->inv_omega[i];
+        const double amp = a->scale[i] * ctrl_sqrt(q * q + r * r);
+        const double *b0, *b1;
+        double wt, c0, a11, a12, a21, a22;
+        int j = 0;
+        while (j < G - 2 && amp >= a->grid[j + 1])
+            ++j;
+        wt = (amp - a->grid[j]) / (a->grid[j + 1] - a->grid[j]);
+        if (wt > 1.0)
+            wt = 1.0;
+        b0 = a->blocks[i][j];
+        b1 = a->blocks[i][j + 1];
+        c0 = 1.0 - wt;
+        a11 = c0 * b0[0] + wt * b1[0];
+        a12 = c0 * b0[1] + wt * b1[1];
+        a21 = c0 * b0[2] + wt * b1[2];
+        a22 = c0 * b0[3] + wt * b1[3];
+        w[i] = c0 * b0[4] + wt * b1[4];
+        w[N + i] = c0 * b0[5] + wt * b1[5];
+        x_next[i] = a11 * q + a12 * qd;
+        x_next[N + i] = a21 * q + a22 * qd;
+        v_star += p->C_v[N + i] * x_next[N + i];
+        beta += p->C_v[N + i] * w[N + i];
+        u_star += p->C_u[i] * x_next[i];
+        c_u += p->C_u[i] * w[i];
+    }
+    if (jenkins) {                                  /* the spring-slider's return mapping, force held */
+        f_next = k_j * (u_star - s) / (1.0 - k_j * c_u);
+        if (f_next > q_slip || f_next < -q_slip) {
+            f_next = clamp_q(f_next, q_slip);
+            x_next[CTRL_N_OBS] = u_star + c_u * f_next - f_next / k_j;
+        } else {
+            x_next[CTRL_N_OBS] = s;
+        }
+    } else {                                        /* friction at the end-of-tick velocity */
+        const double v_next = implicit_v(v_star, beta, F_N);
+        f_next = friction(v_next, F_N, &df);
+    }
+    for (i = 0; i < CTRL_N_OBS; ++i)
+        x_next[i] += w[i] * f_next;
 }
 #endif
 
@@ -375,7 +503,7 @@ static int check(int64_t k, double *s, const double *ys, const double *ye, const
 #if CTRL_OBSERVER
             double n2 = 0.0;
             int i;
-            for (i = 0; i < CTRL_N_OBS; ++i)
+            for (i = 0; i < CTRL_N_STATE; ++i)
                 n2 += z[i] * z[i];
             bad = bad || !(fabs(ye[2]) <= p->innovation && n2 <= p->state * p->state);
 #endif
@@ -605,7 +733,7 @@ void ctrl_step(ctrl_state *s, const ctrl_inputs *in, ctrl_outputs *out)
     double F_set, e;
     int passive;
 #if CTRL_OBSERVER
-    double xe_n[CTRL_N_OBS];
+    double xe_n[CTRL_N_STATE];
     const double *z = xe_n;
 #else
     double xo_n[4];
@@ -621,7 +749,11 @@ void ctrl_step(ctrl_state *s, const ctrl_inputs *in, ctrl_outputs *out)
     /* 2 estimator, on the sanitised readings */
     sanitise(s->sv, ys, yc);
 #if CTRL_OBSERVER
+#if CTRL_AMPLITUDE
+    amplitude_step(s->xe, inject_observer(k, in->faults, in->n_faults, yc[R_V_TIP]), yc[R_F_CELL], xe_n, ye);
+#else
     observer_step(s->xe, inject_observer(k, in->faults, in->n_faults, yc[R_V_TIP]), yc[R_F_CELL], xe_n, ye);
+#endif
 #else
     ye[0] = biquad_step(&P_ORACLE, s->xo, in->u_rel, xo_n);
     ye[1] = biquad_step(&P_ORACLE, s->xo + 2, in->v_rel, xo_n + 2);
@@ -664,7 +796,7 @@ void ctrl_step(ctrl_state *s, const ctrl_inputs *in, ctrl_outputs *out)
     {
         int i;
 #if CTRL_OBSERVER
-        for (i = 0; i < CTRL_N_OBS; ++i)
+        for (i = 0; i < CTRL_N_STATE; ++i)
             s->xe[i] = xe_n[i];
 #else
         for (i = 0; i < 4; ++i)

@@ -3,7 +3,8 @@
  *
  * Exported by `frictionrt export-c` (docs/export-c.md). One call of ctrl_step is one tick of
  * the 21 kHz loop between the sensor readings and the commanded voltage: the tip velocity
- * integrator, the estimator (the nonlinear observer, or in a test build the oracle), the law
+ * integrator, the estimator (the paper's nonlinear observer, its amplitude-following kind, or in a
+ * test build the oracle), the law
  * (passive, hysteresis-optimal with RT1, Lyapunov), the supervisor, the setpoint prefilter and
  * the force tracking (feedforward + PID with anti-windup and limits, or the passive law's
  * voltage hold). It computes, bit for bit, what the numba controller of frictionrt computes
@@ -32,7 +33,8 @@
 typedef struct ctrl_state {
     double xs[2];            /* tip integrator: v_tip [m/s], previous a_tip_meas [m/s^2] */
 #if CTRL_OBSERVER
-    double xe[CTRL_N_OBS];   /* observer: a-priori state z_k|k-1 (observer/step.py) */
+    double xe[CTRL_N_STATE]; /* observer: a-priori state z_k|k-1 (observer/step.py, observer/amplitude_step.py;
+                              * with the Jenkins joint the slider's position last) */
 #else
     double xo[4];            /* oracle low-pass: (s1, s2) of u_rel, of v_rel (test build) */
 #endif
