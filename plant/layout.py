@@ -127,8 +127,8 @@ def joint_zones(cfg) -> JointZones:
                             subset_by_value=(-np.inf, (2.0 * np.pi * cfg.impulse.f_max_hz) ** 2))
         keep = np.sqrt(np.maximum(lam_e, 0.0)) / (2.0 * np.pi) > 1e-3   # no rigid-body modes
         ft = np.abs(p.k_t[:, None] * (p.G[1::2] @ V[:, keep]))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.where(closed[k][:, None], ft / (p.mu[:, None] * np.maximum(f_n[k][:, None], 1e-300)), 0.0)
+        floor = 1e-9 * f_n[k].max()   # a point closed by round-off: finite ratio, still the largest
+        r = np.where(closed[k][:, None], ft / (p.mu[:, None] * np.maximum(f_n[k][:, None], floor)), 0.0)
         r_max = r.max(axis=0)
         ratio = np.maximum(ratio, (r / np.where(r_max > 0.0, r_max, 1.0)).max(axis=1))
     edges = _edge_ranges(crossings)
