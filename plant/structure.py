@@ -9,13 +9,14 @@ Physical coordinates are the free DOFs of all beams stacked beam by beam
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from frictionrt.plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from frictionrt.plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, frame_shape, mesh_nodes
-from frictionrt.plant.layout import hand_positions, model_positions
+from frictionrt.plant.layout import JointZones, analysis_config, hand_positions, joint_zones, model_positions
 from frictionrt.plant.tributary import tributary_lengths
 from frictionrt.rt.common.config import Beam, Config, adaptive_screw
 
@@ -137,8 +138,15 @@ def _pair_positions(cfg: Config) -> np.ndarray:
     if not i.enabled:
         return np.zeros(0)
     if i.layout == "model":
-        return model_positions(cfg)
+        return model_positions(i, _joint_zones(analysis_config(cfg)))
     return hand_positions(i)
+
+
+@functools.lru_cache(maxsize=8)
+def _joint_zones(a_cfg: Config) -> JointZones:
+    """plant.layout.joint_zones of the analysis configuration ``a_cfg`` (one per structure and
+    contact law: the layout's own pitch and its refinements share it)."""
+    return joint_zones(build_structure(a_cfg), a_cfg)
 
 
 def node_pairs(x_pairs: np.ndarray, h_min: float) -> np.ndarray:
