@@ -2,7 +2,7 @@
 sensors and the shaker (frictionrt).
 
 Modules: ``fe_beam``, ``structure`` (the assembly, bolts and contact pairs), ``bolts`` (VDI 2230
-cone), ``tributary`` (what each contact point carries of the interface's area and loads), ``contact`` (Jenkins pairs), ``craig_bampton``, ``model`` (``build_plant``), ``newmark``
+cone), ``layout`` (where the contact points sit: by hand, or from the preloaded joint's stuck pressure and slip onset), ``tributary`` (what each contact point carries of the interface's area and loads), ``contact`` (Jenkins pairs), ``craig_bampton``, ``model`` (``build_plant``), ``newmark``
 (the step kernel), ``simulate``, ``energy``, ``modes``, ``impulse``, ``measures`` (an FRF's peaks, half-power damping and weighted errors), ``linear_frf`` (the stuck
 linear reference), ``harmonic_frf`` (the amplitude-dependent FRF by harmonic balance, with
 ``describing`` and ``aft``), ``actuator``, ``sensors``, ``shaker``. A leading underscore marks a compiled

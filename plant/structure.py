@@ -9,13 +9,14 @@ Physical coordinates are the free DOFs of all beams stacked beam by beam
 """
 from __future__ import annotations
 
-import math
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from frictionrt.plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from frictionrt.plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, frame_shape, mesh_nodes
+from frictionrt.plant.layout import JointZones, analysis_config, hand_positions, joint_zones, model_positions
 from frictionrt.plant.tributary import tributary_lengths
 from frictionrt.rt.common.config import Beam, Config, adaptive_screw
 
@@ -129,18 +130,23 @@ def element_of(x_nodes: np.ndarray, x: float) -> int:
 
 
 def _pair_positions(cfg: Config) -> np.ndarray:
-    """Contact point positions [m]: x_start .. x_end at pitch_m, each of the n_z pitches nearest
-    either end (n_z = end_zone_m / pitch_m rounded up) split into end_refinement; where the two
-    zones meet, every pitch is (plant.interface; validated to whole pitches)."""
+    """Contact point positions [m] by plant.interface.layout (plant/layout.py): "hand", x_start ..
+    x_end at pitch_m with the n_z pitches nearest either end split into end_refinement
+    (``hand_positions``); "model", as many points placed by the preloaded joint's stuck pressure
+    and slip onset (``model_positions``)."""
     i = cfg.plant.interface
     if not i.enabled:
         return np.zeros(0)
-    n = int(round((i.x_end_m - i.x_start_m) / i.pitch_m))
-    n_z = math.ceil(i.end_zone_m / i.pitch_m - 1e-6)
-    x = i.x_start_m + i.pitch_m * np.arange(n + 1)
-    r = i.end_refinement
-    inner = [x[k] + i.pitch_m * j / r for k in range(n) if k < n_z or k >= n - n_z for j in range(1, r)]
-    return np.sort(np.concatenate([x, inner]))
+    if i.layout == "model":
+        return model_positions(i, _joint_zones(analysis_config(cfg)))
+    return hand_positions(i)
+
+
+@functools.lru_cache(maxsize=8)
+def _joint_zones(a_cfg: Config) -> JointZones:
+    """plant.layout.joint_zones of the analysis configuration ``a_cfg`` (one per structure and
+    contact law: the layout's own pitch and its refinements share it)."""
+    return joint_zones(build_structure(a_cfg), a_cfg)
 
 
 def node_pairs(x_pairs: np.ndarray, h_min: float) -> np.ndarray:

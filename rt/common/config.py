@@ -61,6 +61,9 @@ AMPLIFIERS = ("current", "voltage")   # shaker.amplifier: the power amplifier's 
 # the plant's time step (plant.newmark): the trapezoidal rule with the discrete-gradient normal impulse
 # (default), or generalized-alpha (Chung & Hulbert 1993) with its spectral radius plant.step_rho_inf
 STEP_SCHEMES = ("trapezoidal", "generalized_alpha")
+# the contact points' layout (plant.interface.layout; plant/layout.py): hand = pitch_m with the ends
+# refined over end_zone_m; model = as many points, placed by the stuck pressure and slip onset
+LAYOUTS = ("hand", "model")
 INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
 
@@ -163,6 +166,12 @@ class Interface:
     end_zone_m: float = param(0.03, "m", lo=0.0,
                               doc="length at each end of the interface sampled at pitch_m / end_refinement, rounded "
                                   "up to whole pitch_m; where the two zones meet, the whole interface is")
+    layout: str = param("hand", doc="where the contact points sit (docs/plant.md 6.7): hand = pitch_m with "
+                        "pitch_m / end_refinement over end_zone_m at both ends; model = the same number of points "
+                        "placed by the preloaded joint's own figures (plant/layout.py): densest where slip starts "
+                        "as F_N1 varies over [tracking.F_min_N, F_max_N] and over the range the adaptive screw's "
+                        "contact edge covers, end_refinement times sparser over the rest of the closed contact "
+                        "and end_refinement^2 times over the open interface")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
     k_n_area: float = param(9.5e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="normal penalty stiffness per unit area of interface (a pair carries it times "
@@ -922,6 +931,8 @@ def validate(cfg: Config) -> None:
         raise ConfigError(f"shaker.amplifier = {cfg.shaker.amplifier!r}: must be one of {', '.join(AMPLIFIERS)}")
     if p.step_scheme not in STEP_SCHEMES:
         raise ConfigError(f"plant.step_scheme = {p.step_scheme!r}: must be one of {', '.join(STEP_SCHEMES)}")
+    if p.interface.layout not in LAYOUTS:
+        raise ConfigError(f"plant.interface.layout = {p.interface.layout!r}: must be one of {', '.join(LAYOUTS)}")
     if t.passive_mode not in PASSIVE_MODES:
         raise ConfigError(f"tracking.passive_mode = {t.passive_mode!r}: must be one of {', '.join(PASSIVE_MODES)}")
     if cfg.supervisor.recovery not in RECOVERY:
