@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from frictionrt.rt.common.config import Config, Estimator, dumps
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, check_sweep, slow_sweep, sweep
 from frictionrt.rt.loop import Designs, Loop, build_loop
+from frictionrt.rt.loop.structure import Structure
 
 PROGRESS_TOPIC = "frictionrt-frf-point"  # dask event topic: one message per finished point
 
@@ -37,6 +38,7 @@ class Branch:
     sweep_block_s: float = 0.1             # nominal dwell per point of a slow sweep [s]
     controller: object = None              # the loop's controller (run(..., controller=); None: numba), picklable:
     #                                        e.g. rt.export.sil.CController, which a worker loads by its library's path
+    structure: Structure | None = None     # an imported structure as the plant (rt.loop.structure); None: the beams
 
     def n_points(self) -> int:
         """Frequency points it will measure (a slow sweep's: about |range| / (|rate| block))."""
@@ -56,7 +58,7 @@ def run_branch(branch: Branch, loop: Loop | None = None,
     from threadpoolctl import threadpool_limits
     if loop is None:
         check_sweep(branch.cfg, branch.law, branch.freqs_hz, branch.amp_n, branch.settle, branch.estimator)
-        loop = build_loop(branch.cfg, branch.law, branch.estimator)
+        loop = build_loop(branch.cfg, branch.law, branch.estimator, structure=branch.structure)
     with threadpool_limits(1):
         if branch.sweep_rate_hz_s is not None:
             return slow_sweep(loop, branch.freqs_hz[0], branch.freqs_hz[-1], branch.amp_n, branch.sweep_rate_hz_s,
@@ -67,15 +69,15 @@ def run_branch(branch: Branch, loop: Loop | None = None,
 
 
 def build_loops(branches: Sequence[Branch], designs: Designs | None = None) -> list[Loop]:
-    """The loop of each branch, built once per distinct (configuration, law, estimator), the
-    plants and force-tracking designs shared (``designs``, None: a fresh ``Designs``)."""
+    """The loop of each branch, built once per distinct (configuration, law, estimator, structure),
+    the plants and force-tracking designs shared (``designs``, None: a fresh ``Designs``)."""
     designs = Designs() if designs is None else designs
-    built: dict[tuple[str, str, str], Loop] = {}
+    built: dict[tuple, Loop] = {}
     for b in branches:
-        key = (dumps(b.cfg), b.law, b.estimator)
+        key = (dumps(b.cfg), b.law, b.estimator, b.structure)
         if key not in built:
-            built[key] = build_loop(b.cfg, b.law, b.estimator, designs=designs)
-    return [built[(dumps(b.cfg), b.law, b.estimator)] for b in branches]
+            built[key] = build_loop(b.cfg, b.law, b.estimator, designs=designs, structure=b.structure)
+    return [built[(dumps(b.cfg), b.law, b.estimator, b.structure)] for b in branches]
 
 
 class _QueueReport:
