@@ -111,3 +111,22 @@ def test_verbs_refuse_or_check_the_structure_in_one_line(files, tmp_path, capsys
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and msg in err, (argv, err)
+
+
+def test_no_static_equilibrium_names_its_reason(files):
+    """A coarsened interface without a static equilibrium under the bolts is refused with the
+    reason: one point (2-D friction) leaves the damper free to rotate about it (a mechanism); six
+    clusters at mu = 0.02 need more friction than the interface has, and the friction coefficient
+    named holds (the bisection's upper end is a solve that converged)."""
+    from frictionrt.plant.se_plant import build_se_plant
+    from frictionrt.rt.common.config import with_sets
+    se = S.load(files[0])
+    with pytest.raises(RuntimeError, match=r"even with all 1 contact point\(s\) closed and stuck \(2-D friction\), "
+                                           r"2 rigid-body motion\(s\) of the structure stay free \(a mechanism\)"):
+        build_se_plant(S.coarsen(se, 1), Config())
+    six = S.coarsen(se, 6)
+    with pytest.raises(RuntimeError, match="friction cannot hold the structure") as exc:
+        build_se_plant(six, with_sets(Config(), ["plant.interface.mu=0.02"]))
+    mu = float(str(exc.value).split("it holds from mu = ")[1].split(",")[0])
+    assert 0.02 < mu < 0.05   # measured 0.0273
+    build_se_plant(six, with_sets(Config(), [f"plant.interface.mu={mu!r}"]))
