@@ -130,3 +130,22 @@ def test_no_static_equilibrium_names_its_reason(files):
     mu = float(str(exc.value).split("it holds from mu = ")[1].split(",")[0])
     assert 0.02 < mu < 0.05   # measured 0.0273
     build_se_plant(six, with_sets(Config(), [f"plant.interface.mu={mu!r}"]))
+
+
+def test_a_failed_sweep_refuses_its_candidate_not_the_study(monkeypatch):
+    """run_branches(keep_failed=True): a branch whose run fails numerically (a contact solve that
+    did not converge, as a Lyapunov candidate's can on a coarse interface) gets None and its
+    message; without it the study ends with the error, as before."""
+    from frictionrt.rt.experiments import branches as B
+    cfg = Config()
+
+    def fake(branch, loop=None, progress=None):
+        if branch.amp_n == 2.0:
+            raise RuntimeError("the plant's contact solve failed in 1 of 1121 ticks")
+        return branch.amp_n
+    monkeypatch.setattr(B, "run_branch", fake)
+    bs = [B.Branch(cfg, "passive", a, (200.0,)) for a in (1.0, 2.0, 3.0)]
+    res = B.run_branches(bs, jobs=1, progress=False, loops=[None] * 3, keep_failed=True)
+    assert list(res) == [1.0, None, 3.0] and res.errors == {1: "the plant's contact solve failed in 1 of 1121 ticks"}
+    with pytest.raises(RuntimeError, match="contact solve failed"):
+        B.run_branches(bs, jobs=1, progress=False, loops=[None] * 3)

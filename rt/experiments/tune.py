@@ -222,10 +222,13 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     branches = [Branch(base, "passive", a, freqs[m], estimator, settle, structure=structure) for m, a in cells]
     branches += [Branch(c.cfg, law, a, freqs[m], estimator, settle, structure=structure) for c in ok for m, a in cells]
     loops = build_loops(branches, designs)
-    results = run_branches(branches, jobs, dask_address, progress=progress, loops=loops)
+    results = run_branches(branches, jobs, dask_address, progress=progress, loops=loops, keep_failed=True)
+    for i in range(len(cells)):
+        if i in results.errors:   # the reference itself failed: nothing to score against
+            raise RuntimeError(f"the passive reference sweep failed: {results.errors[i]}")
     resolution = passive_resolution(branches[:len(cells)], loops[:len(cells)], results[:len(cells)], cells,
                                     half_width_rel, jobs, dask_address)
-    timing = sweep_timing(results, time.perf_counter() - t0, results.cores)
+    timing = sweep_timing([r for r in results if r is not None], time.perf_counter() - t0, results.cores)
     shape = (len(modes), len(amps_n))
     passive_peak = np.array([r.H_abs.max() for r in results[:len(cells)]]).reshape(shape)
     n = len(cands)
@@ -235,7 +238,11 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     for i, c in enumerate(cands):
         if c.cfg is None:
             continue
-        rs = [results[next(it)] for _ in cells]
+        idx = [next(it) for _ in cells]
+        if failed := [results.errors[j] for j in idx if j in results.errors]:
+            cands[i] = Candidate(c.sets, c.cfg, f"run failed: {failed[0]}")   # refused, scored NaN
+            continue
+        rs = [results[j] for j in idx]
         peak[i] = np.array([r.H_abs.max() for r in rs]).reshape(shape)
         power[i] = float(np.mean([mean_power_w(r, base.dt_s) for r in rs]))
     change = 20.0 * np.log10(peak / passive_peak[None]).reshape(n, -1).mean(axis=1)
