@@ -442,9 +442,9 @@ def no_equilibrium_reason(p: SEParams, F_N1: float, K: np.ndarray | None = None,
     K_ = np.diag(p.omega2) if K is None else K
     fix = "a coarsened interface: another --clusters (more points, or clusters that follow the bolts' footprints)"
 
-    def holds(mu: float) -> bool:
+    def holds(mu: float) -> bool:   # a probe: at most 40 Newton iterations
         try:
-            _static_equilibrium(p._replace(mu=np.full_like(p.mu, mu)), F_N1, K_, max_iter)
+            _static_equilibrium(p._replace(mu=np.full_like(p.mu, mu)), F_N1, K_, min(max_iter, 40))
             return True
         except (RuntimeError, np.linalg.LinAlgError):
             return False
