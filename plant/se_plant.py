@@ -427,13 +427,13 @@ UNLIMITED_MU = 1e6   # a friction coefficient that no tangential load of a bolte
 def no_equilibrium_reason(p: SEParams, F_N1: float, K: np.ndarray | None = None, max_iter: int = 100) -> str:
     """Why ``static_equilibrium`` finds no solution, from two cheaper problems of the same form:
 
-    * with unlimited friction (mu = ``UNLIMITED_MU``) it converges: the friction limit is what fails,
-      the closed points cannot hold the tangential load of the bolts' preload; the smallest mu that
-      holds is bisected (geometric, to 5 %) and named, rounded up to 3 digits;
-    * else, if the stiffness with every point closed and stuck (bilateral) is singular (an eigenvalue
+    * if the stiffness with every point closed and stuck (bilateral) is singular (an eigenvalue
       below 1e-9 of the largest): a mechanism, the contact points and their friction directions
       leave a rigid-body motion free (e.g. one point with 1-D friction), and the Newton matrix is
-      singular whatever the load;
+      singular whatever the load (whether its solve then converges depends on round-off);
+    * else, with unlimited friction (mu = ``UNLIMITED_MU``) it converges: the friction limit is what
+      fails, the closed points cannot hold the tangential load of the bolts' preload; the smallest
+      mu that holds is bisected (geometric, to 5 %) and named, rounded up to 3 digits;
     * else the points the preload closes cannot balance its moment by compression alone (the
       structure tips off the interface).
 
@@ -449,15 +449,6 @@ def no_equilibrium_reason(p: SEParams, F_N1: float, K: np.ndarray | None = None,
         except (RuntimeError, np.linalg.LinAlgError):
             return False
 
-    mu0 = float(np.max(p.mu))
-    if holds(UNLIMITED_MU):
-        lo, hi = mu0, UNLIMITED_MU
-        while hi / lo > 1.05:
-            mid = float(np.sqrt(lo * hi))
-            lo, hi = (lo, mid) if holds(mid) else (mid, hi)
-        step = 10.0 ** (np.floor(np.log10(hi)) - 2)   # hi rounded up to 3 digits: a value that holds
-        return (f"the closed points' friction cannot hold the structure under the bolts' preload (it holds from "
-                f"mu = {np.ceil(hi / step) * step:.3g}, the interface's is {mu0:g}); {fix}")
     d = 1 + p.nt
     kc = np.zeros(p.G.shape[0])
     kc[0::d] = p.k_n
@@ -469,6 +460,15 @@ def no_equilibrium_reason(p: SEParams, F_N1: float, K: np.ndarray | None = None,
     if n_free:
         return (f"even with all {len(p.k_n)} contact point(s) closed and stuck ({p.nt}-D friction), {n_free} "
                 f"rigid-body motion(s) of the structure stay free (a mechanism); {fix}")
+    mu0 = float(np.max(p.mu))
+    if holds(UNLIMITED_MU):
+        lo, hi = mu0, UNLIMITED_MU
+        while hi / lo > 1.05:
+            mid = float(np.sqrt(lo * hi))
+            lo, hi = (lo, mid) if holds(mid) else (mid, hi)
+        step = 10.0 ** (np.floor(np.log10(hi)) - 2)   # hi rounded up to 3 digits: a value that holds
+        return (f"the closed points' friction cannot hold the structure under the bolts' preload (it holds from "
+                f"mu = {np.ceil(hi / step) * step:.3g}, the interface's is {mu0:g}); {fix}")
     return (f"the points the preload closes cannot balance it by compression (the structure tips off the "
             f"interface, also with unlimited friction); {fix}")
 
