@@ -206,13 +206,15 @@ def design_hash_of(loop, seed: int) -> str:
 
 def compare(cfg: Cfg = None, *, mode: int = 3, amp_n: float = 5.0, duration_s: float = 1.0,
             freq_hz: float | None = None, estimator: str = DEFAULT_ESTIMATOR, controller_of=None,
-            progress: bool = False) -> Result:
+            progress: bool = False, structure: str | Path | None = None, clusters: int = 0) -> Result:
     """The three laws (passive, hysteresis-optimal, Lyapunov) at one excitation (``frictionrt
     compare``): ``amp_n`` [N] at ``freq_hz`` [Hz], by default the passive law's peak of bending mode
     ``mode`` (found by a short step-sine), ``duration_s`` [s] each. ``.to_dict()``: {"freq_hz",
     "rows": per law acc045_amplitude [m/s^2], change_pct against passive [%] (negative: lower), fn1_mean_n [N],
     actuator_energy_j [J]}; ``.plot()``: the response and F_N1 over the last 50 ms.
-    ``controller_of(loop)``: the controller a law's loop runs (a C export's; None: numba's)."""
+    ``controller_of(loop)``: the controller a law's loop runs (a C export's; None: numba's).
+    ``structure``: a superelement file as the plant, coarsened to ``clusters`` points if > 0 (its
+    ``mode`` counted among the modes the laws act on, rt.experiments.stepsine.structure_mode_bands_hz)."""
     from tqdm import tqdm
 
     from frictionrt.rt.common.config import LAWS
@@ -227,33 +229,40 @@ def compare(cfg: Cfg = None, *, mode: int = 3, amp_n: float = 5.0, duration_s: f
         check_frequency(freq_hz, cfg, "freq_hz (--freq)")
     if not amp_n > 0:   # the table is relative to the passive response, which 0 N leaves at 0
         raise ValueError(f"amplitude {amp_n:g} N: compare needs a finite force > 0 N, e.g. 5")
+    from frictionrt.rt.loop.structure import structure_of
+    structure_ = None if structure is None else structure_of(structure, clusters)
     designs = Designs()   # the plant and force-tracking designs, made once for the three laws
-    passive = build_loop(cfg, "passive", estimator, designs=designs)
+    passive = build_loop(cfg, "passive", estimator, designs=designs, structure=structure_)
     if freq_hz is None:
         check_run_input(passive, 1.0, amp_n, duration_s)  # amplitude and duration before the search
         with tqdm(unit="point", disable=not progress, desc=f"passive peak of mode {mode}") as bar:
-            freq_hz = round(passive_peak_hz(passive, mode, amp_n, progress=bar.update), 2)
+            freq_hz = round(passive_peak_hz(passive, mode, amp_n, progress=bar.update, designs=designs), 2)
     n = check_run_input(passive, freq_hz, amp_n, duration_s)
     with tqdm(total=len(LAWS) * n, unit="tick", unit_scale=True, disable=not progress, desc="compare") as bar:
         runs = run_compare(cfg, freq_hz, amp_n, duration_s, estimator, progress=bar.update,
-                           controller_of=controller_of, designs=designs)
+                           controller_of=controller_of, designs=designs, structure=structure_)
     rows = table(runs)
-    return Result("compare", {"freq_hz": freq_hz, "amp_n": amp_n, "duration_s": duration_s,
-                              "estimator": estimator.value, "rows": rows}, lambda: plot(runs), runs=runs)
+    doc = {"freq_hz": freq_hz, "amp_n": amp_n, "duration_s": duration_s, "estimator": estimator.value, "rows": rows}
+    if structure_ is not None:
+        import json
+        doc["structure"] = json.loads(structure_.record())
+    return Result("compare", doc, lambda: plot(runs), runs=runs)
 
 
 def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_hz: Sequence[float] | None = None,
         around_modes: Sequence[int] | None = None, points: int = 31, half_width: float = 0.15, down: bool = False,
         sweep_rate_hz_s: float | None = None, tol: float = 0.01, max_time_s: float = 8.0,
         estimator: str = DEFAULT_ESTIMATOR, jobs: int | None = None, dask: str | None = None,
-        controller_of=None, progress: bool = False) -> Result:
+        controller_of=None, progress: bool = False, structure: str | Path | None = None, clusters: int = 0) -> Result:
     """Amplitude-controlled step-sine FRFs [(m/s^2)/N] (``frictionrt frf``): one sweep per law of
     ``laws`` and force amplitude of ``amps_n`` [N], over ``freqs_hz`` [Hz] or ``points`` frequencies
     over +/- ``half_width`` (relative) around each mode of ``around_modes``, up (or ``down``); a point
     is measured once H has settled to ``tol`` (relative) or after ``max_time_s`` [s]. With
     ``sweep_rate_hz_s`` [Hz/s]: a slow continuous sweep over the range instead. ``.to_dict()``:
     {"dt_s", "config" (TOML), "results": one ``StepSineResult.to_dict()`` per sweep}; ``.results``:
-    the ``StepSineResult`` objects; ``.plot()``: |H| and phase."""
+    the ``StepSineResult`` objects; ``.plot()``: |H| and phase. ``structure``: a superelement file as
+    the plant, coarsened to ``clusters`` points if > 0 (``around_modes`` counted among the modes the
+    laws act on, rt.experiments.stepsine.structure_mode_bands_hz; "structure" in ``.to_dict()``)."""
     from frictionrt.rt.experiments.branches import Branch, run_branches
     from frictionrt.rt.experiments.stepsine import Settle, mode_bands_hz, plot_frfs, resonance_grid
     cfg = _cfg(cfg)
@@ -263,6 +272,10 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
             raise ValueError(f"amplitude {a:g} N: an FRF needs a finite force amplitude > 0 N")
     if (freqs_hz is None) == (around_modes is None):
         raise ValueError("give the frequencies (--freqs) or the modes to resolve (--around-modes), one of them")
+    from frictionrt.rt.loop import Designs
+    from frictionrt.rt.loop.structure import structure_of
+    structure_ = None if structure is None else structure_of(structure, clusters)
+    designs = Designs()   # the plant, built once for the bands and the loops
     if sweep_rate_hz_s is not None and not (math.isfinite(sweep_rate_hz_s) and sweep_rate_hz_s > 0.0):
         raise ValueError(f"sweep rate {sweep_rate_hz_s:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; down for a "
                          "down-sweep)")
@@ -271,7 +284,7 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
     else:
         if points < 1:
             raise ValueError(f"points {points}: give at least 1 frequency per mode")
-        bands = mode_bands_hz(cfg, tuple(int(m) for m in around_modes))
+        bands = mode_bands_hz(cfg, tuple(int(m) for m in around_modes), designs, structure_)
         freqs = [float(f) for f in resonance_grid([0.5 * sum(bands[m]) for m in bands], half_width, points)]
     freqs = sorted(set(freqs), reverse=down)
     settle = Settle(rel_tol=tol, max_s=max_time_s)
@@ -287,17 +300,19 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
             raise ValueError("sweep rate: the frequency range is a single frequency; give two or more frequencies")
         freqs = [freqs[0], freqs[-1]]   # the range, in sweep order
         rate = -rate if down else rate
-    branches = [Branch(cfg, law, float(a), tuple(freqs), estimator.value, settle, sweep_rate_hz_s=rate)
-                for law in laws for a in amps_n]
-    loops = None
+    branches = [Branch(cfg, law, float(a), tuple(freqs), estimator.value, settle, sweep_rate_hz_s=rate,
+                       structure=structure_) for law in laws for a in amps_n]
+    from frictionrt.rt.experiments.branches import build_loops
+    loops = None if structure_ is None else build_loops(branches, designs)
     if controller_of is not None:   # each law with a C export runs it (worker processes load it by path)
         from dataclasses import replace
-
-        from frictionrt.rt.experiments.branches import build_loops
-        loops = build_loops(branches)
+        loops = build_loops(branches, designs) if loops is None else loops
         branches = [replace(b, controller=controller_of(lp)) for b, lp in zip(branches, loops)]
     results = run_branches(branches, jobs=jobs, dask_address=dask, progress=progress, loops=loops)
     doc = {"dt_s": cfg.dt_s, "config": dumps(cfg), "results": [r.to_dict() for r in results]}
+    if structure_ is not None:
+        import json
+        doc["structure"] = json.loads(structure_.record())
     return Result("frf", doc, lambda: plot_frfs(results), results=results)
 
 
@@ -369,7 +384,7 @@ def tune(cfg: Cfg = None, *, law: str, grid: Mapping[str, Sequence[float]] | Non
          modes: Sequence[int] = (3, 4), amps_n: Sequence[float] = (5.0,), points: int = 9,
          half_width: float = 0.15, estimator: str = DEFAULT_ESTIMATOR, max_power_w: float | None = None,
          jobs: int | None = None, dask: str | None = None, out: str | Path | None = None, force: bool = False,
-         progress: bool = False):
+         progress: bool = False, structure: str | Path | None = None, clusters: int = 0):
     """Grid search of a law's gains (``frictionrt tune``; docs/tuning.md): every combination of
     ``grid`` (configuration key -> values; None: the law's own default grid) is a candidate, scored
     by step-sine sweeps of ``points`` frequencies over +/- ``half_width`` around ``modes`` at each
@@ -377,7 +392,9 @@ def tune(cfg: Cfg = None, *, law: str, grid: Mapping[str, Sequence[float]] | Non
     negative = lower peak) and ``power_w`` (mean actuator power [W]); the best has the lowest peak
     change (within ``max_power_w``). With ``out``: table.csv, table.md, pareto.png, best.toml,
     tune.json. Returns the ``TuneResult`` (``.to_dict()``, ``.rows()``, ``.best_cfg``, ``.plot()``,
-    ``.warnings``: the grid's resolution of the passive peak, checked)."""
+    ``.warnings``: the grid's resolution of the passive peak, checked). ``structure``: a superelement
+    file as the plant of every sweep, coarsened to ``clusters`` points if > 0 (``modes`` counted among
+    the modes the laws act on, rt.experiments.stepsine.structure_mode_bands_hz); best.toml names it."""
     from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, TUNED_LAWS, write_outputs
     from frictionrt.rt.experiments.tune import tune as run_tune
     cfg = _cfg(cfg)
@@ -388,9 +405,11 @@ def tune(cfg: Cfg = None, *, law: str, grid: Mapping[str, Sequence[float]] | Non
     if out is not None and Path(out).exists() and not force:
         raise FileExistsError(f"out {out}: exists; pass force (--force) to replace its tune files, or give a new folder")
     g = {k: tuple(float(v) for v in vs) for k, vs in (DEFAULT_GRIDS[law] if grid is None else grid).items()}
+    from frictionrt.rt.loop.structure import structure_of
+    structure_ = None if structure is None else structure_of(structure, clusters)
     res = run_tune(cfg, law, g, tuple(int(m) for m in modes), tuple(float(a) for a in amps_n), points=points,
                    half_width_rel=half_width, estimator=estimator_of(estimator).value, max_power_w=max_power_w,
-                   jobs=jobs, dask_address=dask, progress=progress)
+                   jobs=jobs, dask_address=dask, progress=progress, structure=structure_)
     if out is not None:
         write_outputs(res, Path(out))
     return res

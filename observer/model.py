@@ -119,12 +119,24 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
     if lam[0] <= (2 * np.pi * 0.1) ** 2:
         raise ValueError(f"observer: the tied structure has a mode at {np.sqrt(max(lam[0], 0)) / 2 / np.pi:.3g} Hz "
                          "(rigid-body motion): the clamps and the tie at the normal screw must fix it")
-    omega = np.sqrt(lam)
-    zeta = cfg.observer.modal_damping
     t = st.u_rel_row
     tip = st.point_rows[st.point_names.index("tip")] if "tip" in st.point_names else None
     if tip is None:
         raise ValueError("observer: the measurement needs a point named 'tip' in plant.points")
+    return modal_model(K, lam, Phi, cfg.observer.modal_damping, t, tip, st.b_exc, x_tied, l_tied, x_springs,
+                       l_springs)
+
+
+def modal_model(K: np.ndarray, lam: np.ndarray, Phi: np.ndarray, zeta: float, t: np.ndarray, tip: np.ndarray,
+                b_exc: np.ndarray, x_tied: np.ndarray, l_tied: np.ndarray, x_springs: np.ndarray,
+                l_springs: np.ndarray) -> ObserverModel:
+    """The observer's modal state space (module docstring) from the tied stiffness K, the N kept
+    modes (eigenvalues lam [rad^2/s^2], mass-normalised shapes Phi (n, N)), the modal damping zeta,
+    u_rel's row t, the measured point's row tip and the excitation's b_exc (all (n,), in K's
+    coordinates): A, B_T, B_F, C_meas, C_u, C_v and the static correction D_u. The footprint arrays
+    are carried into the ``ObserverModel`` for plots."""
+    N = len(lam)
+    omega = np.sqrt(lam)
     tPhi = t @ Phi
     Z = np.zeros((N, N))
     A = np.block([[Z, np.eye(N)], [-np.diag(lam), -np.diag(2 * zeta * omega)]])
@@ -133,7 +145,7 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
     static_kept = float(np.sum(tPhi**2 / lam))
     return ObserverModel(
         omega=omega, zeta=zeta, A=A,
-        B_T=np.concatenate([zN, -tPhi]), B_F=np.concatenate([zN, Phi.T @ st.b_exc]),
+        B_T=np.concatenate([zN, -tPhi]), B_F=np.concatenate([zN, Phi.T @ b_exc]),
         C_meas=np.concatenate([zN, tip @ Phi]), C_u=np.concatenate([tPhi, zN]), C_v=np.concatenate([zN, tPhi]),
         D_u=-(static_full - static_kept), x_tied=x_tied, l_tied=l_tied, x_springs=x_springs,
         l_springs=l_springs)
@@ -242,20 +254,8 @@ def build_observer_model_se(cfg: Config, plant) -> ObserverModel:
         raise ValueError(f"observer.n_modes = {N}: the imported structure has only {len(keep)} modes the laws act "
                          f"on among its lowest {n_eig}")
     lam, Phi = lam[keep], Phi[:, keep]
-    omega = np.sqrt(lam)
-    zeta = cfg.observer.modal_damping
     tip = se.sensor_rows[list(se.sensor_names).index("tip")]
-    tPhi = t @ Phi
-    Z = np.zeros((N, N))
-    A = np.block([[Z, np.eye(N)], [-np.diag(lam), -np.diag(2 * zeta * omega)]])
-    zN = np.zeros(N)
-    static_full = float(t @ np.linalg.solve(K, t))
-    static_kept = float(np.sum(tPhi**2 / lam))
     x = se.contact_xyz[:, 0] if se.contact_xyz is not None else np.arange(se.n_points, dtype=float)
     area = se.contact_area
-    return ObserverModel(
-        omega=omega, zeta=zeta, A=A,
-        B_T=np.concatenate([zN, -tPhi]), B_F=np.concatenate([zN, Phi.T @ se.excitation[0]]),
-        C_meas=np.concatenate([zN, tip @ Phi]), C_u=np.concatenate([tPhi, zN]), C_v=np.concatenate([zN, tPhi]),
-        D_u=-(static_full - static_kept), x_tied=x[closed & ~at], l_tied=area[closed & ~at], x_springs=x[at],
-        l_springs=area[at])
+    return modal_model(K, lam, Phi, cfg.observer.modal_damping, t, tip, se.excitation[0], x[closed & ~at],
+                       area[closed & ~at], x[at], area[at])

@@ -411,13 +411,66 @@ def contact_forces(p: SEParams, g: np.ndarray, w_old: np.ndarray):
 
 def static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None = None, max_iter: int = 100):
     """K q = f_const + b_N1 F_N1 + G^T lambda(G q + gap0, w = 0); Newton from the all-closed, all-stuck
-    solution. Returns (q, w, g). RuntimeError if it does not converge or a Newton matrix is singular
-    (nothing holds the structure in some direction)."""
+    solution. Returns (q, w, g). RuntimeError (one line, with the reason of ``no_equilibrium_reason``)
+    if it does not converge or a Newton matrix is singular."""
     try:
         return _static_equilibrium(p, F_N1, K, max_iter)
-    except np.linalg.LinAlgError:
-        raise RuntimeError(f"static equilibrium under the bolts: singular stiffness at F_N1 = {F_N1:g} N (the "
-                           "closed points do not hold the structure; a coarsened interface: other --clusters)") from None
+    except (RuntimeError, np.linalg.LinAlgError):
+        pass
+    raise RuntimeError(f"no static equilibrium under the bolts at F_N1 = {F_N1:g} N: "
+                       f"{no_equilibrium_reason(p, F_N1, K, max_iter)}") from None
+
+
+UNLIMITED_MU = 1e6   # a friction coefficient that no tangential load of a bolted joint reaches
+
+
+def no_equilibrium_reason(p: SEParams, F_N1: float, K: np.ndarray | None = None, max_iter: int = 100) -> str:
+    """Why ``static_equilibrium`` finds no solution, from two cheaper problems of the same form:
+
+    * if the stiffness with every point closed and stuck (bilateral) is singular (an eigenvalue
+      below 1e-9 of the largest): a mechanism, the contact points and their friction directions
+      leave a rigid-body motion free (e.g. one point with 1-D friction), and the Newton matrix is
+      singular whatever the load (whether its solve then converges depends on round-off);
+    * else, with unlimited friction (mu = ``UNLIMITED_MU``) it converges: the friction limit is what
+      fails, the closed points cannot hold the tangential load of the bolts' preload; the smallest
+      mu that holds is bisected (geometric, to 5 %) and named, rounded up to 3 digits;
+    * else the points the preload closes cannot balance its moment by compression alone (the
+      structure tips off the interface).
+
+    Each ends with the fix a user has (another coarsening, more points)."""
+    import scipy.linalg as sla_
+    K_ = np.diag(p.omega2) if K is None else K
+    fix = "a coarsened interface: another --clusters (more points, or clusters that follow the bolts' footprints)"
+
+    def holds(mu: float) -> bool:   # a probe: at most 40 Newton iterations
+        try:
+            _static_equilibrium(p._replace(mu=np.full_like(p.mu, mu)), F_N1, K_, min(max_iter, 40))
+            return True
+        except (RuntimeError, np.linalg.LinAlgError):
+            return False
+
+    d = 1 + p.nt
+    kc = np.zeros(p.G.shape[0])
+    kc[0::d] = p.k_n
+    for a in range(1, d):
+        kc[a::d] = p.k_t
+    A = K_ + (p.G.T * kc) @ p.G
+    lam = sla_.eigvalsh(0.5 * (A + A.T))
+    n_free = int(np.sum(lam <= 1e-9 * lam[-1]))
+    if n_free:
+        return (f"even with all {len(p.k_n)} contact point(s) closed and stuck ({p.nt}-D friction), {n_free} "
+                f"rigid-body motion(s) of the structure stay free (a mechanism); {fix}")
+    mu0 = float(np.max(p.mu))
+    if holds(UNLIMITED_MU):
+        lo, hi = mu0, UNLIMITED_MU
+        while hi / lo > 1.05:
+            mid = float(np.sqrt(lo * hi))
+            lo, hi = (lo, mid) if holds(mid) else (mid, hi)
+        step = 10.0 ** (np.floor(np.log10(hi)) - 2)   # hi rounded up to 3 digits: a value that holds
+        return (f"the closed points' friction cannot hold the structure under the bolts' preload (it holds from "
+                f"mu = {np.ceil(hi / step) * step:.3g}, the interface's is {mu0:g}); {fix}")
+    return (f"the points the preload closes cannot balance it by compression (the structure tips off the "
+            f"interface, also with unlimited friction); {fix}")
 
 
 def _static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None, max_iter: int):
@@ -451,8 +504,8 @@ def _static_equilibrium(p: SEParams, F_N1: float, K: np.ndarray | None, max_iter
             alpha *= 0.5
         q = q - alpha * dq
         R, w, g, D = Rn, wn, gn, Dn
-    raise RuntimeError(f"static equilibrium under the bolts did not converge (F_N1 = {F_N1} N): check the "
-                       "interface stiffnesses, the bolts' preloads and that the structure is held")
+    raise RuntimeError(f"static equilibrium under the bolts did not converge in {max_iter} Newton iterations "
+                       f"(F_N1 = {F_N1:g} N)")
 
 
 def build_se_plant(se: Superelement, cfg, F_N1: float | None = None) -> SEPlant:

@@ -65,9 +65,9 @@ def test_replay_of_the_controller_and_of_the_plant_is_bit_exact(logged):
 def test_refusals_are_one_line(logged, tmp_path, capsys):
     """A verb not on imported structures yet, and a log whose structure file has changed."""
     f, log, _, _ = logged
-    assert main(["tune", "--law", "hysteresis", "--structure", str(f)]) == 2
+    assert main(["rig", "--effect", "none", "--out", str(tmp_path / "rig"), "--structure", str(f)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "tune --structure: not on an imported structure yet" in err
+    assert err.count("\n") == 1 and "rig --structure: not on an imported structure: its effects" in err
     other = S.save(S.coarsen(S.load(f), 4), tmp_path / "other.npz")
     moved = tmp_path / "moved.mcap"
     moved.write_bytes(log.read_bytes())

@@ -17,7 +17,7 @@ import shtab
 
 from frictionrt.rt.cli import (bench, budget, compare, config, diagnose, export_c, frf, impulse, import_frf, inspect, modes,
                     observer, recover, replay, reproduce, rig, simulate, tune, validate)
-from frictionrt.rt.cli.structure import NOT_ON_STRUCTURE, add_structure
+from frictionrt.rt.cli.structure import NOT_ON_STRUCTURE, add_structure, refusal
 from frictionrt.rt.cli.common import (Parser, actuator_verb, add_common, fail, json_errors, realtime_sets,
                                       split_negative_lists)
 from frictionrt.rt.common.config import ConfigError, load, require_adaptive_screw
@@ -102,8 +102,7 @@ def _main(args) -> int:
     except ConfigError as exc:
         return fail(str(exc))
     if getattr(args, "structure", None) and args.command in NOT_ON_STRUCTURE:
-        return fail(f"{args.command} --structure: not on an imported structure yet (modes, impulse, simulate, replay and "
-                    "export-c are; docs/superelement.md); drop --structure")
+        return fail(refusal(args.command))
     try:
         return COMMANDS[args.command](cfg, args)
     except RuntimeError as exc:  # a run that failed numerically: say so, no traceback

@@ -5,6 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
+from frictionrt.rt.cli.structure import add_structure
 from frictionrt.rt.cli.common import (add_estimator, add_controller, add_deprecated, add_force, add_out, c_exports, controller_for, fail,
                            refuse_existing)
 
@@ -30,6 +31,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     add_force(q)
     add_controller(q, many=True)
     q.add_argument("--json", action="store_true", help="the table as JSON")
+    add_structure(q)
     return q
 
 
@@ -42,11 +44,15 @@ def cmd_compare(cfg, args) -> int:
             return fail(f"-o {out}: give a .png file in an existing folder")
         if msg := refuse_existing([out], args.force, "-o"):
             return fail(msg)
+    if args.structure and args.controller:
+        return fail("--controller with --structure: not on an imported structure (the C controller runs in "
+                    "replay --c); drop --controller")
     try:
         exports = c_exports(args.controller, [(law, args.estimator) for law in LAWS])
         res = compare(cfg, mode=args.mode, amp_n=args.amp, duration_s=args.duration, freq_hz=args.freq,
                       estimator=args.estimator, progress=not args.json,
-                      controller_of=(lambda loop: controller_for(exports, loop, cfg.rt.seed)) if exports else None)
+                      controller_of=(lambda loop: controller_for(exports, loop, cfg.rt.seed)) if exports else None,
+                      structure=args.structure, clusters=args.clusters)
     except ValueError as exc:
         return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("mode ", "--mode ", 1)
                     .replace("amplitude ", "--amp ", 1))
@@ -60,7 +66,9 @@ def cmd_compare(cfg, args) -> int:
     if args.json:
         print(json.dumps(rows))
         return 0
-    print(f"{args.amp:g} N at {res['freq_hz']:g} Hz, {args.duration:g} s per law, estimator {args.estimator}")
+    print(f"{args.amp:g} N at {res['freq_hz']:g} Hz, {args.duration:g} s per law, estimator {args.estimator}"
+          + (f", imported structure {args.structure}" + (f" ({args.clusters} points)" if args.clusters else "")
+             if args.structure else ""))
     if exports:
         print("controller: " + ", ".join(f"{r['law']} {r['controller']}" for r in rows))
     print(f"{'law':>11} {'acc 0.45 m [m/s^2]':>19} {'vs passive':>11} {'mean F_N1 [N]':>14} {'energy [J]':>11}")

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from frictionrt.rt.common.config import LAWS, Config, dumps
+from frictionrt.rt.cli.structure import add_structure, structure_arg
 from frictionrt.rt.cli.common import (CommaList, add_estimator, add_common, add_controller, add_force, add_out, c_exports, controller_for, fail,
                            parse_list, refuse_existing)
 
@@ -81,11 +82,13 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
     add_force(p)
     p.add_argument("--rrd", metavar="PATH.rrd", help="write the FRFs as a rerun recording here (|H| [dB], phase, "
                    "force amplitude against frequency; open with: rerun PATH.rrd)")
+    add_structure(p)
     return p
 
 
-def _frequencies(cfg: Config, args) -> list[float]:
-    """The sweep's frequencies [Hz], in sweep order; ValueError naming the option."""
+def _frequencies(cfg: Config, args, structure=None, designs=None) -> list[float]:
+    """The sweep's frequencies [Hz], in sweep order; ValueError naming the option. structure: an
+    imported structure whose modes --around-modes resolves (designs: its plant, built once)."""
     from frictionrt.rt.experiments.stepsine import mode_bands_hz, resonance_grid
     nyq = 0.5 / cfg.dt_s
     if args.freqs is not None:
@@ -100,7 +103,7 @@ def _frequencies(cfg: Config, args) -> list[float]:
         if not 0.0 < args.half_width < 1.0:
             raise ValueError(f"--half-width {args.half_width:g}: must lie in (0, 1), e.g. 0.15")
         try:
-            bands = mode_bands_hz(cfg, modes)
+            bands = mode_bands_hz(cfg, modes, designs, structure)
         except ValueError as exc:
             raise ValueError(f"--around-modes {args.around_modes}: {exc}") from None
         freqs = resonance_grid([0.5 * (lo + hi) for lo, hi in bands.values()], args.half_width, args.points).tolist()
@@ -146,8 +149,14 @@ def cmd_frf(cfg: Config, args) -> int:
     rate = args.sweep_rate
     if rate is not None and not (math.isfinite(rate) and rate > 0.0):
         return fail(f"--sweep-rate {rate:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; --down for a down-sweep)")
+    if args.structure and (args.error_estimate or args.controller):
+        return fail("--error-estimate and --controller with --structure: not on an imported structure (its "
+                    "refinement is the FE code's; the C controller runs in replay --c); drop them")
+    from frictionrt.rt.loop import Designs
+    designs = Designs()   # the structure's plant, built once for the bands and the loops
     try:
-        freqs = _frequencies(cfg, args)
+        structure = structure_arg(args)
+        freqs = _frequencies(cfg, args, structure, designs)
         settle = Settle(rel_tol=args.tol, max_s=args.max_time)
         if rate is None:
             settle.check(freqs, cfg.dt_s)
@@ -159,10 +168,13 @@ def cmd_frf(cfg: Config, args) -> int:
             return fail("--sweep-rate: the frequency range is a single frequency; give two or more --freqs")
         freqs = [freqs[0], freqs[-1]]   # the range, in sweep order
         rate = -rate if args.down else rate
-    branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle, sweep_rate_hz_s=rate)
+    branches = [Branch(cfg, law, a, tuple(freqs), args.estimator, settle, sweep_rate_hz_s=rate, structure=structure)
                 for law in args.law for a in args.amps]
     loops = None
     try:
+        if structure is not None:
+            from frictionrt.rt.experiments.branches import build_loops
+            loops = build_loops(branches, designs)
         exports = c_exports(args.controller, [(law, args.estimator) for law in dict.fromkeys(args.law)])
         if exports:   # each law with a C export runs it (its worker processes load the library by path)
             from dataclasses import replace
@@ -179,6 +191,8 @@ def cmd_frf(cfg: Config, args) -> int:
                    for law in dict.fromkeys(args.law)}
     doc = {"dt_s": cfg.dt_s, "config": dumps(cfg), "controllers": controllers,
            "results": [r.to_dict() for r in results]}
+    if structure is not None:
+        doc["structure"] = json.loads(structure.record())
     if args.error_estimate:
         from dataclasses import replace
         from frictionrt.rt.experiments.discretisation import coarser, refined_shift
@@ -211,6 +225,9 @@ def cmd_frf(cfg: Config, args) -> int:
         return 0
     if exports:
         print("controller: " + ", ".join(f"{law} {c}" for law, c in controllers.items()))
+    if structure is not None:
+        print(f"imported structure {structure.path}" + (f", coarsened to {structure.clusters} points"
+                                                         if structure.clusters else ""))
     if args.error_estimate:
         print("\n\n".join(_table(r) + f"\ndiscretisation: peak |H| {e['peak_shift_db']:+.2f} dB, points "
                            + ", ".join(f"{x:+.2f}" for x in e["H_shift_db"]) + " dB (estimated shift under "

@@ -1,5 +1,5 @@
-"""``--structure FILE``: modes, impulse and simulate on an imported structure (plant.superelement;
-docs/superelement.md). Shared by those verbs; a verb calls the function for its own name."""
+"""``--structure FILE``: the verbs on an imported structure (plant.superelement; docs/superelement.md).
+Shared by those verbs; a verb calls the function for its own name."""
 from __future__ import annotations
 
 import argparse
@@ -8,8 +8,27 @@ import json
 from frictionrt.rt.cli.common import fail
 
 
-NOT_ON_STRUCTURE = ("compare", "frf", "reproduce", "tune", "rig", "diagnose")
-"""Verbs that take --structure only to refuse it in one line (rt.cli.app): not on an imported structure yet."""
+NOT_ON_STRUCTURE = {
+    "reproduce": "the paper's claims and their discretisation error (contact pitch and elements x2) are the "
+                 "built-in beams'; on an imported structure use frf --around-modes and tune",
+    "rig": "its effects are changes of the built-in beams' parameters, which an imported structure's matrices "
+           "do not have",
+    "diagnose": "its fits adjust the built-in beams' parameters, which an imported structure's matrices do not "
+                "have; compare your FRFs with frf --structure",
+}
+"""Verbs that take --structure only to refuse it in one line (rt.cli.app), with what is missing."""
+
+
+def refusal(verb: str) -> str:
+    """The one line a verb of ``NOT_ON_STRUCTURE`` refuses --structure with."""
+    return f"{verb} --structure: not on an imported structure: {NOT_ON_STRUCTURE[verb]}; drop --structure"
+
+
+def structure_arg(args):
+    """The ``rt.loop.structure.Structure`` of --structure/--clusters (None without --structure);
+    ValueError (one line naming the file or the count) for a missing file or clusters < 0."""
+    from frictionrt.rt.loop.structure import structure_of
+    return None if not getattr(args, "structure", None) else structure_of(args.structure, args.clusters)
 
 
 def add_structure(p: argparse.ArgumentParser) -> None:

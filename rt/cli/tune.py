@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from frictionrt.rt.common.config import Config, ConfigError
+from frictionrt.rt.cli.structure import add_structure
 from frictionrt.rt.cli.common import CommaList, add_estimator, add_force, add_out, fail, parse_list, refuse_existing
 
 DESCRIPTION = """Tune a semi-active law: every combination of the --grid values is a candidate configuration;
@@ -64,6 +65,7 @@ def add_parser(subparsers, parents) -> argparse.ArgumentParser:
                       "logs/tune_LAW); an existing one is refused, or with --force its tune files are replaced")
     add_force(p, "the tune files of an existing folder")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object (no progress bar)")
+    add_structure(p)
     return p
 
 
@@ -88,7 +90,8 @@ def cmd_tune(cfg: Config, args) -> int:
         modes = parse_list(args.modes, int, "--modes", "3,4")
         res = tune(cfg, law=args.law, grid=grid, modes=modes, amps_n=args.amps, points=args.points,
                    half_width=args.half_width, estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs,
-                   dask=args.dask, out=out, force=True, progress=not args.json)
+                   dask=args.dask, out=out, force=True, progress=not args.json, structure=args.structure,
+                   clusters=args.clusters)
     except ConfigError as exc:
         return fail(f"--grid: {exc}")
     except ConnectionError as exc:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from frictionrt.rt.common.config import Config, Estimator, dumps
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, check_sweep, slow_sweep, sweep
 from frictionrt.rt.loop import Designs, Loop, build_loop
+from frictionrt.rt.loop.structure import Structure
 
 PROGRESS_TOPIC = "frictionrt-frf-point"  # dask event topic: one message per finished point
 
@@ -37,6 +38,7 @@ class Branch:
     sweep_block_s: float = 0.1             # nominal dwell per point of a slow sweep [s]
     controller: object = None              # the loop's controller (run(..., controller=); None: numba), picklable:
     #                                        e.g. rt.export.sil.CController, which a worker loads by its library's path
+    structure: Structure | None = None     # an imported structure as the plant (rt.loop.structure); None: the beams
 
     def n_points(self) -> int:
         """Frequency points it will measure (a slow sweep's: about |range| / (|rate| block))."""
@@ -56,7 +58,7 @@ def run_branch(branch: Branch, loop: Loop | None = None,
     from threadpoolctl import threadpool_limits
     if loop is None:
         check_sweep(branch.cfg, branch.law, branch.freqs_hz, branch.amp_n, branch.settle, branch.estimator)
-        loop = build_loop(branch.cfg, branch.law, branch.estimator)
+        loop = build_loop(branch.cfg, branch.law, branch.estimator, structure=branch.structure)
     with threadpool_limits(1):
         if branch.sweep_rate_hz_s is not None:
             return slow_sweep(loop, branch.freqs_hz[0], branch.freqs_hz[-1], branch.amp_n, branch.sweep_rate_hz_s,
@@ -67,15 +69,15 @@ def run_branch(branch: Branch, loop: Loop | None = None,
 
 
 def build_loops(branches: Sequence[Branch], designs: Designs | None = None) -> list[Loop]:
-    """The loop of each branch, built once per distinct (configuration, law, estimator), the
-    plants and force-tracking designs shared (``designs``, None: a fresh ``Designs``)."""
+    """The loop of each branch, built once per distinct (configuration, law, estimator, structure),
+    the plants and force-tracking designs shared (``designs``, None: a fresh ``Designs``)."""
     designs = Designs() if designs is None else designs
-    built: dict[tuple[str, str, str], Loop] = {}
+    built: dict[tuple, Loop] = {}
     for b in branches:
-        key = (dumps(b.cfg), b.law, b.estimator)
+        key = (dumps(b.cfg), b.law, b.estimator, b.structure)
         if key not in built:
-            built[key] = build_loop(b.cfg, b.law, b.estimator, designs=designs)
-    return [built[(dumps(b.cfg), b.law, b.estimator)] for b in branches]
+            built[key] = build_loop(b.cfg, b.law, b.estimator, designs=designs, structure=b.structure)
+    return [built[(dumps(b.cfg), b.law, b.estimator, b.structure)] for b in branches]
 
 
 class _QueueReport:
@@ -96,14 +98,16 @@ class _DaskReport:
 
 class Results(list):
     """``run_branches``' results, in branch order (a list), and ``cores``: the local worker
-    processes or dask worker threads that ran them (1: this process)."""
+    processes or dask worker threads that ran them (1: this process). ``errors``: branch index ->
+    the message of its numerical failure (``run_branches(keep_failed=True)``; that result is None)."""
     cores: int = 1
+    errors: dict[int, str] = {}
 
 
 def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_address: str | None = None, *,
                  progress: bool = True, connect_timeout_s: float = 5.0, loops: Sequence[Loop] | None = None,
                  desc: str = "step-sine", follow: Callable[[int, StepSineResult], Sequence[tuple[Branch, Loop]]]
-                 | None = None) -> Results:
+                 | None = None, keep_failed: bool = False) -> Results:
     """Run the branches in parallel; results in the order of ``branches``, identical whichever
     backend (each branch is a pure function of its parameters, run on the same CPU model).
 
@@ -116,7 +120,10 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
 
     follow(i, result): called in this process as branch i finishes; the (branch, loop) pairs it
     returns (a refinement that depends on that result) run as soon as a worker is free, before
-    the branches not yet started, their results appended in the order returned. Scheduling
+    the branches not yet started, their results appended in the order returned. keep_failed: a
+    branch whose run fails numerically (RuntimeError, e.g. a contact solve that did not converge)
+    gets None as its result and its message in ``Results.errors`` instead of ending the study
+    (a tuning grid's candidate that its plant cannot follow). Scheduling
     (``_schedule``): two branches per worker in flight, the longest first (``expected_ticks``),
     so that no worker idles at a round's end while another finishes a long sweep.
 
@@ -137,9 +144,10 @@ def run_branches(branches: Sequence[Branch], jobs: int | None = None, dask_addre
         todo = list(zip(branches, build_loops(branches) if loops is None else loops))
         if client is not None:
             with client:
-                results = _run_dask(todo, client, bar, follow)
+                results = _run_dask(todo, client, bar, follow, keep_failed)
         else:
-            results = _run_local(todo, min(jobs or joblib.cpu_count(), max(len(branches), 1)), bar, follow)
+            results = _run_local(todo, min(jobs or joblib.cpu_count(), max(len(branches), 1)), bar, follow,
+                                 keep_failed)
         bar.update(bar.total - bar.n)
     return results
 
@@ -175,7 +183,7 @@ def expected_ticks(branch: Branch) -> int:
     return sum(2 * branch.settle.n_blocks * branch.settle.block_ticks(f, dt) for f in branch.freqs_hz)
 
 
-def _schedule(todo: list, cores: int, submit, first_done, bar, follow) -> Results:
+def _schedule(todo: list, cores: int, submit, first_done, bar, follow, keep_failed: bool = False) -> Results:
     """Run todo [(branch, loop)] on ``cores`` workers through submit(branch, loop) -> future and
     first_done(futures) -> the finished ones; follow-ups (``run_branches``) first, then the rest
     longest first. Two branches per worker in flight, so that a worker finds its next branch
@@ -184,6 +192,7 @@ def _schedule(todo: list, cores: int, submit, first_done, bar, follow) -> Result
     slots = 1 if cores == 1 else 2 * cores
     waiting = sorted(range(len(todo)), key=lambda i: -expected_ticks(todo[i][0]))
     results: dict[int, StepSineResult] = {}
+    errors: dict[int, str] = {}
     running: dict = {}
     while waiting or running:
         while waiting and len(running) < slots:
@@ -191,7 +200,13 @@ def _schedule(todo: list, cores: int, submit, first_done, bar, follow) -> Result
             running[submit(*todo[i])] = i
         for fut in first_done(list(running)):
             i = running.pop(fut)
-            results[i] = fut.result()
+            try:
+                results[i] = fut.result()
+            except RuntimeError as exc:
+                if not keep_failed:
+                    raise
+                results[i], errors[i] = None, str(exc)
+                continue
             more = list(follow(i, results[i])) if follow is not None else []
             for b, _ in more:
                 check_sweep(b.cfg, b.law, b.freqs_hz, b.amp_n, b.settle, b.estimator)
@@ -200,17 +215,21 @@ def _schedule(todo: list, cores: int, submit, first_done, bar, follow) -> Result
             todo += more
     out = Results(results[i] for i in range(len(todo)))
     out.cores = cores
+    out.errors = errors
     return out
 
 
-def _run_local(todo, n_jobs: int, bar, follow) -> Results:
+def _run_local(todo, n_jobs: int, bar, follow, keep_failed: bool = False) -> Results:
     from concurrent.futures import FIRST_COMPLETED, Future, wait
     if n_jobs == 1:
         def submit(b, loop):
             fut = Future()
-            fut.set_result(run_branch(b, loop, bar.update))
+            try:
+                fut.set_result(run_branch(b, loop, bar.update))
+            except RuntimeError as exc:   # raised by fut.result(), as a worker's would be
+                fut.set_exception(exc)
             return fut
-        return _schedule(todo, 1, submit, lambda futs: futs, bar, follow)
+        return _schedule(todo, 1, submit, lambda futs: futs, bar, follow, keep_failed)
     import multiprocessing
 
     import cloudpickle
@@ -228,7 +247,7 @@ def _run_local(todo, n_jobs: int, bar, follow) -> Results:
         report = _QueueReport(queue)
         try:
             return _schedule(todo, n_jobs, submit, lambda futs: wait(futs, return_when=FIRST_COMPLETED).done,
-                             bar, follow)
+                             bar, follow, keep_failed)
         finally:
             queue.put(None)
             watcher.join()
@@ -286,7 +305,7 @@ def connect(address: str, timeout_s: float = 5.0):
                               "(`dask scheduler`, then `dask worker ADDRESS`) or run locally") from None
 
 
-def _run_dask(todo, client, bar, follow) -> Results:
+def _run_dask(todo, client, bar, follow, keep_failed: bool = False) -> Results:
     from distributed import wait
     client.subscribe_topic(PROGRESS_TOPIC, lambda event: bar.update(event[1]))
     shipped: dict[int, object] = {}  # id(loop) -> its future on the cluster: each loop sent once
@@ -297,6 +316,6 @@ def _run_dask(todo, client, bar, follow) -> Results:
         return client.submit(run_branch, b, shipped[id(loop)], _DaskReport(), pure=False)
     try:
         return _schedule(todo, max(1, sum(client.nthreads().values())), submit,
-                         lambda futs: wait(futs, return_when="FIRST_COMPLETED").done, bar, follow)
+                         lambda futs: wait(futs, return_when="FIRST_COMPLETED").done, bar, follow, keep_failed)
     finally:
         client.unsubscribe_topic(PROGRESS_TOPIC)

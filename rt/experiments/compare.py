@@ -8,28 +8,31 @@ from frictionrt.rt.loop import Designs, Loop, Run, build_loop, run, summary
 
 
 def compare(cfg: Config, freq_hz: float, amp_n: float, duration_s: float, estimator: str = "observer",
-            progress=None, controller_of=None, designs: Designs | None = None) -> dict[str, Run]:
+            progress=None, controller_of=None, designs: Designs | None = None, structure=None) -> dict[str, Run]:
     """One run per law (passive, hysteresis, lyapunov) with the same excitation and seed, the laws
     on ``estimator`` ("observer": the paper's; "oracle": the plant's u_rel, v_rel; the passive law
     ignores it).
     controller_of(loop): the controller of a law's built loop (``run(..., controller=)``, e.g. a
     C export; None: the numba controller), None for all numba. The laws' loops share the plant
-    and force-tracking designs (``designs``, None: a fresh ``Designs``; the same bits)."""
+    and force-tracking designs (``designs``, None: a fresh ``Designs``; the same bits). structure: an
+    imported structure as the plant (``frictionrt.rt.loop.structure.Structure``; None: the beams)."""
     designs = Designs() if designs is None else designs
     runs = {}
     for law in LAWS:
-        loop = build_loop(cfg, law, estimator, designs=designs)
+        loop = build_loop(cfg, law, estimator, designs=designs, structure=structure)
         runs[law] = run(loop, freq_hz, amp_n, duration_s, progress=progress,
                         controller=None if controller_of is None else controller_of(loop))
     return runs
 
 
-def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None) -> float:
+def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None, designs: Designs | None = None) -> float:
     """The passive step-sine resonance [Hz] of bending mode ``mode`` (1 = first) of a built passive
     loop at the force amplitude amp_n [N], found as ``reproduce --quick`` finds its peaks: a sweep of QUICK.n_points
     over the mode's band (``mode_bands_hz``, half width ``HALF_WIDTH``, 0.15 for modes outside it),
     then rounds of ``refine_points`` (at most QUICK.refine_rounds), each point settled as QUICK
-    settles it. progress(1) after each point.
+    settles it. progress(1) after each point. On an imported structure (``passive.structure``) the
+    band is that of its m-th mode the laws act on (``stepsine.structure_mode_bands_hz``); designs: the
+    study's shared designs (its plant is not built again).
 
     The linear picture (``frictionrt.plant.modes.passive_resonance_hz``, the adaptive joint sliding) lies a few
     per cent above the friction-damped peak (mode 3, 5 N: 205.2 Hz against 201.6 Hz found here and
@@ -38,7 +41,7 @@ def passive_peak_hz(passive: Loop, mode: int, amp_n: float, progress=None) -> fl
     law 6.5 % above passive where at 201.6 Hz it is 31 % below (1 s runs)."""
     from frictionrt.rt.experiments.reproduce import HALF_WIDTH, QUICK, merge, refine_points
     from frictionrt.rt.experiments.stepsine import mode_bands_hz, resonance_grid, sweep
-    lo, hi = mode_bands_hz(passive.cfg, (mode,))[mode]
+    lo, hi = mode_bands_hz(passive.cfg, (mode,), designs, passive.structure)[mode]
     r = sweep(passive, resonance_grid([0.5 * (lo + hi)], HALF_WIDTH.get(mode, 0.15), QUICK.n_points), amp_n,
               settle=QUICK.settle, progress=progress)
     for _ in range(QUICK.refine_rounds):

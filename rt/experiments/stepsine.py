@@ -552,7 +552,7 @@ def slow_sweep(loop: Loop, f_start_hz: float, f_end_hz: float, amp_n: float, rat
 # --- frequency grids --------------------------------------------------------------------------
 
 def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5),
-                  designs: Designs | None = None) -> dict[int, tuple[float, float]]:
+                  designs: Designs | None = None, structure=None) -> dict[int, tuple[float, float]]:
     """Per bending mode (1 = first): (f_slip, f_stuck) [Hz], the eigenfrequencies of the plant
     linearised about its preloaded state (the pairs the screws close, at the configured F_N1)
 
@@ -563,9 +563,12 @@ def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5),
 
     A friction-affected resonance lies near f_slip or between the two (docs/experiments.md).
     designs: the study's shared designs (``frictionrt.rt.loop.Designs``: the plant its loops use; None:
-    built here)."""
+    built here). structure: an imported structure (``frictionrt.rt.loop.structure.Structure``) instead
+    of the configured beams (``structure_mode_bands_hz``; its modes counted among those the laws act on)."""
     from frictionrt.plant.model import preloaded_pairs, stuck_frequencies_hz
     from frictionrt.plant.modes import sliding_joint_hz
+    if structure is not None:
+        return structure_mode_bands_hz(cfg, (Designs() if designs is None else designs).plant(cfg, structure), modes)
     model = (Designs() if designs is None else designs).plant(cfg)
     f_stuck = stuck_frequencies_hz(model, preloaded_pairs(model))
     f_slip = sliding_joint_hz(model)
@@ -573,6 +576,57 @@ def mode_bands_hz(cfg: Config, modes: Sequence[int] = (2, 3, 4, 5),
         if not 1 <= m <= min(len(f_stuck), len(f_slip)):
             raise ValueError(f"mode {m}: the model has bending modes 1..{min(len(f_stuck), len(f_slip))}")
     return {m: (float(f_slip[m - 1]), float(f_stuck[m - 1])) for m in modes}
+
+
+FRF_RESIDUE = 1e-2   # a mode the FRF shows: its accelerance residue >= this x the largest (structure_mode_bands_hz)
+
+
+def structure_mode_bands_hz(cfg: Config, plant, modes: Sequence[int] = (2, 3, 4, 5)) -> dict[int, tuple[float, float]]:
+    """``mode_bands_hz`` of an imported structure (``frictionrt.plant.se_plant.SEPlant``): per mode
+    m (1 = first) the (f_slip, f_stuck) [Hz] of the m-th mode the laws act on, the plant linearised
+    about its static equilibrium at its rest force F_N1 (``SEPlant.F_N1_initial``, the actuator's F0):
+
+    * f_stuck: the closed points stuck (k_n on the normal gap, k_t on each tangential one),
+    * f_slip: the same with the closed points at the adaptive bolt
+      (``frictionrt.observer.model.adaptive_points``) free to slide tangentially (normal spring kept).
+
+    The modes counted are those the laws act on and the FRF shows: u_rel participation |t phi_i| at
+    least ``frictionrt.observer.model.LAW_PARTICIPATION`` x the largest among the computed modes (the
+    observer's own criterion) and a residue of the accelerance a_frf / F_exc, |s_frf phi_i| |b_exc phi_i|,
+    at least ``FRF_RESIDUE`` x the largest. A 3-D structure's lateral bending and torsion modes, which
+    a vertical excitation barely drives (residue <= 3e-3 of the largest on the 3-D reference coarsened
+    to 4-8 points, where the clusters' asymmetry couples them to u_rel), are not counted, so mode m is
+    the m-th bending mode as on the built-in beams. With no closed point at the adaptive bolt at that
+    force, f_slip = f_stuck. ValueError for a mode beyond those found."""
+    import scipy.linalg as sla
+
+    from frictionrt.observer.model import LAW_PARTICIPATION, adaptive_points
+    p = plant.params
+    d = 1 + p.nt
+    closed, at = adaptive_points(cfg, plant, plant.F_N1_initial)
+    t = p.S[-1]   # u_rel's row in the plant's coordinates (the last output row of S)
+    s_frf = p.S[list(plant.se.sensor_names).index("frf")]
+    n_eig = min(len(p.omega2), max(4 * max(modes) + 20, 40))
+
+    def law_modes(free: np.ndarray) -> np.ndarray:
+        kc = np.zeros(p.G.shape[0])
+        kc[0::d] = p.k_n * closed
+        for a in range(1, d):
+            kc[a::d] = p.k_t * (closed & ~free)
+        lam, V = sla.eigh(np.diag(p.omega2) + (p.G.T * kc) @ p.G, subset_by_index=[0, n_eig - 1])
+        part = np.abs(t @ V)
+        res = np.abs(s_frf @ V) * np.abs(p.b_exc @ V)
+        f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+        return f[(part >= LAW_PARTICIPATION * part.max()) & (res >= FRF_RESIDUE * res.max()) & (f > 1e-3)]
+
+    f_stuck = law_modes(np.zeros_like(closed))
+    f_slip = law_modes(at)
+    top = min(len(f_stuck), len(f_slip))
+    for m in modes:
+        if not 1 <= m <= top:
+            raise ValueError(f"mode {m}: the imported structure has bending modes 1..{top} the laws act on "
+                             f"(among its lowest {n_eig} modes)")
+    return {m: (float(min(f_slip[m - 1], f_stuck[m - 1])), float(f_stuck[m - 1])) for m in modes}
 
 
 def resonance_grid(centres_hz: Sequence[float], half_width_rel: float = 0.15, n_per_peak: int = 31) -> np.ndarray:

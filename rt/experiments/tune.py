@@ -74,6 +74,7 @@ class TuneResult:
     timing: dict | None = None             # the sweeps' cost (rt.experiments.branches.sweep_timing; wall-clock)
     resolution: list[dict] | None = None   # per (mode, amplitude): the passive peak on the grid and refined
     warnings: list[str] | None = None      # where the grid does not resolve a peak, and the points that would
+    structure: dict | None = None          # the imported structure the sweeps ran on (file, sha256, clusters); None: the beams
 
     @property
     def best_config(self) -> Config | None:
@@ -107,7 +108,8 @@ class TuneResult:
         return {"law": self.law, "modes": list(self.modes), "amps_n": list(self.amps_n), "keys": list(self.keys),
                 "candidates": self.rows(), "passive_peak": self.passive_peak.tolist(),
                 "best": None if self.best < 0 else self.rows()[self.best], "best_on_edge": self.best_on_edge(),
-                "resolution": self.resolution or [], "warnings": self.warnings or [], "timing": self.timing}
+                "resolution": self.resolution or [], "warnings": self.warnings or [], "timing": self.timing,
+                "structure": self.structure}
 
 
 def _num(v: float) -> float | None:
@@ -152,10 +154,11 @@ def candidates(base: Config, grid: dict[str, tuple[float, ...]]) -> list[Candida
 
 
 def mode_grid(cfg: Config, mode: int, points: int, half_width_rel: float,
-              designs: Designs | None = None) -> tuple[float, ...]:
+              designs: Designs | None = None, structure=None) -> tuple[float, ...]:
     """The step-sine frequencies [Hz] around a mode: ``resonance_grid`` about the middle of
-    its (f_slip, f_stuck) band (``mode_bands_hz``; designs: the study's shared plant)."""
-    f_slip, f_stuck = mode_bands_hz(cfg, (mode,), designs)[mode]
+    its (f_slip, f_stuck) band (``mode_bands_hz``; designs: the study's shared plant; structure:
+    an imported structure's, ``frictionrt.rt.loop.structure.Structure``)."""
+    f_slip, f_stuck = mode_bands_hz(cfg, (mode,), designs, structure)[mode]
     return tuple(float(f) for f in resonance_grid([0.5 * (f_slip + f_stuck)], half_width_rel, points))
 
 
@@ -191,8 +194,11 @@ def select_best(change: np.ndarray, cost: np.ndarray, max_cost: float | None = N
 def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequence[int] = (3, 4),
          amps_n: Sequence[float] = (5.0,), *, points: int = 9, half_width_rel: float = 0.15,
          estimator: str = DEFAULT_ESTIMATOR, settle: Settle = Settle(), max_power_w: float | None = None,
-         jobs: int | None = None, dask_address: str | None = None, progress: bool = True) -> TuneResult:
-    """Score every candidate of grid (module docstring) for law at modes x amps_n [N].
+         jobs: int | None = None, dask_address: str | None = None, progress: bool = True,
+         structure=None) -> TuneResult:
+    """Score every candidate of grid (module docstring) for law at modes x amps_n [N]; structure: an
+    imported structure as the plant of every sweep (``frictionrt.rt.loop.structure.Structure``; its
+    modes as ``stepsine.structure_mode_bands_hz`` counts them), None: the configured beams.
 
     Raises ValueError for a law that has no gains, an empty grid or bad modes/amplitudes/points
     (before anything runs), ConfigError for a grid key that does not exist."""
@@ -210,16 +216,19 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     if dask_address is None and jobs != 1:
         start_workers(jobs)  # their start-up overlaps the design below
     designs = Designs()  # the candidates share the plant and, unless they change it, the force-tracking design
-    freqs = {m: mode_grid(base, m, points, half_width_rel, designs) for m in modes}  # raises for a bad mode
+    freqs = {m: mode_grid(base, m, points, half_width_rel, designs, structure) for m in modes}  # raises for a bad mode
     cells = [(m, a) for m in modes for a in amps_n]
     ok = [c for c in cands if c.cfg is not None]
-    branches = [Branch(base, "passive", a, freqs[m], estimator, settle) for m, a in cells]
-    branches += [Branch(c.cfg, law, a, freqs[m], estimator, settle) for c in ok for m, a in cells]
+    branches = [Branch(base, "passive", a, freqs[m], estimator, settle, structure=structure) for m, a in cells]
+    branches += [Branch(c.cfg, law, a, freqs[m], estimator, settle, structure=structure) for c in ok for m, a in cells]
     loops = build_loops(branches, designs)
-    results = run_branches(branches, jobs, dask_address, progress=progress, loops=loops)
+    results = run_branches(branches, jobs, dask_address, progress=progress, loops=loops, keep_failed=True)
+    for i in range(len(cells)):
+        if i in results.errors:   # the reference itself failed: nothing to score against
+            raise RuntimeError(f"the passive reference sweep failed: {results.errors[i]}")
     resolution = passive_resolution(branches[:len(cells)], loops[:len(cells)], results[:len(cells)], cells,
                                     half_width_rel, jobs, dask_address)
-    timing = sweep_timing(results, time.perf_counter() - t0, results.cores)
+    timing = sweep_timing([r for r in results if r is not None], time.perf_counter() - t0, results.cores)
     shape = (len(modes), len(amps_n))
     passive_peak = np.array([r.H_abs.max() for r in results[:len(cells)]]).reshape(shape)
     n = len(cands)
@@ -229,7 +238,11 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     for i, c in enumerate(cands):
         if c.cfg is None:
             continue
-        rs = [results[next(it)] for _ in cells]
+        idx = [next(it) for _ in cells]
+        if failed := [results.errors[j] for j in idx if j in results.errors]:
+            cands[i] = Candidate(c.sets, c.cfg, f"run failed: {failed[0]}")   # refused, scored NaN
+            continue
+        rs = [results[j] for j in idx]
         peak[i] = np.array([r.H_abs.max() for r in rs]).reshape(shape)
         power[i] = float(np.mean([mean_power_w(r, base.dt_s) for r in rs]))
     change = 20.0 * np.log10(peak / passive_peak[None]).reshape(n, -1).mean(axis=1)
@@ -239,7 +252,8 @@ def tune(base: Config, law: str, grid: dict[str, tuple[float, ...]], modes: Sequ
     values = np.array([[float(s.split("=", 1)[1]) for s in c.sets] for c in cands])
     return TuneResult(law, modes, amps_n, keys, values, [c.error for c in cands], passive_peak, peak, change,
                       power, front, best, None if best < 0 else cands[best].cfg, timing, resolution,
-                      [r["warning"] for r in resolution if r["warning"]])
+                      [r["warning"] for r in resolution if r["warning"]],
+                      None if structure is None else json.loads(structure.record()))
 
 
 RESOLVED_DB = 1.0      # a grid resolves a peak when its highest point is within 1 dB of the refined peak
@@ -309,6 +323,9 @@ def best_toml(res: TuneResult) -> str:
             f"# {', '.join(f'{k} = {row[k]:g}' for k in res.keys)}: peak change {row['peak_change_db']:+.2f} dB "
             "(negative: lower than passive), "
             f"actuator power {row['power_w']:.3g} W"]
+    if res.structure is not None:
+        head.append(f"# on the imported structure {res.structure['file']} (--clusters {res.structure['clusters']}, "
+                    f"SHA-256 {res.structure['sha256'][:12]}...): use it with --structure FILE --clusters N")
     return "\n".join(head) + "\n" + dumps(res.best_cfg)
 
 
