@@ -84,6 +84,7 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     bounds,
     fd_steps,
     fit_frequencies,
+    log_flags,
     from_z,
     prior,
     struct_cfg,
@@ -332,7 +333,7 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     ``bars``: stage 2's model evaluations on a tqdm bar on stderr named ``label`` (default ``fit_label``); Ctrl-C
     in stage 2 raises FitInterrupted with its best point (rt.discrepancy.diagnose.watch)."""
     names = list(CAL_NAMES) + ([effect.name] if effect else [])
-    log = np.array([k in LOG_SCALE for k in names])
+    log = log_flags(names, effect)
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     steps = fd_steps(names, effect)
     plausible = ranges(nominal, names) if plausible is None else plausible
@@ -490,7 +491,7 @@ def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, nominal: 
             lo, hi, log = *log_bounds[k], True
         else:
             (lo,), (hi,) = bounds([k], effect, nominal)
-            log = k in LOG_SCALE
+            log = k in LOG_SCALE or (effect is not None and k == effect.name and effect.log_scale)
         for b in (lo, hi):
             near = (abs(math.log(v / b)) <= math.log1p(BOUND_REL) if log
                     else abs(v - b) <= BOUND_REL * (abs(b) if b != 0 else hi - lo))

@@ -259,12 +259,20 @@ def prior(names, x) -> np.ndarray:
                      for k, v in zip(names, x) if k in CAL_FAR])
 
 
+def log_flags(names, effect: Effect | None) -> np.ndarray:
+    """Per parameter of ``names``: whether the optimiser moves its ln (``to_z``): the LOG_SCALE calibration
+    scales and a log-scale effect's strength (``Effect.log_scale``)."""
+    return np.array([k in LOG_SCALE or (effect is not None and k == effect.name and effect.log_scale)
+                     for k in names], dtype=bool)
+
+
 def fd_steps(names, effect) -> np.ndarray:
     """Finite-difference steps of the optimiser's variables (``to_z``) of the parameters ``names``:
     CAL_FAR's (relative, i.e. ln(1 + step), for the LOG_SCALE ones), DISPERSION's, EFFECT_STEP x the effect's
-    default."""
+    default (ln(1 + EFFECT_STEP) for a log-scale effect)."""
     return np.array([math.log1p(CAL_FAR[k][3]) if k in LOG_SCALE else CAL_FAR[k][3] if k in CAL_FAR
-                     else DISPERSION[2] if k == "dispersion" else EFFECT_STEP * effect.parameter.default
+                     else DISPERSION[2] if k == "dispersion"
+                     else math.log1p(EFFECT_STEP) if effect.log_scale else EFFECT_STEP * effect.parameter.default
                      for k in names])
 
 
@@ -290,7 +298,7 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
     residuals appended to the n frequency residuals (rt.discrepancy.diagnose.plausible.penalty)."""
     disp = ["dispersion"] if step is not None else []
     names = ["E", *STAGE1_LOG, *disp] + ([effect.name] if effect else [])
-    log = np.array([k in LOG_SCALE for k in names])
+    log = log_flags(names, effect)
     data = [d for d in data if d.stuck] or data
     meas = np.array([list(d.f_modes.values()) for d in data])                  # (tests, sensors, modes)
     ok = np.isfinite(meas)
@@ -306,10 +314,12 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
         return np.concatenate([r, prior(names, x)] + ([penalty(names, x, len(r))] if penalty else []))
 
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
-    x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + ([effect.parameter.default] if effect else [])
-    x0 = [1.0] + [0.0] * len(STAGE1_LOG) + [0.0] * len(disp) + ([effect.parameter.default] if effect else [])
+    d0 = effect.parameter.default if effect else 1.0
+    ln_eff = effect is not None and effect.log_scale
+    x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + ([1.0 if ln_eff else d0] if effect else [])
+    x0 = [1.0] + [0.0] * len(STAGE1_LOG) + [0.0] * len(disp) + ([math.log(d0) if ln_eff else d0] if effect else [])
     h_min = np.array([1e-4] + [STAGE1_LOG_STEP] * len(STAGE1_LOG) + [1e-3] * len(disp)
-                     + ([1e-4 * effect.parameter.default] if effect else []))
+                     + ([STAGE1_LOG_STEP if ln_eff else 1e-4 * d0] if effect else []))
 
     def jac(z):
         """Forward differences: 1e-4 of E and of the effect's strength, STAGE1_LOG_STEP on ln k_t
@@ -397,7 +407,7 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
         if effect is None and start["modal_damping"] != 1.0:   # calibration alone: from both (damping_start)
             return min((fit_structure(nominal, data, None, start=s, bars=bars) for s in (stage1, start)), key=fit_cost)
     names = ["E", "k_t", "mu", "modal_damping", "dispersion"] + ([effect.name] if effect else [])
-    log = np.array([k in LOG_SCALE for k in names])
+    log = log_flags(names, effect)
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     z = np.clip(to_z(np.array([start.get(k, 0.0 if k == "dispersion" else 1.0) for k in names]), log), lo, hi)
     steps = fd_steps(names, effect)
