@@ -73,7 +73,7 @@ from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequenci
 from frictionrt.plant.shaker import force_ratio
 from frictionrt.rt.common.config import Config, with_sets
 from frictionrt.rt.discrepancy.chain import quiet
-from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
+from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, bic, feat_gap, modes_table, rank, ranking_result
 from frictionrt.rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
 from frictionrt.rt.discrepancy.diagnose.structure import (
     CAL_FAR,
@@ -90,7 +90,8 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     struct_cfg,
     to_z,
 )
-from frictionrt.rt.discrepancy.effects import EFFECTS, Effect, implemented
+from frictionrt.rt.discrepancy.effects import EFFECTS, Effect, get, implemented, model_forms
+from frictionrt.rt.discrepancy.diagnose.localise import localise as localise_modes
 from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from frictionrt.rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
 from frictionrt.rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
@@ -128,6 +129,7 @@ class FRFData(NamedTuple):
     mac: np.ndarray | None = None      # MAC per model mode (NaN: not paired by shape)
     unpaired_hz: tuple = ()      # measured modes not paired with a model mode [Hz]
     unit: str = "(m/s^2)/N"
+    zeta_modes: np.ndarray | None = None   # identified damping ratio per model mode paired (NaN: unpaired)
 
     @property
     def modes_hz(self) -> np.ndarray:
@@ -242,9 +244,11 @@ def prepare(tests: list[FRFTest], nominal: Config) -> list[FRFData]:
         mod = model_modes(m0, t.F_N1, [points[s] for s in t.H], len(MODES))
         f_paired, mac = pair(meas, mod)
         unpaired = tuple(round(float(f), 3) for f in meas.f_hz if not np.any(f_paired == f))
+        zeta = np.array([meas.zeta[np.flatnonzero(meas.f_hz == f)[0]] if np.isfinite(f) else math.nan
+                         for f in f_paired])
         out.append(FRFData(t.name, t.F_N1, t.freq_hz, t.H, sel, ln_h, sig, {"measured": f_paired}, True,
                            t.quantity, t.excitation == "drive_voltage", {s: points[s] for s in t.H}, mac, unpaired,
-                           t.unit))
+                           t.unit, zeta))
     return out
 
 
@@ -560,6 +564,61 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
     return out, why
 
 
+def _form_candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
+    """The model-form candidates (rt.discrepancy.effects.MODEL_FORMS) that apply to ``nominal`` at their default
+    strength, and {name: why not} for the others."""
+    out, why = [], {}
+    for e in model_forms():
+        try:
+            e.apply(nominal, e.parameter.default)
+        except (ValueError, KeyError, StopIteration) as exc:
+            why[e.name] = f"does not apply to this structure: {exc}"
+            continue
+        out.append(e)
+    return out, why
+
+
+def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit: Fit, candidates: list[Effect],
+                   say, bars: bool, done: dict) -> dict:
+    """Forward selection after a candidate is named: ``held`` at its fitted strength joins the nominal, each
+    other candidate is fitted with the calibration on top of it (from ``held_fit``) and ranked against it by
+    the same rules (rt.discrepancy.diagnose.campaign.rank); a second one named, the held one is refitted
+    on top of it once (coordinate descent: the first fit's strength took part of the second's shifts).
+    {"named": the second or None, "ranking": its rows, "held_strength", "final": the final fit's result
+    {"effect", "theta" (both strengths), "fit", "cfg"} or None}."""
+    s_held = held_fit.theta[held.name]
+    nom2 = held.apply(nominal, s_held)
+    results = [{"effect": None, "theta": held_fit.theta, "channels": held_fit.channels,
+                "score": bic(held_fit.channels, len(held_fit.theta)), "fit": held_fit}]
+    fits2 = {}
+    for e in candidates:
+        say(f"fit {e.name} with {held.name} held")
+        f = fit(nom2, data, e, calibrated=held_fit, bars=bars, label=f"{e.name} + {held.name}")
+        fits2[e.name] = f
+        done[f"{e.name} + {held.name}"] = done_fit(f.theta | {held.name: s_held}, f.cfg)
+        results.append({"effect": e.name, "theta": f.theta | {held.name: s_held}, "channels": f.channels,
+                        "score": bic(f.channels, len(f.theta) + 1), "fit": f})
+    base2, ranked2, winner2 = rank(results)
+    rows = [{"effect": r["effect"], "score": round(r["score"], 2), "delta_bic": round(base2["score"] - r["score"], 2),
+             "rss_reduction": round(r["rss_reduction"], 4), "gap_after": feat_gap(r),
+             "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}} for r in ranked2]
+    out = {"named": winner2["effect"] if winner2 else None, "ranking": rows, "held_strength": float(f"{s_held:.6g}"),
+           "final": None}
+    if winner2 is None:
+        return out
+    e2 = get(winner2["effect"])
+    s2 = winner2["fit"].theta[e2.name]
+    say(f"fit {held.name} again with {e2.name} held")
+    nom3 = e2.apply(nominal, s2)
+    f3 = fit(nom3, data, held, calibrated=winner2["fit"], bars=bars, label=f"{held.name} + {e2.name}")
+    better = bic(f3.channels, 0) <= bic(winner2["fit"].channels, 0)
+    f_fin, th = (f3, f3.theta | {e2.name: s2}) if better else (winner2["fit"], winner2["theta"])
+    done[f"{held.name} + {e2.name}"] = done_fit(th, f_fin.cfg)
+    out["final"] = {"effect": held.name, "theta": th, "fit": f_fin, "cfg": f_fin.cfg,
+                    "channels": f_fin.channels}
+    return out
+
+
 def _diagnose_frf(folder, nominal: Config | None, say, bars: bool) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
     tests = load_frf_folder(folder)                          # bad input raises before any progress line
@@ -580,9 +639,25 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     ch0, H0, scale0 = residuals(nominal, data)
     fits = {}
     candidates, why_not = _candidates(nominal)
-    for eff in [None, *candidates]:
+    forms, why_forms = _form_candidates(nominal)
+    why_not |= why_forms
+    say(f"fit {fit_label(None)}")
+    fits[None] = fit(nominal, data, None, bars=bars)
+    done[fit_label(None)] = done_fit(fits[None].theta, fits[None].cfg)
+    pressed = outside(fits[None].theta, ranges(nominal, list(CAL_NAMES)))
+    mode = nominal.diagnosis.model_form
+    if mode == "always" or (mode == "auto" and pressed):
+        candidates = [*candidates, *forms]
+    else:
+        reason = ("diagnosis.model_form = never" if mode == "never" else
+                  "the calibration alone keeps every parameter within its plausible range: the model's form is "
+                  "not in question (diagnosis.model_form = always tries it)")
+        why_not |= {e.name: reason for e in forms}
+    say("localisation")
+    where = localise_modes(data, nominal, fits[None].cfg, fits[None].H, candidates, len(MODES))
+    for eff in candidates:
         say(f"fit {fit_label(eff)}")
-        fits[eff] = fit(nominal, data, eff, calibrated=fits.get(None), bars=bars)
+        fits[eff] = fit(nominal, data, eff, calibrated=fits[None], bars=bars)
         done[fit_label(eff)] = done_fit(fits[eff].theta, fits[eff].cfg)
     results = [{"effect": e.name if e else None, "theta": f.theta, "channels": f.channels,
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
@@ -597,7 +672,12 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     else:
         tried = candidates
     base, ranked, winner = rank(results)
-    final = winner or base
+    second = None
+    if winner is not None and winner["effect"] != SHAKER and (
+            mode == "always" or outside(winner["theta"], ranges(nominal, list(CAL_NAMES)))):
+        second = next_candidate(nominal, data, get(winner["effect"]), winner["fit"],
+                                [e for e in candidates if e.name != winner["effect"]], say, bars, done)
+    final = second["final"] if second and second["named"] else (winner or base)
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
     let_go = None
     if winner is None and outside(base["theta"], plausible):     # no candidate took their place: let them go
@@ -623,14 +703,32 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     m1 = build_plant(quiet(final["cfg"]))
     modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
     out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
-    out["not_tried"] += [e.name for e in implemented() if e not in tried]   # not visible in linear FRFs, or no place
+    named = [winner["effect"]] if winner else []
+    if second is not None:
+        named += [second["named"]] if second["named"] else []
+        out["second_round"] = {"held": winner["effect"], "held_strength": second["held_strength"],
+                               "named": second["named"], "ranking": second["ranking"]}
+        out["fitted_parameters"] = {k: float(f"{v:.6g}") for k, v in final["theta"].items()}
+        out["_config"] = final["cfg"]
+    out["named"] = named
+    out["model_form"] = {
+        "tried": [e.name for e in candidates if e.form],
+        "named": [n for n in named if get(n).form],
+        "ranking": [r for r in out["ranking"] if get(r["effect"]).form],
+        "mode": mode}
+    for r in out["ranking"] + (out.get("second_round") or {}).get("ranking", []):
+        r["kind"] = "model form" if get(r["effect"]).form else "effect"
+    out["where"] = where
+    out["not_tried"] += [e.name for e in implemented() + model_forms() if e not in tried]   # not visible, no place
     per_volt = any(d.per_volt for d in data)
     offset = level_offset_db(data, final["fit"].H)
     out["level_offset_db"] = round(offset, 4)
-    out["warnings"] = bound_warnings(final["theta"], next((e for e in tried if e.name == final["effect"]
-                                                           and e.name != SHAKER), None),
-                                     per_volt, nominal) + level_warning(offset, per_volt)
-    out["plausibility"] = verdict(plausible, base["theta"], final["theta"], final["effect"],
+    by_effect = [(e, {k: v for k, v in final["theta"].items() if k not in named or k == e.name})
+                 for e in tried if e.name in named and e.name != SHAKER] or [(None, final["theta"])]
+    out["warnings"] = [w for k, (e, th) in enumerate(by_effect)
+                       for w in bound_warnings(th if k == 0 else {e.name: th[e.name]}, e, per_volt, nominal)
+                       ] + level_warning(offset, per_volt)
+    out["plausibility"] = verdict(plausible, base["theta"], final["theta"], " and ".join(named) or None,
                                   [e.name for e in tried], let_go)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:
