@@ -483,6 +483,13 @@ def summary(result: dict) -> str:
     for r in result["ranking"]:
         lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  RSS -{100 * r['rss_reduction']:5.1f} %  "
                      f"fitted {fitted_text(r['fitted'])}")
+    if "model_form" in result:      # FRF files (rt.discrepancy.diagnose.frf): the structure's form apart
+        lines.append(f"named model form: {', '.join(result['model_form']['named']) or 'none'} (tried: "
+                     f"{', '.join(result['model_form']['tried']) or 'none'})")
+        if result.get("second_round"):
+            sr = result["second_round"]
+            lines.append(f"second round ({sr['held']} held): named {sr['named'] or 'none'}")
+        lines.append(f"localisation: the measured modes' shifts point at {result['where']['points_at'] or 'nothing'}")
     lines.append(f"structure FRF gap [dB]: {gb['structure_frf_db']:.3f} -> {ga['structure_frf_db']:.3f}")
     lines.append(verdict(result))
     if "stepsine_ratio_db" in gb:
