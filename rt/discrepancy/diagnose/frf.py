@@ -90,7 +90,7 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     struct_cfg,
     to_z,
 )
-from frictionrt.rt.discrepancy.effects import EFFECTS, Effect, get, implemented, model_forms
+from frictionrt.rt.discrepancy.effects import EFFECTS, MODEL_FORMS, Effect, get, implemented, model_forms
 from frictionrt.rt.discrepancy.diagnose.localise import localise as localise_modes
 from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from frictionrt.rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
@@ -541,10 +541,10 @@ def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=Non
 def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
     """The implemented effects linear FRFs can show (``Effect.visible_in_frf_files``: structural, and
     changing the stuck structure) that the structure has a place for (a clamp, an adaptive screw,
-    the accelerometer points): those that apply to ``nominal`` at their default strength; and
-    {name: why not} for every other effect of the library."""
+    the accelerometer points), then the model-form candidates (``MODEL_FORMS``): those that apply to
+    ``nominal`` at their default strength; and {name: why not} for every other one."""
     out, why = [], {}
-    for e in EFFECTS.values():
+    for e in [*EFFECTS.values(), *model_forms()]:
         if not e.implemented:
             why[e.name] = "not implemented yet"
             continue
@@ -564,20 +564,6 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
     return out, why
 
 
-def _form_candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
-    """The model-form candidates (rt.discrepancy.effects.MODEL_FORMS) that apply to ``nominal`` at their default
-    strength, and {name: why not} for the others."""
-    out, why = [], {}
-    for e in model_forms():
-        try:
-            e.apply(nominal, e.parameter.default)
-        except (ValueError, KeyError, StopIteration) as exc:
-            why[e.name] = f"does not apply to this structure: {exc}"
-            continue
-        out.append(e)
-    return out, why
-
-
 def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit: Fit, candidates: list[Effect],
                    say, bars: bool, done: dict) -> dict:
     """Forward selection after a candidate is named: ``held`` at its fitted strength joins the nominal, each
@@ -588,12 +574,15 @@ def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit:
     {"effect", "theta" (both strengths), "fit", "cfg"} or None}."""
     s_held = held_fit.theta[held.name]
     nom2 = held.apply(nominal, s_held)
+    # the calibration's start for each candidate: the held fit without its strength (its Jacobian columns of
+    # the calibration scales without the held strength's penalty row, the last)
+    start = held_fit._replace(J={k: held_fit.J[k][:-1] for k in CAL_NAMES})
     results = [{"effect": None, "theta": held_fit.theta, "channels": held_fit.channels,
                 "score": bic(held_fit.channels, len(held_fit.theta)), "fit": held_fit}]
     fits2 = {}
     for e in candidates:
         say(f"fit {e.name} with {held.name} held")
-        f = fit(nom2, data, e, calibrated=held_fit, bars=bars, label=f"{e.name} + {held.name}")
+        f = fit(nom2, data, e, calibrated=start, bars=bars, label=f"{e.name} + {held.name}")
         fits2[e.name] = f
         done[f"{e.name} + {held.name}"] = done_fit(f.theta | {held.name: s_held}, f.cfg)
         results.append({"effect": e.name, "theta": f.theta | {held.name: s_held}, "channels": f.channels,
@@ -610,7 +599,9 @@ def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit:
     s2 = winner2["fit"].theta[e2.name]
     say(f"fit {held.name} again with {e2.name} held")
     nom3 = e2.apply(nominal, s2)
-    f3 = fit(nom3, data, held, calibrated=winner2["fit"], bars=bars, label=f"{held.name} + {e2.name}")
+    f2 = winner2["fit"]
+    f3 = fit(nom3, data, held, calibrated=f2._replace(J={k: f2.J[k][:-1] for k in CAL_NAMES}), bars=bars,
+             label=f"{held.name} + {e2.name}")
     better = bic(f3.channels, 0) <= bic(winner2["fit"].channels, 0)
     f_fin, th = (f3, f3.theta | {e2.name: s2}) if better else (winner2["fit"], winner2["theta"])
     done[f"{held.name} + {e2.name}"] = done_fit(th, f_fin.cfg)
@@ -639,8 +630,8 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     ch0, H0, scale0 = residuals(nominal, data)
     fits = {}
     candidates, why_not = _candidates(nominal)
-    forms, why_forms = _form_candidates(nominal)
-    why_not |= why_forms
+    forms = [e for e in candidates if e.name in MODEL_FORMS]
+    candidates = [e for e in candidates if e.name not in MODEL_FORMS]
     say(f"fit {fit_label(None)}")
     fits[None] = fit(nominal, data, None, bars=bars)
     done[fit_label(None)] = done_fit(fits[None].theta, fits[None].cfg)
