@@ -172,3 +172,15 @@ def markdown(loc: dict) -> list[str]:
             f"{r['multiple']:g}, {r['multiple_beyond_E']:g} | {r['step']:g} |" for r in loc["parameters"]]
     out += ["", f"The pattern points at: **{loc['points_at'] or 'nothing beyond a uniform scale'}**."]
     return out
+
+
+def form_lines(result: dict) -> list[str]:
+    """The CLI summary's lines of a diagnosis of FRF files: the model form named and tried, the second round,
+    what the localisation points at (none for other input)."""
+    if "model_form" not in result:
+        return []
+    mf = result["model_form"]
+    out = [f"named model form: {', '.join(mf['named']) or 'none'} (tried: {', '.join(mf['tried']) or 'none'})"]
+    if result.get("second_round"):
+        out.append(f"second round ({result['second_round']['held']} held): named {result['second_round']['named'] or 'none'}")
+    return out + [f"localisation: the measured modes' shifts point at {result['where']['points_at'] or 'nothing'}"]
