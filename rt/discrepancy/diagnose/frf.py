@@ -82,6 +82,8 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     MAX_SIGMA,
     MODES,
     bounds,
+    effect_names,
+    effects_of,
     fd_steps,
     fit_frequencies,
     log_flags,
@@ -320,9 +322,9 @@ def _theta(names, x, scale) -> dict:
     return dict(zip(names, map(float, x))) | ({FORCE_SCALE: scale} if scale is not None else {})
 
 
-def fit_label(effect: Effect | None) -> str:
-    """The name of a fit of the calibration (with ``effect``) in the report and its progress bar."""
-    return effect.name if effect else "calibration only"
+def fit_label(effect) -> str:
+    """The name of a fit of the calibration (with ``effect``: one or a tuple) in the report and its progress bar."""
+    return " + ".join(effect_names(effect)) or "calibration only"
 
 
 def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None,
@@ -336,7 +338,8 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     penalised outside the ``plausible`` ranges (default: plausible.ranges; {}: let go; plausible.penalty).
     ``bars``: stage 2's model evaluations on a tqdm bar on stderr named ``label`` (default ``fit_label``); Ctrl-C
     in stage 2 raises FitInterrupted with its best point (rt.discrepancy.diagnose.watch)."""
-    names = list(CAL_NAMES) + ([effect.name] if effect else [])
+    names = list(CAL_NAMES) + effect_names(effect)
+    nominal_of = {e.name: e.nominal for e in effects_of(effect)}
     log = log_flags(names, effect)
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     steps = fd_steps(names, effect)
@@ -363,14 +366,16 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
         run, r = evaluate(z)
         J = None
         if calibrated is not None and effect is not None:
-            z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
+            z_cal = to_z(np.array([calibrated.theta.get(k, nominal_of.get(k)) for k in names]), log)
             x_cal = from_z(z_cal, log)
             r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal), pen(names, x_cal)])
             if r_cal @ r_cal < r @ r:
                 z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
-                # the calibration's columns gain the effect's penalty row, which they do not move
-                J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
-                                    + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
+                # the calibration's columns gain the effect's penalty row, which they do not move (one effect
+                # on the calibration alone; otherwise finite differences)
+                if len(nominal_of) == 1 and all(len(calibrated.J.get(k, ())) == len(r) - 1 for k in names[:-1]):
+                    J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
+                                        + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
         z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR,
                                                        lambda z: step_box(names, z, log, plausible, lo, hi))
         theta = _theta(names, from_z(z, log), scale)
@@ -566,48 +571,29 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
 
 def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit: Fit, candidates: list[Effect],
                    say, bars: bool, done: dict) -> dict:
-    """Forward selection after a candidate is named: ``held`` at its fitted strength joins the nominal, each
-    other candidate is fitted with the calibration on top of it (from ``held_fit``) and ranked against it by
-    the same rules (rt.discrepancy.diagnose.campaign.rank); a second one named, the held one is refitted
-    on top of it once (coordinate descent: the first fit's strength took part of the second's shifts).
-    {"named": the second or None, "ranking": its rows, "held_strength", "final": the final fit's result
-    {"effect", "theta" (both strengths), "fit", "cfg"} or None}."""
-    s_held = held_fit.theta[held.name]
-    nom2 = held.apply(nominal, s_held)
-    # the calibration's start for each candidate: the held fit without its strength (its Jacobian columns of
-    # the calibration scales without the held strength's penalty row, the last)
-    start = held_fit._replace(J={k: held_fit.J[k][:-1] for k in CAL_NAMES})
+    """Forward selection after a candidate is named: each other candidate fitted together with the named
+    one (``fit`` of the pair: the calibration and both strengths free, from the better of their frequency
+    fit and the named one's fit with the other at nominal) and ranked against the named one's fit by the
+    same rules (rt.discrepancy.diagnose.campaign.rank: BIC with one parameter more, its share of the FRF
+    residuals, its strength off nominal). {"named": the second or None, "ranking": its rows,
+    "held_strength": the first's fitted strength alone, "final": the pair's result {"effect", "theta"
+    (both strengths), "fit", "cfg", "channels"} or None}."""
     results = [{"effect": None, "theta": held_fit.theta, "channels": held_fit.channels,
                 "score": bic(held_fit.channels, len(held_fit.theta)), "fit": held_fit}]
-    fits2 = {}
     for e in candidates:
-        say(f"fit {e.name} with {held.name} held")
-        f = fit(nom2, data, e, calibrated=start, bars=bars, label=f"{e.name} + {held.name}")
-        fits2[e.name] = f
-        done[f"{e.name} + {held.name}"] = done_fit(f.theta | {held.name: s_held}, f.cfg)
-        results.append({"effect": e.name, "theta": f.theta | {held.name: s_held}, "channels": f.channels,
-                        "score": bic(f.channels, len(f.theta) + 1), "fit": f})
+        label = fit_label((held, e))
+        say(f"fit {label}")
+        f = fit(nominal, data, (held, e), calibrated=held_fit, bars=bars, label=label)
+        done[label] = done_fit(f.theta, f.cfg)
+        results.append({"effect": e.name, "theta": f.theta, "channels": f.channels,
+                        "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg})
     base2, ranked2, winner2 = rank(results)
     rows = [{"effect": r["effect"], "score": round(r["score"], 2), "delta_bic": round(base2["score"] - r["score"], 2),
              "rss_reduction": round(r["rss_reduction"], 4), "gap_after": feat_gap(r),
              "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}} for r in ranked2]
-    out = {"named": winner2["effect"] if winner2 else None, "ranking": rows, "held_strength": float(f"{s_held:.6g}"),
-           "final": None}
-    if winner2 is None:
-        return out
-    e2 = get(winner2["effect"])
-    s2 = winner2["fit"].theta[e2.name]
-    say(f"fit {held.name} again with {e2.name} held")
-    nom3 = e2.apply(nominal, s2)
-    f2 = winner2["fit"]
-    f3 = fit(nom3, data, held, calibrated=f2._replace(J={k: f2.J[k][:-1] for k in CAL_NAMES}), bars=bars,
-             label=f"{held.name} + {e2.name}")
-    better = bic(f3.channels, 0) <= bic(winner2["fit"].channels, 0)
-    f_fin, th = (f3, f3.theta | {e2.name: s2}) if better else (winner2["fit"], winner2["theta"])
-    done[f"{held.name} + {e2.name}"] = done_fit(th, f_fin.cfg)
-    out["final"] = {"effect": held.name, "theta": th, "fit": f_fin, "cfg": f_fin.cfg,
-                    "channels": f_fin.channels}
-    return out
+    final = None if winner2 is None else winner2 | {"effect": held.name}
+    return {"named": winner2["effect"] if winner2 else None, "ranking": rows,
+            "held_strength": float(f"{held_fit.theta[held.name]:.6g}"), "final": final}
 
 
 def _diagnose_frf(folder, nominal: Config | None, say, bars: bool) -> dict:
