@@ -63,6 +63,7 @@ def case_b(clamp: float, joint: float, levels, seed: int, clamp_heights: float =
             "truth_shifts_100N": shifts(truth(clamp, joint), nominal),
             "points_at": res["where"]["points_at"], "where_top": res["where"]["parameters"][:4],
             "named": res["named"], "model_form_named": res["model_form"]["named"],
+            "ranking": [(r["effect"], r["delta_bic"], r["rss_reduction"], r["fitted"]) for r in res["ranking"]],
             "second_round": res.get("second_round"), "fitted": fitted,
             "E_true": round(E_true, 5), "E_error": round(fitted["E"] / E_true - 1.0, 5),
             "clamp_error": (round(fitted["clamp_compliance"] / clamp - 1.0, 4) if "clamp_compliance" in fitted else None),

@@ -570,30 +570,35 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
 
 
 def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit: Fit, candidates: list[Effect],
-                   say, bars: bool, done: dict) -> dict:
+                   say, bars: bool, done: dict, pointed: Effect | None = None) -> dict:
     """Forward selection after a candidate is named: each other candidate fitted together with the named
     one (``fit`` of the pair: the calibration and both strengths free, from the better of their frequency
-    fit and the named one's fit with the other at nominal) and ranked against the named one's fit by the
-    same rules (rt.discrepancy.diagnose.campaign.rank: BIC with one parameter more, its share of the FRF
-    residuals, its strength off nominal). {"named": the second or None, "ranking": its rows,
-    "held_strength": the first's fitted strength alone, "final": the pair's result {"effect", "theta"
-    (both strengths), "fit", "cfg", "channels"} or None}."""
+    fit and the named one's fit with the other at nominal), and, where the localisation points at another
+    candidate (``pointed``), each candidate together with that one; all ranked against the named one's fit
+    by the same rules (rt.discrepancy.diagnose.campaign.rank: BIC with one parameter more, its share of the
+    FRF residuals, its strength off nominal). {"named": the pair's second or None, "held": the pair's first,
+    "ranking": its rows, "held_strength": the named one's strength fitted alone, "final": the pair's result
+    {"effect", "theta" (both strengths), "fit", "cfg", "channels"} or None}."""
     results = [{"effect": None, "theta": held_fit.theta, "channels": held_fit.channels,
                 "score": bic(held_fit.channels, len(held_fit.theta)), "fit": held_fit}]
-    for e in candidates:
-        label = fit_label((held, e))
+    pairs = [(held, e) for e in candidates]
+    if pointed is not None and pointed.name != held.name:
+        pairs += [(pointed, e) for e in [held, *candidates] if e.name != pointed.name]
+    for first, e in pairs:
+        label = fit_label((first, e))
         say(f"fit {label}")
-        f = fit(nominal, data, (held, e), calibrated=held_fit, bars=bars, label=label)
+        f = fit(nominal, data, (first, e), calibrated=held_fit if first is held else None, bars=bars, label=label)
         done[label] = done_fit(f.theta, f.cfg)
-        results.append({"effect": e.name, "theta": f.theta, "channels": f.channels,
+        results.append({"effect": e.name, "held": first.name, "theta": f.theta, "channels": f.channels,
                         "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg})
     base2, ranked2, winner2 = rank(results)
-    rows = [{"effect": r["effect"], "score": round(r["score"], 2), "delta_bic": round(base2["score"] - r["score"], 2),
-             "rss_reduction": round(r["rss_reduction"], 4), "gap_after": feat_gap(r),
-             "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}} for r in ranked2]
-    final = None if winner2 is None else winner2 | {"effect": held.name}
-    return {"named": winner2["effect"] if winner2 else None, "ranking": rows,
-            "held_strength": float(f"{held_fit.theta[held.name]:.6g}"), "final": final}
+    rows = [{"effect": r["effect"], "with": r["held"], "score": round(r["score"], 2),
+             "delta_bic": round(base2["score"] - r["score"], 2), "rss_reduction": round(r["rss_reduction"], 4),
+             "gap_after": feat_gap(r), "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}}
+            for r in ranked2]
+    final = None if winner2 is None else winner2 | {"effect": winner2["held"]}
+    return {"named": winner2["effect"] if winner2 else None, "held": winner2["held"] if winner2 else held.name,
+            "ranking": rows, "held_strength": float(f"{held_fit.theta[held.name]:.6g}"), "final": final}
 
 
 def _diagnose_frf(folder, nominal: Config | None, say, bars: bool) -> dict:
@@ -652,8 +657,9 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     second = None
     if winner is not None and winner["effect"] != SHAKER and (
             mode == "always" or outside(winner["theta"], ranges(nominal, list(CAL_NAMES)))):
+        pointed = next((e for e in candidates if e.name == where["points_at"]), None)
         second = next_candidate(nominal, data, get(winner["effect"]), winner["fit"],
-                                [e for e in candidates if e.name != winner["effect"]], say, bars, done)
+                                [e for e in candidates if e.name != winner["effect"]], say, bars, done, pointed)
     final = second["final"] if second and second["named"] else (winner or base)
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
     let_go = None
@@ -682,9 +688,10 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
     named = [winner["effect"]] if winner else []
     if second is not None:
-        named += [second["named"]] if second["named"] else []
-        out["second_round"] = {"held": winner["effect"], "held_strength": second["held_strength"],
-                               "named": second["named"], "ranking": second["ranking"]}
+        named = [second["held"], second["named"]] if second["named"] else named
+        out["second_round"] = {"first_named": winner["effect"], "held": second["held"],
+                               "held_strength": second["held_strength"], "named": second["named"],
+                               "ranking": second["ranking"]}
         out["fitted_parameters"] = {k: float(f"{v:.6g}") for k, v in final["theta"].items()}
         out["_config"] = final["cfg"]
     out["named"] = named

@@ -182,5 +182,7 @@ def form_lines(result: dict) -> list[str]:
     mf = result["model_form"]
     out = [f"named model form: {', '.join(mf['named']) or 'none'} (tried: {', '.join(mf['tried']) or 'none'})"]
     if result.get("second_round"):
-        out.append(f"second round ({result['second_round']['held']} held): named {result['second_round']['named'] or 'none'}")
+        sr = result["second_round"]
+        out.append(f"second round (pairs with {sr['first_named']}, or with what the localisation points at): named "
+                   f"{sr['held'] + ' and ' + sr['named'] if sr['named'] else 'none'}")
     return out + [f"localisation: the measured modes' shifts point at {result['where']['points_at'] or 'nothing'}"]

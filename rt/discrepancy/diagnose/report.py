@@ -158,10 +158,12 @@ def _model_form_section(res: dict) -> list[str]:
                 for r in mf["ranking"]]
     sr = res.get("second_round")
     if sr:
-        out += ["", f"Second round: {sr['held']} held at {sr['held_strength']:g}, the other candidates fitted on top "
-                    f"of it and ranked against it; named: {sr['named'] or 'none'}.", "",
-                "| candidate | kind | dBIC vs the first named | RSS reduction | fitted |", "| --- | --- | --- | --- | --- |"]
-        out += [f"| {r['effect']} | {r['kind']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | "
+        out += ["", f"Second round: each candidate fitted together with {sr['first_named']} (alone at "
+                    f"{sr['held_strength']:g}) or with the one the localisation points at, ranked against "
+                    f"{sr['first_named']} alone; named: {sr['held'] + ' and ' + sr['named'] if sr['named'] else 'none'}.",
+                "", "| candidate | with | kind | dBIC vs the first named | RSS reduction | fitted |",
+                "| --- | --- | --- | --- | --- | --- |"]
+        out += [f"| {r['effect']} | {r['with']} | {r['kind']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | "
                 f"{json.dumps(r['fitted'])} |" for r in sr["ranking"]]
     if res.get("where"):
         out += localise_markdown(res["where"])
