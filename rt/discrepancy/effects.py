@@ -299,3 +299,14 @@ def get(name: str) -> Effect:
 def model_forms() -> list[Effect]:
     """The model-form candidates beyond the effects library (``MODEL_FORMS``)."""
     return list(_FORMS)
+
+
+def effects_of(effect) -> tuple[Effect, ...]:
+    """The candidate effects of a fit's ``effect`` argument: None, one Effect, or a tuple of them (a fit of
+    two candidates at once, rt.discrepancy.diagnose.frf.next_candidate)."""
+    return () if effect is None else tuple(effect) if isinstance(effect, tuple) else (effect,)
+
+
+def effect_names(effect) -> list[str]:
+    """The strength names of ``effects_of(effect)``."""
+    return [e.name for e in effects_of(effect)]

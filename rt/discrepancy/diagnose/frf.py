@@ -82,8 +82,6 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     MAX_SIGMA,
     MODES,
     bounds,
-    effect_names,
-    effects_of,
     fd_steps,
     fit_frequencies,
     log_flags,
@@ -92,7 +90,8 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     struct_cfg,
     to_z,
 )
-from frictionrt.rt.discrepancy.effects import EFFECTS, MODEL_FORMS, Effect, get, implemented, model_forms
+from frictionrt.rt.discrepancy.effects import (EFFECTS, MODEL_FORMS, Effect, effect_names, effects_of, get, implemented,
+                                               model_forms)
 from frictionrt.rt.discrepancy.diagnose.localise import localise as localise_modes
 from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from frictionrt.rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair

@@ -46,7 +46,7 @@ from scipy.optimize import least_squares
 from frictionrt.plant.impulse import accelerance_frf, identify
 from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_stiffness
 from frictionrt.rt.common.config import Config
-from frictionrt.rt.discrepancy.effects import Effect
+from frictionrt.rt.discrepancy.effects import Effect, effect_names, effects_of
 from frictionrt.rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
 from frictionrt.rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
 from frictionrt.rt.discrepancy.diagnose.watch import watch
@@ -232,17 +232,6 @@ def identify_modes(freq: np.ndarray, H: np.ndarray, tau: float, f_nom: np.ndarra
 
 
 # --- parameters -----------------------------------------------------------------------------------
-
-def effects_of(effect) -> tuple[Effect, ...]:
-    """The candidate effects of a fit's ``effect`` argument: None, one Effect, or a tuple of them (a fit of
-    two candidates at once, rt.discrepancy.diagnose.frf.next_candidate)."""
-    return () if effect is None else tuple(effect) if isinstance(effect, tuple) else (effect,)
-
-
-def effect_names(effect) -> list[str]:
-    """The strength names of ``effects_of(effect)``."""
-    return [e.name for e in effects_of(effect)]
-
 
 def struct_cfg(nominal: Config, theta: dict, effect) -> Config:
     """``nominal`` with the calibration scales of ``theta`` and each effect of ``effect`` (``effects_of``) at
