@@ -654,7 +654,7 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
         tried = candidates
     base, ranked, winner = rank(results)
     second = None
-    if winner is not None and winner["effect"] != SHAKER and (
+    if winner is not None and winner["effect"] != SHAKER and len(candidates) > 1 and (
             mode == "always" or outside(winner["theta"], ranges(nominal, list(CAL_NAMES)))):
         pointed = next((e for e in candidates if e.name == where["points_at"]), None)
         second = next_candidate(nominal, data, get(winner["effect"]), winner["fit"],
