@@ -688,6 +688,7 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     named = [winner["effect"]] if winner else []
     if second is not None:
         named = [second["held"], second["named"]] if second["named"] else named
+        out["named_effect"] = named[0]          # the pair replaces a first named one it does not hold
         out["second_round"] = {"first_named": winner["effect"], "held": second["held"],
                                "held_strength": second["held_strength"], "named": second["named"],
                                "ranking": second["ranking"]}
