@@ -480,12 +480,14 @@ def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estima
 
 def effects() -> Result:
     """The effects library the rig hides and the diagnosis names (``frictionrt rig --list``):
-    per effect its name, parameter, unit, default strength, bounds, implemented."""
-    from frictionrt.rt.discrepancy.effects import EFFECTS
-    rows = [e.to_json() for e in EFFECTS.values()]
+    per effect its name, parameter, unit, default strength, bounds, implemented, kind (effect or model
+    form: the model-form candidates of rt.discrepancy.effects.MODEL_FORMS follow the effects)."""
+    from frictionrt.rt.discrepancy.effects import EFFECTS, MODEL_FORMS
+    rows = [e.to_json() for e in [*EFFECTS.values(), *MODEL_FORMS.values()]]
     text = "\n".join(f"{r['name']:<20} {r['parameter']} [{r['unit']}] default {r['default_strength']:.4g}, "
                      f"bounds {r['bounds'][0]:.4g}..{r['bounds'][1]:.4g}"
-                     f"{'' if r['implemented'] else '  (not implemented yet)'}" for r in rows)
+                     f"{'' if r['implemented'] else '  (not implemented yet)'}"
+                     f"{'  (model form)' if r['kind'] == 'model form' else ''}" for r in rows)
     return Result("effects", {"effects": rows}, text=text)
 
 

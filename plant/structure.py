@@ -165,16 +165,20 @@ def node_pairs(x_pairs: np.ndarray, h_min: float) -> np.ndarray:
     return np.array(keep)
 
 
-def add_lumped(K: np.ndarray, M: np.ndarray, node_of, masses, rot_springs) -> None:
-    """Add lumped masses m [kg] at x (transverse and axial DOFs; rotary inertia neglected) and
+def add_lumped(K: np.ndarray, M: np.ndarray, node_of, masses, rot_springs, w_springs=()) -> None:
+    """Add lumped masses m [kg] at x (transverse and axial DOFs; rotary inertia neglected),
     rotational springs k = 1 / compliance [N m/rad] at x (compliance 0: none, the clamp fixes
-    the rotation instead) to a beam's assembled K, M in place."""
+    the rotation instead) and transverse springs to the ground k [N/m] at x (``w_springs``, (x, k);
+    k 0: none) to a beam's assembled K, M in place."""
     for x, m in masses:
         for c in (U, W):
             M[DOFS_PER_NODE * node_of(x) + c, DOFS_PER_NODE * node_of(x) + c] += m
     for x, compliance in rot_springs:
         if compliance > 0:
             K[DOFS_PER_NODE * node_of(x) + THETA, DOFS_PER_NODE * node_of(x) + THETA] += 1.0 / compliance
+    for x, k in w_springs:
+        if k > 0:
+            K[DOFS_PER_NODE * node_of(x) + W, DOFS_PER_NODE * node_of(x) + W] += k
 
 
 def build_structure(cfg: Config) -> Structure:
@@ -203,9 +207,13 @@ def build_structure(cfg: Config) -> Structure:
         add_lumped(K, M, node_of, [(pt.x_m, pt.mass_kg) for pt in p.points if pt.beam == b.name]
                    + [(s.x_m, s.mass_kg + (cfg.actuator.moving_mass_kg if s.adaptive else 0.0))
                       for s in screws if in_itf and b.name == itf.upper],
-                   [(c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name])
+                   [(c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name],
+                   [(c.x_m, 1.0 / c.trans_compliance_m_per_N) for c in p.clamps
+                    if c.beam == b.name and c.trans_compliance_m_per_N > 0]
+                   + [(pt.x_m, pt.stiffness_N_m) for pt in p.points if pt.beam == b.name])
         fixed = {DOFS_PER_NODE * node_of(c.x_m) + d for c in p.clamps if c.beam == b.name
-                 for d in ((U, W) if c.rot_compliance_rad_per_Nm > 0 else (U, W, THETA))}
+                 for d in (U,) + ((W,) if c.trans_compliance_m_per_N == 0 else ())
+                 + ((THETA,) if c.rot_compliance_rad_per_Nm == 0 else ())}
         free = np.array([d for d in range(K.shape[0]) if d not in fixed], dtype=np.int64)
         pos = {d: k for k, d in enumerate(free)}
         bset = {DOFS_PER_NODE * node_of(x) + c for x in full_nodes for c in (U, W, THETA)}

@@ -57,6 +57,7 @@ def estimator_of(value) -> Estimator:
     except ValueError:
         raise ValueError(f"estimator {value!r}: give one of {', '.join(ALL_ESTIMATORS)}") from None
 PASSIVE_MODES = ("voltage", "tracking")
+MODEL_FORM_MODES = ("auto", "always", "never")   # diagnosis.model_form: when the model-form candidates are tried
 AMPLIFIERS = ("current", "voltage")   # shaker.amplifier: the power amplifier's mode (plant/shaker.py)
 # the plant's time step (plant.newmark): the trapezoidal rule with the discrete-gradient normal impulse
 # (default), or generalized-alpha (Chung & Hulbert 1993) with its spectral radius plant.step_rho_inf
@@ -101,11 +102,14 @@ class Beam:
 @dataclass(frozen=True)
 class Clamp:
     """The displacements of `beam` fixed at x; its rotation fixed too, or held by a rotational
-    spring of compliance rot_compliance (1 / stiffness)."""
+    spring of compliance rot_compliance (1 / stiffness); its transverse displacement w fixed too, or
+    held by a translational spring of compliance trans_compliance."""
     beam: str
     x_m: float = param(0.0, "m")
     rot_compliance_rad_per_Nm: float = param(0.0, "rad/(N m)", lo=0.0,
                                              doc="rotational compliance of the fixture; 0: rigid (A)")
+    trans_compliance_m_per_N: float = param(0.0, "m/N", lo=0.0,
+                                            doc="transverse (w) compliance of the fixture; 0: rigid (A)")
 
 
 @dataclass(frozen=True)
@@ -136,6 +140,8 @@ class Point:
     x_m: float = param(0.45, "m")
     mass_kg: float = param(0.0, "kg", lo=0.0, doc="lumped mass at the point: the accelerometer, "
                            "the stinger's moving part (A: 0)")
+    stiffness_N_m: float = param(0.0, "N/m", lo=0.0, doc="transverse spring from the point's w to the ground: an "
+                                 "attached support, a stinger or a suspension (A: 0, none)")
 
 
 @dataclass(frozen=True)
@@ -506,6 +512,12 @@ class Uncertainty:
 class Diagnosis:
     """Settings of the discrepancy diagnosis (``frictionrt diagnose``, docs/discrepancy.md)."""
     uncertainty: Uncertainty = field(default_factory=Uncertainty)
+    model_form: str = param("auto", doc="the model-form candidates of FRF-file input (rt.discrepancy.effects."
+                            "MODEL_FORMS: the clamp's translation, the joint's compliance, a mass and a spring at "
+                            "attach_point): auto = tried when the calibration alone needs a parameter at or beyond "
+                            "its plausible range; always; never")
+    attach_point: str = param("", doc="the plant point (plant.points) where the attached_mass and attached_spring "
+                              "candidates sit; empty: plant.excitation_point (the stinger's or hammer's point)")
 
 
 @dataclass(frozen=True)
@@ -929,6 +941,9 @@ def validate(cfg: Config) -> None:
         raise ConfigError(f"tracking.law = {t.law!r}: must be one of {', '.join(LAWS)}")
     if cfg.shaker.amplifier not in AMPLIFIERS:
         raise ConfigError(f"shaker.amplifier = {cfg.shaker.amplifier!r}: must be one of {', '.join(AMPLIFIERS)}")
+    if cfg.diagnosis.model_form not in MODEL_FORM_MODES:
+        raise ConfigError(f"diagnosis.model_form = {cfg.diagnosis.model_form!r}: must be one of "
+                          f"{', '.join(MODEL_FORM_MODES)}")
     if p.step_scheme not in STEP_SCHEMES:
         raise ConfigError(f"plant.step_scheme = {p.step_scheme!r}: must be one of {', '.join(STEP_SCHEMES)}")
     if p.interface.layout not in LAYOUTS:
@@ -963,6 +978,9 @@ def validate(cfg: Config) -> None:
     for key in ("excitation_point", "frf_point"):
         if getattr(p, key) not in points:
             raise ConfigError(f"plant.{key} = {getattr(p, key)!r}: no such point; points: {', '.join(points)}")
+    if cfg.diagnosis.attach_point and cfg.diagnosis.attach_point not in points:
+        raise ConfigError(f"diagnosis.attach_point = {cfg.diagnosis.attach_point!r}: no such point; give one of "
+                          f"{', '.join(points)} (or leave it empty: the excitation point)")
 
     if p.interface.enabled:
         _check_interface(p, beams, screws)

@@ -42,6 +42,9 @@ class Effect:
     _apply: Callable[[Config, float], Config] | None = None
     stuck_linear: bool = True  # it changes the structure linearised with the contact stuck (so the
                                # linear FRFs of FRF-file input can show it); False: only slip shows it
+    form: bool = False         # a model-form candidate (the structure's boundary, joint or attachments:
+                               # reported as "model form", apart from the effects)
+    log_scale: bool = False    # the fits move ln(strength) (a stiffness ratio over decades; bounds > 0)
 
     def visible_in_frf_files(self) -> bool:
         """Whether linear (stuck-contact) FRF files can show the effect (rt.discrepancy.diagnose.frf, rt.discrepancy.rig.frf)."""
@@ -67,6 +70,7 @@ class Effect:
         return {"name": self.name, "implemented": self.implemented, "channel": self.channel,
                 "parameter": p.name, "unit": p.unit, "default_strength": p.default, "bounds": [p.lo, p.hi],
                 "nominal": self.nominal, "visible_in_frf_files": self.visible_in_frf_files(),
+                "kind": "model form" if self.form else "effect",
                 "description": self.description, "signature": self.signature}
 
 
@@ -86,6 +90,35 @@ def _clamp_compliance(cfg: Config, c: float) -> Config:
     c = c if c >= 1e-12 else 0.0
     clamps = tuple(dataclasses.replace(cl, rot_compliance_rad_per_Nm=c) for cl in cfg.plant.clamps)
     return with_sets(dataclasses.replace(cfg, plant=dataclasses.replace(cfg.plant, clamps=clamps)), [])
+
+
+def _clamp_translation(cfg: Config, c: float) -> Config:
+    # below 1e-12 m/N (stiffer than 1e12 N/m) the clamp holds w rigidly
+    c = c if c >= 1e-12 else 0.0
+    clamps = tuple(dataclasses.replace(cl, trans_compliance_m_per_N=c) for cl in cfg.plant.clamps)
+    if not clamps:
+        raise ValueError("clamp_translation is a compliance of the clamps and this structure has none (plant.clamps)")
+    return with_sets(dataclasses.replace(cfg, plant=dataclasses.replace(cfg.plant, clamps=clamps)), [])
+
+
+def _joint_compliance(cfg: Config, s: float) -> Config:
+    i = cfg.plant.interface
+    if not i.enabled:
+        raise ValueError("joint_compliance is the stiffness of the interface and this structure has none "
+                         "(plant.interface.enabled = false)")
+    return with_sets(cfg, [f"plant.interface.k_n_area={i.k_n_area * s!r}", f"plant.interface.k_t_area={i.k_t_area * s!r}"])
+
+
+def attach_point(cfg: Config) -> str:
+    """The point of the attached_mass and attached_spring candidates: diagnosis.attach_point, else the
+    excitation point."""
+    return cfg.diagnosis.attach_point or cfg.plant.excitation_point
+
+
+def _attached(field: str, cfg: Config, value: float) -> Config:
+    name = attach_point(cfg)
+    point = next(p for p in cfg.plant.points if p.name == name)
+    return with_sets(cfg, [f"plant.points.{name}.{field}={getattr(point, field) + value!r}"])
 
 
 def _moving_mass(cfg: Config, m: float) -> Config:
@@ -123,7 +156,7 @@ _EFFECTS = (
            "-2.7 %), less for mode 4 (-1.6 %), little for modes 7, 8 (-0.4 %); antiresonances of both FRFs "
            "drop up to 5 % (frf 267, 880 Hz; tip 285, 895 Hz), those above 1.3 kHz stay; the same at every F_N1",
            Parameter("rot_compliance_rad_per_Nm", "rad/(N m)", 3e-5, 0.0, 5e-4), "structure", 0.0,
-           _clamp_compliance),
+           _clamp_compliance, form=True),
     Effect("moving_mass",
            "actuator moving mass: the piezo stack's moving part, screw head and washers as a point mass m on the "
            "upper (damper) beam at the adaptive screw",
@@ -205,6 +238,48 @@ _EFFECTS = (
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in _EFFECTS}
 
+# --- model-form candidates ------------------------------------------------------------------------
+# The structure's form where a nominal model is commonly wrong: the fixture, the joint, attachments.
+# Their strengths' bounds are the ranges real set-ups have (docs/discrepancy.md "Model-form candidates"
+# gives the sources); each is a rig truth (``rig --effect NAME``) and a candidate of FRF-file input
+# (rt.discrepancy.diagnose.frf, diagnosis.model_form). clamp_compliance (above, an effect since its first
+# version) is one of them too (form=True).
+
+_FORMS = (
+    Effect("clamp_translation",
+           "a transverse spring of compliance c at the fixture (plant.clamps[].trans_compliance_m_per_N): the "
+           "clamp's w held by a spring 1 / c instead of rigidly (a bench vice's jaws and slide, a bolted block "
+           "on a table)",
+           "the higher modes drop most, the first little (1e-7 m/N: modes 1-8 -0.03, -0.43, -1.3, -1.5, -4.0, "
+           "-8.6, -5.4, -4.6 %), unlike a rotational clamp compliance, which moves modes 1-3 alike",
+           Parameter("trans_compliance_m_per_N", "m/N", 1e-7, 0.0, 1e-6), "structure", 0.0, _clamp_translation,
+           form=True),
+    Effect("joint_compliance",
+           "the bolted connection more compliant than the contact model: the interface's normal and tangential "
+           "stiffness per area (plant.interface.k_n_area, k_t_area) times s < 1, its bending stiffness (the "
+           "normal springs' lever arms) and its shear stiffness alike",
+           "the joint's modes drop, the clamp's barely (0.03: modes 1-8 -0.22, -4.5, -12.8, -10.2, -4.3, -8.7, "
+           "-7.5, -6.4 %): mode 3 (the damper beam on the joint) most, mode 1 least",
+           Parameter("stiffness_rel", "-", 0.03, 1e-3, 1.0), "structure", 1.0, _joint_compliance,
+           form=True, log_scale=True),
+    Effect("attached_mass",
+           "a point mass m added at diagnosis.attach_point (default the excitation point): a force transducer, "
+           "a stinger's moving part, a cable clamp",
+           "the modes with motion at the point drop by about m phi(x)^2 / 2 of their modal mass (0.05 kg at the "
+           "excitation point: modes 1-8 -0.25, -2.5, -0.5, -1.0, -2.3, -0.9, -1.0, -0.9 %)",
+           Parameter("mass_kg", "kg", 0.05, 0.0, 0.5), "structure", 0.0, functools.partial(_attached, "mass_kg"),
+           form=True),
+    Effect("attached_spring",
+           "a transverse spring k to the ground added at diagnosis.attach_point (default the excitation point): "
+           "a stinger's bending, a support, a suspension",
+           "the low modes with motion at the point rise, the high ones stay (1e4 N/m at the excitation point: "
+           "mode 1 +12 %, mode 2 +2.4 %, modes 3-8 within 0.05 %)",
+           Parameter("stiffness_N_m", "N/m", 1e4, 0.0, 1e5), "structure", 0.0,
+           functools.partial(_attached, "stiffness_N_m"), form=True),
+)
+
+MODEL_FORMS: dict[str, Effect] = {e.name: e for e in _FORMS}
+
 
 def implemented() -> list[Effect]:
     """The effects that can be applied (configuration-level) this version."""
@@ -212,7 +287,26 @@ def implemented() -> list[Effect]:
 
 
 def get(name: str) -> Effect:
-    """The effect called ``name``; ValueError naming the known ones otherwise."""
+    """The effect or model-form candidate called ``name``; ValueError naming the known ones otherwise."""
+    if name in MODEL_FORMS:
+        return MODEL_FORMS[name]
     if name not in EFFECTS:
-        raise ValueError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)} (frictionrt rig --list)")
+        raise ValueError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}, and the model-form candidates "
+                         f"{', '.join(MODEL_FORMS)} (frictionrt rig --list)")
     return EFFECTS[name]
+
+
+def model_forms() -> list[Effect]:
+    """The model-form candidates beyond the effects library (``MODEL_FORMS``)."""
+    return list(_FORMS)
+
+
+def effects_of(effect) -> tuple[Effect, ...]:
+    """The candidate effects of a fit's ``effect`` argument: None, one Effect, or a tuple of them (a fit of
+    two candidates at once, rt.discrepancy.diagnose.frf.next_candidate)."""
+    return () if effect is None else tuple(effect) if isinstance(effect, tuple) else (effect,)
+
+
+def effect_names(effect) -> list[str]:
+    """The strength names of ``effects_of(effect)``."""
+    return [e.name for e in effects_of(effect)]

@@ -28,6 +28,8 @@ Method, on a campaign of the measurement format (impulse tests at several F_N1, 
 4. The updated model (calibrated, with the named effect) is written as a TOML (rt.common.config.dumps),
    the gap before (nominal) and after is measured on the raw data: FRF log-magnitude RMS [dB] over
    ``BAND_HZ`` per impulse test, time-series NRMSE of a_frf (impulse) and F_cell (actuator).
+
+Length: the campaign's workflow and the ranking, result and summary that the FRF-file workflow shares.
 """
 from __future__ import annotations
 
@@ -61,6 +63,7 @@ from frictionrt.rt.discrepancy.diagnose.stepsine import prepare as prepare_steps
 from frictionrt.rt.discrepancy.diagnose.stepsine import residuals as stepsine_residuals
 from frictionrt.rt.discrepancy.effects import Effect, get, implemented
 from frictionrt.rt.discrepancy.diagnose.remainder import budget, verdict
+from frictionrt.rt.discrepancy.diagnose.localise import form_lines
 from frictionrt.rt.discrepancy.diagnose.plausible import summary_lines
 from frictionrt.rt.discrepancy.diagnose.watch import done_fit, fit_in_parallel, fitted_text, keeping
 from frictionrt.rt.log.mcap_log import read_mcap
@@ -483,6 +486,7 @@ def summary(result: dict) -> str:
     for r in result["ranking"]:
         lines.append(f"  {r['effect']:<20} dBIC {r['delta_bic']:>10.1f}  RSS -{100 * r['rss_reduction']:5.1f} %  "
                      f"fitted {fitted_text(r['fitted'])}")
+    lines += form_lines(result)     # FRF files: the model form apart, the localisation
     lines.append(f"structure FRF gap [dB]: {gb['structure_frf_db']:.3f} -> {ga['structure_frf_db']:.3f}")
     lines.append(verdict(result))
     if "stepsine_ratio_db" in gb:

@@ -73,7 +73,7 @@ from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequenci
 from frictionrt.plant.shaker import force_ratio
 from frictionrt.rt.common.config import Config, with_sets
 from frictionrt.rt.discrepancy.chain import quiet
-from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, bic, modes_table, rank, ranking_result
+from frictionrt.rt.discrepancy.diagnose.campaign import BAND_HZ, bic, feat_gap, modes_table, rank, ranking_result
 from frictionrt.rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
 from frictionrt.rt.discrepancy.diagnose.structure import (
     CAL_FAR,
@@ -84,12 +84,15 @@ from frictionrt.rt.discrepancy.diagnose.structure import (
     bounds,
     fd_steps,
     fit_frequencies,
+    log_flags,
     from_z,
     prior,
     struct_cfg,
     to_z,
 )
-from frictionrt.rt.discrepancy.effects import EFFECTS, Effect, implemented
+from frictionrt.rt.discrepancy.effects import (EFFECTS, MODEL_FORMS, Effect, effect_names, effects_of, get, implemented,
+                                               model_forms)
+from frictionrt.rt.discrepancy.diagnose.localise import localise as localise_modes
 from frictionrt.rt.discrepancy.diagnose.plausible import CLAMP, outside, penalty, ranges, step_box, verdict
 from frictionrt.rt.discrepancy.diagnose.frf_modes import MAC_SENSORS, measured_modes, model_modes, pair
 from frictionrt.rt.discrepancy.diagnose.watch import done_fit, keeping, rounded, watch
@@ -127,6 +130,7 @@ class FRFData(NamedTuple):
     mac: np.ndarray | None = None      # MAC per model mode (NaN: not paired by shape)
     unpaired_hz: tuple = ()      # measured modes not paired with a model mode [Hz]
     unit: str = "(m/s^2)/N"
+    zeta_modes: np.ndarray | None = None   # identified damping ratio per model mode paired (NaN: unpaired)
 
     @property
     def modes_hz(self) -> np.ndarray:
@@ -241,9 +245,11 @@ def prepare(tests: list[FRFTest], nominal: Config) -> list[FRFData]:
         mod = model_modes(m0, t.F_N1, [points[s] for s in t.H], len(MODES))
         f_paired, mac = pair(meas, mod)
         unpaired = tuple(round(float(f), 3) for f in meas.f_hz if not np.any(f_paired == f))
+        zeta = np.array([meas.zeta[np.flatnonzero(meas.f_hz == f)[0]] if np.isfinite(f) else math.nan
+                         for f in f_paired])
         out.append(FRFData(t.name, t.F_N1, t.freq_hz, t.H, sel, ln_h, sig, {"measured": f_paired}, True,
                            t.quantity, t.excitation == "drive_voltage", {s: points[s] for s in t.H}, mac, unpaired,
-                           t.unit))
+                           t.unit, zeta))
     return out
 
 
@@ -315,9 +321,9 @@ def _theta(names, x, scale) -> dict:
     return dict(zip(names, map(float, x))) | ({FORCE_SCALE: scale} if scale is not None else {})
 
 
-def fit_label(effect: Effect | None) -> str:
-    """The name of a fit of the calibration (with ``effect``) in the report and its progress bar."""
-    return effect.name if effect else "calibration only"
+def fit_label(effect) -> str:
+    """The name of a fit of the calibration (with ``effect``: one or a tuple) in the report and its progress bar."""
+    return " + ".join(effect_names(effect)) or "calibration only"
 
 
 def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated: Fit | None = None,
@@ -331,8 +337,9 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
     penalised outside the ``plausible`` ranges (default: plausible.ranges; {}: let go; plausible.penalty).
     ``bars``: stage 2's model evaluations on a tqdm bar on stderr named ``label`` (default ``fit_label``); Ctrl-C
     in stage 2 raises FitInterrupted with its best point (rt.discrepancy.diagnose.watch)."""
-    names = list(CAL_NAMES) + ([effect.name] if effect else [])
-    log = np.array([k in LOG_SCALE for k in names])
+    names = list(CAL_NAMES) + effect_names(effect)
+    nominal_of = {e.name: e.nominal for e in effects_of(effect)}
+    log = log_flags(names, effect)
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     steps = fd_steps(names, effect)
     plausible = ranges(nominal, names) if plausible is None else plausible
@@ -358,14 +365,16 @@ def fit(nominal: Config, data: list[FRFData], effect: Effect | None, calibrated:
         run, r = evaluate(z)
         J = None
         if calibrated is not None and effect is not None:
-            z_cal = to_z(np.array([calibrated.theta.get(k, effect.nominal) for k in names]), log)
+            z_cal = to_z(np.array([calibrated.theta.get(k, nominal_of.get(k)) for k in names]), log)
             x_cal = from_z(z_cal, log)
             r_cal = np.concatenate([*calibrated.channels.values(), prior(names, x_cal), pen(names, x_cal)])
             if r_cal @ r_cal < r @ r:
                 z, run, r = z_cal, (calibrated.channels, calibrated.H, calibrated.theta.get(FORCE_SCALE)), r_cal
-                # the calibration's columns gain the effect's penalty row, which they do not move
-                J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
-                                    + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
+                # the calibration's columns gain the effect's penalty row, which they do not move (one effect
+                # on the calibration alone; otherwise finite differences)
+                if len(nominal_of) == 1 and all(len(calibrated.J.get(k, ())) == len(r) - 1 for k in names[:-1]):
+                    J = np.column_stack([np.append(calibrated.J[k], 0.0) for k in names[:-1]]
+                                        + [jacobian_column(evaluate, z, r, len(names) - 1, steps, hi)])
         z, (ch, H, scale), r, J = gauss_newton_broyden(evaluate, z, run, r, J, lo, hi, steps, MAX_STEPS_FAR,
                                                        lambda z: step_box(names, z, log, plausible, lo, hi))
         theta = _theta(names, from_z(z, log), scale)
@@ -490,7 +499,7 @@ def bound_warnings(theta: dict, effect: Effect | None, per_volt: bool, nominal: 
             lo, hi, log = *log_bounds[k], True
         else:
             (lo,), (hi,) = bounds([k], effect, nominal)
-            log = k in LOG_SCALE
+            log = k in LOG_SCALE or (effect is not None and k == effect.name and effect.log_scale)
         for b in (lo, hi):
             near = (abs(math.log(v / b)) <= math.log1p(BOUND_REL) if log
                     else abs(v - b) <= BOUND_REL * (abs(b) if b != 0 else hi - lo))
@@ -536,10 +545,10 @@ def diagnose_frf(folder: str | Path, nominal: Config | None = None, progress=Non
 def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
     """The implemented effects linear FRFs can show (``Effect.visible_in_frf_files``: structural, and
     changing the stuck structure) that the structure has a place for (a clamp, an adaptive screw,
-    the accelerometer points): those that apply to ``nominal`` at their default strength; and
-    {name: why not} for every other effect of the library."""
+    the accelerometer points), then the model-form candidates (``MODEL_FORMS``): those that apply to
+    ``nominal`` at their default strength; and {name: why not} for every other one."""
     out, why = [], {}
-    for e in EFFECTS.values():
+    for e in [*EFFECTS.values(), *model_forms()]:
         if not e.implemented:
             why[e.name] = "not implemented yet"
             continue
@@ -557,6 +566,38 @@ def _candidates(nominal: Config) -> tuple[list[Effect], dict[str, str]]:
             continue
         out.append(e)
     return out, why
+
+
+def next_candidate(nominal: Config, data: list[FRFData], held: Effect, held_fit: Fit, candidates: list[Effect],
+                   say, bars: bool, done: dict, pointed: Effect | None = None) -> dict:
+    """Forward selection after a candidate is named: each other candidate fitted together with the named
+    one (``fit`` of the pair: the calibration and both strengths free, from the better of their frequency
+    fit and the named one's fit with the other at nominal), and, where the localisation points at another
+    candidate (``pointed``), each candidate together with that one; all ranked against the named one's fit
+    by the same rules (rt.discrepancy.diagnose.campaign.rank: BIC with one parameter more, its share of the
+    FRF residuals, its strength off nominal). {"named": the pair's second or None, "held": the pair's first,
+    "ranking": its rows, "held_strength": the named one's strength fitted alone, "final": the pair's result
+    {"effect", "theta" (both strengths), "fit", "cfg", "channels"} or None}."""
+    results = [{"effect": None, "theta": held_fit.theta, "channels": held_fit.channels,
+                "score": bic(held_fit.channels, len(held_fit.theta)), "fit": held_fit}]
+    pairs = [(held, e) for e in candidates]
+    if pointed is not None and pointed.name != held.name:
+        pairs += [(pointed, e) for e in [held, *candidates] if e.name != pointed.name]
+    for first, e in pairs:
+        label = fit_label((first, e))
+        say(f"fit {label}")
+        f = fit(nominal, data, (first, e), calibrated=held_fit if first is held else None, bars=bars, label=label)
+        done[label] = done_fit(f.theta, f.cfg)
+        results.append({"effect": e.name, "held": first.name, "theta": f.theta, "channels": f.channels,
+                        "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg})
+    base2, ranked2, winner2 = rank(results)
+    rows = [{"effect": r["effect"], "with": r["held"], "score": round(r["score"], 2),
+             "delta_bic": round(base2["score"] - r["score"], 2), "rss_reduction": round(r["rss_reduction"], 4),
+             "gap_after": feat_gap(r), "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}}
+            for r in ranked2]
+    final = None if winner2 is None else winner2 | {"effect": winner2["held"]}
+    return {"named": winner2["effect"] if winner2 else None, "held": winner2["held"] if winner2 else held.name,
+            "ranking": rows, "held_strength": float(f"{held_fit.theta[held.name]:.6g}"), "final": final}
 
 
 def _diagnose_frf(folder, nominal: Config | None, say, bars: bool) -> dict:
@@ -579,9 +620,25 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     ch0, H0, scale0 = residuals(nominal, data)
     fits = {}
     candidates, why_not = _candidates(nominal)
-    for eff in [None, *candidates]:
+    forms = [e for e in candidates if e.name in MODEL_FORMS]
+    candidates = [e for e in candidates if e.name not in MODEL_FORMS]
+    say(f"fit {fit_label(None)}")
+    fits[None] = fit(nominal, data, None, bars=bars)
+    done[fit_label(None)] = done_fit(fits[None].theta, fits[None].cfg)
+    pressed = outside(fits[None].theta, ranges(nominal, list(CAL_NAMES)))
+    mode = nominal.diagnosis.model_form
+    if mode == "always" or (mode == "auto" and pressed):
+        candidates = [*candidates, *forms]
+    else:
+        reason = ("diagnosis.model_form = never" if mode == "never" else
+                  "the calibration alone keeps every parameter within its plausible range: the model's form is "
+                  "not in question (diagnosis.model_form = always tries it)")
+        why_not |= {e.name: reason for e in forms}
+    say("localisation")
+    where = localise_modes(data, nominal, fits[None].cfg, fits[None].H, candidates, len(MODES))
+    for eff in candidates:
         say(f"fit {fit_label(eff)}")
-        fits[eff] = fit(nominal, data, eff, calibrated=fits.get(None), bars=bars)
+        fits[eff] = fit(nominal, data, eff, calibrated=fits[None], bars=bars)
         done[fit_label(eff)] = done_fit(fits[eff].theta, fits[eff].cfg)
     results = [{"effect": e.name if e else None, "theta": f.theta, "channels": f.channels,
                 "score": bic(f.channels, len(f.theta)), "fit": f, "cfg": f.cfg} for e, f in fits.items()]
@@ -596,7 +653,13 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     else:
         tried = candidates
     base, ranked, winner = rank(results)
-    final = winner or base
+    second = None
+    if winner is not None and winner["effect"] != SHAKER and len(candidates) > 1 and (
+            mode == "always" or outside(winner["theta"], ranges(nominal, list(CAL_NAMES)))):
+        pointed = next((e for e in candidates if e.name == where["points_at"]), None)
+        second = next_candidate(nominal, data, get(winner["effect"]), winner["fit"],
+                                [e for e in candidates if e.name != winner["effect"]], say, bars, done, pointed)
+    final = second["final"] if second and second["named"] else (winner or base)
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
     let_go = None
     if winner is None and outside(base["theta"], plausible):     # no candidate took their place: let them go
@@ -622,14 +685,34 @@ def _fit_and_report(nominal: Config, data: list[FRFData], say, bars: bool, done:
     m1 = build_plant(quiet(final["cfg"]))
     modes_after = {d.name: modes_table(undamped_frequencies(m1, d.F_N1), d.f_modes) for d in data}
     out = ranking_result(base, ranked, winner, gap, localise, ch0, modes_after)
-    out["not_tried"] += [e.name for e in implemented() if e not in tried]   # not visible in linear FRFs, or no place
+    named = [winner["effect"]] if winner else []
+    if second is not None:
+        named = [second["held"], second["named"]] if second["named"] else named
+        out["named_effect"] = named[0]          # the pair replaces a first named one it does not hold
+        out["second_round"] = {"first_named": winner["effect"], "held": second["held"],
+                               "held_strength": second["held_strength"], "named": second["named"],
+                               "ranking": second["ranking"]}
+        out["fitted_parameters"] = {k: float(f"{v:.6g}") for k, v in final["theta"].items()}
+        out["_config"] = final["cfg"]
+    out["named"] = named
+    out["model_form"] = {
+        "tried": [e.name for e in candidates if e.form],
+        "named": [n for n in named if get(n).form],
+        "ranking": [r for r in out["ranking"] if get(r["effect"]).form],
+        "mode": mode}
+    for r in out["ranking"] + (out.get("second_round") or {}).get("ranking", []):
+        r["kind"] = "model form" if get(r["effect"]).form else "effect"
+    out["where"] = where
+    out["not_tried"] += [e.name for e in implemented() + model_forms() if e not in tried]   # not visible, no place
     per_volt = any(d.per_volt for d in data)
     offset = level_offset_db(data, final["fit"].H)
     out["level_offset_db"] = round(offset, 4)
-    out["warnings"] = bound_warnings(final["theta"], next((e for e in tried if e.name == final["effect"]
-                                                           and e.name != SHAKER), None),
-                                     per_volt, nominal) + level_warning(offset, per_volt)
-    out["plausibility"] = verdict(plausible, base["theta"], final["theta"], final["effect"],
+    by_effect = [(e, {k: v for k, v in final["theta"].items() if k not in named or k == e.name})
+                 for e in tried if e.name in named and e.name != SHAKER] or [(None, final["theta"])]
+    out["warnings"] = [w for k, (e, th) in enumerate(by_effect)
+                       for w in bound_warnings(th if k == 0 else {e.name: th[e.name]}, e, per_volt, nominal)
+                       ] + level_warning(offset, per_volt)
+    out["plausibility"] = verdict(plausible, base["theta"], final["theta"], " and ".join(named) or None,
                                   [e.name for e in tried], let_go)
     out["sensors"] = {s: {"point": p, "quantity": d.quantity, "unit": d.unit} for d in data for s, p in d.points.items()}
     if per_volt:

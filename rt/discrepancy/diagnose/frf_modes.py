@@ -50,6 +50,7 @@ ZETA_MAX = 0.05                  # a peak identified with more damping than this
 class Measured(NamedTuple):
     f_hz: np.ndarray                 # (m,) identified frequencies [Hz], increasing
     shapes: np.ndarray               # (m, sensors) complex H_s at each mode's line
+    zeta: np.ndarray | None = None   # (m,) identified damping ratios [-]
 
 
 class ModelModes(NamedTuple):
@@ -75,16 +76,16 @@ def measured_modes(freq: np.ndarray, H: dict, sigma: dict) -> Measured:
         else:
             groups.append([p])
     f_peak = np.array([max(g, key=lambda p: p[2])[0] for g in groups])
-    f_out, keep = np.empty(len(groups)), np.zeros(len(groups), bool)
+    f_out, z_out, keep = np.empty(len(groups)), np.empty(len(groups)), np.zeros(len(groups), bool)
     for k, g in enumerate(groups):
         s = max(g, key=lambda p: p[2])[1]
         gaps = [abs(f_peak[j] / f_peak[k] - 1.0) for j in (k - 1, k + 1) if 0 <= j < len(groups)]
         half = min([MAX_HALF_BAND] + [0.4 * x for x in gaps])
         f_id, zeta = (v[0] for v in identify(freq, H[s], np.array([f_peak[k]]), math.inf, half))
-        f_out[k], keep[k] = f_id, bool(np.isfinite(f_id) and 0.0 < zeta < ZETA_MAX)
+        f_out[k], z_out[k], keep[k] = f_id, zeta, bool(np.isfinite(f_id) and 0.0 < zeta < ZETA_MAX)
     lines = np.searchsorted(freq, f_peak[keep]).clip(0, len(freq) - 1)
     shapes = np.array([[H[s][i] for s in H] for i in lines], complex).reshape(len(lines), len(H))
-    return Measured(f_out[keep], shapes)
+    return Measured(f_out[keep], shapes, z_out[keep])
 
 
 def model_modes(model, F_N1: float, points: list[str], n_modes: int) -> ModelModes:

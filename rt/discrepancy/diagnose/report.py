@@ -21,6 +21,7 @@ from frictionrt.rt.common.config import dumps
 from frictionrt.rt.discrepancy.diagnose.overlay import MODELS, overlay_figure
 from frictionrt.rt.discrepancy.diagnose.rrd import write_diagnosis_rrd
 from frictionrt.rt.discrepancy.diagnose.plausible import markdown
+from frictionrt.rt.discrepancy.diagnose.localise import markdown as localise_markdown
 from frictionrt.rt.discrepancy.diagnose.remainder import verdict
 from frictionrt.rt.discrepancy.diagnose.campaign import (
     BAND_HZ,
@@ -95,6 +96,8 @@ def report_md(res: dict, pngs: list[str]) -> str:
     lines = ["# Discrepancy report", "",
              f"**Named effect: {named or 'no missing effect found'}**"
              + (f" (runner-up: {res['runner_up']})" if named else ""),
+             *(["", f"**Named model form: {', '.join(res['model_form']['named']) or 'none'}**"]
+               if "model_form" in res else []),
              "", (f"Named only if its BIC is below calibration alone by more than {NAME_THRESHOLD:g}, it removes at "
                   f"least {100 * MIN_RSS_REDUCTION:g} % of its channels' residual sum of squares and its fitted "
                   f"strength is at least {100 * NESTED_TOL:g} % of its default away from nominal "
@@ -106,6 +109,7 @@ def report_md(res: dict, pngs: list[str]) -> str:
                      f"{r['gap_after']:.3f} | {json.dumps(r['fitted'])} |")
     c = res["calibration_only"]
     lines += [f"| calibration only | 0 | 0 % | {c['score']:.1f} | {c['gap_after']:.3f} | {json.dumps(c['fitted'])} |"]
+    lines += _model_form_section(res)
     if "dispersion" in res["fitted_parameters"]:
         lines += ["", dispersion_note(res["fitted_parameters"]["dispersion"])]
     lines += ["",
@@ -137,6 +141,34 @@ def report_md(res: dict, pngs: list[str]) -> str:
               "Updated model: `model.toml` (use with `frictionrt --config model.toml ...`).", ""]
     lines += [f"![{p}]({p})" for p in pngs]
     return "\n".join(lines) + "\n"
+
+def _model_form_section(res: dict) -> list[str]:
+    """report.md's model-form candidates (FRF-file input): their rows of the ranking, the second round
+    (forward selection with the first named candidate held) and the localisation table."""
+    mf = res.get("model_form")
+    if mf is None:
+        return []
+    out = ["", "## Model form", "",
+           f"Candidates of the structure's form (diagnosis.model_form = {mf['mode']}): tried "
+           f"{', '.join(mf['tried']) or 'none'}; named {', '.join(mf['named']) or 'none'}. Ranked with the effects "
+           "above by the same rules.", ""]
+    if mf["ranking"]:
+        out += ["| model-form candidate | dBIC vs calibration | RSS reduction | fitted |", "| --- | --- | --- | --- |"]
+        out += [f"| {r['effect']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | {json.dumps(r['fitted'])} |"
+                for r in mf["ranking"]]
+    sr = res.get("second_round")
+    if sr:
+        out += ["", f"Second round: each candidate fitted together with {sr['first_named']} (alone at "
+                    f"{sr['held_strength']:g}) or with the one the localisation points at, ranked against "
+                    f"{sr['first_named']} alone; named: {sr['held'] + ' and ' + sr['named'] if sr['named'] else 'none'}.",
+                "", "| candidate | with | kind | dBIC vs the first named | RSS reduction | fitted |",
+                "| --- | --- | --- | --- | --- | --- |"]
+        out += [f"| {r['effect']} | {r['with']} | {r['kind']} | {r['delta_bic']:.1f} | {100 * r['rss_reduction']:.1f} % | "
+                f"{json.dumps(r['fitted'])} |" for r in sr["ranking"]]
+    if res.get("where"):
+        out += localise_markdown(res["where"])
+    return out
+
 
 def _not_tried(res: dict) -> str:
     """The effects not tried, each with its reason where the result gives one (FRF-file input)."""

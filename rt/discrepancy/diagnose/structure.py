@@ -46,7 +46,7 @@ from scipy.optimize import least_squares
 from frictionrt.plant.impulse import accelerance_frf, identify
 from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_stiffness
 from frictionrt.rt.common.config import Config
-from frictionrt.rt.discrepancy.effects import Effect
+from frictionrt.rt.discrepancy.effects import Effect, effect_names, effects_of
 from frictionrt.rt.discrepancy.chain import hold_voltage, measure_impulse, quiet, scale_bounds, scaled
 from frictionrt.rt.discrepancy.diagnose.gauss_newton import gauss_newton_broyden, jacobian_column
 from frictionrt.rt.discrepancy.diagnose.watch import watch
@@ -233,21 +233,25 @@ def identify_modes(freq: np.ndarray, H: np.ndarray, tau: float, f_nom: np.ndarra
 
 # --- parameters -----------------------------------------------------------------------------------
 
-def struct_cfg(nominal: Config, theta: dict, effect: Effect | None) -> Config:
-    """``nominal`` with the calibration scales of ``theta`` and the effect at theta[effect.name]."""
+def struct_cfg(nominal: Config, theta: dict, effect) -> Config:
+    """``nominal`` with the calibration scales of ``theta`` and each effect of ``effect`` (``effects_of``) at
+    theta[its name]."""
     cfg = scaled(nominal, {k: theta[k] for k in CAL_FAR if k in theta})
-    if effect is not None and effect.name in theta:
-        cfg = effect.apply(cfg, float(theta[effect.name]))
+    for e in effects_of(effect):
+        if e.name in theta:
+            cfg = e.apply(cfg, float(theta[e.name]))
     return cfg
 
 
 def bounds(names, effect, nominal: Config):
     """(lower, upper) bounds of the parameters ``names``: CAL_FAR's within what the configuration accepts
-    around ``nominal`` (rt.discrepancy.chain.scale_bounds), DISPERSION's, the effect's."""
+    around ``nominal`` (rt.discrepancy.chain.scale_bounds), DISPERSION's, the effects'."""
+    eff = {e.name: e for e in effects_of(effect)}
+
     def one(k):
         if k in CAL_FAR:
             return scale_bounds(nominal, k, *CAL_FAR[k][:2])
-        return DISPERSION[:2] if k == "dispersion" else (effect.parameter.lo, effect.parameter.hi)
+        return DISPERSION[:2] if k == "dispersion" else (eff[k].parameter.lo, eff[k].parameter.hi)
     lo, hi = zip(*map(one, names))
     return np.array(lo), np.array(hi)
 
@@ -259,12 +263,21 @@ def prior(names, x) -> np.ndarray:
                      for k, v in zip(names, x) if k in CAL_FAR])
 
 
+def log_flags(names, effect) -> np.ndarray:
+    """Per parameter of ``names``: whether the optimiser moves its ln (``to_z``): the LOG_SCALE calibration
+    scales and a log-scale effect's strength (``Effect.log_scale``)."""
+    ln = {e.name for e in effects_of(effect) if e.log_scale}
+    return np.array([k in LOG_SCALE or k in ln for k in names], dtype=bool)
+
+
 def fd_steps(names, effect) -> np.ndarray:
     """Finite-difference steps of the optimiser's variables (``to_z``) of the parameters ``names``:
     CAL_FAR's (relative, i.e. ln(1 + step), for the LOG_SCALE ones), DISPERSION's, EFFECT_STEP x the effect's
-    default."""
+    default (ln(1 + EFFECT_STEP) for a log-scale effect)."""
+    eff = {e.name: e for e in effects_of(effect)}
     return np.array([math.log1p(CAL_FAR[k][3]) if k in LOG_SCALE else CAL_FAR[k][3] if k in CAL_FAR
-                     else DISPERSION[2] if k == "dispersion" else EFFECT_STEP * effect.parameter.default
+                     else DISPERSION[2] if k == "dispersion"
+                     else math.log1p(EFFECT_STEP) if eff[k].log_scale else EFFECT_STEP * eff[k].parameter.default
                      for k in names])
 
 
@@ -289,8 +302,8 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
     plant step shows them, then ``unwarp``ed); bounds and prior CAL_FAR's. ``penalty(names, x, n)``:
     residuals appended to the n frequency residuals (rt.discrepancy.diagnose.plausible.penalty)."""
     disp = ["dispersion"] if step is not None else []
-    names = ["E", *STAGE1_LOG, *disp] + ([effect.name] if effect else [])
-    log = np.array([k in LOG_SCALE for k in names])
+    names = ["E", *STAGE1_LOG, *disp] + effect_names(effect)
+    log = log_flags(names, effect)
     data = [d for d in data if d.stuck] or data
     meas = np.array([list(d.f_modes.values()) for d in data])                  # (tests, sensors, modes)
     ok = np.isfinite(meas)
@@ -306,10 +319,13 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
         return np.concatenate([r, prior(names, x)] + ([penalty(names, x, len(r))] if penalty else []))
 
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
-    x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + ([effect.parameter.default] if effect else [])
-    x0 = [1.0] + [0.0] * len(STAGE1_LOG) + [0.0] * len(disp) + ([effect.parameter.default] if effect else [])
+    effs = effects_of(effect)
+    x_scale = [0.01] + [0.1] * len(STAGE1_LOG) + [0.1] * len(disp) + [
+        1.0 if e.log_scale else e.parameter.default for e in effs]
+    x0 = [1.0] + [0.0] * len(STAGE1_LOG) + [0.0] * len(disp) + [
+        math.log(e.parameter.default) if e.log_scale else e.parameter.default for e in effs]
     h_min = np.array([1e-4] + [STAGE1_LOG_STEP] * len(STAGE1_LOG) + [1e-3] * len(disp)
-                     + ([1e-4 * effect.parameter.default] if effect else []))
+                     + [STAGE1_LOG_STEP if e.log_scale else 1e-4 * e.parameter.default for e in effs])
 
     def jac(z):
         """Forward differences: 1e-4 of E and of the effect's strength, STAGE1_LOG_STEP on ln k_t
@@ -397,7 +413,7 @@ def fit_structure(nominal: Config, data: list[ImpulseFRF], effect: Effect | None
         if effect is None and start["modal_damping"] != 1.0:   # calibration alone: from both (damping_start)
             return min((fit_structure(nominal, data, None, start=s, bars=bars) for s in (stage1, start)), key=fit_cost)
     names = ["E", "k_t", "mu", "modal_damping", "dispersion"] + ([effect.name] if effect else [])
-    log = np.array([k in LOG_SCALE for k in names])
+    log = log_flags(names, effect)
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     z = np.clip(to_z(np.array([start.get(k, 0.0 if k == "dispersion" else 1.0) for k in names]), log), lo, hi)
     steps = fd_steps(names, effect)
