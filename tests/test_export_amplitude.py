@@ -7,7 +7,6 @@ line. One log of 0.05 s (1050 ticks) and one export keep it short."""
 import dataclasses
 import json
 import platform
-import shutil
 import subprocess
 
 import numpy as np
@@ -16,6 +15,7 @@ import pytest
 from frictionrt.rt.cli import main
 from frictionrt.rt.export.cbuild import OUTPUTS
 from frictionrt.rt.log.mcap_log import read_mcap
+from tests.test_export_c import _make_check
 
 TICKS = 1050
 
@@ -36,14 +36,6 @@ def amp(tmp_path_factory):
     return log, d / "c", loop
 
 
-def _make_check(folder, tmp_path, name, **vars_):
-    """make check in a copy of the export: (exit code, ctrl_check's ok/FAIL line)."""
-    work = tmp_path / name
-    shutil.copytree(folder, work)
-    p = subprocess.run(["make", "-s", "-C", str(work), "check", *(f"{k}={v}" for k, v in vars_.items())],
-                       capture_output=True, text=True)
-    lines = [ln for ln in (p.stdout + p.stderr).splitlines() if ln.startswith(("ok:", "FAIL"))]
-    return p.returncode, (lines[-1] if lines else p.stdout + p.stderr)
 
 
 def test_an_amplitude_log_replays_bit_exact_through_the_c_exported_from_it(amp, capsys):
