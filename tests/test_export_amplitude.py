@@ -15,7 +15,7 @@ import pytest
 from frictionrt.rt.cli import main
 from frictionrt.rt.export.cbuild import OUTPUTS
 from frictionrt.rt.log.mcap_log import read_mcap
-from tests.test_export_c import _make_check
+from tests.test_export_c import _has_fma, _make_check
 
 TICKS = 1050
 
@@ -73,13 +73,6 @@ def test_golden_vectors_pass_with_either_square_root_and_the_object_calls_no_lib
     assert code == 0 and line.startswith("ok: 3150 ticks"), line
     assert "sqrt" in subprocess.run(["nm", "-u", str(tmp_path / "libm" / "frictionrt_ctrl.o")], capture_output=True,
                                     text=True).stdout   # the fallback did run
-
-
-def _has_fma() -> bool:
-    try:
-        return " fma " in open("/proc/cpuinfo").read().replace("\n", " ")
-    except OSError:
-        return False
 
 
 def test_ctrl_init_refuses_an_fma_build_of_the_amplitude_kind(amp, tmp_path):
