@@ -17,22 +17,25 @@ def element_matrices(l: float, E: float, A: float, I: float, rho: float) -> tupl
     Parameters: l [m] element length, E [Pa], A [m^2], I [m^4] second moment, rho [kg/m^3].
     Returns (K [N/m, N, N m], M [kg, kg m, kg m^2]) as 6 x 6 arrays.
     """
-    k = np.zeros((6, 6))
-    m = np.zeros((6, 6))
-    ax = [0, 3]
-    bd = [1, 2, 4, 5]
-    k[np.ix_(ax, ax)] = E * A / l * np.array([[1.0, -1.0], [-1.0, 1.0]])
-    m[np.ix_(ax, ax)] = rho * A * l / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
-    k[np.ix_(bd, bd)] = E * I / l**3 * np.array([
-        [12.0, 6 * l, -12.0, 6 * l],
-        [6 * l, 4 * l**2, -6 * l, 2 * l**2],
-        [-12.0, -6 * l, 12.0, -6 * l],
-        [6 * l, 2 * l**2, -6 * l, 4 * l**2]])
-    m[np.ix_(bd, bd)] = rho * A * l / 420.0 * np.array([
-        [156.0, 22 * l, 54.0, -13 * l],
-        [22 * l, 4 * l**2, 13 * l, -3 * l**2],
-        [54.0, 13 * l, 156.0, -22 * l],
-        [-13 * l, -3 * l**2, -22 * l, 4 * l**2]])
+    # the entries written out (no fancy-index assignment: this runs once per element in every build);
+    # each is the same product as the block form  c * [[...]]  (c the block's factor), so the same bits
+    a, b = E * A / l, E * I / l**3
+    ma, mb = rho * A * l / 6.0, rho * A * l / 420.0
+    l6, l2 = 6 * l, l**2
+    k = np.array([
+        [a * 1.0, 0.0, 0.0, a * -1.0, 0.0, 0.0],
+        [0.0, b * 12.0, b * l6, 0.0, b * -12.0, b * l6],
+        [0.0, b * l6, b * (4 * l2), 0.0, b * (-6 * l), b * (2 * l2)],
+        [a * -1.0, 0.0, 0.0, a * 1.0, 0.0, 0.0],
+        [0.0, b * -12.0, b * (-6 * l), 0.0, b * 12.0, b * (-6 * l)],
+        [0.0, b * l6, b * (2 * l2), 0.0, b * (-6 * l), b * (4 * l2)]])
+    m = np.array([
+        [ma * 2.0, 0.0, 0.0, ma * 1.0, 0.0, 0.0],
+        [0.0, mb * 156.0, mb * (22 * l), 0.0, mb * 54.0, mb * (-13 * l)],
+        [0.0, mb * (22 * l), mb * (4 * l2), 0.0, mb * (13 * l), mb * (-3 * l2)],
+        [ma * 1.0, 0.0, 0.0, ma * 2.0, 0.0, 0.0],
+        [0.0, mb * 54.0, mb * (13 * l), 0.0, mb * 156.0, mb * (-22 * l)],
+        [0.0, mb * (-13 * l), mb * (-3 * l2), 0.0, mb * (-22 * l), mb * (4 * l2)]])
     return k, m
 
 

@@ -9,6 +9,8 @@ the same kernel with the same integrator.
 """
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -151,6 +153,42 @@ def _modal_basis(K: np.ndarray, M: np.ndarray, T: np.ndarray) -> tuple[np.ndarra
     return np.sqrt(np.maximum(lam, 0.0)), T @ V
 
 
+_BASES: OrderedDict = OrderedDict()   # open_contact_basis's cache, most recent last
+_BASES_KEPT = 8
+_BASES_LOCK = threading.Lock()
+
+
+def open_contact_basis(st: Structure, cutoff_hz: float, reduced: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(omega [rad/s], Phi) of the bolted assembly with the contact open: each beam reduced by
+    Craig-Bampton (fixed-interface modes up to ``cutoff_hz``; the identity if not ``reduced``),
+    then one mass-normalised eigenbasis of the beams and the bolts' springs (``_modal_basis``).
+
+    Cached for the last few structures whose beams are the same read-only arrays
+    (``plant.structure.beam_matrices`` returns the same objects for the same beams) and whose bolts
+    and boundaries are equal: the same inputs, so the same bits; the arrays returned are read-only."""
+    key = (tuple((id(s.K), id(s.M), s.boundary.tobytes()) for s in st.subs), st.bolt_rows.tobytes(),
+           st.bolt_k.tobytes(), float(cutoff_hz), bool(reduced))
+    keep = all(not s.K.flags.writeable and not s.M.flags.writeable for s in st.subs)
+    with _BASES_LOCK:
+        hit = _BASES.get(key) if keep else None
+        if hit is not None and all(a is s.K and b is s.M for (a, b), s in zip(hit[0], st.subs)):
+            _BASES.move_to_end(key)
+            return hit[1], hit[2]
+    T = sla.block_diag(*[craig_bampton(sub.K, sub.M, sub.boundary, cutoff_hz)[0] if reduced
+                         else np.eye(sub.n) for sub in st.subs])
+    # the bolts couple the beams: one modal basis of the bolted assembly (contact open)
+    K = sla.block_diag(*[sub.K for sub in st.subs]) + st.bolt_stiffness()
+    omega, Phi = _modal_basis(K, sla.block_diag(*[sub.M for sub in st.subs]), T)
+    omega.setflags(write=False)
+    Phi.setflags(write=False)
+    if keep:
+        with _BASES_LOCK:   # the beams' arrays are held, so their ids in the key stay theirs
+            _BASES[key] = (tuple((s.K, s.M) for s in st.subs), omega, Phi)
+            while len(_BASES) > _BASES_KEPT:
+                _BASES.popitem(last=False)
+    return omega, Phi
+
+
 PERIOD_MATCH_MAX = 1.0   # omega h above which a stepped mode is not period-matched (m would fall below 0.85)
 
 
@@ -231,11 +269,7 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     check_blas()     # the design's OpenBLAS kernels and one thread (rt/common/blas.py)
     reduced = cfg.plant.reduced if reduced is None else reduced
     st = build_structure(cfg)
-    T = sla.block_diag(*[craig_bampton(sub.K, sub.M, sub.boundary, cfg.plant.cb_cutoff_hz)[0] if reduced
-                         else np.eye(sub.n) for sub in st.subs])
-    # the bolts couple the beams: one modal basis of the bolted assembly (contact open)
-    K = sla.block_diag(*[sub.K for sub in st.subs]) + st.bolt_stiffness()
-    omega, Phi = _modal_basis(K, sla.block_diag(*[sub.M for sub in st.subs]), T)
+    omega, Phi = open_contact_basis(st, cfg.plant.cb_cutoff_hz, reduced)
     # rigid-body modes of free substructures (numerically ~0): exactly 0, undamped
     omega = np.where(omega < RIGID_BODY_RAD_S, 0.0, omega)
     # modes above plant.quasi_static_hz have no inertia (docs/plant.md 2.6): the step would only

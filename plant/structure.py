@@ -181,6 +181,25 @@ def add_lumped(K: np.ndarray, M: np.ndarray, node_of, masses, rot_springs, w_spr
             K[DOFS_PER_NODE * node_of(x) + W, DOFS_PER_NODE * node_of(x) + W] += k
 
 
+@functools.lru_cache(maxsize=8)
+def beam_matrices(x_nodes: tuple[float, ...], E: float, width: float, height: float, rho: float,
+                  masses: tuple, rot_springs: tuple, w_springs: tuple, free: tuple[int, ...]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """K, M of one beam meshed at ``x_nodes`` [m] (``assemble_beam``) with its lumped masses and
+    springs (``add_lumped``: (x, m), (x, compliance), (x, k) tuples) on its free DOFs ``free``
+    (indices into the 3 per node). Read-only and cached by these arguments: a design that changes
+    other parameters (the contact's, the damping: a fit's Jacobian columns) gets the same arrays,
+    and ``plant.model.build_plant`` then reuses their reduction."""
+    x = np.array(x_nodes)
+    K, M = assemble_beam(x, E, width, height, rho)
+    add_lumped(K, M, lambda xq: int(np.argmin(np.abs(x - xq))), masses, rot_springs, w_springs)
+    f = np.array(free, dtype=np.int64)
+    K, M = K[np.ix_(f, f)], M[np.ix_(f, f)]
+    K.setflags(write=False)
+    M.setflags(write=False)
+    return K, M
+
+
 def build_structure(cfg: Config) -> Structure:
     """Mesh every beam, assemble its K and M, and build the interface kinematics."""
     p = cfg.plant
@@ -199,28 +218,29 @@ def build_structure(cfg: Config) -> Structure:
         if in_itf:  # a pair between nodes moves with its element's two nodes: they are boundary too
             between = [element_of(x_nodes, x) for x in x_pairs if not on_node(x_nodes, x)]
             full_nodes += [float(x_nodes[e + k]) for e in between for k in (0, 1)]
-        K, M = assemble_beam(x_nodes, b.E, b.width_m, b.height_m, b.rho)
 
         def node_of(x):
             return int(np.argmin(np.abs(x_nodes - x)))
 
-        add_lumped(K, M, node_of, [(pt.x_m, pt.mass_kg) for pt in p.points if pt.beam == b.name]
-                   + [(s.x_m, s.mass_kg + (cfg.actuator.moving_mass_kg if s.adaptive else 0.0))
-                      for s in screws if in_itf and b.name == itf.upper],
-                   [(c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name],
-                   [(c.x_m, 1.0 / c.trans_compliance_m_per_N) for c in p.clamps
-                    if c.beam == b.name and c.trans_compliance_m_per_N > 0]
-                   + [(pt.x_m, pt.stiffness_N_m) for pt in p.points if pt.beam == b.name])
         fixed = {DOFS_PER_NODE * node_of(c.x_m) + d for c in p.clamps if c.beam == b.name
                  for d in (U,) + ((W,) if c.trans_compliance_m_per_N == 0 else ())
                  + ((THETA,) if c.rot_compliance_rad_per_Nm == 0 else ())}
-        free = np.array([d for d in range(K.shape[0]) if d not in fixed], dtype=np.int64)
+        free = np.array([d for d in range(DOFS_PER_NODE * len(x_nodes)) if d not in fixed], dtype=np.int64)
+        K, M = beam_matrices(
+            tuple(x_nodes.tolist()), b.E, b.width_m, b.height_m, b.rho,
+            tuple([(pt.x_m, pt.mass_kg) for pt in p.points if pt.beam == b.name]
+                  + [(s.x_m, s.mass_kg + (cfg.actuator.moving_mass_kg if s.adaptive else 0.0))
+                     for s in screws if in_itf and b.name == itf.upper]),
+            tuple((c.x_m, c.rot_compliance_rad_per_Nm) for c in p.clamps if c.beam == b.name),
+            tuple([(c.x_m, 1.0 / c.trans_compliance_m_per_N) for c in p.clamps
+                   if c.beam == b.name and c.trans_compliance_m_per_N > 0]
+                  + [(pt.x_m, pt.stiffness_N_m) for pt in p.points if pt.beam == b.name]),
+            tuple(free.tolist()))
         pos = {d: k for k, d in enumerate(free)}
         bset = {DOFS_PER_NODE * node_of(x) + c for x in full_nodes for c in (U, W, THETA)}
         bset |= {DOFS_PER_NODE * node_of(x) + W for x in w_nodes}
         boundary = np.array(sorted(pos[d] for d in bset if d in pos), dtype=np.int64)
-        subs.append(Substructure(b, x_nodes, free, K[np.ix_(free, free)], M[np.ix_(free, free)],
-                                 boundary, offset))
+        subs.append(Substructure(b, x_nodes, free, K, M, boundary, offset))
         offset += len(free)
     by_name = {s.beam.name: s for s in subs}
     n = offset
@@ -228,13 +248,9 @@ def build_structure(cfg: Config) -> Structure:
     def tangential_row(x):
         return interface_rows(cfg, subs, x)[1]
 
-    def normal_row(x):
-        return interface_rows(cfg, subs, x)[0]
-
     gap_rows = np.zeros((2 * len(x_pairs), n))
     for j, x in enumerate(x_pairs):
-        gap_rows[2 * j] = normal_row(x)
-        gap_rows[2 * j + 1] = tangential_row(x)
+        gap_rows[2 * j], gap_rows[2 * j + 1] = interface_rows(cfg, subs, x)
 
     point_rows = np.zeros((len(p.points), n))
     for i, pt in enumerate(p.points):
