@@ -263,11 +263,34 @@ def alpha_period_matched(omega: np.ndarray, c: np.ndarray, zeta: float, dyn: np.
     return m_step, c_step
 
 
+_PLANTS: OrderedDict = OrderedDict()   # build_plant's last models by configuration, most recent last
+_PLANTS_KEPT = 4
+
+
 def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
-    """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``)."""
+    """Build the plant from the configuration (``reduced`` overrides ``cfg.plant.reduced``).
+
+    A pure function of ``cfg`` and ``reduced``: the last few models are kept by the configuration's
+    repr and returned again for an equal one (every array of a model is read-only)."""
     check_codegen()  # the kernels' fixed code-generation target (rt/common/codegen.py)
     check_blas()     # the design's OpenBLAS kernels and one thread (rt/common/blas.py)
     reduced = cfg.plant.reduced if reduced is None else reduced
+    key = (repr(cfg), bool(reduced))
+    with _BASES_LOCK:
+        model = _PLANTS.get(key)
+        if model is not None:
+            _PLANTS.move_to_end(key)
+            return model
+    model = _build_plant(cfg, reduced)
+    with _BASES_LOCK:
+        _PLANTS[key] = model
+        while len(_PLANTS) > _PLANTS_KEPT:
+            _PLANTS.popitem(last=False)
+    return model
+
+
+def _build_plant(cfg: Config, reduced: bool) -> PlantModel:
+    """build_plant's work, uncached."""
     st = build_structure(cfg)
     omega, Phi = open_contact_basis(st, cfg.plant.cb_cutoff_hz, reduced)
     # rigid-body modes of free substructures (numerically ~0): exactly 0, undamped
@@ -320,7 +343,7 @@ def build_plant(cfg: Config, reduced: bool | None = None) -> PlantModel:
     if cfg.plant.period_match_stuck and cfg.plant.period_match:   # docs/plant.md 2.9
         params = stuck_period_matched(model, stuck_reference(cfg, reduced))[0]
         model = PlantModel(cfg, st, params, model.Phi, model.omega, reduced)
-    for a in model.params:
+    for a in list(model.params) + [model.Phi, model.omega] + [getattr(st, f) for f in st.__dataclass_fields__]:
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
     return model

@@ -308,15 +308,21 @@ def fit_frequencies(nominal: Config, data: list[ImpulseFRF], effect: Effect | No
     meas = np.array([list(d.f_modes.values()) for d in data])                  # (tests, sensors, modes)
     ok = np.isfinite(meas)
 
+    last = {}   # the last point's residuals: least_squares asks for the Jacobian where it just evaluated
+
     def res(z):
-        x = from_z(z, log)
-        th = dict(zip(names, x))
-        model = build_plant(quiet(struct_cfg(nominal, th, effect)))
-        fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
-        if disp:
-            fm = unwarp(fm, th["dispersion"], step)
-        r = ((meas - fm) / meas / SIGMA_F)[ok]
-        return np.concatenate([r, prior(names, x)] + ([penalty(names, x, len(r))] if penalty else []))
+        key = np.asarray(z, dtype=float).tobytes()
+        if key not in last:
+            x = from_z(z, log)
+            th = dict(zip(names, x))
+            model = build_plant(quiet(struct_cfg(nominal, th, effect)))
+            fm = np.array([frequencies(model, d.F_N1) for d in data])[:, None, :meas.shape[2]]
+            if disp:
+                fm = unwarp(fm, th["dispersion"], step)
+            r = ((meas - fm) / meas / SIGMA_F)[ok]
+            last.clear()
+            last[key] = np.concatenate([r, prior(names, x)] + ([penalty(names, x, len(r))] if penalty else []))
+        return last[key].copy()
 
     lo, hi = (to_z(b, log) for b in bounds(names, effect, nominal))
     effs = effects_of(effect)
