@@ -10,12 +10,22 @@ command-line, logging and experiment modules are left out, so editing them does 
 recompile. ``configure`` must run before the first ``numba.njit(cache=True)`` decorator
 executes; ``frictionrt.rt.common``'s ``__init__`` calls it, and every package imports ``frictionrt.rt.common``
 first. A user's own NUMBA_CACHE_DIR is respected (and then invalidation is theirs to manage).
+
+Numba keeps no lock between processes: two that need the same uncached kernel at once (test workers,
+``reproduce``'s and ``diagnose``'s process pools) each compile it in full. ``configure`` therefore
+also puts a file lock around each cached kernel's compile (``install_compile_lock``): the second
+process waits for the first and then loads the machine code from the cache.
 """
 from __future__ import annotations
 
 import hashlib
 import os
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:      # not POSIX: no lock between processes (each compiles for itself, as numba does)
+    fcntl = None
 
 import numba
 
@@ -52,7 +62,51 @@ def cache_dir() -> Path:
 
 
 def configure() -> None:
-    """Point numba's cache at ``cache_dir()`` unless NUMBA_CACHE_DIR is set."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
+    """Point numba's cache at ``cache_dir()`` unless NUMBA_CACHE_DIR is set; lock compiles between
+    processes (``install_compile_lock``)."""
+    if not os.environ.get("NUMBA_CACHE_DIR"):
+        numba.config.CACHE_DIR = str(cache_dir())
+    install_compile_lock()
+
+
+def lock_path(py_func) -> Path:
+    """The lock file of a kernel's compile: ``locks/<module>.<qualname>.lock`` in numba's cache folder."""
+    folder = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else cache_dir()
+    name = "".join(c if c.isalnum() or c in "._-" else "_" for c in f"{py_func.__module__}.{py_func.__qualname__}")
+    return folder / "locks" / f"{name}.lock"
+
+
+def install_compile_lock() -> None:
+    """Wrap ``numba.core.dispatcher.Dispatcher.compile`` so that a kernel with ``cache=True`` compiles
+    under an exclusive ``flock`` on its ``lock_path`` (taken inside numba's own compiler lock): a process
+    that finds another compiling it waits, then numba's compile finds the other's result in the disk
+    cache and loads it. Signatures already in memory and kernels without a disk cache pass without the
+    lock. A kernel's callees lock in turn while it holds its own lock; call graphs have no cycles, so
+    two processes cannot wait for each other. Without fcntl, or where the lock file cannot be opened,
+    numba compiles as it would alone. Idempotent."""
+    from numba.core import dispatcher, sigutils
+    from numba.core.caching import NullCache
+    from numba.core.compiler_lock import global_compiler_lock
+
+    original = dispatcher.Dispatcher.compile
+    if fcntl is None or getattr(original, "frictionrt_lock", False):
         return
-    numba.config.CACHE_DIR = str(cache_dir())
+
+    def compile(self, sig):
+        if isinstance(self._cache, NullCache):
+            return original(self, sig)
+        with global_compiler_lock:
+            if self.overloads.get(tuple(sigutils.normalize_signature(sig)[0])) is not None:
+                return original(self, sig)
+            path = lock_path(self.py_func)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fh = open(path, "a")
+            except OSError:
+                return original(self, sig)
+            with fh:
+                fcntl.flock(fh, fcntl.LOCK_EX)
+                return original(self, sig)   # closing the file releases the lock
+
+    compile.frictionrt_lock = True
+    dispatcher.Dispatcher.compile = compile
