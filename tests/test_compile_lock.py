@@ -8,6 +8,10 @@ import sys
 import textwrap
 import time
 
+from numba import types
+
+from frictionrt.rt.common.jit_cache import lock_path
+
 KERNEL = textwrap.dedent("""
     import frictionrt.rt.common   # installs the lock (before any kernel compiles)
     import numba
@@ -18,8 +22,9 @@ KERNEL = textwrap.dedent("""
 """)
 
 RUN = textwrap.dedent("""
-    import sys
     import lockmod
+    import numba
+    numba.njit(lambda x: x * 2.0)(1.0)   # numba's first compile (LLVM's set-up), uncached: no lock
     print("ready", flush=True)
     y = lockmod.f(1.0)
     s = lockmod.f.stats
@@ -30,7 +35,10 @@ RUN = textwrap.dedent("""
 def test_a_process_waits_for_the_lock_and_one_of_two_compiles(tmp_path):
     (tmp_path / "lockmod.py").write_text(KERNEL)
     cache = tmp_path / "cache"
-    lock = cache / "locks" / "lockmod.f.lock"   # jit_cache.lock_path's name: <module>.<qualname>.lock
+    def f(x):   # the kernel's name as the subprocesses see it
+        pass
+    f.__module__, f.__qualname__ = "lockmod", "f"
+    lock = lock_path(f, (types.float64,), folder=cache)
     lock.parent.mkdir(parents=True)
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache),
                PYTHONPATH=os.pathsep.join([str(tmp_path)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
@@ -40,7 +48,7 @@ def test_a_process_waits_for_the_lock_and_one_of_two_compiles(tmp_path):
                  for _ in range(2)]
         for p in procs:
             assert p.stdout.readline().strip() == "ready"
-        time.sleep(2.0)                           # f's compile takes ~0.1 s: nothing but the lock holds them
+        time.sleep(3.0)                           # f's compile then takes ~0.1 s: nothing but the lock holds them
         assert [p.poll() for p in procs] == [None, None]
     outs = [p.communicate(timeout=120)[0].split() for p in procs]
     assert all(p.returncode == 0 for p in procs)

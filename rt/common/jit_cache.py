@@ -69,16 +69,20 @@ def configure() -> None:
     install_compile_lock()
 
 
-def lock_path(py_func) -> Path:
-    """The lock file of a kernel's compile: ``locks/<module>.<qualname>.lock`` in numba's cache folder."""
-    folder = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else cache_dir()
+def lock_path(py_func, args: tuple, folder: Path | None = None) -> Path:
+    """The lock file of a kernel's compile for the argument types ``args``:
+    ``locks/<module>.<qualname>-<sha256 of the types, 12 hex>.lock`` in numba's cache folder (one per
+    signature, so that two processes compiling a kernel for different types do not wait for each other);
+    ``folder`` overrides the cache folder."""
+    if folder is None:
+        folder = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else cache_dir()
     name = "".join(c if c.isalnum() or c in "._-" else "_" for c in f"{py_func.__module__}.{py_func.__qualname__}")
-    return folder / "locks" / f"{name}.lock"
+    return folder / "locks" / f"{name}-{hashlib.sha256(str(tuple(args)).encode()).hexdigest()[:12]}.lock"
 
 
 def install_compile_lock() -> None:
     """Wrap ``numba.core.dispatcher.Dispatcher.compile`` so that a kernel with ``cache=True`` compiles
-    under an exclusive ``flock`` on its ``lock_path`` (taken inside numba's own compiler lock): a process
+    under an exclusive ``flock`` on its ``lock_path`` for the signature (taken inside numba's own compiler lock): a process
     that finds another compiling it waits, then numba's compile finds the other's result in the disk
     cache and loads it. Signatures already in memory and kernels without a disk cache pass without the
     lock. A kernel's callees lock in turn while it holds its own lock; call graphs have no cycles, so
@@ -96,9 +100,10 @@ def install_compile_lock() -> None:
         if isinstance(self._cache, NullCache):
             return original(self, sig)
         with global_compiler_lock:
-            if self.overloads.get(tuple(sigutils.normalize_signature(sig)[0])) is not None:
+            args = tuple(sigutils.normalize_signature(sig)[0])
+            if self.overloads.get(args) is not None:
                 return original(self, sig)
-            path = lock_path(self.py_func)
+            path = lock_path(self.py_func, args)
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 fh = open(path, "a")
