@@ -14,6 +14,9 @@ volt (10 N/V, three F_N1 tests), the nominal without a shaker (benchmarks.shaker
 "catalogue"): the named effect, the armature mass and Bl^2 / R against the truth; done when the shaker is
 named and both lie within 20 %.
 
+Case c-truth (``--case c-truth``, the same truth arguments): the truth's modes 3 and 4 by the harmonic
+balance over force amplitudes 0.02-300 N, peak line and |H|: whether its joint softens at the levels tested.
+
 Case (c): case (b)'s truth plus micro-slip (plant.interface.iwan_spread ``--spread``, default the effect's
 default strength 0.5), stepped-sine level tests of the nonlinear plant at ``--force-levels`` [N]
 (rt.discrepancy.rig.levels; ``--folder``: an existing folder of them, else a new temporary one),
@@ -127,15 +130,44 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
             "form_second_round": form["second_round"],
             "named_effect": res["named_effect"], "ranking": res["ranking"],
             "E_true": round(E_true, 5), "E_linear": res["linear"]["fitted"]["E"],
-            "E_nonlinear": res["nonlinear"]["fitted"]["E"], "nonlinear": res["nonlinear"],
+            "E_nonlinear": res["nonlinear"]["fitted"]["E"], "linear": res["linear"], "nonlinear": res["nonlinear"],
+            "linear_nominal_form": form.get("linear_nominal_form"),
             "calibration_gap": res["calibration_gap"], "prediction": res["prediction"],
             "top": top, "top_ratio": round(ratio, 3), "softening_mode": res["softening_mode"],
             "done": res["named_effect"] == "micro_slip" and ratio >= 3.0, "cpu_s": round(cpu, 1)}
 
 
+def truth_peaks(clamp: float, joint: float, seed: int, spread: float = 0.5, clamp_heights: float = 15.0,
+                amplitudes=(0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 10.0, 30.0, 100.0, 300.0), modes=(3, 4)) -> dict:
+    """Case (c)'s truth by the harmonic balance (df) at the excitation point, F_N1 held at 100 N: per mode of
+    ``modes`` its stuck frequency [Hz] and, per force amplitude [N], the peak line [Hz] and |H| [(m/s^2)/N] on
+    81 lines from -15 % to +5 % of it: where the truth's joint softens, before any level test is run."""
+    from frictionrt.plant.harmonic_frf import harmonic_system
+    from frictionrt.rt.discrepancy.chain import hold_voltage, stack_force
+    from frictionrt.rt.discrepancy.diagnose.random_level import level_accelerances
+    from frictionrt.rt.discrepancy.rig.campaign import true_structure
+    nominal = with_sets(Config(), [f"diagnosis.uncertainty.clamp_heights={clamp_heights!r}"])
+    base = get("micro_slip").apply(get("clamp_compliance").apply(nominal, clamp), spread)
+    true = true_structure(base, "joint_compliance", joint, np.random.default_rng(seed))
+    m = build_plant(true)
+    F_N1 = stack_force(true, hold_voltage(true, 100.0))
+    f = stuck_frequencies_hz(m, preloaded_pairs(m, F_N1))
+    system = harmonic_system(m, {"a": true.plant.excitation_point}, F_N1=F_N1)
+    out = {"clamp": clamp, "joint": joint, "spread": spread, "seed": seed, "modes": {}}
+    for j in modes:
+        lines = np.linspace(0.85 * f[j - 1], 1.05 * f[j - 1], 81)
+        rows = []
+        for a in amplitudes:
+            h = np.abs(level_accelerances(system, a, 1.0, lines, method="df", branches=False).H["a"])
+            k = int(np.nanargmax(h))
+            rows.append([a, round(float(lines[k]), 1), float(f"{h[k]:.4g}")])
+        out["modes"][j] = {"stuck_hz": round(float(f[j - 1]), 2), "amplitude_peak_hz_H": rows}
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--case", choices=("a", "b", "c"), default="b")
+    ap.add_argument("--case", choices=("a", "b", "c", "c-truth"), default="b")
     ap.add_argument("--force-levels", type=float, nargs="+", default=[0.5, 1.0, 2.0, 5.0, 10.0, 20.0])
     ap.add_argument("--spread", type=float, default=0.5)
     ap.add_argument("--folder", default=None)
@@ -149,6 +181,8 @@ def main(argv=None) -> int:
     seed = a.seed if a.seed is not None else (0 if a.case == "a" else 5)
     if a.case == "a":
         out = case_a(seed)
+    elif a.case == "c-truth":
+        out = truth_peaks(a.clamp, a.joint, seed, a.spread, a.clamp_heights)
     elif a.case == "c":
         out = case_c(a.clamp, a.joint, a.force_levels, seed, a.clamp_heights, a.spread, a.folder)
     else:

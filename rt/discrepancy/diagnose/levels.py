@@ -334,7 +334,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N on {lines} lines of the modes' bands")
     lin = fit(nominal, db, None, bars=bars, label="linear")
     done["linear"] = done_fit(lin.theta, lin.cfg)
-    form = fit_form(nominal, db, lin, say, bars, done)
+    form = fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done)
     lin_nominal_form = None
     if form["named"]:        # both level models from the corrected form (rt.discrepancy.diagnose.levels_form)
         lin_nominal_form, nominal = lin, form["nominal"]

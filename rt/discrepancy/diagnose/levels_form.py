@@ -5,12 +5,15 @@ A joint that slips softens and damps its modes, so at the calibration levels the
 k_t and the modal damping against their plausible ranges without anything wrong in the model's form; a
 uniform E far from its material value is not what slip does (slip moves the joint's modes, not every
 mode alike). So the model-form candidates (rt.discrepancy.effects, ``Effect.form``) are tried where the
-linear calibration at the calibration levels presses E (``FORM_TRIGGER``) against its plausible range
+linear calibration at the lowest calibration level presses E (``FORM_TRIGGER``) against its plausible range
 (``diagnosis.model_form`` "auto"; "always": tried; "never": not), on data with at least ``MIN_MODES``
 measured modes (a form is told from the pattern of several modes' shifts).
 
-Tried as for FRF files (rt.discrepancy.diagnose.frf), on the same lines and weights as the level models
-(the modes' bands of the calibration levels, levels.mode_bands): the localisation
+Tried as for FRF files (rt.discrepancy.diagnose.frf), on the lowest calibration level's lines with the level
+models' weights (its modes' bands, levels.mode_bands): the level where the joint slips least, so that its
+linear calibration sees the stuck structure's form rather than slip (a joint that slips at the calibration
+levels softens and damps its modes, which a linear fit takes for a softer joint or an added mass); the
+localisation
 (rt.discrepancy.diagnose.localise), each candidate fitted jointly with E, k_t and the modal damping
 (frf.fit), ranked by BIC (rt.discrepancy.diagnose.campaign.rank); a candidate named while a calibration
 scale is still pressed (or "always"), each other candidate is fitted with it and with the candidate the
@@ -72,18 +75,21 @@ def why_not(nominal: Config, data: list[FRFData], linear: Fit) -> str | None:
     return None
 
 
-def fit_form(nominal: Config, data: list[FRFData], linear: Fit, say, bars: bool, done: dict) -> dict:
-    """The form stage (module docstring) on the calibration levels' ``data`` (the modes' bands), from the linear
-    calibration ``linear`` there: {"tried": names, "named": names, "strengths": {name: fitted strength},
+def fit_form(nominal: Config, data: list[FRFData], say, bars: bool, done: dict) -> dict:
+    """The form stage (module docstring) on ``data``, the lowest calibration level's tests (the modes' bands),
+    from the linear calibration there (fitted here, "model form: calibration only" in ``done``): {"tried": names, "named": names, "strengths": {name: fitted strength},
     "ranking": rows, "second_round": rows or None, "points_at", "mode", "reason": why not tried or None,
     "nominal": the corrected nominal (``nominal`` itself where nothing is named)}. Each fit also into ``done``."""
     mode = nominal.diagnosis.model_form
+    say("model form at the lowest calibration level: calibration only")
+    linear = fit(nominal, data, None, bars=bars, label="model form: calibration only")
+    done["model form: calibration only"] = done_fit(linear.theta, linear.cfg)
     out = {"tried": [], "named": [], "strengths": {}, "ranking": [], "second_round": None, "points_at": None,
            "mode": mode, "reason": why_not(nominal, data, linear), "nominal": nominal}
     if out["reason"] is not None:
         return out
     candidates = form_candidates(nominal)
-    say("model form at the calibration levels: localisation")
+    say("model form at the lowest calibration level: localisation")
     where = localise(data, nominal, linear.cfg, linear.H, candidates, len(MODES))
     results = [{"effect": None, "theta": linear.theta, "channels": linear.channels,
                 "score": bic(linear.channels, len(linear.theta)), "fit": linear}]
