@@ -6,7 +6,7 @@ with the nominal model; the same with micro-slip at several excitation levels; a
                                           [--levels 40 100 300] [--seed 5] [--json OUT]
     python -m benchmarks.model_form_cases --case a [--seed 0]
     python -m benchmarks.model_form_cases --case c [--force-levels 0.5 1 2 5 10 20] [--spread 0.5]
-                                          [--folder DIR] [--seed 5]
+                                          [--band 50 1200] [--folder DIR] [--seed 5]
 
 Case (a): the default structure, the rig's truth a voltage-driven shaker at the drive point with the
 catalogue's parameters (armature 0.1 kg, Bl 10 N/A, R 1.5 ohm: Bl^2 / R = 66.7 N s/m), FRF files per drive
@@ -104,7 +104,7 @@ def case_a(seed: int) -> dict:
 
 
 def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: float = 15.0, spread: float = 0.5,
-           folder: str | None = None) -> dict:
+           folder: str | None = None, band_hz=(50.0, 1200.0)) -> dict:
     from frictionrt.rt.discrepancy.diagnose.levels import diagnose_levels
     from frictionrt.rt.discrepancy.rig.levels import make_level_campaign
     nominal = with_sets(Config(), [f"diagnosis.uncertainty.clamp_heights={clamp_heights!r}"])
@@ -113,7 +113,8 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
     if not d.exists() or not any(d.iterdir()):
         t = time.perf_counter()
         base = get("micro_slip").apply(get("clamp_compliance").apply(nominal, clamp), spread)
-        make_level_campaign(d, "joint_compliance", joint, seed=seed, cfg=base, force_levels_n=tuple(force_levels))
+        make_level_campaign(d, "joint_compliance", joint, seed=seed, cfg=base, force_levels_n=tuple(force_levels),
+                            band_hz=tuple(band_hz))
         rig_s = round(time.perf_counter() - t, 1)
     E_true = scatter_sets(np.random.default_rng(seed))["E"]
     levels = sorted(force_levels)
@@ -124,6 +125,7 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
     form = res["model_form"]
     ratio = top["gap_linear_db"] / top["gap_nonlinear_db"] if top["gap_nonlinear_db"] > 0 else math.inf
     return {"clamp_true": clamp, "joint_true": joint, "spread_true": spread, "force_levels": levels, "seed": seed,
+            "band_hz": list(band_hz),
             "folder": str(d), "rig_wall_s": rig_s,
             "form_named": form["named"], "form_strengths": form["strengths"], "form_reason": form["reason"],
             "form_points_at": form["points_at"], "form_ranking": form["ranking"],
@@ -170,6 +172,7 @@ def main(argv=None) -> int:
     ap.add_argument("--case", choices=("a", "b", "c", "c-truth"), default="b")
     ap.add_argument("--force-levels", type=float, nargs="+", default=[0.5, 1.0, 2.0, 5.0, 10.0, 20.0])
     ap.add_argument("--spread", type=float, default=0.5)
+    ap.add_argument("--band", type=float, nargs=2, default=[50.0, 1200.0], help="case c: the level tests' band [Hz]")
     ap.add_argument("--folder", default=None)
     ap.add_argument("--clamp", type=float, default=3e-4)
     ap.add_argument("--joint", type=float, default=0.003)
@@ -184,7 +187,7 @@ def main(argv=None) -> int:
     elif a.case == "c-truth":
         out = truth_peaks(a.clamp, a.joint, seed, a.spread, a.clamp_heights)
     elif a.case == "c":
-        out = case_c(a.clamp, a.joint, a.force_levels, seed, a.clamp_heights, a.spread, a.folder)
+        out = case_c(a.clamp, a.joint, a.force_levels, seed, a.clamp_heights, a.spread, a.folder, a.band)
     else:
         out = case_b(a.clamp, a.joint, a.levels, seed, a.clamp_heights)
     text = json.dumps(out, indent=1)

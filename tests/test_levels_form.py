@@ -38,6 +38,8 @@ def test_the_form_is_tried_where_E_is_pressed_on_enough_modes(mode, E, n_modes, 
     assert (reason is None) == tried, reason
     if not tried:
         assert {"auto": "E within", "never": "never"}.get(mode, "") in reason or "measured mode" in reason
+    # without the linear calibration only the reasons that need none: the fit is not run where they hold
+    assert (why_not(nominal, _data(n_modes)) is None) == (mode != "never" and n_modes >= MIN_MODES)
 
 
 def test_the_named_forms_are_held_at_their_strengths():

@@ -59,18 +59,21 @@ def corrected(nominal: Config, strengths: dict[str, float]) -> Config:
     return cfg
 
 
-def why_not(nominal: Config, data: list[FRFData], linear: Fit) -> str | None:
-    """Why the form is not tried (module docstring), or None where it is."""
+def why_not(nominal: Config, data: list[FRFData], linear: Fit | None = None) -> str | None:
+    """Why the form is not tried (module docstring), or None where it is; without the linear calibration
+    ``linear`` only the reasons that need none (the mode, too few measured modes)."""
     mode = nominal.diagnosis.model_form
     if mode == "never":
         return "diagnosis.model_form = never"
     n_modes = len(data[0].modes_hz) if data else 0
     if n_modes < MIN_MODES:
-        return (f"{n_modes} measured mode(s) at the calibration levels: the form is told from the pattern of "
+        return (f"{n_modes} measured mode(s) at the lowest calibration level: the form is told from the pattern of "
                 f"{MIN_MODES} modes' shifts or more")
+    if linear is None:
+        return None
     pressed = [o for o in outside({k: linear.theta[k] for k in FORM_TRIGGER}, ranges(nominal, list(FORM_TRIGGER)))]
     if mode == "auto" and not pressed:
-        return ("the linear calibration at the calibration levels keeps " + ", ".join(FORM_TRIGGER) + " within its "
+        return ("the linear calibration at the lowest calibration level keeps " + ", ".join(FORM_TRIGGER) + " within its "
                 "plausible range: the model's form is not in question (diagnosis.model_form = always tries it)")
     return None
 
@@ -81,11 +84,14 @@ def fit_form(nominal: Config, data: list[FRFData], say, bars: bool, done: dict) 
     "ranking": rows, "second_round": rows or None, "points_at", "mode", "reason": why not tried or None,
     "nominal": the corrected nominal (``nominal`` itself where nothing is named)}. Each fit also into ``done``."""
     mode = nominal.diagnosis.model_form
-    say("model form at the lowest calibration level: calibration only")
-    linear = fit(nominal, data, None, bars=bars, label="model form: calibration only")
-    done["model form: calibration only"] = done_fit(linear.theta, linear.cfg)
+    reason, linear = why_not(nominal, data), None
+    if reason is None:       # the linear calibration decides whether E is pressed
+        say("model form at the lowest calibration level: calibration only")
+        linear = fit(nominal, data, None, bars=bars, label="model form: calibration only")
+        done["model form: calibration only"] = done_fit(linear.theta, linear.cfg)
+        reason = why_not(nominal, data, linear)
     out = {"tried": [], "named": [], "strengths": {}, "ranking": [], "second_round": None, "points_at": None,
-           "mode": mode, "reason": why_not(nominal, data, linear), "nominal": nominal}
+           "mode": mode, "reason": reason, "nominal": nominal}
     if out["reason"] is not None:
         return out
     candidates = form_candidates(nominal)
