@@ -57,3 +57,13 @@ def test_the_form_candidates_are_those_that_apply():
                        "attached_spring"]
     bare = [e.name for e in form_candidates(load(BARE_BEAM))]
     assert "joint_compliance" not in bare and "clamp_compliance" in bare    # no interface: no joint to soften
+
+
+def test_the_report_says_what_the_form_stage_did():
+    from frictionrt.rt.discrepancy.diagnose.levels_report import form_line
+    assert form_line({}) == "model form: not tried"
+    assert form_line({"model_form": {"reason": "diagnosis.model_form = never"}}).endswith("(diagnosis.model_form = never)")
+    assert form_line({"model_form": {"reason": None, "named": [], "tried": ["clamp_compliance"]}}) == \
+        "model form: nothing named of clamp_compliance"
+    named = {"reason": None, "named": ["joint_compliance"], "strengths": {"joint_compliance": 0.003}, "tried": []}
+    assert form_line({"model_form": named}) == "model form named and held in both level models: joint_compliance = 0.003"

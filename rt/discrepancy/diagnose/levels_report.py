@@ -36,7 +36,9 @@ def summary(res: dict) -> str:
 
 def form_line(res: dict) -> str:
     """The model form at the calibration levels (rt.discrepancy.diagnose.levels_form): named and held, or why not."""
-    f = res.get("model_form") or {}
+    f = res.get("model_form")
+    if not f:
+        return "model form: not tried"
     if f.get("reason"):
         return f"model form: not tried ({f['reason']})"
     if not f.get("named"):
