@@ -24,6 +24,8 @@ default strength 0.5), stepped-sine level tests of the nonlinear plant at ``--fo
 (rt.discrepancy.diagnose.levels_form), the harmonic balance's named effect, and the top level's gap in the
 softening band, linear (with the form held, and of the nominal form) against the harmonic balance; done
 when micro_slip is named and the top level is predicted at least 3x closer than by the linear model.
+``--form-given``: the nominal holds the truth's clamp and joint (diagnosis.model_form = never), the second
+half of the case alone.
 
 Case (b): the clamp's rotational compliance ``--clamp`` [rad/(N m)] and the joint's stiffness
 ``--joint`` (x the contact model's k_n_area, k_t_area) in the truth (its scatter and FRF noise of
@@ -104,7 +106,7 @@ def case_a(seed: int) -> dict:
 
 
 def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: float = 15.0, spread: float = 0.5,
-           folder: str | None = None, band_hz=(50.0, 1200.0)) -> dict:
+           folder: str | None = None, band_hz=(50.0, 1200.0), form_given: bool = False) -> dict:
     from frictionrt.rt.discrepancy.diagnose.levels import diagnose_levels
     from frictionrt.rt.discrepancy.rig.levels import make_level_campaign
     nominal = with_sets(Config(), [f"diagnosis.uncertainty.clamp_heights={clamp_heights!r}"])
@@ -118,6 +120,8 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
         rig_s = round(time.perf_counter() - t, 1)
     E_true = scatter_sets(np.random.default_rng(seed))["E"]
     levels = sorted(force_levels)
+    if form_given:           # the second half alone: the nominal told the truth's form, the form stage off
+        nominal = with_sets(truth(clamp, joint, nominal), ["diagnosis.model_form=never"])
     t = time.process_time()
     res = diagnose_levels(d, levels[:2], nominal, progress=lambda m: print(m, flush=True))
     cpu = time.process_time() - t
@@ -125,7 +129,7 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
     form = res["model_form"]
     ratio = top["gap_linear_db"] / top["gap_nonlinear_db"] if top["gap_nonlinear_db"] > 0 else math.inf
     return {"clamp_true": clamp, "joint_true": joint, "spread_true": spread, "force_levels": levels, "seed": seed,
-            "band_hz": list(band_hz),
+            "band_hz": list(band_hz), "form_given": form_given,
             "folder": str(d), "rig_wall_s": rig_s,
             "form_named": form["named"], "form_strengths": form["strengths"], "form_reason": form["reason"],
             "form_points_at": form["points_at"], "form_ranking": form["ranking"],
@@ -172,6 +176,7 @@ def main(argv=None) -> int:
     ap.add_argument("--case", choices=("a", "b", "c", "c-truth"), default="b")
     ap.add_argument("--force-levels", type=float, nargs="+", default=[0.5, 1.0, 2.0, 5.0, 10.0, 20.0])
     ap.add_argument("--spread", type=float, default=0.5)
+    ap.add_argument("--form-given", action="store_true", help="case c: the nominal holds the truth's clamp and joint")
     ap.add_argument("--band", type=float, nargs=2, default=[50.0, 1200.0], help="case c: the level tests' band [Hz]")
     ap.add_argument("--folder", default=None)
     ap.add_argument("--clamp", type=float, default=3e-4)
@@ -187,7 +192,8 @@ def main(argv=None) -> int:
     elif a.case == "c-truth":
         out = truth_peaks(a.clamp, a.joint, seed, a.spread, a.clamp_heights)
     elif a.case == "c":
-        out = case_c(a.clamp, a.joint, a.force_levels, seed, a.clamp_heights, a.spread, a.folder, a.band)
+        out = case_c(a.clamp, a.joint, a.force_levels, seed, a.clamp_heights, a.spread, a.folder, a.band,
+                     a.form_given)
     else:
         out = case_b(a.clamp, a.joint, a.levels, seed, a.clamp_heights)
     text = json.dumps(out, indent=1)
