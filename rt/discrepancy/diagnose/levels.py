@@ -57,6 +57,7 @@ from frictionrt.rt.discrepancy.chain import quiet, scale_bounds, scaled
 from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
 from frictionrt.rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
                                          prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
+from frictionrt.rt.discrepancy.diagnose.levels_form import fit_form
 from frictionrt.rt.discrepancy.diagnose.random_level import RandomLevel, is_random, level_accelerances, random_levels
 from frictionrt.rt.discrepancy.diagnose.structure import CAL_FAR
 from frictionrt.rt.discrepancy.effects import Effect, get
@@ -333,11 +334,19 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N on {lines} lines of the modes' bands")
     lin = fit(nominal, db, None, bars=bars, label="linear")
     done["linear"] = done_fit(lin.theta, lin.cfg)
+    form = fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done)
+    lin_nominal_form = None
+    if form["named"]:        # both level models from the corrected form (rt.discrepancy.diagnose.levels_form)
+        lin_nominal_form, nominal = lin, form["nominal"]
+        say(f"linear model with the model form {' and '.join(form['named'])} held")
+        lin = fit(nominal, db, None, bars=bars, label="linear, model form held")
+        done["linear, model form held"] = done_fit(lin.theta, lin.cfg)
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
     say(f"harmonic balance ({method}), calibration only, on the same lines")
     fits = {}
-    for eff in [None, *map(get, CANDIDATES)]:
+    candidates = [get(n) for n in CANDIDATES if n not in form["named"]]    # a form held is not fitted again
+    for eff in [None, *candidates]:
         if eff is not None:
             say(fit_label(eff))
         fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars)
@@ -353,7 +362,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     per_volt = any(d.per_volt for d in data)
     plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
     plausibility = verdict(plausible, fits[None]["theta"], (final or base)["theta"], (final or base)["effect"],
-                           list(CANDIDATES)) | {"linear_outside": outside(lin.theta, plausible)}
+                           [e.name for e in candidates]) | {"linear_outside": outside(lin.theta, plausible)}
     say("prediction at the other levels")
     hb = []
     H_lin = [{s: h * lin.theta.get(FORCE_SCALE, 1.0) if d.per_volt else h for s, h in hs.items()}
@@ -363,11 +372,18 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     else:    # the stuck limit: the linear model (the joint's contact closed and stuck in the harmonic balance)
         H_nl = H_lin
     band = softening_band(nominal, data, levels)
+    H_nf = None
+    if lin_nominal_form is not None:   # the linear model of the nominal form, for comparison
+        H_nf = [{s: h * lin_nominal_form.theta.get(FORCE_SCALE, 1.0) if d.per_volt else h for s, h in hs.items()}
+                for d, hs in zip(data, model_H(lin_nominal_form.cfg, data))]
     pred = []
     for i, (d, a) in enumerate(zip(data, levels)):
         g = {"test": d.name, "level_n": a, "calibrated_on": i in cal,
              "gap_linear_db": gap_db(d, H_lin[i], band[:2]), "gap_nonlinear_db": gap_db(d, H_nl[i], band[:2]),
              "gap_linear_all_db": gap_db(d, H_lin[i], None), "gap_nonlinear_all_db": gap_db(d, H_nl[i], None)}
+        if H_nf is not None:
+            g |= {"gap_linear_nominal_form_db": gap_db(d, H_nf[i], band[:2]),
+                  "gap_linear_nominal_form_all_db": gap_db(d, H_nf[i], None)}
         g["ratio"] = round(g["gap_linear_db"] / g["gap_nonlinear_db"], 3) if g["gap_nonlinear_db"] > 0 else None
         g["better"] = "nonlinear" if g["gap_nonlinear_db"] < g["gap_linear_db"] else "linear"
         pred.append(g | (contact_of(hb[i]) if hb else {"normal_ratio_max": None, "open_fraction_max": None}))
@@ -387,6 +403,8 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
             "ranking": [{"effect": r["effect"], "delta_bic": round(base["score"] - r["score"], 2),
                          "rss_reduction": round(r["rss_reduction"], 4),
                          "fitted": rounded(r["theta"])} for r in ranked],
+            "model_form": {k: v for k, v in form.items() if k != "nominal"} | (
+                {"linear_nominal_form": {"fitted": rounded(lin_nominal_form.theta)}} if lin_nominal_form else {}),
             "linear": {"fitted": rounded(lin.theta)},
             "nonlinear": {"fitted": rounded(final["theta"]), "stuck_limit": stuck,
                           "evaluations": fits[None]["evaluations"],

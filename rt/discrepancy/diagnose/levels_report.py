@@ -16,6 +16,7 @@ def summary(res: dict) -> str:
     lines = [f"calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']} (harmonic balance: "
              f"{res['harmonic_method']}); softening mode "
              f"{res['softening_mode']} ({res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz)",
+             form_line(res),
              f"named effect: {res['named_effect'] or 'no missing effect found'}",
              f"fitted (harmonic balance): {fitted_text(res['nonlinear']['fitted'])}",
              calibration_line(res),
@@ -31,6 +32,19 @@ def summary(res: dict) -> str:
                      f"{p['gap_nonlinear_all_db']:.3f})  {p['ratio']}  {p['better']}"
                      + (f"  (aft {p['gap_aft_db']:.3f} / {p['gap_aft_all_db']:.3f})" if "gap_aft_db" in p else ""))
     return "\n".join(lines)
+
+
+def form_line(res: dict) -> str:
+    """The model form at the calibration levels (rt.discrepancy.diagnose.levels_form): named and held, or why not."""
+    f = res.get("model_form")
+    if not f:
+        return "model form: not tried"
+    if f.get("reason"):
+        return f"model form: not tried ({f['reason']})"
+    if not f.get("named"):
+        return f"model form: nothing named of {', '.join(f.get('tried', []))}"
+    return ("model form named and held in both level models: "
+            + ", ".join(f"{n} = {v:g}" for n, v in f["strengths"].items()))
 
 
 def calibration_line(res: dict) -> str:
@@ -77,6 +91,7 @@ def write_levels_report(res: dict, out: str | Path) -> Path:
             f"Calibrated on {', '.join(f'{a:g}' for a in res['calibrate_on_n'])} {res['level_unit']}. Softening mode "
             f"{res['softening_mode']}, band {res['softening_band_hz'][0]:g}-{res['softening_band_hz'][1]:g} Hz "
             "(docs/discrepancy.md, \"Amplitude dependence\").", "",
+            form_line(res)[0].upper() + form_line(res)[1:] + ".", "",
             f"**Named effect: {res['named_effect'] or 'no missing effect found'}**", "",
             f"Harmonic balance: method {res['harmonic_method']}." + (f" Note: {res['contact_note']}." if res["contact_note"]
                                                                      else ""), "",
