@@ -6,6 +6,10 @@
 
 The full FE model uses the same path with T = I, so full and reduced models are stepped by
 the same kernel with the same integrator.
+
+Length: the one path from the configuration to the kernel's arrays (modal basis, period matching
+for both step schemes, the quasi-static condensation, the bolts' reference, the static state) and
+the caches that let a fit rebuild it cheaply; its parts share PlantParams' layout.
 """
 from __future__ import annotations
 

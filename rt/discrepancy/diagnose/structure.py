@@ -34,6 +34,9 @@ kept up to date by Broyden's rank-one updates, plus Gaussian priors on the calib
 (``CAL_FAR``: far from the nominal; k_t and the modal damping moved as ln(scale),
 ``LOG_SCALE``; stage 1 fits ln k_t too). Measured at the true parameters of a campaign: residual
 rms 0.2-0.3 (sigma_k is conservative), nominal 5-21.
+
+Length: stage 1 (frequencies) and stage 2 (FRF shape) of one fit share its data, bounds and
+scales; the candidates' starts (joint, damping) belong to the same fit.
 """
 from __future__ import annotations
 
