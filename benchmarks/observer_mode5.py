@@ -4,7 +4,7 @@ on that run's logged inputs (the sensor chain's tip velocity and the force cell)
 sees the same plant truth.
 
     python -m benchmarks.observer_mode5 [--amps 5 10] [--duration 0.5] [--json OUT.json]
-    python -m benchmarks.observer_mode5 --in-loop 0.1 [--amps 5 10]     # the closed loop, modes 2-5
+    python -m benchmarks.observer_mode5 --in-loop 0.1 [--amps 5 10] [--kind amplitude]   # closed loop, modes 2-5
 
 Per amplitude it prints, over the last 20 % of the run (``frictionrt.observer.accuracy.TAIL``):
 
@@ -217,18 +217,25 @@ PEAKS_HZ = {(2, 5.0): 70.77, (2, 10.0): 70.62, (3, 5.0): 200.77, (3, 10.0): 199.
             (4, 5.0): 374.97, (4, 10.0): 370.20, (5, 5.0): 615.87, (5, 10.0): 615.87}   # passive step-sine peaks
 
 
-def in_loop(mode: int, amp_n: float, scale: float, duration: float) -> dict:
-    """The hysteresis law in the closed loop on the paper's observer designed with its normal springs
-    at ``scale`` k_n_area (the law acts on that estimate), at mode's passive peak ``PEAKS_HZ``:
+def in_loop(mode: int, amp_n: float, scale: float, duration: float, kind: str = "observer") -> dict:
+    """The hysteresis law in the closed loop on the estimator ``kind`` (the paper's observer or the
+    amplitude kind, ``design_amplitude(spring_scale=scale)``) designed with its normal springs at
+    ``scale`` k_n_area (the law acts on that estimate), at mode's passive peak ``PEAKS_HZ``:
     NRMSE(v_rel), the law's u0 error, the model's mode frequency."""
     import dataclasses
+    from frictionrt.observer.amplitude import design_amplitude
     from frictionrt.observer.kalman import design_observer
     from frictionrt.rt.common.config import load
     from frictionrt.rt.loop import build_loop, run, summary
     cfg = load()
-    loop = build_loop(cfg, "hysteresis", "observer")
-    d = design_observer(cfg, loop.plant, spring_scale=scale)
-    s = summary(run(dataclasses.replace(loop, observer=d.params), PEAKS_HZ[(mode, amp_n)], amp_n, duration))
+    loop = build_loop(cfg, "hysteresis", kind)
+    if kind == "amplitude":
+        d, amp = design_amplitude(cfg, loop.plant, spring_scale=scale)
+        loop = dataclasses.replace(loop, observer=d.params, amplitude=amp)
+    else:
+        d = design_observer(cfg, loop.plant, spring_scale=scale)
+        loop = dataclasses.replace(loop, observer=d.params)
+    s = summary(run(loop, PEAKS_HZ[(mode, amp_n)], amp_n, duration))
     return {"mode": mode, "amp_n": amp_n, "scale": scale, "model_hz": float(d.model.modes_hz[mode - 1]),
             "v_rel_nrmse": s["v_rel_nrmse"], "u0_error_law": s["u0_rel_error"]}
 
@@ -264,6 +271,8 @@ def main(argv=None) -> int:
     ap.add_argument("--in-loop", type=float, metavar="SCALE",
                     help="instead: the closed loop on the observer with its normal springs at SCALE k_n_area, "
                          "modes 2-5 at --amps (NRMSE v_rel, the law's u0 error)")
+    ap.add_argument("--kind", choices=["observer", "amplitude"], default="observer",
+                    help="with --in-loop: the estimator kind (default the paper's observer)")
     a = ap.parse_args(argv)
     if not a.duration > 0:
         ap.error(f"--duration {a.duration}: must be > 0 s")
@@ -274,7 +283,7 @@ def main(argv=None) -> int:
         rows = []
         for mode in (2, 3, 4, 5):
             for amp in a.amps:
-                r = in_loop(mode, amp, a.in_loop, a.duration)
+                r = in_loop(mode, amp, a.in_loop, a.duration, a.kind)
                 rows.append(r)
                 print(f"| {mode} | {amp:g} | {r['model_hz']:.2f} | {r['v_rel_nrmse']:.3f} | {100 * r['u0_error_law']:+.1f} % |",
                       flush=True)

@@ -46,3 +46,17 @@ def test_scaled_normal_springs_match_the_plant_softened_alike(plant):
     N = len(soft.omega)
     ratio = [abs(m.C_u[4] / m.C_meas[N + 4]) for m in (base, soft)]
     assert ratio[1] > 1.05 * ratio[0]
+
+
+def test_rebased_peaks_keep_each_scheduled_frequency():
+    """The amplitude kind's points re-based onto another model's frequencies schedule the same
+    peak [Hz] at each point's amplitude: r' f_model = r f_reference."""
+    from frictionrt.observer.amplitude import PLANT_PEAKS, rebased_peaks
+    ref = np.array([9.7, 71.49, 202.51, 380.47, 621.93])
+    model = np.array([9.7, 71.35, 200.73, 375.25, 617.40])
+    new = rebased_peaks(PLANT_PEAKS, ref, model)
+    assert set(new) == set(PLANT_PEAKS)
+    for m, pts in PLANT_PEAKS.items():
+        for (a, r), (a2, r2) in zip(pts, new[m]):
+            assert a2 == a and r2 * model[m - 1] == pytest.approx(r * ref[m - 1], rel=1e-15)
+    assert new[4][0][1] == pytest.approx(374.76 / 375.25, abs=1e-4)   # mode 4's 5 N peak, now 0.13 % below the model
