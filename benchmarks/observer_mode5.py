@@ -132,6 +132,7 @@ def one(amp_n: float, duration: float) -> dict:
     from frictionrt.observer.kalman import design_observer
     from frictionrt.observer.offline import phasor
     from frictionrt.plant.model import build_plant
+    from frictionrt.plant.structure import adaptive_cone_pairs
     from frictionrt.rt.common.config import load, with_sets
     from frictionrt.rt.loop import build_loop, run, summary
 
@@ -153,7 +154,6 @@ def one(amp_n: float, duration: float) -> dict:
               "model": model_ratio(design.model, f), "model mode 5 only": model_ratio(design.model, f, [MODE - 1]),
               "plant sliding": plant_ratio(plant, f, "sliding", cfg.tracking.F_min_N),
               "plant stuck": plant_ratio(plant, f, "stuck", cfg.tracking.F_min_N)}
-    from frictionrt.plant.structure import adaptive_cone_pairs
     n_p = plant.n_pairs
     cone = adaptive_cone_pairs(cfg, plant.structure.x_pairs)
     lam = np.zeros(2 * n_p, complex)
@@ -166,8 +166,8 @@ def one(amp_n: float, duration: float) -> dict:
     ft = lam[1::2][cone]
     fr_hat = phasor(r.signal("f_r_hat"), f, dt)
     friction = {"true_cone_sum_abs_N": abs(ft.sum()), "hat_abs_N": abs(fr_hat),
-                       "true_phase_deg": float(np.degrees(np.angle(ft.sum() / F_exc))),
-                       "hat_phase_deg": float(np.degrees(np.angle(fr_hat / F_exc))), "F_exc_abs_N": abs(F_exc)}
+                "true_phase_deg": float(np.degrees(np.angle(ft.sum() / F_exc))),
+                "hat_phase_deg": float(np.degrees(np.angle(fr_hat / F_exc))), "F_exc_abs_N": abs(F_exc)}
     row = {"amp_n": amp_n, "freq_hz": f, "duration_s": duration, "u0_error_law": s["u0_rel_error"],
            "F_N1_mean_tail_N": F_N1, "sensor_gain": abs(ph["v_meas"] / ph["v_tip"]),
            "sensor_phase_deg": float(np.degrees(np.angle(ph["v_meas"] / ph["v_tip"]))),
@@ -203,7 +203,8 @@ def one(amp_n: float, duration: float) -> dict:
         u_hat, v_hat, y_hat, f_hat = variant_outputs(params, amp, inputs[name], F)
         if name == "paper":
             row["paper_reproduces_loop_max_abs_m"] = float(np.max(np.abs(u_hat - r.signal("u_rel_hat"))))
-        row["variants"][name] = {"f_r_first_harmonic_N": abs(phasor(f_hat, f, dt)),
+        row["variants"][name] = {
+            "f_r_first_harmonic_N": abs(phasor(f_hat, f, dt)),
             "u0_error": float(np.mean(np.abs(u_hat[tail])) / np.mean(np.abs(u_true[tail])) - 1.0),
             "U1_error": abs(phasor(u_hat, f, dt)) / abs(ph["u_true"]) - 1.0,
             "Y1_error": abs(phasor(y_hat, f, dt)) / abs(phasor(inputs[name], f, dt)) - 1.0,
