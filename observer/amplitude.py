@@ -129,18 +129,36 @@ def mode_blocks(omega: float, zeta: float, b: float, dt: float) -> np.ndarray:
     return np.array([E[0, 0], E[0, 1], E[1, 0], E[1, 1], E[0, 2], E[1, 2]])
 
 
-def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False) -> tuple[ObserverDesign, AmplitudeParams]:
+def rebased_peaks(peaks, reference_hz, model_hz) -> dict[int, tuple[tuple[float, float], ...]]:
+    """The schedule's points (a, r = peak / reference) re-expressed over another model's frequencies:
+    (a, r reference_hz[i] / model_hz[i]) for mode i + 1, so that the scheduled frequency r omega_i is the
+    same peak."""
+    return {m: tuple((a, r * float(reference_hz[m - 1]) / float(model_hz[m - 1])) for a, r in pts)
+            for m, pts in peaks.items()}
+
+
+def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False,
+                     spring_scale: float = 1.0) -> tuple[ObserverDesign, AmplitudeParams]:
     """The paper's design (its gain, its outputs) and the amplitude-following blocks (module
     docstring). ``peaks``: the schedule's points (default ``schedule_peaks``: the measured table on
     the default plant, harmonic balance on another). ``jenkins``:
     the joint as a Jenkins element (``joint_stiffness`` in series with the slider mu F_N) instead
     of the regularised Coulomb force, its stuck linearisation checked for stability too.
+    ``spring_scale``: the model's normal springs under the adaptive screw at that share of k_n_area
+    (``frictionrt.observer.model.build_observer_model``; 1: the paper's model), the schedule's points
+    re-based onto that model's frequencies (``rebased_peaks``; they are stated over the plant's
+    sliding-joint linearisation at F_min).
 
     Raises ValueError if the error dynamics with the paper's gain are unstable at a grid amplitude
     (every mode at its r_i(a_j)), as ``design_observer`` does for its own model."""
-    design = design_observer(cfg, plant)
+    design = design_observer(cfg, plant, spring_scale)
     peaks = schedule_peaks(cfg, plant) if peaks is None else peaks
     model = design.model
+    if spring_scale != 1.0:
+        from frictionrt.plant.model import build_plant
+        from frictionrt.plant.modes import sliding_joint_hz
+        peaks = rebased_peaks(peaks, sliding_joint_hz(build_plant(cfg) if plant is None else plant,
+                                                       cfg.tracking.F_min_N), model.modes_hz)
     p = design.params
     N = len(model.omega)
     dt = cfg.dt_s

@@ -94,14 +94,15 @@ def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
     return A_d, B_d
 
 
-def design_observer(cfg: Config, plant=None) -> ObserverDesign:
+def design_observer(cfg: Config, plant=None, spring_scale: float = 1.0) -> ObserverDesign:
     """Model, exact discretisation at cfg.dt_s, Kalman gain (module docstring); ``plant``: the
-    plant built from cfg, if at hand (``frictionrt.observer.model.build_observer_model``).
+    plant built from cfg, if at hand (``frictionrt.observer.model.build_observer_model``, as is
+    ``spring_scale``, the model's normal springs under the adaptive screw; 1: the default).
 
     Raises ValueError if the error dynamics would not be stable, without friction or linearised
     with it at any F_N in [0, F_max] (``discrete_eigenvalues``), or if the friction path has the
     wrong sign (a model error in the configuration)."""
-    model = build_observer_model(cfg, plant)
+    model = build_observer_model(cfg, plant, spring_scale)
     o = cfg.observer
     dt = cfg.dt_s
     A_d, B_d = zoh(model.A, np.column_stack([model.B_T, model.B_F]), dt)

@@ -81,15 +81,20 @@ def _footprint(cfg: Config, x_pairs: np.ndarray, screw) -> tuple[np.ndarray, np.
     return x_pairs[hit], length[hit]
 
 
-def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> ObserverModel:
+def build_observer_model(cfg: Config, plant: PlantModel | None = None, spring_scale: float = 1.0) -> ObserverModel:
     """The observer's linear model from the configuration (module docstring); ``plant`` is the
     plant built from the same cfg if the caller has it (its static equilibrium is used).
+    ``spring_scale``: the normal springs under the adaptive screw's cone at spring_scale k_n_area
+    (an effective normal stiffness of a contact that partly opens over the cycle; 1: the stuck
+    linearisation, the model's default; not on an imported structure).
 
     Raises ValueError if the tied structure is not fixed against rigid-body motion, or if the
     configuration asks for more modes than it has.
     """
     from frictionrt.plant.se_plant import SEPlant
     if isinstance(plant, SEPlant):
+        if spring_scale != 1.0:
+            raise ValueError("observer: spring_scale is for the built-in beams' model only")
         return build_observer_model_se(cfg, plant)
     st = build_structure(cfg)
     p = cfg.plant
@@ -109,9 +114,10 @@ def build_observer_model(cfg: Config, plant: PlantModel | None = None) -> Observ
     for x, length in zip(x_tied, l_tied):
         r_n, r_t = interface_rows(cfg, st.subs, x)
         K += width * length * (itf.k_n_area * np.outer(r_n, r_n) + itf.k_t_area * np.outer(r_t, r_t))
+    k_springs = itf.k_n_area if spring_scale == 1.0 else itf.k_n_area * spring_scale
     for x, length in zip(x_springs, l_springs):
         r_n, _ = interface_rows(cfg, st.subs, x)
-        K += width * length * itf.k_n_area * np.outer(r_n, r_n)
+        K += width * length * k_springs * np.outer(r_n, r_n)
     N = cfg.observer.n_modes
     if N > K.shape[0]:
         raise ValueError(f"observer.n_modes = {N}: the structure has only {K.shape[0]} DOFs")

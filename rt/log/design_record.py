@@ -13,7 +13,10 @@ So ``simulate --out`` stores what the compiled loop reads, as the MCAP attachmen
 ``DESIGN_ATTACHMENT`` (an .npz that ``numpy.load`` opens):
 
     params.<part>.<field>   every field of the kernels' parameter tuples (``PARTS``), nested
-                            tuples as <field>.<subfield>; numbers as 0-d arrays of their type
+                            tuples as <field>.<subfield>; numbers as 0-d arrays of their type.
+                            A part in ``OPTIONAL`` is stored only when its kernel runs (the
+                            amplitude-following observer's tables, ``params.amplitude.*``, for
+                            ``--estimator amplitude``), so a log of another kind has the same bytes
     state.<slot>            the initial loop state's arrays (``STATE``: the static preload
                             equilibrium of the plant, every filter's rest state)
 
@@ -21,8 +24,10 @@ and ``replay`` / ``replay --plant`` put them into the loop they rebuild (``apply
 comparing (``compare``): the replay reports whether this machine's build is identical and
 by how much it differs. With ``--set`` overrides the replay runs the rebuilt model (the point of
 the override). A log without the attachment (older logs, measurements) replays the rebuilt
-model. The archive is byte-deterministic (fixed member order and time stamps), so the same run
-writes the same bytes.
+model. A log that lacks an optional part its kind runs (an amplitude-kind log written before its
+tables were stored) takes the rest from the log and rebuilds that part from its configuration, and
+the report's "why" says so (``rebuilt_parts``). The archive is byte-deterministic (fixed member order
+and time stamps), so the same run writes the same bytes.
 """
 from __future__ import annotations
 
@@ -37,11 +42,14 @@ MEDIA_TYPE = "application/x-npz"
 # (part, attribute path on the Loop) of every parameter tuple a compiled stage reads
 PARTS = (("plant", "plant.params"), ("actuator", "actuator"), ("sensors", "sensors"), ("oracle", "oracle"),
          ("observer", "observer"), ("prefilter", "prefilter"), ("law", "law_params"),
-         ("tracking", "design.params"), ("supervisor", "supervisor"), ("shaker", "shaker"))
+         ("tracking", "design.params"), ("supervisor", "supervisor"), ("shaker", "shaker"),
+         ("amplitude", "amplitude"))
+# parts stored only when their kernel runs: part -> the field whose size 0 (or a None part) says it does not
+OPTIONAL = {"amplitude": "grid"}
 # the initial-state slots of rt.loop.build.LoopState each part owns
 STATE = {"plant": ("xp", "yp"), "actuator": ("xa", "ya"), "sensors": ("xs", "ys"), "oracle": ("xo",),
          "observer": ("xe",), "law": ("xl", "yl"), "prefilter": ("xq",), "tracking": ("xf", "yf"),
-         "supervisor": ("sv",), "shaker": ("xsh",)}
+         "supervisor": ("sv",), "shaker": ("xsh",), "amplitude": ()}
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
 
@@ -60,11 +68,21 @@ def _flatten(prefix: str, tup, out: dict[str, np.ndarray]) -> None:
             out[key] = np.array(v)   # a copy; 0-d for numbers (bool, int64, float64 kept)
 
 
+def runs(loop, part: str) -> bool:
+    """Whether ``part``'s kernel runs in ``loop``: always for a part not in ``OPTIONAL``; for an
+    optional one, whether its parameters exist and are not of size 0."""
+    if part not in OPTIONAL:
+        return True
+    tup = _get(loop, dict(PARTS)[part])
+    return tup is not None and np.size(getattr(tup, OPTIONAL[part])) > 0
+
+
 def design_arrays(loop, state) -> dict[str, np.ndarray]:
     """Every parameter the loop's kernels read and the initial state's arrays (module docstring)."""
     out: dict[str, np.ndarray] = {}
     for part, path in PARTS:
-        _flatten(f"params.{part}", _get(loop, path), out)
+        if runs(loop, part):
+            _flatten(f"params.{part}", _get(loop, path), out)
     for slots in STATE.values():
         for slot in slots:
             out[f"state.{slot}"] = np.array(getattr(state, slot))
@@ -120,11 +138,20 @@ def _rebuilt(tup, prefix: str, logged: dict[str, np.ndarray]):
     return tup._replace(**values)
 
 
+def rebuilt_parts(loop, logged: dict[str, np.ndarray], parts=None) -> list[str]:
+    """The optional parts of ``parts`` (default all) that run in ``loop`` but the log lacks (an
+    amplitude-kind log written before its tables were stored): ``apply`` keeps them as rebuilt."""
+    return [p for p in OPTIONAL if (parts is None or p in parts) and runs(loop, p)
+            and not any(k.startswith(f"params.{p}.") for k in logged)]
+
+
 def apply(loop, state, logged: dict[str, np.ndarray], parts=None):
     """(loop, state) with the logged parameters of ``parts`` (default: every part of ``PARTS``)
     and the logged initial-state arrays put in; ValueError naming the first field that does not
-    fit this version's model (the kernels changed since the log was written)."""
-    parts = [p for p in PARTS if parts is None or p[0] in parts]
+    fit this version's model (the kernels changed since the log was written). An optional part
+    that does not run in ``loop``, or that the log lacks (``rebuilt_parts``), is left as built."""
+    skip = set(rebuilt_parts(loop, logged, parts)) | {p for p in OPTIONAL if not runs(loop, p)}
+    parts = [p for p in PARTS if (parts is None or p[0] in parts) and p[0] not in skip]
     slots = [slot for part, _ in parts for slot in STATE[part]]
     try:
         new = {}
@@ -256,9 +283,13 @@ def use_logged(path, loop, state, sets=(), parts=None, meta=None) -> tuple:
         if sets:
             report["why"] = "--set changes the model: the configuration rebuilt with it"
             return loop, state, report
+        rebuilt = rebuilt_parts(loop, logged, parts)
         loop, state = apply(loop, state, logged, parts)
     except ValueError as exc:
         report["why"] = f"{exc}: the configuration rebuilt here"
         return loop, state, report
     report |= {"source": "log", "why": "the design arrays the run used, from the log"}
+    if rebuilt:
+        report["why"] += (f", but the log carries no {', '.join(rebuilt)} tables (written before they were stored): "
+                          "those rebuilt here from the configuration, bit-exact only on the machine that wrote the log")
     return loop, state, report
