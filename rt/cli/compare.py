@@ -52,7 +52,7 @@ def cmd_compare(cfg, args) -> int:
         res = compare(cfg, mode=args.mode, amp_n=args.amp, duration_s=args.duration, freq_hz=args.freq,
                       estimator=args.estimator, progress=not args.json,
                       controller_of=(lambda loop: controller_for(exports, loop, cfg.rt.seed)) if exports else None,
-                      structure=args.structure, clusters=args.clusters)
+                      structure=args.structure, clusters=args.clusters, clustering=args.clustering)
     except ValueError as exc:
         return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("mode ", "--mode ", 1)
                     .replace("amplitude ", "--amp ", 1))

@@ -80,7 +80,7 @@ def cmd_simulate(cfg, args) -> int:
                        duration_s=args.duration, paced=args.paced, seed=args.seed, out=args.out, force=args.force,
                        rrd=not args.no_rrd, ring_s=args.ring, faults=args.fault, progress=not args.json,
                        controller_of=(lambda loop: controller_for(exports, loop, seed)) if exports else None,
-                       structure=args.structure, clusters=args.clusters)
+                       structure=args.structure, clusters=args.clusters, clustering=args.clustering)
     except ValueError as exc:
         return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("ring ", "--ring ", 1)
                     if str(exc).startswith(("freq_hz", "ring ")) else str(exc))
