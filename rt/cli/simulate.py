@@ -55,9 +55,8 @@ def cmd_simulate(cfg, args) -> int:
         return structure_simulate(cfg, args)
     if args.plant_only:
         return fail("--plant-only: with --structure FILE only (the imported plant alone, passive joint)")
-    if args.structure and (args.paced or args.controller):
-        return fail("--paced and --controller with --structure: not on an imported structure yet; drop them "
-                    "(the loop runs offline with numba's controller)")
+    if args.structure and args.paced:
+        return fail("--paced with --structure: not on an imported structure yet; drop it (the loop runs offline)")
     from frictionrt.jobs import simulate
     from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S
     if msg := unpaced_realtime(args):
