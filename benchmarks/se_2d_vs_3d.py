@@ -2,8 +2,8 @@
 at F_N1 = 100 N (natural frequencies and damping of modes 2-5) and the passive law's step-sine
 peaks (frequency and |H| of modes 2-5 at 5 and 20 N), both plants in the same closed loop.
 
-    python -m benchmarks.se_2d_vs_3d [--clusters 16] [--hammer-clusters 0] [--modes 2,3,4,5]
-                                     [--amps 5,20] [--mesh reference|coarse] [--json OUT.json]
+    python -m benchmarks.se_2d_vs_3d [--clusters 16] [--clustering footprint|coordinates] [--hammer-clusters 0]
+                                     [--modes 2,3,4,5] [--amps 5,20] [--mesh reference|coarse] [--json OUT.json]
 
 The hammer test runs the plant alone (plant.impulse's pulse and fit; plant.se_analysis.impulse on
 the superelement, its interface coarsened to --hammer-clusters points, 0: the 57 points as built).
@@ -11,7 +11,7 @@ The step-sine peak of a mode is found as ``compare --mode`` finds it
 (rt.experiments.compare.passive_peak_hz: ``reproduce --quick``'s grid of 9 points over the mode's
 band and 2 refinement rounds, each point settled to 2 % or 2 s) in the closed loop with the passive
 law (F_N1 held at tracking.F_passive_N) and the oracle estimator (the passive law does not read it),
-the superelement's interface coarsened to --clusters points (the closed loop on the 57-point
+the superelement's interface coarsened to --clusters points by --clustering (plant.se_coarsen; the closed loop on the 57-point
 interface costs about 5 ms a tick: docs/studies/superelement-3d.md, section 3). The 3-D modes are
 counted as the laws see them (rt.experiments.stepsine.structure_mode_bands_hz): its lateral and
 torsion modes are skipped. --mesh coarse: the test suite's small model (39 points), for a quick
@@ -49,17 +49,20 @@ def peak(loop, mode: int, amp_n: float, designs) -> tuple[float, float]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--clusters", type=int, default=16, help="the step-sine's 3-D interface points (0: as built)")
+    ap.add_argument("--clustering", default="footprint", help="how --clusters and --hammer-clusters group the points")
     ap.add_argument("--hammer-clusters", type=int, default=0, help="the hammer test's 3-D interface points")
     ap.add_argument("--modes", default="2,3,4,5")
     ap.add_argument("--amps", default="5,20", help="step-sine force amplitudes [N]")
     ap.add_argument("--mesh", choices=("reference", "coarse"), default="reference")
     ap.add_argument("--no-stepsine", action="store_true", help="the hammer test only")
+    ap.add_argument("--no-hammer", action="store_true", help="the step-sine peaks only")
     ap.add_argument("--json", metavar="OUT.json")
     a = ap.parse_args(argv)
     from frictionrt import jobs
     from frictionrt.plant import fe3d
     from frictionrt.plant import superelement as S
     from frictionrt.plant.se_analysis import impulse as se_impulse
+    from frictionrt.plant.se_coarsen import coarsen_structure
     from frictionrt.plant.se_plant import build_se_plant
     from frictionrt.rt.common.config import Config
     from frictionrt.rt.loop import Designs, build_loop
@@ -75,27 +78,28 @@ def main(argv=None) -> int:
     print(f"3-D reference: {se.n} DOFs, {se.n_points} contact points ({time.perf_counter() - t0:.0f} s)")
 
     # --- hammer test at F_N1 = 100 N
-    F = 100.0
-    h2 = jobs.impulse(cfg, fn1_n=F).to_dict()
-    two = {int(m): (f, z) for m, f, z in zip(h2["modes"], h2["freq_hz"], h2["damping_ratio"])}
-    seh = S.coarsen(se, a.hammer_clusters) if a.hammer_clusters else se
-    t = time.perf_counter()
-    h3 = se_impulse(build_se_plant(seh, cfg), cfg, F, n_modes=len(modes))
-    out["hammer_3d_s"] = time.perf_counter() - t
-    rows = []
-    print(f"hammer test, F_N1 = {F:g} N, {cfg.impulse.peak_N:g} N pulse: 2-D beams | 3-D {seh.n_points} points "
-          f"({out['hammer_3d_s']:.0f} s)")
-    print(f"{'mode':>4} {'2-D f [Hz]':>10} {'3-D f [Hz]':>10} {'diff [%]':>9} {'2-D zeta [%]':>12} {'3-D zeta [%]':>12}")
-    for m, f3, z3 in zip(modes, h3["freq_hz"], h3["damping_ratio"]):
-        f2, z2 = two[m]
-        rows.append({"mode": m, "f2_hz": f2, "f3_hz": f3, "zeta2": z2, "zeta3": z3})
-        print(f"{m:>4} {f2:>10.2f} {f3:>10.2f} {100 * (f2 / f3 - 1):>+9.2f} {100 * z2:>12.3f} {100 * z3:>12.3f}")
-    out["hammer"] = {"F_N1_N": F, "points": seh.n_points, "rows": rows, "linear_3d_hz": h3["linear_hz"]}
+    if not a.no_hammer:
+        F = 100.0
+        h2 = jobs.impulse(cfg, fn1_n=F).to_dict()
+        two = {int(m): (f, z) for m, f, z in zip(h2["modes"], h2["freq_hz"], h2["damping_ratio"])}
+        seh = coarsen_structure(se, a.hammer_clusters, cfg, a.clustering)
+        t = time.perf_counter()
+        h3 = se_impulse(build_se_plant(seh, cfg), cfg, F, n_modes=len(modes))
+        out["hammer_3d_s"] = time.perf_counter() - t
+        rows = []
+        print(f"hammer test, F_N1 = {F:g} N, {cfg.impulse.peak_N:g} N pulse: 2-D beams | 3-D {seh.n_points} points "
+              f"({out['hammer_3d_s']:.0f} s)")
+        print(f"{'mode':>4} {'2-D f [Hz]':>10} {'3-D f [Hz]':>10} {'diff [%]':>9} {'2-D zeta [%]':>12} {'3-D zeta [%]':>12}")
+        for m, f3, z3 in zip(modes, h3["freq_hz"], h3["damping_ratio"]):
+            f2, z2 = two[m]
+            rows.append({"mode": m, "f2_hz": f2, "f3_hz": f3, "zeta2": z2, "zeta3": z3})
+            print(f"{m:>4} {f2:>10.2f} {f3:>10.2f} {100 * (f2 / f3 - 1):>+9.2f} {100 * z2:>12.3f} {100 * z3:>12.3f}")
+        out["hammer"] = {"F_N1_N": F, "points": seh.n_points, "rows": rows, "linear_3d_hz": h3["linear_hz"]}
 
     # --- passive step-sine peaks
     if not a.no_stepsine:
         with tempfile.TemporaryDirectory() as d:
-            f = S.save(S.coarsen(se, a.clusters) if a.clusters else se, os.path.join(d, "se.npz"))
+            f = S.save(coarsen_structure(se, a.clusters, cfg, a.clustering), os.path.join(d, "se.npz"))
             st = structure_of(f)
             rows = []
             loops = {}
@@ -117,7 +121,7 @@ def main(argv=None) -> int:
                     print(f"{m:>4} {amp:>5g} {f2:>10.2f} {f3:>10.2f} {100 * (f2 / f3 - 1):>+9.2f} {H2:>9.3g} "
                           f"{H3:>9.3g} {20 * np.log10(H2 / H3):>+9.2f}   ({r['2-D_s']:.0f} s, {r['3-D_s']:.0f} s)",
                           flush=True)
-            out["stepsine"] = {"points": a.clusters or se.n_points, "rows": rows}
+            out["stepsine"] = {"points": a.clusters or se.n_points, "clustering": a.clustering, "rows": rows}
     out["load_avg_end"] = os.getloadavg()[0]
     out["wall_s"] = time.perf_counter() - t0
     if a.json:

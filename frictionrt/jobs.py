@@ -111,7 +111,8 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
              estimator: str = DEFAULT_ESTIMATOR, duration_s: float = 1.0, paced: bool = False,
              seed: int | None = None, out: str | Path | None = None, force: bool = False, rrd: bool = True,
              ring_s: float = 1.0, faults: Sequence[str] = (), controller_of=None, progress: bool = False,
-             argv: Sequence[str] | None = None, structure: str | Path | None = None, clusters: int = 0) -> Result:
+             argv: Sequence[str] | None = None, structure: str | Path | None = None, clusters: int = 0,
+             clustering: str = "footprint") -> Result:
     """The closed loop at 21 kHz with a sine force of ``amp_n`` [N] at ``freq_hz`` [Hz] for
     ``duration_s`` [s] (``frictionrt simulate``): ``law`` (None: tracking.law) on ``estimator``.
     With ``out`` ("logs/run" or "logs/run.mcap"), every signal is logged to run.mcap, run.rrd (unless
@@ -120,7 +121,7 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
     ``controller_of(loop)``: the loop's controller (a C export's, ``frictionrt.rt.export.sil``; None:
     numba's); ``argv``: the command line the log records (None: this process's); ``seed``: the sensor
     noise's (None: rt.seed); ``structure``: a superelement file (docs/superelement.md) as the plant,
-    its interface coarsened to ``clusters`` points if > 0, recorded in the log (path, SHA-256). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
+    its interface coarsened to ``clusters`` points if > 0 by ``clustering``, recorded in the log (path, SHA-256). Returns the summary (``.to_dict()``: acc045_amplitude [m/s^2],
     fn1_mean_n [N], actuator_energy_j [J], the estimate's NRMSE, overruns, log paths, ...);
     ``.run``: the ``Run`` with every signal (``.run.signal("F_N1")``); ``.plot()``: the response
     and F_N1 over the last 50 ms."""
@@ -158,7 +159,7 @@ def simulate(cfg: Cfg = None, *, freq_hz: float, amp_n: float, law: str | None =
         raise ValueError("--fault cpu_stall: a CPU stall is seen as overruns of the paced loop only; add --paced "
                          "(paced=True)")
     from frictionrt.rt.loop.structure import structure_of
-    structure_ = None if structure is None else structure_of(structure, clusters)
+    structure_ = None if structure is None else structure_of(structure, clusters, clustering)
     loop = build_loop(cfg, law, estimator, structure=structure_)
     n = check_run_input(loop, freq_hz, amp_n, duration_s, ring=base is not None)  # out: a ring
     late = [f for f, row in zip(faults, fault_rows) if row[2] >= n]
@@ -206,14 +207,15 @@ def design_hash_of(loop, seed: int) -> str:
 
 def compare(cfg: Cfg = None, *, mode: int = 3, amp_n: float = 5.0, duration_s: float = 1.0,
             freq_hz: float | None = None, estimator: str = DEFAULT_ESTIMATOR, controller_of=None,
-            progress: bool = False, structure: str | Path | None = None, clusters: int = 0) -> Result:
+            progress: bool = False, structure: str | Path | None = None, clusters: int = 0,
+            clustering: str = "footprint") -> Result:
     """The three laws (passive, hysteresis-optimal, Lyapunov) at one excitation (``frictionrt
     compare``): ``amp_n`` [N] at ``freq_hz`` [Hz], by default the passive law's peak of bending mode
     ``mode`` (found by a short step-sine), ``duration_s`` [s] each. ``.to_dict()``: {"freq_hz",
     "rows": per law acc045_amplitude [m/s^2], change_pct against passive [%] (negative: lower), fn1_mean_n [N],
     actuator_energy_j [J]}; ``.plot()``: the response and F_N1 over the last 50 ms.
     ``controller_of(loop)``: the controller a law's loop runs (a C export's; None: numba's).
-    ``structure``: a superelement file as the plant, coarsened to ``clusters`` points if > 0 (its
+    ``structure``: a superelement file as the plant, coarsened to ``clusters`` points if > 0 by ``clustering`` (its
     ``mode`` counted among the modes the laws act on, rt.experiments.stepsine.structure_mode_bands_hz)."""
     from tqdm import tqdm
 
@@ -230,7 +232,7 @@ def compare(cfg: Cfg = None, *, mode: int = 3, amp_n: float = 5.0, duration_s: f
     if not amp_n > 0:   # the table is relative to the passive response, which 0 N leaves at 0
         raise ValueError(f"amplitude {amp_n:g} N: compare needs a finite force > 0 N, e.g. 5")
     from frictionrt.rt.loop.structure import structure_of
-    structure_ = None if structure is None else structure_of(structure, clusters)
+    structure_ = None if structure is None else structure_of(structure, clusters, clustering)
     designs = Designs()   # the plant and force-tracking designs, made once for the three laws
     passive = build_loop(cfg, "passive", estimator, designs=designs, structure=structure_)
     if freq_hz is None:
@@ -253,7 +255,8 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
         around_modes: Sequence[int] | None = None, points: int = 31, half_width: float = 0.15, down: bool = False,
         sweep_rate_hz_s: float | None = None, tol: float = 0.01, max_time_s: float = 8.0,
         estimator: str = DEFAULT_ESTIMATOR, jobs: int | None = None, dask: str | None = None,
-        controller_of=None, progress: bool = False, structure: str | Path | None = None, clusters: int = 0) -> Result:
+        controller_of=None, progress: bool = False, structure: str | Path | None = None, clusters: int = 0,
+        clustering: str = "footprint") -> Result:
     """Amplitude-controlled step-sine FRFs [(m/s^2)/N] (``frictionrt frf``): one sweep per law of
     ``laws`` and force amplitude of ``amps_n`` [N], over ``freqs_hz`` [Hz] or ``points`` frequencies
     over +/- ``half_width`` (relative) around each mode of ``around_modes``, up (or ``down``); a point
@@ -261,7 +264,7 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
     ``sweep_rate_hz_s`` [Hz/s]: a slow continuous sweep over the range instead. ``.to_dict()``:
     {"dt_s", "config" (TOML), "results": one ``StepSineResult.to_dict()`` per sweep}; ``.results``:
     the ``StepSineResult`` objects; ``.plot()``: |H| and phase. ``structure``: a superelement file as
-    the plant, coarsened to ``clusters`` points if > 0 (``around_modes`` counted among the modes the
+    the plant, coarsened to ``clusters`` points if > 0 by ``clustering`` (``around_modes`` counted among the modes the
     laws act on, rt.experiments.stepsine.structure_mode_bands_hz; "structure" in ``.to_dict()``)."""
     from frictionrt.rt.experiments.branches import Branch, run_branches
     from frictionrt.rt.experiments.stepsine import Settle, mode_bands_hz, plot_frfs, resonance_grid
@@ -274,7 +277,7 @@ def frf(cfg: Cfg = None, *, laws: Sequence[str], amps_n: Sequence[float], freqs_
         raise ValueError("give the frequencies (--freqs) or the modes to resolve (--around-modes), one of them")
     from frictionrt.rt.loop import Designs
     from frictionrt.rt.loop.structure import structure_of
-    structure_ = None if structure is None else structure_of(structure, clusters)
+    structure_ = None if structure is None else structure_of(structure, clusters, clustering)
     designs = Designs()   # the plant, built once for the bands and the loops
     if sweep_rate_hz_s is not None and not (math.isfinite(sweep_rate_hz_s) and sweep_rate_hz_s > 0.0):
         raise ValueError(f"sweep rate {sweep_rate_hz_s:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; down for a "
@@ -384,7 +387,8 @@ def tune(cfg: Cfg = None, *, law: str, grid: Mapping[str, Sequence[float]] | Non
          modes: Sequence[int] = (3, 4), amps_n: Sequence[float] = (5.0,), points: int = 9,
          half_width: float = 0.15, estimator: str = DEFAULT_ESTIMATOR, max_power_w: float | None = None,
          jobs: int | None = None, dask: str | None = None, out: str | Path | None = None, force: bool = False,
-         progress: bool = False, structure: str | Path | None = None, clusters: int = 0):
+         progress: bool = False, structure: str | Path | None = None, clusters: int = 0,
+         clustering: str = "footprint"):
     """Grid search of a law's gains (``frictionrt tune``; docs/tuning.md): every combination of
     ``grid`` (configuration key -> values; None: the law's own default grid) is a candidate, scored
     by step-sine sweeps of ``points`` frequencies over +/- ``half_width`` around ``modes`` at each
@@ -393,7 +397,7 @@ def tune(cfg: Cfg = None, *, law: str, grid: Mapping[str, Sequence[float]] | Non
     change (within ``max_power_w``). With ``out``: table.csv, table.md, pareto.png, best.toml,
     tune.json. Returns the ``TuneResult`` (``.to_dict()``, ``.rows()``, ``.best_cfg``, ``.plot()``,
     ``.warnings``: the grid's resolution of the passive peak, checked). ``structure``: a superelement
-    file as the plant of every sweep, coarsened to ``clusters`` points if > 0 (``modes`` counted among
+    file as the plant of every sweep, coarsened to ``clusters`` points if > 0 by ``clustering`` (``modes`` counted among
     the modes the laws act on, rt.experiments.stepsine.structure_mode_bands_hz); best.toml names it."""
     from frictionrt.rt.experiments.tune import DEFAULT_GRIDS, TUNED_LAWS, write_outputs
     from frictionrt.rt.experiments.tune import tune as run_tune
@@ -406,7 +410,7 @@ def tune(cfg: Cfg = None, *, law: str, grid: Mapping[str, Sequence[float]] | Non
         raise FileExistsError(f"out {out}: exists; pass force (--force) to replace its tune files, or give a new folder")
     g = {k: tuple(float(v) for v in vs) for k, vs in (DEFAULT_GRIDS[law] if grid is None else grid).items()}
     from frictionrt.rt.loop.structure import structure_of
-    structure_ = None if structure is None else structure_of(structure, clusters)
+    structure_ = None if structure is None else structure_of(structure, clusters, clustering)
     res = run_tune(cfg, law, g, tuple(int(m) for m in modes), tuple(float(a) for a in amps_n), points=points,
                    half_width_rel=half_width, estimator=estimator_of(estimator).value, max_power_w=max_power_w,
                    jobs=jobs, dask_address=dask, progress=progress, structure=structure_)
@@ -438,7 +442,8 @@ def replay(path: str | Path, cfg: Cfg = None, *, c: str | Path | None = None, pl
 
 def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estimator: str = DEFAULT_ESTIMATOR,
              from_log: str | Path | None = None, sets: Sequence[str] = (), force: bool = False,
-             precision: str = "double", structure: str | Path | None = None, clusters: int = 0) -> Result:
+             precision: str = "double", structure: str | Path | None = None, clusters: int = 0,
+             clustering: str = "footprint") -> Result:
     """The controller as C99 (``frictionrt export-c``; docs/export-c.md): tip integrator, estimator,
     law, supervisor, prefilter and force tracking of ``law`` (None: tracking.law) on ``estimator``,
     designed from ``cfg``, or the design stored in the log ``from_log`` (``sets``: overrides on its
@@ -446,7 +451,7 @@ def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estima
     whole). ``precision`` "double" (bit-exact with the numba controller) or "float32" (the
     single-precision kind, rt/export/float32.py: observer build only, needs a C compiler).
     ``structure``: a superelement file as the plant the controller is designed for (its
-    observer's model and the golden vectors' closed loop), coarsened to ``clusters`` points if > 0
+    observer's model and the golden vectors' closed loop), coarsened to ``clusters`` points if > 0 by ``clustering``
     (with ``from_log``, the log's own structure is used). ``.to_dict()``: the manifest (law,
     estimator, design_hash, source, ...) and "folder"."""
     from frictionrt.rt.common.files import write_folder
@@ -466,7 +471,7 @@ def export_c(cfg: Cfg = None, *, out: str | Path, law: str | None = None, estima
     else:
         from frictionrt.rt.loop import build_loop, initial_loop_state
         from frictionrt.rt.loop.structure import structure_of
-        structure_ = None if structure is None else structure_of(structure, clusters)
+        structure_ = None if structure is None else structure_of(structure, clusters, clustering)
         loop = build_loop(cfg, law, estimator_of(estimator), structure=structure_)
         st = initial_loop_state(loop, cfg.rt.seed)
         source = "the resolved configuration" + ("" if structure_ is None else f" on the structure {structure_.path}")

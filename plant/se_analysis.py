@@ -8,18 +8,17 @@ import scipy.linalg as sla
 
 from frictionrt.plant.impulse import accelerance_frf, hammer_force, identify
 from frictionrt.plant.se_plant import SEPlant, _se_step, build_se_plant, run, stuck_frequencies_hz
-from frictionrt.plant.superelement import coarsen, load
+from frictionrt.plant.se_coarsen import coarsen_structure
+from frictionrt.plant.superelement import DEFAULT_CLUSTERING, load
 from frictionrt.rt.common.clock import _now_ns
 
 N_MODES = 8
 
 
-def load_plant(path: str, cfg, clusters: int = 0) -> SEPlant:
+def load_plant(path: str, cfg, clusters: int = 0, clustering: str = DEFAULT_CLUSTERING) -> SEPlant:
     """Read a superelement file (plant.superelement.load), coarsen its interface to `clusters`
-    points if > 0 (plant.superelement.coarsen), and build its plant with cfg."""
-    se = load(path)
-    if clusters:
-        se = coarsen(se, clusters)
+    points if > 0 by `clustering` (plant.se_coarsen.coarsen_structure), and build its plant with cfg."""
+    se = coarsen_structure(load(path), clusters, cfg, clustering)
     return build_se_plant(se, cfg)
 
 

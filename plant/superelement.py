@@ -495,13 +495,97 @@ def write_op4(se: Superelement, path: str | Path) -> Path:
     return Path(path)
 
 
-def coarsen(se: Superelement, n_clusters: int, seed: int = 0) -> Superelement:
-    """The interface coarsened to n_clusters contact points (a node-clustering hyper-reduction):
-    points grouped by k-means on their coordinates (scipy.cluster.vq.kmeans2, fixed seed), each
-    group replaced by one point with the group's total area and its area-weighted mean gap rows,
-    coordinates, normal and initial gap. The stuck stiffness of a group (k per area x total area,
-    acting on the mean gaps) is the group's as long as the group moves as a rigid patch; the
-    error against the fine interface is a reported figure (docs/superelement.md)."""
+CLUSTERINGS = ("footprint", "coordinates")
+DEFAULT_CLUSTERING = CLUSTERINGS[0]
+"""How ``--clusters N`` groups the interface's points (``coarsen``): "footprint" keeps the bolts'
+contact footprints apart (plant.se_coarsen.footprint_classes: which adaptive-bolt force closes each
+point) and fills them first, "coordinates" is k-means on the coordinates alone."""
+
+
+def footprint_regions(xyz: np.ndarray, classes: np.ndarray) -> np.ndarray:
+    """Region label (0 .. r-1) of each point: the connected parts of each class. Two points of a
+    class are connected when they are at most the interface's grid reach apart: the longest edge of
+    the minimum spanning tree of all points (the largest single-linkage merge distance,
+    scipy.cluster.hierarchy), so on a regular grid neighbours along the coarsest spacing connect.
+    Labels ordered by (class, the region's mean coordinates)."""
+    from scipy.cluster.hierarchy import fcluster, linkage
+    p = len(xyz)
+    if p == 1:
+        return np.zeros(1, np.int64)
+    reach = linkage(xyz, method="single")[-1, 2] * (1.0 + 1e-9)
+    parts = []
+    for c in np.unique(classes):
+        idx = np.flatnonzero(classes == c)
+        lab = np.ones(len(idx), np.int64) if len(idx) == 1 else \
+            fcluster(linkage(xyz[idx], method="single"), t=reach, criterion="distance")
+        for lb in np.unique(lab):
+            g = idx[lab == lb]
+            parts.append((int(c), tuple(xyz[g].mean(axis=0)), g))
+    out = np.empty(p, np.int64)
+    for r, (_, _, g) in enumerate(sorted(parts, key=lambda t: t[:2])):
+        out[g] = r
+    return out
+
+
+def _allocate(sizes: np.ndarray, rank: np.ndarray, n: int) -> np.ndarray:
+    """n >= len(sizes) groups over regions of sizes points: one each, then the rest to the regions of
+    the lowest rank first (in proportion to their points, largest remainder, ties to the earlier
+    region; never more groups than points), then the next rank."""
+    k = np.ones(len(sizes), np.int64)
+    left = n - len(sizes)
+    for r in np.unique(rank):
+        sel = np.flatnonzero(rank == r)
+        while left > 0 and np.any(k[sel] < sizes[sel]):
+            target = (k[sel].sum() + left) * sizes[sel] / sizes[sel].sum()
+            share = np.where(k[sel] < sizes[sel], target - k[sel], -np.inf)
+            k[sel[int(np.argmax(share))]] += 1
+            left -= 1
+    return k
+
+
+def _footprint_groups(xyz: np.ndarray, classes: np.ndarray, n: int, seed: int) -> list[np.ndarray]:
+    """Groups of ``coarsen`` with classes: the regions of ``footprint_regions``, the highest classes
+    merged into one (from the top) until the regions take at most half of the n groups (the other
+    half refines the lowest class, whose patches carry the bolts' moments), or until only class 0
+    and the rest are left and their regions fit n (else one class: k-means over all points);
+    ``_allocate``'s counts per region, k-means (fixed seed) within a region."""
+    from scipy.cluster.vq import kmeans2
+    for top in range(int(classes.max()), -1, -1):
+        c = np.minimum(classes, top)
+        region = footprint_regions(xyz, c)
+        nr = int(region.max()) + 1
+        if nr <= n / 2 or (top <= 1 and nr <= n):
+            break
+    sizes = np.bincount(region, minlength=nr)
+    rank = np.array([c[region == r][0] for r in range(nr)])
+    groups = []
+    for r, k in enumerate(_allocate(sizes, rank, n)):
+        idx = np.flatnonzero(region == r)
+        if k == len(idx):
+            groups += [idx[[i]] for i in range(len(idx))]
+        elif k == 1:
+            groups.append(idx)
+        else:
+            _, lab = kmeans2(xyz[idx], int(k), minit="++", seed=seed)
+            groups += [idx[lab == j] for j in range(int(k))]
+    return groups
+
+
+def coarsen(se: Superelement, n_clusters: int, seed: int = 0, classes: np.ndarray | None = None) -> Superelement:
+    """The interface coarsened to n_clusters contact points (a node-clustering hyper-reduction),
+    each group replaced by one point with the group's total area and its area-weighted mean gap
+    rows, coordinates, normal and initial gap. The stuck stiffness of a group (k per area x total
+    area, acting on the mean gaps) is the group's as long as the group moves as a rigid patch; the
+    error against the fine interface is a reported figure (docs/superelement.md).
+
+    Grouping: classes None, k-means on the coordinates (scipy.cluster.vq.kmeans2, fixed seed).
+    With classes (an int per point, the lower the more important: the bolts' footprints,
+    plant.se_coarsen.footprint_classes), no group mixes two classes or two separate regions of one
+    class (``footprint_regions``; the highest classes merged while their regions would take more
+    than half of the groups, ``_footprint_groups``): each region gets one group, the remaining
+    groups go to the regions of the lowest class first, in proportion to their points, and k-means
+    splits a region into its groups.
+    """
     from scipy.cluster.vq import kmeans2
     p = se.n_points
     if not 1 <= n_clusters <= p:
@@ -510,9 +594,13 @@ def coarsen(se: Superelement, n_clusters: int, seed: int = 0) -> Superelement:
         return se
     if se.contact_xyz is None:
         raise _fail("contact_xyz", "is needed to coarsen the interface (the points' coordinates)")
-    _, label = kmeans2(se.contact_xyz, n_clusters, minit="++", seed=seed)
-    groups = [np.flatnonzero(label == c) for c in range(n_clusters)]
-    groups = sorted((g for g in groups if len(g)), key=lambda g: tuple(se.contact_xyz[g].mean(axis=0)))
+    xyz = se.contact_xyz
+    if classes is None:
+        _, label = kmeans2(xyz, n_clusters, minit="++", seed=seed)
+        groups = [np.flatnonzero(label == c) for c in range(n_clusters)]
+    else:
+        groups = _footprint_groups(xyz, np.asarray(classes, np.int64), n_clusters, seed)
+    groups = sorted((g for g in groups if len(g)), key=lambda g: tuple(xyz[g].mean(axis=0)))
     a = se.contact_area
     W = np.zeros((len(groups), p))
     for c, g in enumerate(groups):
@@ -521,8 +609,9 @@ def coarsen(se: Superelement, n_clusters: int, seed: int = 0) -> Superelement:
     if se.contact_normal is not None:
         normal = W @ se.contact_normal
         normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    how = "" if classes is None else " by the bolts' footprints"
     return check(replace(se, contact_rows=np.einsum("cp,pdn->cdn", W, se.contact_rows),
                          contact_area=np.array([a[g].sum() for g in groups]),
                          contact_gap0=None if se.contact_gap0 is None else W @ se.contact_gap0,
                          contact_xyz=W @ se.contact_xyz, contact_normal=normal,
-                         source=f"{se.source} coarsened to {len(groups)} points"))
+                         source=f"{se.source} coarsened to {len(groups)} points{how}"))

@@ -44,15 +44,12 @@ def cmd_compare(cfg, args) -> int:
             return fail(f"-o {out}: give a .png file in an existing folder")
         if msg := refuse_existing([out], args.force, "-o"):
             return fail(msg)
-    if args.structure and args.controller:
-        return fail("--controller with --structure: not on an imported structure (the C controller runs in "
-                    "replay --c); drop --controller")
     try:
         exports = c_exports(args.controller, [(law, args.estimator) for law in LAWS])
         res = compare(cfg, mode=args.mode, amp_n=args.amp, duration_s=args.duration, freq_hz=args.freq,
                       estimator=args.estimator, progress=not args.json,
                       controller_of=(lambda loop: controller_for(exports, loop, cfg.rt.seed)) if exports else None,
-                      structure=args.structure, clusters=args.clusters)
+                      structure=args.structure, clusters=args.clusters, clustering=args.clustering)
     except ValueError as exc:
         return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("mode ", "--mode ", 1)
                     .replace("amplitude ", "--amp ", 1))

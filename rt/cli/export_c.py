@@ -66,7 +66,7 @@ def cmd_export_c(cfg, args) -> int:
     try:
         m = export_c(cfg, out=out, law=args.law, estimator=args.estimator, from_log=args.from_log, sets=args.sets,
                      force=args.force, precision=args.precision, structure=args.structure,
-                     clusters=args.clusters).to_dict()
+                     clusters=args.clusters, clustering=args.clustering).to_dict()
     except FileExistsError:
         return fail(f"--out {out}: exists; pass --force to replace it as a whole, or give a new folder")
     except ValueError as exc:

@@ -149,9 +149,9 @@ def cmd_frf(cfg: Config, args) -> int:
     rate = args.sweep_rate
     if rate is not None and not (math.isfinite(rate) and rate > 0.0):
         return fail(f"--sweep-rate {rate:g} Hz/s: must be a finite rate > 0 (e.g. 0.5; --down for a down-sweep)")
-    if args.structure and (args.error_estimate or args.controller):
-        return fail("--error-estimate and --controller with --structure: not on an imported structure (its "
-                    "refinement is the FE code's; the C controller runs in replay --c); drop them")
+    if args.structure and args.error_estimate:
+        return fail("--error-estimate with --structure: not on an imported structure (its refinement is the FE "
+                    "code's); drop it")
     from frictionrt.rt.loop import Designs
     designs = Designs()   # the structure's plant, built once for the bands and the loops
     try:
@@ -179,7 +179,7 @@ def cmd_frf(cfg: Config, args) -> int:
         if exports:   # each law with a C export runs it (its worker processes load the library by path)
             from dataclasses import replace
             from frictionrt.rt.experiments.branches import build_loops
-            loops = build_loops(branches)
+            loops = loops if loops is not None else build_loops(branches)
             ctrl = {id(lp): controller_for(exports, lp, cfg.rt.seed) for lp in loops}
             branches = [replace(b, controller=ctrl[id(lp)]) for b, lp in zip(branches, loops)]
         results = run_branches(branches, jobs=args.jobs, dask_address=args.dask, progress=not args.json, loops=loops)

@@ -55,9 +55,8 @@ def cmd_simulate(cfg, args) -> int:
         return structure_simulate(cfg, args)
     if args.plant_only:
         return fail("--plant-only: with --structure FILE only (the imported plant alone, passive joint)")
-    if args.structure and (args.paced or args.controller):
-        return fail("--paced and --controller with --structure: not on an imported structure yet; drop them "
-                    "(the loop runs offline with numba's controller)")
+    if args.structure and args.paced:
+        return fail("--paced with --structure: not on an imported structure yet; drop it (the loop runs offline)")
     from frictionrt.jobs import simulate
     from frictionrt.rt.log.writer import INTERRUPT_DRAIN_S
     if msg := unpaced_realtime(args):
@@ -80,7 +79,7 @@ def cmd_simulate(cfg, args) -> int:
                        duration_s=args.duration, paced=args.paced, seed=args.seed, out=args.out, force=args.force,
                        rrd=not args.no_rrd, ring_s=args.ring, faults=args.fault, progress=not args.json,
                        controller_of=(lambda loop: controller_for(exports, loop, seed)) if exports else None,
-                       structure=args.structure, clusters=args.clusters)
+                       structure=args.structure, clusters=args.clusters, clustering=args.clustering)
     except ValueError as exc:
         return fail(str(exc).replace("freq_hz (--freq)", "--freq").replace("ring ", "--ring ", 1)
                     if str(exc).startswith(("freq_hz", "ring ")) else str(exc))

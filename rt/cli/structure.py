@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from frictionrt.plant.superelement import CLUSTERINGS, DEFAULT_CLUSTERING
 from frictionrt.rt.cli.common import fail
 
 
@@ -28,7 +29,8 @@ def structure_arg(args):
     """The ``rt.loop.structure.Structure`` of --structure/--clusters (None without --structure);
     ValueError (one line naming the file or the count) for a missing file or clusters < 0."""
     from frictionrt.rt.loop.structure import structure_of
-    return None if not getattr(args, "structure", None) else structure_of(args.structure, args.clusters)
+    return None if not getattr(args, "structure", None) else structure_of(args.structure, args.clusters,
+                                                                          args.clustering)
 
 
 def add_structure(p: argparse.ArgumentParser) -> None:
@@ -39,6 +41,9 @@ def add_structure(p: argparse.ArgumentParser) -> None:
                         "parameters, the step and the damping still come from the configuration")
     p.add_argument("--clusters", type=int, default=0, metavar="N",
                    help="with --structure: coarsen the interface to N contact points (node clustering); 0: as read")
+    p.add_argument("--clustering", choices=CLUSTERINGS, default=DEFAULT_CLUSTERING,
+                   help="with --clusters: group the points within the bolts' contact footprints (footprint: the "
+                        "patches the adaptive bolt closes stay closed) or by k-means on their coordinates alone")
 
 
 def _plant(cfg, args):
@@ -48,7 +53,7 @@ def _plant(cfg, args):
     if args.clusters < 0:
         return None, fail(f"--clusters {args.clusters}: must be >= 0 (0: the interface as read)")
     try:
-        return load_plant(args.structure, cfg, args.clusters), None
+        return load_plant(args.structure, cfg, args.clusters, args.clustering), None
     except SuperelementError as e:
         return None, fail(f"--structure {args.structure}: {e}")
     except RuntimeError as e:

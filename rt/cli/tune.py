@@ -91,7 +91,7 @@ def cmd_tune(cfg: Config, args) -> int:
         res = tune(cfg, law=args.law, grid=grid, modes=modes, amps_n=args.amps, points=args.points,
                    half_width=args.half_width, estimator=args.estimator, max_power_w=args.max_power, jobs=args.jobs,
                    dask=args.dask, out=out, force=True, progress=not args.json, structure=args.structure,
-                   clusters=args.clusters)
+                   clusters=args.clusters, clustering=args.clustering)
     except ConfigError as exc:
         return fail(f"--grid: {exc}")
     except ConnectionError as exc:

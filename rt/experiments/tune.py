@@ -324,8 +324,9 @@ def best_toml(res: TuneResult) -> str:
             "(negative: lower than passive), "
             f"actuator power {row['power_w']:.3g} W"]
     if res.structure is not None:
-        head.append(f"# on the imported structure {res.structure['file']} (--clusters {res.structure['clusters']}, "
-                    f"SHA-256 {res.structure['sha256'][:12]}...): use it with --structure FILE --clusters N")
+        head.append(f"# on the imported structure {res.structure['file']} (--clusters {res.structure['clusters']} "
+                    f"--clustering {res.structure.get('clustering', 'coordinates')}, SHA-256 "
+                    f"{res.structure['sha256'][:12]}...): use it with --structure FILE --clusters N --clustering C")
     return "\n".join(head) + "\n" + dumps(res.best_cfg)
 
 

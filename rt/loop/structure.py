@@ -13,14 +13,17 @@ from pathlib import Path
 @dataclass(frozen=True)
 class Structure:
     """The imported structure of a loop: the superelement file (absolute path), the SHA-256 of its
-    bytes, and the number of contact points its interface is coarsened to (0: as read)."""
+    bytes, the number of contact points its interface is coarsened to (0: as read) and how the
+    points are grouped (plant.superelement.CLUSTERINGS)."""
     path: str
     sha256: str
     clusters: int = 0
+    clustering: str = "footprint"
 
     def record(self) -> str:
-        """The log's "structure" metadata (JSON: file, sha256, clusters)."""
-        return json.dumps({"file": self.path, "sha256": self.sha256, "clusters": self.clusters})
+        """The log's "structure" metadata (JSON: file, sha256, clusters, clustering)."""
+        return json.dumps({"file": self.path, "sha256": self.sha256, "clusters": self.clusters,
+                           "clustering": self.clustering})
 
 
 def file_sha256(path) -> str:
@@ -31,15 +34,18 @@ def file_sha256(path) -> str:
     return h.hexdigest()
 
 
-def structure_of(path, clusters: int = 0) -> Structure:
+def structure_of(path, clusters: int = 0, clustering: str = "footprint") -> Structure:
     """The ``Structure`` of the superelement file at path; ValueError naming the file if it is
-    missing, or for clusters < 0."""
+    missing, for clusters < 0 or an unknown clustering."""
+    from frictionrt.plant.superelement import CLUSTERINGS
     p = Path(path)
     if not p.is_file():
         raise ValueError(f"--structure {path}: {'not a file' if p.exists() else 'no such file'}")
     if clusters < 0:
         raise ValueError(f"--clusters {clusters}: must be >= 0 (0: the interface as read)")
-    return Structure(str(p.resolve()), file_sha256(p), int(clusters))
+    if clustering not in CLUSTERINGS:
+        raise ValueError(f"--clustering {clustering}: must be one of {', '.join(CLUSTERINGS)}")
+    return Structure(str(p.resolve()), file_sha256(p), int(clusters), clustering)
 
 
 def logged_structure(meta: dict[str, str], override=None, log_path="") -> Structure | None:
@@ -58,7 +64,8 @@ def logged_structure(meta: dict[str, str], override=None, log_path="") -> Struct
     if got != rec["sha256"]:
         raise ValueError(f"{log_path}: {path} is not the run's structure (SHA-256 {got[:12]}..., the log records "
                          f"{rec['sha256'][:12]}...)")
-    return Structure(str(path.resolve()), got, int(rec.get("clusters", 0)))
+    # a log without "clustering" was written when k-means on the coordinates was the only grouping
+    return Structure(str(path.resolve()), got, int(rec.get("clusters", 0)), rec.get("clustering", "coordinates"))
 
 
 def build_structure_plant(cfg, structure: Structure):
@@ -67,11 +74,10 @@ def build_structure_plant(cfg, structure: Structure):
     ValueError (one line) for a bad file (plant.superelement.SuperelementError) or a static
     equilibrium that fails."""
     from frictionrt.plant.se_plant import build_se_plant
-    from frictionrt.plant.superelement import SuperelementError, coarsen, load
+    from frictionrt.plant.se_coarsen import coarsen_structure
+    from frictionrt.plant.superelement import SuperelementError, load
     try:
-        se = load(structure.path)
-        if structure.clusters:
-            se = coarsen(se, structure.clusters)
+        se = coarsen_structure(load(structure.path), structure.clusters, cfg, structure.clustering)
         return build_se_plant(se, cfg, F_N1=cfg.actuator.F0_N)
     except (SuperelementError, RuntimeError) as exc:
         raise ValueError(f"--structure {structure.path}: {exc}") from None

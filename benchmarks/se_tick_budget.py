@@ -1,0 +1,111 @@
+"""The whole tick's cost on an imported structure against its number of contact points, A/B against
+the built-in 2-D beams in the same run.
+
+    python -m benchmarks.se_tick_budget [--clusters 2,3,4,6,8,12,16,24,32,0] [--dims 2,1]
+        [--clustering footprint|coordinates] [--steps 4200] [--fine-steps 1050] [--reps 3]
+        [--law lyapunov] [--estimator observer] [--json OUT]
+
+The 3-D reference (plant.fe3d, 57 contact points) coarsened by --clustering (plant.se_coarsen,
+default the bolts' footprints; 0: the 57 points as built), with 2-D friction (circular limit) and 1-D friction
+(the second tangential row dropped before the coarsening). Per case the closed loop of --law on
+--estimator (the observer designed from the superelement) runs at the tick budget's excitation
+(rt.loop.budget: 5 N at 223.6 Hz, stick-slip every cycle) with per-stage timing
+(``run(..., timing=True)``): the whole tick's and the plant stage's median [us]; the built-in loop
+(same law and estimator) is run before each repetition of the case, alternating, and the load
+average is kept beside each row. --fine-steps: the steps of cases above 24 points.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+
+import numpy as np
+
+BUDGET_US = 8.0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--clusters", default="2,3,4,6,8,12,16,24,32,0")
+    ap.add_argument("--dims", default="2,1")
+    ap.add_argument("--steps", type=int, default=4200)
+    ap.add_argument("--fine-steps", type=int, default=1050)
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--clustering", default="footprint")
+    ap.add_argument("--law", default="lyapunov")
+    ap.add_argument("--estimator", default="observer")
+    ap.add_argument("--mesh", choices=("reference", "coarse"), default="reference")
+    ap.add_argument("--json", metavar="OUT.json")
+    a = ap.parse_args(argv)
+    from frictionrt.plant import fe3d
+    from frictionrt.plant import superelement as S
+    from frictionrt.plant.se_coarsen import coarsen_structure
+    from frictionrt.rt.common.config import Config
+    from frictionrt.rt.loop import build_loop
+    from frictionrt.rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
+    from frictionrt.rt.loop.build import COMPONENTS
+    from frictionrt.rt.loop.driver import run
+    from frictionrt.rt.loop.structure import structure_of
+    cfg = Config()
+    kw = {"interface_pitch_m": 0.04, "pitch_m": 0.05} if a.mesh == "coarse" else {}
+    se, _ = fe3d.reference_superelement(cfg, **kw)
+    i_plant = COMPONENTS.index("plant")
+
+    def medians(loop, steps):
+        r = run(loop, EXC_FREQ_HZ, EXC_AMP_N, steps * cfg.dt_s, timing=True)
+        return float(np.median(r.signal("tick_ns")) / 1e3), float(np.median(r.comp_ns[:, i_plant]) / 1e3)
+
+    builtin = build_loop(cfg, a.law, a.estimator)
+    run(builtin, EXC_FREQ_HZ, EXC_AMP_N, 0.01, timing=True)
+    out = {"clustering": a.clustering, "law": a.law, "estimator": a.estimator, "budget_us": BUDGET_US, "points_full": se.n_points, "rows": []}
+    print(f"whole tick and plant stage median [us], {a.law}/{a.estimator}, 5 N at {EXC_FREQ_HZ} Hz; "
+          f"built-in 2-D beams in the same run (A/B)", flush=True)
+    with tempfile.TemporaryDirectory() as d:
+        for nt in (int(x) for x in a.dims.split(",")):
+            base = se if nt == 2 else se.with_(contact_rows=np.ascontiguousarray(se.contact_rows[:, :2]))
+            for c in (int(x) for x in a.clusters.split(",")):
+                row = {"friction_dims": nt, "clusters": c, "points": c or se.n_points}
+                try:
+                    s = coarsen_structure(base, c, cfg, a.clustering) if c else base
+                    f = S.save(s, os.path.join(d, f"s{nt}_{c}.npz"))
+                    t0 = time.process_time()
+                    loop = build_loop(cfg, a.law, a.estimator, structure=structure_of(f))
+                    row["build_cpu_s"] = round(time.process_time() - t0, 2)
+                    steps = a.steps if row["points"] <= 24 else a.fine_steps
+                    run(loop, EXC_FREQ_HZ, EXC_AMP_N, 0.01, timing=True)
+                    A, B = [], []
+                    for _ in range(a.reps):
+                        A.append(medians(builtin, steps))
+                        B.append(medians(loop, steps))
+                except (ValueError, RuntimeError) as e:
+                    row["error"] = str(e)
+                    print(f"{nt}-D friction, {row['points']:>3} points: {e}", flush=True)
+                    out["rows"].append(row)
+                    continue
+                A, B = np.array(A), np.array(B)
+                row.update(steps=steps, n_modes=int(loop.plant.n), tick_us=float(np.median(B[:, 0])),
+                           plant_us=float(np.median(B[:, 1])), builtin_tick_us=float(np.median(A[:, 0])),
+                           builtin_plant_us=float(np.median(A[:, 1])), tick_us_reps=B[:, 0].round(2).tolist(),
+                           load_avg=os.getloadavg()[0])
+                out["rows"].append(row)
+                print(f"{nt}-D friction, {row['points']:>3} points ({row['n_modes']} coordinates): tick "
+                      f"{row['tick_us']:8.2f}  plant {row['plant_us']:8.2f} | built-in tick {row['builtin_tick_us']:6.2f} "
+                      f"plant {row['builtin_plant_us']:6.2f}  (reps {row['tick_us_reps']}, load {row['load_avg']:.1f})",
+                      flush=True)
+    ok = {}
+    for r in out["rows"]:
+        if "tick_us" in r and r["tick_us"] <= BUDGET_US:
+            ok[r["friction_dims"]] = max(ok.get(r["friction_dims"], 0), r["points"])
+    out["largest_within_budget"] = ok
+    print(f"largest point count with the whole tick's median <= {BUDGET_US:g} us: {ok}")
+    if a.json:
+        with open(a.json, "w") as fh:
+            json.dump(out, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
