@@ -38,7 +38,7 @@ import numpy as np
 from benchmarks.entry import run_main
 from benchmarks.joint_convergence import hammer
 from frictionrt.plant import measures
-from frictionrt.rt.common.config import Config, load, refined_sets, with_sets
+from frictionrt.rt.common.config import LAYOUTS, Config, load, refined_sets, with_sets
 
 THRESHOLD_STEP = measures.FORCE_STEP
 
@@ -196,7 +196,7 @@ def _cells(data: dict) -> list[dict]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--fn1", type=float, nargs="+", default=[40.0, 100.0], help="F_N1 levels [N] (default 40 100)")
-    ap.add_argument("--layouts", nargs="+", default=["hand", "model"], choices=["hand", "model"])
+    ap.add_argument("--layouts", nargs="+", default=["hand", "model"], choices=list(LAYOUTS))
     ap.add_argument("--no-threshold", action="store_true", help="skip the slip-threshold runs of the references")
     ap.add_argument("--save", metavar="FILE.npz", help="also write every FRF (numpy .npz)")
     ap.add_argument("--cost", action="store_true", help="the plant step's A/B per layout instead")

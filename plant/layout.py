@@ -33,6 +33,15 @@ equidistribute it: x_i = Phi^-1(i / N), Phi the normalised integral of rho from 
 Halving ``pitch_m`` doubles N with the same rho, so the refined layout holds every point of the
 coarse one and one more in each interval (at its density's midpoint): every spacing halves where
 rho is constant.
+
+``plant.interface.layout = "fronts"`` (``fronts_positions``) keeps the hand layout's spacings where
+the joint is closed and takes the points the hand layout spends on the open interface to the slip
+fronts: with h = pitch_m, the density is r^2 / h over the intervals that touch a slip-prone point or
+lie in an edge's range, r / h over the other intervals that touch a point closed at some level (the
+hand layout's end spacing, over the whole closed contact), and over the open interface the uniform
+density that makes the N intervals of the hand layout, at least 1 / (``OPEN_PITCHES_MAX`` h) (if
+the closed contact and the fronts alone need more than N intervals, all densities scale down so
+that the count stays N). It nests under halving like the model layout.
 """
 from __future__ import annotations
 
@@ -47,6 +56,7 @@ ANALYSIS_INTERVALS = 128   # the analysis interface's equal intervals (elements:
 ANALYSIS_MODES = 24        # stuck modes computed per level (those below impulse.f_max_hz are used)
 LEVELS = 6                 # F_N1 levels, geometric over [F_min, F_max]
 SLIP_RATIO = 0.25          # slip-prone: r_j >= SLIP_RATIO max r (module docstring, 3)
+OPEN_PITCHES_MAX = 4.0     # "fronts": the open interface's spacing at most this many pitch_m
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,15 +70,20 @@ class JointZones:
     ratio: np.ndarray         # (points,) largest normalised r_j over modes and levels [-]
     slip_prone: np.ndarray    # (points,) ratio >= SLIP_RATIO
 
-    def density(self, r: float) -> np.ndarray:
-        """Point density per analysis interval (module docstring): r^2, r or 1 [relative]."""
+    def zone_masks(self) -> tuple[np.ndarray, np.ndarray]:
+        """(fine, closed) per analysis interval: it touches a slip-prone point or lies in an edge's
+        range; it touches a point closed at some level (module docstring)."""
         x = self.x
         touch = lambda mask: mask[:-1] | mask[1:]   # noqa: E731
-        rho = np.where(touch(self.closed.any(axis=0)), r, 1.0)
         fine = touch(self.slip_prone)
         for lo, hi in self.edges:
             fine |= (x[1:] > lo) & (x[:-1] < hi)
-        return np.where(fine, r * r, rho)
+        return fine, touch(self.closed.any(axis=0))
+
+    def density(self, r: float) -> np.ndarray:
+        """Point density per analysis interval (module docstring): r^2, r or 1 [relative]."""
+        fine, closed = self.zone_masks()
+        return np.where(fine, r * r, np.where(closed, r, 1.0))
 
 
 def hand_positions(itf) -> np.ndarray:
@@ -178,8 +193,28 @@ def model_positions(itf, zones: JointZones) -> np.ndarray:
     """The model layout [m] (module docstring): as many points as the hand layout of the interface
     ``itf``'s pitch_m, end_refinement and end_zone_m, equidistributing ``zones.density``."""
     n = len(hand_positions(itf)) - 1
-    rho = zones.density(float(itf.end_refinement))
-    phi = np.concatenate([[0.0], np.cumsum(rho * np.diff(zones.x))])
-    x = np.interp(phi[-1] * np.arange(n + 1) / n, phi, zones.x)
-    x[0], x[-1] = itf.x_start_m, itf.x_end_m
-    return x
+    return _equidistribute(itf, zones.x, zones.density(float(itf.end_refinement)), n)
+
+
+def fronts_positions(itf, zones: JointZones) -> np.ndarray:
+    """The fronts layout [m] (module docstring): as many points as the hand layout of ``itf``,
+    pitch_m / end_refinement over the closed contact, pitch_m / end_refinement^2 at the slip
+    fronts and the rest spread evenly over the open interface."""
+    n = len(hand_positions(itf)) - 1
+    r, h = float(itf.end_refinement), itf.pitch_m
+    fine, closed = zones.zone_masks()
+    dx = np.diff(zones.x)
+    rho = np.where(fine, r * r / h, np.where(closed, r / h, 0.0))
+    open_ = ~(fine | closed)
+    length_open = float(dx[open_].sum())
+    if length_open > 0.0:
+        rho[open_] = max((n - float((rho * dx).sum())) / length_open, 1.0 / (OPEN_PITCHES_MAX * h))
+    return _equidistribute(itf, zones.x, rho, n)
+
+
+def _equidistribute(itf, x: np.ndarray, rho: np.ndarray, n: int) -> np.ndarray:
+    """n + 1 points x_i = Phi^-1(i / n) of the density rho per interval of x, the ends pinned."""
+    phi = np.concatenate([[0.0], np.cumsum(rho * np.diff(x))])
+    out = np.interp(phi[-1] * np.arange(n + 1) / n, phi, x)
+    out[0], out[-1] = itf.x_start_m, itf.x_end_m
+    return out

@@ -16,7 +16,8 @@ import numpy as np
 
 from frictionrt.plant.bolts import cone_radius, pressure_weights, vdi_cone_tan
 from frictionrt.plant.fe_beam import DOFS_PER_NODE, THETA, U, W, assemble_beam, frame_shape, mesh_nodes
-from frictionrt.plant.layout import JointZones, analysis_config, hand_positions, joint_zones, model_positions
+from frictionrt.plant.layout import (JointZones, analysis_config, fronts_positions, hand_positions, joint_zones,
+                                    model_positions)
 from frictionrt.plant.tributary import tributary_lengths
 from frictionrt.rt.common.config import Beam, Config, adaptive_screw
 
@@ -133,12 +134,15 @@ def _pair_positions(cfg: Config) -> np.ndarray:
     """Contact point positions [m] by plant.interface.layout (plant/layout.py): "hand", x_start ..
     x_end at pitch_m with the n_z pitches nearest either end split into end_refinement
     (``hand_positions``); "model", as many points placed by the preloaded joint's stuck pressure
-    and slip onset (``model_positions``)."""
+    and slip onset (``model_positions``); "fronts", as many points, the hand layout's end spacing over
+    the closed contact and the open interface's points moved to the slip fronts (``fronts_positions``)."""
     i = cfg.plant.interface
     if not i.enabled:
         return np.zeros(0)
     if i.layout == "model":
         return model_positions(i, _joint_zones(analysis_config(cfg)))
+    if i.layout == "fronts":
+        return fronts_positions(i, _joint_zones(analysis_config(cfg)))
     return hand_positions(i)
 
 

@@ -63,8 +63,9 @@ AMPLIFIERS = ("current", "voltage")   # shaker.amplifier: the power amplifier's 
 # (default), or generalized-alpha (Chung & Hulbert 1993) with its spectral radius plant.step_rho_inf
 STEP_SCHEMES = ("trapezoidal", "generalized_alpha")
 # the contact points' layout (plant.interface.layout; plant/layout.py): hand = pitch_m with the ends
-# refined over end_zone_m; model = as many points, placed by the stuck pressure and slip onset
-LAYOUTS = ("hand", "model")
+# refined over end_zone_m; model = as many points, placed by the stuck pressure and slip onset; fronts = as
+# many points, the ends' spacing over the closed contact and the open interface's points at the slip fronts
+LAYOUTS = ("hand", "model", "fronts")
 INT64 = (-2**63, 2**63 - 1)   # integer fields reach the kernels as int64
 
 
@@ -177,7 +178,9 @@ class Interface:
                         "placed by the preloaded joint's own figures (plant/layout.py): densest where slip starts "
                         "as F_N1 varies over [tracking.F_min_N, F_max_N] and over the range the adaptive screw's "
                         "contact edge covers, end_refinement times sparser over the rest of the closed contact "
-                        "and end_refinement^2 times over the open interface")
+                        "and end_refinement^2 times over the open interface; fronts = the same number of points, "
+                        "pitch_m / end_refinement over the whole closed contact, pitch_m / end_refinement^2 where "
+                        "slip starts and the edge moves, and the rest evenly over the open interface")
     mu: float = param(0.4, "-", lo=0.0, hi=2.0, doc="friction coefficient (A)")
     k_n_area: float = param(9.5e12, "N/m^3", lo=0.0, lo_inclusive=False,
                             doc="normal penalty stiffness per unit area of interface (a pair carries it times "
