@@ -281,9 +281,10 @@ def craig_bampton_sparse(K: sp.spmatrix, M: sp.spmatrix, boundary: np.ndarray, c
     k = 12
     Mii = M[i][:, i].tocsc()
     op = spla.LinearOperator(Kii.shape, matvec=lu.solve)
+    v0 = np.random.default_rng(0).standard_normal(len(i))   # ARPACK's start: fixed, so the same bits each run
     while True:
         k = min(k, len(i) - 2)
-        lam, Phi = spla.eigsh(Kii, k=k, M=Mii, sigma=0.0, OPinv=op, which="LM")
+        lam, Phi = spla.eigsh(Kii, k=k, M=Mii, sigma=0.0, OPinv=op, which="LM", v0=v0)
         if lam.max() > lim or k >= len(i) - 2:
             break
         k *= 2
