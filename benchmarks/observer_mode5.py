@@ -58,21 +58,31 @@ def model_ratio(model, f_hz: float, modes=None) -> complex:
     return complex(np.sum(model.C_u[:N][keep] * g[keep]) / (1j * w * np.sum(model.C_meas[N:][keep] * g[keep])))
 
 
+def _linearised_stiffness(plant, F_N1: float, sliding: bool, free_rows: np.ndarray | None = None) -> np.ndarray:
+    """diag(omega^2) + G^T K_c G [1/s^2] of the plant's reduced model with the pairs closed at F_N1
+    stuck (k_n, k_t), the adaptive screw's cone pairs tangentially free if ``sliding``, and the contact
+    rows ``free_rows`` ((2p,) bool) without stiffness."""
+    from frictionrt.plant.model import preloaded_pairs
+    from frictionrt.plant.structure import adaptive_cone_pairs
+    p = plant.params
+    closed = preloaded_pairs(plant, F_N1)
+    cone = adaptive_cone_pairs(plant.cfg, plant.structure.x_pairs)
+    k_all = np.zeros(p.G.shape[0])
+    k_all[0::2] = p.k_n * closed
+    k_all[1::2] = p.k_t * (closed & ~cone if sliding else closed)
+    if free_rows is not None:
+        k_all[free_rows] = 0.0
+    return np.diag(p.omega2) + (p.G.T * k_all) @ p.G
+
+
 def plant_ratio(plant, f_hz: float, joint: str, F_N1: float) -> complex:
     """U_rel / V_tip [s] of the plant's reduced model linearised at F_N1 (the closed pairs stuck;
     ``joint`` "sliding": the adaptive screw's cone pairs tangentially free, "stuck": not), driven
     by the excitation force at f_hz, with the model's own modal damping."""
-    from frictionrt.plant.model import preloaded_pairs
-    from frictionrt.plant.structure import adaptive_cone_pairs
     p = plant.params
     st = plant.structure
-    closed = preloaded_pairs(plant, F_N1)
-    cone = adaptive_cone_pairs(plant.cfg, st.x_pairs)
-    k_all = np.zeros(p.G.shape[0])
-    k_all[0::2] = p.k_n * closed
-    k_all[1::2] = p.k_t * (closed & ~cone if joint == "sliding" else closed)
     w = 2 * np.pi * f_hz
-    K = np.diag(p.omega2) + (p.G.T * k_all) @ p.G
+    K = _linearised_stiffness(plant, F_N1, joint == "sliding")
     q = np.linalg.solve(K - w * w * np.eye(len(p.omega2)) + 1j * w * np.diag(p.c), plant.Phi.T @ st.b_exc)
     tip = st.point_rows[list(st.point_names).index("tip")] @ plant.Phi
     return complex((st.u_rel_row @ plant.Phi) @ q / (1j * w * (tip @ q)))
@@ -84,18 +94,10 @@ def forced_ratio(plant, f_hz: float, F_N1: float, F_exc: complex, lam: np.ndarra
     contact rows ``true_rows`` ((2p,) bool, g_n and g_t interleaved), by the run's own contact forces
     ``lam`` ((2p,) phasors [N], modal force G^T Lambda) in place of their linearised stiffness:
     what the linear structure gives with those forces the plant's own."""
-    from frictionrt.plant.model import preloaded_pairs
-    from frictionrt.plant.structure import adaptive_cone_pairs
     p = plant.params
     st = plant.structure
-    closed = preloaded_pairs(plant, F_N1)
-    cone = adaptive_cone_pairs(plant.cfg, st.x_pairs)
-    k_all = np.zeros(p.G.shape[0])
-    k_all[0::2] = p.k_n * closed
-    k_all[1::2] = p.k_t * (closed & ~cone)
-    k_all[true_rows] = 0.0
     w = 2 * np.pi * f_hz
-    K = np.diag(p.omega2) + (p.G.T * k_all) @ p.G
+    K = _linearised_stiffness(plant, F_N1, True, true_rows)
     load = plant.Phi.T @ st.b_exc * F_exc + p.G[true_rows].T @ lam[true_rows]
     q = np.linalg.solve(K - w * w * np.eye(len(p.omega2)) + 1j * w * np.diag(p.c), load)
     tip = st.point_rows[list(st.point_names).index("tip")] @ plant.Phi
