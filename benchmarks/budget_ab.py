@@ -38,7 +38,9 @@ def budget_in(tree: Path, paced_s: float, law: str, sets: list[str] = ()) -> dic
     args = ["budget", "--no-floor", "--json", "--paced-s", str(paced_s), "--law", law]
     for kv in sets:
         args += ["--set", kv]
-    code = f"import sys; from frictionrt.rt.cli import main; sys.exit(main({args!r}))"
+    # a tree from before the frictionrt.* namespace (e.g. the one an issue was filed against) imports as rt.*
+    code = ("import sys\ntry:\n    from frictionrt.rt.cli import main\nexcept ModuleNotFoundError:\n"
+            f"    sys.path.insert(0, '.')\n    from rt.cli import main\nsys.exit(main({args!r}))")
     venv = tree / ".venv" / "bin" / "python"
     p = subprocess.run([str(venv) if venv.exists() else sys.executable, "-c", code], cwd=tree,
                        capture_output=True, text=True)
