@@ -9,9 +9,12 @@ STAMP := $(VENV)/.installed
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
 
+# the install ends by compiling the run-time kernels into numba's cache (frictionrt/warm.py, ~2.5 min on two
+# cores, as a C extension compiles at its install), so the first `make demo` runs as fast as the next
 $(STAMP): $(BIN)/python pyproject.toml
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'
+	-$(BIN)/python -m frictionrt.warm --jobs 2
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -20,8 +23,9 @@ demo: $(STAMP)
 	$(BIN)/frictionrt compare --mode 3 --amp 5 --duration 1 -o logs/compare_laws.png --force
 	$(BIN)/frictionrt reproduce --quick --out logs/reproduce_quick --force
 
-# the kernels compiled once, on two processes (frictionrt/warm.py: two workers that start together would each
-# compile them in full; a path that fails is reported and the suite still runs), then two workers for the suite (its 25 slowest tests listed, for the budget), then
+# the kernels compiled once, on two processes (frictionrt/warm.py, a few seconds where the install or an earlier
+# run compiled them: two workers that start together would each compile them in full; a path that fails is
+# reported and the suite still runs), then two workers for the suite (its 25 slowest tests listed, for the budget), then
 # the timing tests alone (pyproject.toml, marker `timing`)
 test: $(STAMP)
 	-$(BIN)/python -m frictionrt.warm --jobs 2

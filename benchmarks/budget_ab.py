@@ -2,6 +2,7 @@
 
     python -m benchmarks.budget_ab OTHER_TREE [--rounds 12] [--paced-s 2] [--law lyapunov]
                                 [--set-a KEY=VALUE ...] [--set-b KEY=VALUE ...]
+                                [--estimator-a E] [--estimator-b E]
 
 OTHER_TREE is another checkout of the project (e.g. `git worktree add ../base 891904d`, the tree
 before issue 31), or this one (`.`) to compare two configurations: --set-a applies to OTHER_TREE's
@@ -33,12 +34,18 @@ FIGURES = {"tick median": ("total", "median_us"), "tick p99": ("total", "p99_us"
            "paced missed": ("paced", "overruns")}
 
 
-def budget_in(tree: Path, paced_s: float, law: str, sets: list[str] = ()) -> dict:
-    """`budget --no-floor --json` run by ``tree``'s own code (its own environment where it has one)."""
+def budget_in(tree: Path, paced_s: float, law: str, sets: list[str] = (), estimator: str | None = None) -> dict:
+    """`budget --no-floor --json` run by ``tree``'s own code (its own environment where it has one);
+    ``estimator`` None: the tree's default (the observer; the oracle in trees from before the
+    estimator was a choice)."""
     args = ["budget", "--no-floor", "--json", "--paced-s", str(paced_s), "--law", law]
+    if estimator is not None:
+        args += ["--estimator", estimator]
     for kv in sets:
         args += ["--set", kv]
-    code = f"import sys; from frictionrt.rt.cli import main; sys.exit(main({args!r}))"
+    # a tree from before the frictionrt.* namespace (e.g. the one an issue was filed against) imports as rt.*
+    code = ("import sys\ntry:\n    from frictionrt.rt.cli import main\nexcept ModuleNotFoundError:\n"
+            f"    sys.path.insert(0, '.')\n    from rt.cli import main\nsys.exit(main({args!r}))")
     venv = tree / ".venv" / "bin" / "python"
     p = subprocess.run([str(venv) if venv.exists() else sys.executable, "-c", code], cwd=tree,
                        capture_output=True, text=True)
@@ -61,6 +68,11 @@ def main() -> int:
     ap.add_argument("--law", default="lyapunov", choices=["passive", "hysteresis", "lyapunov"])
     ap.add_argument("--set-a", action="append", default=[], metavar="KEY=VALUE", help="configuration of the A side")
     ap.add_argument("--set-b", action="append", default=[], metavar="KEY=VALUE", help="configuration of the B side")
+    ap.add_argument("--estimator-a", choices=["observer", "oracle", "amplitude"],
+                    help="the A side's estimator (default: its tree's own; give none for a tree from before "
+                         "the choice, whose budget ran on the oracle)")
+    ap.add_argument("--estimator-b", choices=["observer", "oracle", "amplitude"],
+                    help="the B side's estimator (default: its tree's own, the observer)")
     args = ap.parse_args()
     if not (args.other / "rt" / "cli").is_dir():
         print(f"benchmarks.budget_ab: error: {args.other} is not a checkout of this project (no rt/cli); "
@@ -68,15 +80,17 @@ def main() -> int:
         return 2
     trees = {"other": args.other.resolve(), "this": HERE}
     sets = {"other": args.set_a, "this": args.set_b}
+    ests = {"other": args.estimator_a, "this": args.estimator_b}
     runs = {name: [] for name in trees}
     try:
         for _ in tqdm(range(args.rounds), desc="A/B rounds", unit="round"):
             for name, tree in trees.items():
-                runs[name].append(budget_in(tree, args.paced_s, args.law, sets[name]))
+                runs[name].append(budget_in(tree, args.paced_s, args.law, sets[name], ests[name]))
     except RuntimeError as exc:
         print(f"benchmarks.budget_ab: {exc}", file=sys.stderr)
         return 1
-    head = {name: f"{trees[name]}" + (f" {' '.join(sets[name])}" if sets[name] else "") for name in trees}
+    head = {name: f"{trees[name]}" + (f" {' '.join(sets[name])}" if sets[name] else "")
+            + (f" --estimator {ests[name]}" if ests[name] else "") for name in trees}
     print(f"| [us] | {head['other']} | {head['this']} |")
     print("| --- | --- | --- |")
     for label, (where, key) in FIGURES.items():

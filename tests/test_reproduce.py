@@ -131,20 +131,28 @@ def test_verdict_is_undecided_where_the_discretisation_moves_the_margin_past_zer
 
 
 def test_richardson_shift_and_the_stored_coarse_margins(tmp_path):
-    """refined_shift = (M - M_coarse) / (2^p - 1), p = 1 by default; a record is found only for the
-    configuration and plan it was stored for."""
-    from frictionrt.rt.experiments.discretisation import refined_shift, store, stored
+    """refined_shift = (M - M_coarse) / (2^p - 1) + (M_half - M) 2^q / (2^q - 1), p = q = 1 by
+    default; a record is found only for the configuration and plan it was stored for."""
+    from frictionrt.rt.experiments.discretisation import halved_step, refined_shift, store, stored
     from frictionrt.rt.experiments.reproduce import QUICK, FULL
     from frictionrt.rt.common.config import with_sets
     assert refined_shift(0.23, 0.61) == pytest.approx(-0.38)
     assert refined_shift(0.23, 0.61, order=2.0) == pytest.approx(-0.38 / 3)
     assert refined_shift(None, None) is None and math.isnan(refined_shift(math.inf, 0.5))
+    # the step's term: first order, M(h) = M* + c h, so M* - M(h) = 2 (M(h/2) - M(h)); second order 4/3 of it
+    assert refined_shift(1.0, 1.0, half_step=0.75) == pytest.approx(-0.5)
+    assert refined_shift(1.0, 1.0, half_step=0.75, step_order=2.0) == pytest.approx(-1 / 3)
+    # the quick plan's observer C3 (docs/experiments.md): pitch +0.891, step 2 (-0.498 - 0.413)
+    assert refined_shift(0.413, -0.478, half_step=-0.498) == pytest.approx(0.891 - 1.822)
+    assert math.isnan(refined_shift(0.4, 0.5, half_step=math.nan))
+    assert halved_step(load()).plant.substeps == 2 * load().plant.substeps
     path, cfg = tmp_path / "coarse.json", load()
-    store(cfg, QUICK, {"observer": {"C2": 0.61}}, "test", path, refined_margins={"C2": -0.15})
-    assert stored(cfg, QUICK, path) == ({"observer": {"C2": 0.61}}, {"C2": -0.15})
-    assert stored(cfg, FULL, path) == (None, None)
-    assert stored(with_sets(cfg, ["plant.substeps=2"]), QUICK, path) == (None, None)
-    assert stored(cfg, QUICK, tmp_path / "none.json") == (None, None)
+    store(cfg, QUICK, {"observer": {"C2": 0.61}}, "test", path, refined_margins={"C2": -0.15},
+          half_step={"observer": {"C2": 0.4}})
+    assert stored(cfg, QUICK, path) == ({"observer": {"C2": 0.61}}, {"C2": -0.15}, {"observer": {"C2": 0.4}})
+    assert stored(cfg, FULL, path) == (None, None, None)
+    assert stored(with_sets(cfg, ["plant.substeps=2"]), QUICK, path) == (None, None, None)
+    assert stored(cfg, QUICK, tmp_path / "none.json") == (None, None, None)
 
 
 def test_the_refined_margin_decides_where_it_is_measured():
@@ -159,6 +167,13 @@ def test_the_refined_margin_decides_where_it_is_measured():
     assert out["C2"]["error_estimate"] == "refined (stored)"
     assert out["C4"]["refined_shift"] == pytest.approx(0.891) and out["C4"]["verdict"] == "yes"
     assert out["C1"]["verdict"] == "yes" and out["C1"]["margin_unit"] is None
+    # with the halved step's margins the step's term is added, and C2 stays the refined plant's own
+    out = annotate(claims, {"C1": None, "C2": 0.092, "C4": 0.522}, "stored", {"C2": -0.146},
+                   {"C1": None, "C2": 0.5, "C4": 0.502})
+    assert out["C4"]["refined_shift"] == pytest.approx(0.891 + 2 * (0.502 - 1.413))  # -0.931: still yes
+    assert out["C4"]["verdict"] == "yes" and out["C2"]["refined_shift"] == pytest.approx(-0.377)
+    out = annotate(claims, {"C4": 0.522}, "stored", None, {"C4": 0.2})  # the step moves it by -2.43: undecided
+    assert out["C4"]["refined_shift"] == pytest.approx(0.891 - 2.426) and out["C4"]["verdict"] == "undecided"
 
 
 # --- refinement and merging ---------------------------------------------------------------------
@@ -328,16 +343,18 @@ def test_one_estimator_alone_decides_its_own_claims(tmp_path):
                 settle=Settle(rel_tol=0.05, max_s=0.4))
     res = measure(load(), plan, ("oracle",), jobs=1, progress=False, error_estimate="run")
     rep = res["report"]
-    # the coarse run (pitch and elements x2) gives every claim with a margin its estimated shift
-    assert rep["discretisation"]["source"] == "run" and rep["discretisation"]["coarse_run_s"] > 0
+    # the coarse run (pitch and elements x2) and the halved step's (substeps x2) give every claim with a
+    # margin its estimated shift
+    disc = rep["discretisation"]
+    assert disc["source"] == "run" and disc["coarse_run_s"] > 0 and disc["half_step_run_s"] > 0
     for c, v in rep["claims"].items():
-        coarse = rep["discretisation"]["coarse_margins"]["oracle"][c]
+        coarse, half = disc["coarse_margins"]["oracle"][c], disc["half_step_margins"]["oracle"][c]
         if c == "C1":
             assert v["refined_shift"] is None and v["verdict"] == "yes"
         elif c == "C2":  # the impulse test on the refined plant itself
-            assert v["refined_shift"] == pytest.approx(rep["discretisation"]["refined_margins"]["C2"] - v["margin"])
-        elif math.isfinite(v["margin"]) and math.isfinite(coarse):
-            assert v["refined_shift"] == pytest.approx(v["margin"] - coarse)
+            assert v["refined_shift"] == pytest.approx(disc["refined_margins"]["C2"] - v["margin"])
+        elif all(math.isfinite(x) for x in (v["margin"], coarse, half)):
+            assert v["refined_shift"] == pytest.approx(v["margin"] - coarse + 2 * (half - v["margin"]))
         assert v["verdict"] == verdict(v["margin"], v["refined_shift"], v["holds"]).value
     assert list(rep["by_estimator"]) == ["oracle"] and rep["plan"]["estimators"] == ["oracle"]
     assert rep["claims"] is rep["by_estimator"]["oracle"]["claims"]

@@ -53,9 +53,10 @@ def add_parser(subparsers, parents=None) -> argparse.ArgumentParser:
                    help="run the step-sine sweeps on this dask scheduler's workers instead (frictionrt installed there)")
     p.add_argument("--error-estimate", choices=["auto", "run", "none"], default="auto",
                    help="how far the plant's discretisation moves each claim's margin: C2 from the impulse test on "
-                        "the refined plant, C3-C6 by Richardson from this run and the same plan with the contact "
-                        "pitch and elements x2 (order 1); auto (default): the margins stored for this configuration "
-                        "and plan, else those runs (about as long again); run: always those runs; none: no "
+                        "the refined plant, C3-C6 by Richardson from this run, the same plan with the contact "
+                        "pitch and elements x2 and with the substeps x2 (order 1 each); auto (default): the margins "
+                        "stored for this configuration and plan, else those runs (about three times as long); run: "
+                        "always those runs; none: no "
                         "estimate, each verdict from its margin's sign")
     p.add_argument("--json", action="store_true", help="print report.json's content as one JSON object (no progress)")
     return p

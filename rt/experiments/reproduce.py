@@ -50,8 +50,8 @@ from frictionrt.rt.common.config import Config
 from frictionrt.rt.common.config import ALL_ESTIMATORS, ESTIMATORS, Estimator
 from frictionrt.rt.loop import Designs, Loop, build_loop
 from frictionrt.rt.experiments.branches import Branch, run_branches, start_workers, sweep_timing
-from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, ErrorEstimate, annotate, coarser, margins,
-                                                      refined_impulse_margins, stored)
+from frictionrt.rt.experiments.discretisation import (COARSENING, ORDER, STEP_ORDER, ErrorEstimate, annotate, coarser,
+                                                      halved_step, margins, refined_impulse_margins, stored)
 from frictionrt.rt.experiments.stepsine import Settle, StepSineResult, mode_bands_hz, resonance_grid
 
 LAWS_COMPARED = ("passive", "hysteresis", "lyapunov")
@@ -296,7 +296,7 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
     one the claims are decided on), the same per estimator under "by_estimator", and impulse,
     timing, plan, discretisation. Each claim carries its margin, the discretisation's estimated
     shift of it and its verdict (rt.experiments.discretisation; error_estimate: where the coarse
-    margins come from); explain: the measured mechanism of each cell that makes C3 or C4 fail
+    and halved-step margins come from); explain: the measured mechanism of each cell that makes C3 or C4 fail
     (``explain_failures``) under "mechanisms". stage(text) is called before each stage."""
     from frictionrt.plant.impulse import impulse_test
     from frictionrt.plant.model import build_plant
@@ -329,10 +329,10 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
         e = evaluate(cfg, frfs)
         by_est[est] = e | {"claims": impulse_claims | e["claims"]}
     error_estimate = ErrorEstimate(error_estimate)
-    coarse = fine = None
-    t_coarse = t_fine = 0.0
+    coarse = fine = half = None
+    t_coarse = t_fine = t_half = 0.0
     if error_estimate is ErrorEstimate.AUTO:
-        coarse, fine = stored(cfg, plan)
+        coarse, fine, half = stored(cfg, plan)
     source = "none" if error_estimate is ErrorEstimate.NONE else "stored"
     if fine is None and error_estimate is not ErrorEstimate.NONE:
         say(f"impulse test at F_N1 = {plan.impulse_fn1_n:g} N on the refined plant (pitch and elements / 2, "
@@ -347,12 +347,21 @@ def measure(cfg: Config, plan: Plan, estimators: Sequence[str] = ESTIMATORS, job
                     explain=False)
         coarse = {est: margins(v["claims"]) for est, v in c["report"]["by_estimator"].items()}
         t_coarse, source = time.perf_counter() - t1, "run"
+    if half is None and error_estimate is not ErrorEstimate.NONE:
+        say(f"the same plan with the plant's substeps x2 ({2 * cfg.plant.substeps}): the step's error")
+        t1 = time.perf_counter()
+        h = measure(halved_step(cfg), plan, estimators, jobs, dask_address, progress,
+                    error_estimate=ErrorEstimate.NONE, explain=False)
+        half = {est: margins(v["claims"]) for est, v in h["report"]["by_estimator"].items()}
+        t_half, source = time.perf_counter() - t1, "run"
     for est in by_est:
         by_est[est]["claims"] = annotate(by_est[est]["claims"], None if coarse is None else coarse.get(est), source,
-                                         fine)
+                                         fine, None if half is None else half.get(est))
     report = by_est[estimators[0]] | {
         "discretisation": {"source": source, "order": ORDER, "coarsening": COARSENING, "coarse_margins": coarse,
-                           "refined_margins": fine, "coarse_run_s": t_coarse, "refined_impulse_s": t_fine},
+                           "step_order": STEP_ORDER, "half_step_margins": half,
+                           "refined_margins": fine, "coarse_run_s": t_coarse, "half_step_run_s": t_half,
+                           "refined_impulse_s": t_fine},
         "by_estimator": by_est,
         "impulse": {"fn1_n": plan.impulse_fn1_n, "modes": list(imp.modes),
                     "freq_hz": [float(f) for f in imp.freq_hz], "zeta": zeta_passive, "zeta_bare": zeta_bare,

@@ -75,7 +75,10 @@ def _claims_tables(r: dict) -> list[str]:
              "claim's margin is in its own unit (rt/experiments/claims.py; > 0: holds); \"discretisation\" is the "
              "estimated shift of the margin under a refined plant (C2: the impulse test on the refined plant itself; "
              f"C3-C6: Richardson from this run and the same plan with the contact pitch and the elements "
-             f"x{disc.get('coarsening', 2):g}, order {disc.get('order', 1):g}; margins: {disc.get('source', 'none')}); "
+             f"x{disc.get('coarsening', 2):g}, order {disc.get('order', 1):g}"
+             + (f", plus the same plan with the substeps x2, order {disc.get('step_order', 1):g}"
+                if disc.get("half_step_margins") else "")
+             + f"; margins: {disc.get('source', 'none')}); "
              "**undecided** where it is at least the margin "
              "(docs/experiments.md).", "",
              "| claim | statement | " + " | ".join(f"{e}" for e in by_est) + " |",
