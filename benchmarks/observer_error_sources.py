@@ -4,6 +4,7 @@ excitation, per mode 2-5 and amplitude (the hysteresis law by default).
 
     python -m benchmarks.observer_error_sources [--modes 2 3 4 5] [--amps 5 10 20] [--duration 0.5]
                                                 [--laws hysteresis] [--jobs 2] [--no-shift] [--json OUT.json]
+                                                [--spring-scale S]
 
 Per cell (law, mode, amplitude) at the passive step-sine peak ``PEAKS_HZ`` (the full reproduction's,
 docs/observer.md section 6; 20 N where it was not measured: see ``PEAKS_HZ``):
@@ -20,6 +21,8 @@ Figures over the last 20 % against the plant's band-limited truth (``frictionrt.
 row by row as ``frictionrt simulate`` reports them; u0 error: mean((pi/2)|u_hat|) against
 mean((pi/2)|u_true|) over that tail (the RT1 filter's steady state), and for ``rt`` also the law's own
 logged u0. Slow: the UKF and the smoother are plain Python (0.4..3 ms per tick each).
+``--spring-scale S``: the observer (in the loop, and the model the UKF and the smoother run) built
+with its normal springs under the adaptive screw at S k_n_area (``observer.spring_scale``).
 """
 from __future__ import annotations
 
@@ -48,14 +51,14 @@ def _u0_error(u_hat: np.ndarray, u_true: np.ndarray, tail: slice) -> float:
 
 
 def one(case) -> dict:
-    law, mode, amp, f, duration, shift = case
+    law, mode, amp, f, duration, shift, scale = case
     from frictionrt.observer.accuracy import TAIL, band_limited_truth, nrmse
     from frictionrt.observer.kalman import design_observer
     from frictionrt.observer.offline import fundamental_error, outputs, ukf_run
     from frictionrt.rt.common.config import load, with_sets
     from frictionrt.rt.loop import build_loop, run, summary
 
-    cfg = load()
+    cfg = with_sets(load(), [f"observer.spring_scale={scale!r}"])
     design = design_observer(cfg)
     r = run(build_loop(cfg, law, "observer"), f, amp, duration)
     s = summary(r)
@@ -68,7 +71,7 @@ def one(case) -> dict:
     est = ukf_run(design, r.signal("v_tip_meas"), F, smooth=True, progress=False)
     cand = {"rt": (r.signal("u_rel_hat"), r.signal("v_rel_hat")), "ukf": outputs(design, est.z_filt, F),
             "rts": outputs(design, est.z_smooth, F)}
-    row = {"law": law, "mode": mode, "amp_n": amp, "freq_hz": f, "duration_s": duration,
+    row = {"law": law, "mode": mode, "amp_n": amp, "freq_hz": f, "duration_s": duration, "spring_scale": scale,
            "model_hz": float(design.model.modes_hz[mode - 1]),
            "v_rel_nrmse": {k: nrmse(v, v_true) for k, (_, v) in cand.items()},
            "u_rel_nrmse": {k: nrmse(u, u_true) for k, (u, _) in cand.items()},
@@ -114,10 +117,14 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=2, help="worker processes")
     ap.add_argument("--no-shift", action="store_true", help="skip the run with the model's mode on the excitation")
     ap.add_argument("--json", type=Path, help="also write the rows to this JSON file")
+    ap.add_argument("--spring-scale", type=float, default=1.0,
+                    help="the observer model's normal springs at this share of k_n_area (observer.spring_scale)")
     a = ap.parse_args(argv)
     if not a.duration > 0:
         ap.error(f"--duration {a.duration}: must be > 0 s")
-    cases = [(law, m, amp, PEAKS_HZ[(m, amp)], a.duration, not a.no_shift)
+    if not 0 < a.spring_scale <= 1:
+        ap.error(f"--spring-scale {a.spring_scale}: a scale in (0, 1]")
+    cases = [(law, m, amp, PEAKS_HZ[(m, amp)], a.duration, not a.no_shift, a.spring_scale)
              for law, m, amp in itertools.product(a.laws, a.modes, a.amps)]
     head = ["law", "mode", "F [N]", "f [Hz]", "model [Hz]", "NRMSE v_rel rt / ukf / rts", "NRMSE u_rel rt / ukf / rts",
             "u0 error rt / ukf / rts (law's u0)"]

@@ -5,6 +5,7 @@ sees the same plant truth.
 
     python -m benchmarks.observer_mode5 [--amps 5 10] [--duration 0.5] [--json OUT.json]
     python -m benchmarks.observer_mode5 --in-loop 0.1 [--amps 5 10] [--kind amplitude]   # closed loop, modes 2-5
+    python -m benchmarks.observer_mode5 --fit-scales [--amps 5 10]   # the scale that fits each amplitude's peaks
 
 Per amplitude it prints, over the last 20 % of the run (``frictionrt.observer.accuracy.TAIL``):
 
@@ -246,6 +247,29 @@ def in_loop(mode: int, amp_n: float, scale: float, duration: float, kind: str = 
             "law": law}
 
 
+def fitted_scales(amps=(5.0, 10.0), scales=None) -> list[dict]:
+    """Per amplitude, the spring scale (of a geometric grid over [0.02, 0.2]) whose model puts modes
+    3-5 nearest the passive peaks ``PEAKS_HZ`` at that amplitude (least rms relative error), its modes
+    and its U_rel / V_tip at mode 5's peak (``model_ratio``): the points of a scale scheduled against
+    the amplitude."""
+    from frictionrt.observer.model import build_observer_model
+    from frictionrt.plant.model import build_plant
+    from frictionrt.rt.common.config import load
+    cfg = load()
+    plant = build_plant(cfg)
+    scales = np.geomspace(0.02, 0.2, 25) if scales is None else np.asarray(scales)
+    models = {float(s): build_observer_model(cfg, plant, float(s)) for s in scales}
+    out = []
+    for amp in amps:
+        peaks = np.array([PEAKS_HZ[(m, amp)] for m in (3, 4, 5)])
+        err = {s: float(np.sqrt(np.mean((m.modes_hz[2:5] / peaks - 1) ** 2))) for s, m in models.items()}
+        best = min(err, key=err.get)
+        out.append({"amp_n": amp, "scale": best, "rms_error": err[best], "peaks_hz": peaks.tolist(),
+                    "modes_hz": models[best].modes_hz[2:5].tolist(),
+                    "ratio_us": 1e6 * abs(model_ratio(models[best], FREQ_HZ))})
+    return out
+
+
 def format_rows(row: dict) -> list[str]:
     out = [f"F = {row['amp_n']:g} N at {row['freq_hz']} Hz (model mode 5 {row['model_hz']:.2f} Hz), "
            f"law's u0 error {100 * row['u0_error_law']:+.1f} %, F_N1 tail mean {row['F_N1_mean_tail_N']:.0f} N, "
@@ -280,9 +304,22 @@ def main(argv=None) -> int:
     ap.add_argument("--law", choices=["hysteresis", "lyapunov"], default="hysteresis", help="with --in-loop: the law")
     ap.add_argument("--kind", choices=["observer", "amplitude"], default="observer",
                     help="with --in-loop: the estimator kind (default the paper's observer)")
+    ap.add_argument("--fit-scales", action="store_true",
+                    help="instead: per --amps, the spring scale whose model's modes 3-5 sit nearest that amplitude's "
+                         "passive peaks (fitted_scales)")
     a = ap.parse_args(argv)
     if not a.duration > 0:
         ap.error(f"--duration {a.duration}: must be > 0 s")
+    if a.fit_scales:
+        missing = [x for x in a.amps if (MODE, x) not in PEAKS_HZ]
+        if missing:
+            ap.error(f"--fit-scales: no passive peaks at {missing[0]:g} N; amplitudes 5, 10")
+        print("| F [N] | scale | modes 3-5 [Hz] | passive peaks [Hz] | rms error | U_rel / V_tip at mode 5 [us] |\n"
+              "| --- | --- | --- | --- | --- | --- |")
+        for r in fitted_scales(a.amps):
+            print(f"| {r['amp_n']:g} | {r['scale']:.4f} | {' / '.join(f'{x:.2f}' for x in r['modes_hz'])} | "
+                  f"{' / '.join(f'{x:g}' for x in r['peaks_hz'])} | {100 * r['rms_error']:.3f} % | {r['ratio_us']:.2f} |")
+        return 0
     if a.in_loop is not None:
         if not 0 < a.in_loop <= 1:
             ap.error(f"--in-loop {a.in_loop}: a scale in (0, 1]")

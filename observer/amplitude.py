@@ -138,19 +138,21 @@ def rebased_peaks(peaks, reference_hz, model_hz) -> dict[int, tuple[tuple[float,
 
 
 def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False,
-                     spring_scale: float = 1.0) -> tuple[ObserverDesign, AmplitudeParams]:
+                     spring_scale: float | None = None) -> tuple[ObserverDesign, AmplitudeParams]:
     """The paper's design (its gain, its outputs) and the amplitude-following blocks (module
     docstring). ``peaks``: the schedule's points (default ``schedule_peaks``: the measured table on
     the default plant, harmonic balance on another). ``jenkins``:
     the joint as a Jenkins element (``joint_stiffness`` in series with the slider mu F_N) instead
     of the regularised Coulomb force, its stuck linearisation checked for stability too.
     ``spring_scale``: the model's normal springs under the adaptive screw at that share of k_n_area
-    (``frictionrt.observer.model.build_observer_model``; 1: the paper's model), the schedule's points
+    (``frictionrt.observer.model.build_observer_model``; None: ``cfg.observer.spring_scale``; 1: the
+    paper's model), the schedule's points
     re-based onto that model's frequencies (``rebased_peaks``; they are stated over the plant's
     sliding-joint linearisation at F_min).
 
     Raises ValueError if the error dynamics with the paper's gain are unstable at a grid amplitude
     (every mode at its r_i(a_j)), as ``design_observer`` does for its own model."""
+    spring_scale = cfg.observer.spring_scale if spring_scale is None else float(spring_scale)
     design = design_observer(cfg, plant, spring_scale)
     peaks = schedule_peaks(cfg, plant) if peaks is None else peaks
     model = design.model

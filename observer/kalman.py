@@ -94,10 +94,11 @@ def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
     return A_d, B_d
 
 
-def design_observer(cfg: Config, plant=None, spring_scale: float = 1.0) -> ObserverDesign:
+def design_observer(cfg: Config, plant=None, spring_scale: float | None = None) -> ObserverDesign:
     """Model, exact discretisation at cfg.dt_s, Kalman gain (module docstring); ``plant``: the
     plant built from cfg, if at hand (``frictionrt.observer.model.build_observer_model``, as is
-    ``spring_scale``, the model's normal springs under the adaptive screw; 1: the default).
+    ``spring_scale``, the model's normal springs under the adaptive screw; None:
+    ``cfg.observer.spring_scale``, whose default 1 is SPEC 5's model).
 
     Raises ValueError if the error dynamics would not be stable, without friction or linearised
     with it at any F_N in [0, F_max] (``discrete_eigenvalues``), or if the friction path has the

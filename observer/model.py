@@ -81,20 +81,24 @@ def _footprint(cfg: Config, x_pairs: np.ndarray, screw) -> tuple[np.ndarray, np.
     return x_pairs[hit], length[hit]
 
 
-def build_observer_model(cfg: Config, plant: PlantModel | None = None, spring_scale: float = 1.0) -> ObserverModel:
+def build_observer_model(cfg: Config, plant: PlantModel | None = None,
+                         spring_scale: float | None = None) -> ObserverModel:
     """The observer's linear model from the configuration (module docstring); ``plant`` is the
     plant built from the same cfg if the caller has it (its static equilibrium is used).
     ``spring_scale``: the normal springs under the adaptive screw's cone at spring_scale k_n_area
     (an effective normal stiffness of a contact that partly opens over the cycle; 1: the stuck
-    linearisation, the model's default; not on an imported structure).
+    linearisation, SPEC 5's model; not on an imported structure); None: ``cfg.observer.spring_scale``.
 
-    Raises ValueError if the tied structure is not fixed against rigid-body motion, or if the
-    configuration asks for more modes than it has.
+    Raises ValueError if the tied structure is not fixed against rigid-body motion, if the
+    configuration asks for more modes than it has, or for a spring_scale other than 1 on an
+    imported structure.
     """
     from frictionrt.plant.se_plant import SEPlant
+    spring_scale = cfg.observer.spring_scale if spring_scale is None else float(spring_scale)
     if isinstance(plant, SEPlant):
         if spring_scale != 1.0:
-            raise ValueError("observer: spring_scale is for the built-in beams' model only")
+            raise ValueError(f"observer.spring_scale = {spring_scale:g}: the softened springs are the built-in "
+                             "beams' model only; use observer.spring_scale=1 with an imported structure")
         return build_observer_model_se(cfg, plant)
     st = build_structure(cfg)
     p = cfg.plant

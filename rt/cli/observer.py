@@ -12,7 +12,7 @@ def add_parser(sub, parents) -> argparse.ArgumentParser:
     o = sub.add_parser("observer", parents=parents, help="observer design: kept modes, Kalman gain, eigenvalues",
                        description="Design the nonlinear observer from the configuration (docs/observer.md): the "
                                    "simplified linear model (damper tied at the normal screw, normal springs "
-                                   "around the adaptive screw), its kept modes [Hz], the Kalman gain (dlqe on the "
+                                   "around the adaptive screw at observer.spring_scale k_n_area), its kept modes [Hz], the Kalman gain (dlqe on the "
                                    "exact ZOH discretisation), and the largest eigenvalue modulus of the discrete "
                                    "observer, without friction and linearised with it at F_max (implicit, as run, "
                                    "and explicit, to show why it is implicit).")
@@ -26,12 +26,14 @@ def cmd_observer(cfg, args) -> int:
         d = design_observer(cfg).summary(cfg.tracking.F_max_N)
     except ValueError as exc:
         return fail(str(exc))
+    d["spring_scale"] = cfg.observer.spring_scale
     if args.json:
         print(json.dumps(d))
         return 0
     print(f"observer: {d['n_states']} states, modes [Hz]: {', '.join(f'{f:.1f}' for f in d['modes_hz'])}")
     xs = lambda v: "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
-    print(f"  tied at x = {xs(d['x_tied_m'])} m, normal springs at x = {xs(d['x_springs_m'])} m, zeta {d['zeta']:g}, "
+    print(f"  tied at x = {xs(d['x_tied_m'])} m, normal springs at x = {xs(d['x_springs_m'])} m "
+          f"(x {d['spring_scale']:g} k_n_area), zeta {d['zeta']:g}, "
           f"static correction D_u {d['D_u_m_per_n']:.3e} m/N")
     print(f"  Kalman (dlqe): Q = diag{tuple(d['Q_n2'])} N^2, R = {d['R_m2_s2']:.3g} (m/s)^2; "
           f"|M| {d['gain_norm_filter']:.3g}, |L| {d['gain_norm_predictor']:.3g}")

@@ -394,6 +394,11 @@ class Observer:
                                     ">= 5 exc_noise_N keeps the observer stable with the stiff stuck friction")
     meas_noise_m_s: float = param(1e-4, "m/s", lo=0.0, lo_inclusive=False,
                                   doc="measurement noise: rms of the integrated tip velocity (Kalman)")
+    spring_scale: float = param(1.0, "-", lo=0.0, hi=1.0, lo_inclusive=False,
+                                doc="the observer model's normal springs under the adaptive screw at this share of "
+                                    "plant.interface.k_n_area: an effective stiffness of a contact that partly opens "
+                                    "over the cycle (1: the stuck linearisation, SPEC 5's model; the built-in beams "
+                                    "only; docs/observer.md)")
 
 
 RECOVERY = ("latch", "auto")
