@@ -3,7 +3,8 @@ at F_N1 = 100 N (natural frequencies and damping of modes 2-5) and the passive l
 peaks (frequency and |H| of modes 2-5 at 5 and 20 N), both plants in the same closed loop.
 
     python -m benchmarks.se_2d_vs_3d [--clusters 16] [--clustering footprint|coordinates] [--hammer-clusters 0]
-                                     [--modes 2,3,4,5] [--amps 5,20] [--mesh reference|coarse] [--json OUT.json]
+                                     [--modes 2,3,4,5] [--amps 5,20] [--mesh reference|coarse] [--set KEY=VALUE]
+                                     [--json OUT.json]
 
 The hammer test runs the plant alone (plant.impulse's pulse and fit; plant.se_analysis.impulse on
 the superelement, its interface coarsened to --hammer-clusters points, 0: the 57 points as built).
@@ -56,6 +57,8 @@ def main(argv=None) -> int:
     ap.add_argument("--mesh", choices=("reference", "coarse"), default="reference")
     ap.add_argument("--no-stepsine", action="store_true", help="the hammer test only")
     ap.add_argument("--no-hammer", action="store_true", help="the step-sine peaks only")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a configuration override for both plants (e.g. plant.newton_max_iter=200)")
     ap.add_argument("--json", metavar="OUT.json")
     a = ap.parse_args(argv)
     from frictionrt import jobs
@@ -64,14 +67,14 @@ def main(argv=None) -> int:
     from frictionrt.plant.se_analysis import impulse as se_impulse
     from frictionrt.plant.se_coarsen import coarsen_structure
     from frictionrt.plant.se_plant import build_se_plant
-    from frictionrt.rt.common.config import Config
+    from frictionrt.rt.common.config import Config, with_sets
     from frictionrt.rt.loop import Designs, build_loop
     from frictionrt.rt.loop.structure import structure_of
     import tempfile
     modes = [int(m) for m in a.modes.split(",")]
     amps = [float(x) for x in a.amps.split(",")]
-    cfg = Config()
-    out: dict = {"load_avg_start": os.getloadavg()[0], "modes": modes, "amps_n": amps}
+    cfg = with_sets(Config(), a.set)
+    out: dict = {"load_avg_start": os.getloadavg()[0], "modes": modes, "amps_n": amps, "sets": a.set}
     t0 = time.perf_counter()
     se, info = fe3d.reference_superelement(cfg, **(COARSE if a.mesh == "coarse" else {}))
     out["n_points"] = se.n_points

@@ -234,7 +234,8 @@ def reference_superelement(cfg, interface_pitch_m: float = 0.02, pitch_m: float 
     keep.add(dof_m(i, 1))
     srows = np.array(srows)
     exc = srows[[names.index(pl.excitation_point)]]
-    info = {"n_full": N, "n_points": p, "xyz": bd.xyz[idx_d], "K_full": K, "M_full": M}
+    info = {"n_full": N, "n_points": p, "xyz": bd.xyz[idx_d], "K_full": K, "M_full": M,
+            "contact_rows_full": rows, "adaptive_row_full": r_adapt, "adaptive_k": k_adapt}
     contact_dofs = np.flatnonzero(np.any(rows != 0, axis=(0, 1)))
     keep |= set(contact_dofs.tolist())
     boundary = np.array(sorted(keep))
@@ -296,9 +297,16 @@ def craig_bampton_sparse(K: sp.spmatrix, M: sp.spmatrix, boundary: np.ndarray, c
     return np.hstack([T, Tm]), np.sqrt(lam[o]) / (2 * np.pi)
 
 
-def full_stuck_frequencies_hz(info: dict, se_full: Superelement, k_n: np.ndarray, k_t: np.ndarray, n_modes: int = 8):
+def full_stuck_frequencies_hz(info: dict, se_full: Superelement | None, k_n: np.ndarray, k_t: np.ndarray,
+                              n_modes: int = 8):
     """The full 3-D FE model's lowest eigenfrequencies [Hz] with every contact point stuck (k_n, k_t
-    springs on its gaps), by shift-invert Lanczos on the sparse matrices."""
+    springs on its gaps), by shift-invert Lanczos on the sparse matrices. se_full None: the full
+    model's interface and bolt rows from info (``reference_superelement``'s), so a fine mesh is
+    checked without a dense full superelement."""
+    if se_full is None:
+        from types import SimpleNamespace
+        se_full = SimpleNamespace(contact_rows=info["contact_rows_full"], adaptive_row=info["adaptive_row_full"],
+                                  adaptive_k=info["adaptive_k"])
     R = se_full.contact_rows
     p, d, N = R.shape
     kc = np.zeros(p * d)

@@ -78,6 +78,17 @@ def impulse(plant: SEPlant, cfg, F_N1: float, sensor: str | None = None, n_modes
     n = int(round(imp.record_s / dt))
     force = hammer_force(n, dt, imp.peak_N, imp.duration_s)
     Y, _ = run(plant, force, F_N1)
+    return fit_hammer(plant, cfg, F_N1, force, Y, sensor, n_modes)
+
+
+def fit_hammer(plant: SEPlant, cfg, F_N1: float, force: np.ndarray, Y: np.ndarray, sensor: str,
+               n_modes: int = 4) -> dict:
+    """``impulse``'s identification from a run's hammer force [N] and outputs Y (plant.se_plant.run's):
+    the accelerance at `sensor` through cfg.impulse's exponential window, the n_modes modes of the
+    closed-stuck linearisation at F_N1 [N] with the largest response, fitted (plant.impulse.identify)."""
+    imp = cfg.impulse
+    dt = cfg.dt_s
+    names = plant.se.sensor_names
     acc = Y[:, plant.output_index()[f"a_{sensor}"]]
     tau_w = imp.record_s / 4.0
     freq, H = accelerance_frf(force, acc, dt, tau_w)

@@ -71,3 +71,19 @@ def test_structure_flag_runs_modes(ref, tmp_path):
     bad = subprocess.run([sys.executable, "-m", "frictionrt.rt.cli", "modes", "--structure", str(tmp_path / "x.npz")],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "no such file" in bad.stderr
+
+
+def test_full_check_from_info_equals_the_dense_full_models(ref):
+    """fe3d's info keeps the full model's interface and bolt rows, so a fine mesh's reduction is
+    checked without a dense full superelement (full_stuck_frequencies_hz(info, None, ...)): the same
+    sparse eigenproblem as with the dense full model's rows."""
+    cfg, se, info, full, finfo = ref
+    i = cfg.plant.interface
+    k_n, k_t = i.k_n_area * se.contact_area, i.k_t_area * se.contact_area
+    f_info = fe3d.full_stuck_frequencies_hz(info, None, k_n, k_t)
+    f_dense = fe3d.full_stuck_frequencies_hz(finfo, full, k_n, k_t)
+    np.testing.assert_allclose(f_info, f_dense, rtol=1e-9)
+    rows = info["contact_rows_full"]
+    assert rows.shape == (se.n_points, 3, info["n_full"])
+    # each point's normal gap is the damper's u_z minus the main beam's: one +1 and one -1
+    assert np.all(rows[:, 0].sum(axis=1) == 0.0) and np.all(rows[:, 0].max(axis=1) == 1.0)
