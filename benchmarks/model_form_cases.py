@@ -24,8 +24,8 @@ default strength 0.5), stepped-sine level tests of the nonlinear plant at ``--fo
 (rt.discrepancy.diagnose.levels_form), the harmonic balance's named effect, and the top level's gap in the
 softening band, linear (with the form held, and of the nominal form) against the harmonic balance; done
 when micro_slip is named and the top level is predicted at least 3x closer than by the linear model.
-``--form-given``: the nominal holds the truth's clamp and joint (diagnosis.model_form = never), the second
-half of the case alone.
+``--form-given``: the truth's clamp and joint given to the diagnosis as its model form (``diagnose_levels``'
+``form``: held as the form stage holds what it names, the form stage not run), the second half of the case alone.
 
 Case (b): the clamp's rotational compliance ``--clamp`` [rad/(N m)] and the joint's stiffness
 ``--joint`` (x the contact model's k_n_area, k_t_area) in the truth (its scatter and FRF noise of
@@ -120,10 +120,9 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
         rig_s = round(time.perf_counter() - t, 1)
     E_true = scatter_sets(np.random.default_rng(seed))["E"]
     levels = sorted(force_levels)
-    if form_given:           # the second half alone: the nominal told the truth's form, the form stage off
-        nominal = with_sets(truth(clamp, joint, nominal), ["diagnosis.model_form=never"])
+    given = {"clamp_compliance": clamp, "joint_compliance": joint} if form_given else None   # the second half alone
     t = time.process_time()
-    res = diagnose_levels(d, levels[:2], nominal, progress=lambda m: print(m, flush=True))
+    res = diagnose_levels(d, levels[:2], nominal, progress=lambda m: print(m, flush=True), form=given)
     cpu = time.process_time() - t
     top = next(p for p in res["prediction"] if p["level_n"] == levels[-1])
     form = res["model_form"]

@@ -55,9 +55,10 @@ from frictionrt.plant.model import build_plant
 from frictionrt.rt.common.config import Config, with_sets
 from frictionrt.rt.discrepancy.chain import quiet, scale_bounds, scaled
 from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
-from frictionrt.rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
-                                         prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
-from frictionrt.rt.discrepancy.diagnose.levels_form import fit_form
+from frictionrt.rt.discrepancy.diagnose.frf import (CAL_NAMES as FRF_CAL_NAMES, FORCE_SCALE, FORCE_SCALE_N_PER_V,
+                                                    FRFData, bound_warnings, fit, model_H, prepare,
+                                                    undamped_frequencies, weighted_residuals, with_sensor_points)
+from frictionrt.rt.discrepancy.diagnose.levels_form import corrected, fit_form, form_candidates
 from frictionrt.rt.discrepancy.diagnose.random_level import RandomLevel, is_random, level_accelerances, random_levels
 from frictionrt.rt.discrepancy.diagnose.structure import CAL_FAR
 from frictionrt.rt.discrepancy.effects import Effect, get
@@ -118,6 +119,14 @@ def fit_bounds(nominal: Config) -> dict[str, tuple[float, float]]:
     return {k: scale_bounds(nominal, k, *b) for k, b in BOUNDS.items()} | {FORCE_SCALE: FORCE_SCALE_N_PER_V}
 
 
+def form_ranges(ranged: Config) -> dict[str, tuple[float, float]]:
+    """The linear level model's plausible ranges (rt.discrepancy.diagnose.plausible.ranges of E, k_t and the
+    modal damping) around ``ranged``, the nominal before a model form is held: a form's strength is not a
+    calibration scale (a compliant joint held at s x the contact's k_t_area leaves k_t, the contact's own
+    stiffness, around its literature range, not that range / s)."""
+    return ranges(ranged, list(FRF_CAL_NAMES))
+
+
 def mode_bands(d: FRFData) -> FRFData:
     """``d`` on the lines that carry the amplitude dependence: those within +-HALF_WIDTH of a measured mode
     (paired with the model's or not: ``f_modes``, ``unpaired_hz``), each in the band of its nearest mode;
@@ -174,12 +183,13 @@ def fit_label(effect: Effect | None) -> str:
 
 
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
-                  effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
+                  effect: Effect | None, method: str = "df", bars: bool = False, ranged: Config | None = None
+                  ) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
-    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.
-    plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model
-    evaluations, with the best cost so far; Ctrl-C raises FitInterrupted with that best point
-    (rt.discrepancy.diagnose.watch)."""
+    model on ``data``, penalised outside the plausible ranges around ``ranged`` (default ``nominal``; the
+    nominal before a model form was held, ``form_ranges``) (rt.discrepancy.diagnose.plausible): {"theta",
+    "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model evaluations, with the best
+    cost so far; Ctrl-C raises FitInterrupted with that best point (rt.discrepancy.diagnose.watch)."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
@@ -196,7 +206,7 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
 
-    plausible = ranges(nominal, names)
+    plausible = ranges(ranged if ranged is not None else nominal, names)
 
     def r(x):
         theta = theta_of(x)
@@ -292,19 +302,28 @@ def contact_note(pred: list[dict], method: str, unit: str, random: bool = False)
 
 
 def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None,
-                    method: str = "df", bars: bool = False) -> dict:
+                    method: str = "df", bars: bool = False, form: dict[str, float] | None = None) -> dict:
     """The workflow (module docstring) on a folder of FRF files at several levels, the harmonic balance
     by ``method`` (METHODS); a JSON-ready dict with the calibrated configuration under "_config" and
     plotting data under "_plots". ``progress(msg)``: the stages; ``bars``: tqdm bars on stderr inside the
-    harmonic-balance fits. Ctrl-C raises Interrupted with the fits done so far (rt.discrepancy.diagnose.watch)."""
+    harmonic-balance fits. ``form``: a model form known beforehand, {candidate name: strength}
+    (rt.discrepancy.effects, ``Effect.form``), held in both level models as the form stage holds the one it
+    names (rt.discrepancy.diagnose.levels_form; the form stage is not run). Ctrl-C raises Interrupted with the
+    fits done so far (rt.discrepancy.diagnose.watch). ValueError for a name in ``form`` that is not a model
+    form."""
     if method not in METHODS:
         raise ValueError(f"harmonic-balance method {method!r}: expected one of {', '.join(METHODS)}")
     with threadpool_limits(1):
-        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method, bars)
+        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method, bars, form)
 
 
-def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str, bars: bool) -> dict:
+def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str, bars: bool,
+                     form: dict[str, float] | None = None) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
+    for name in form or {}:
+        if name not in {e.name for e in form_candidates(nominal)}:
+            raise ValueError(f"model form {name!r} is not a model-form candidate of this structure; give one of "
+                             + ", ".join(e.name for e in form_candidates(nominal)))
     tests = load_frf_folder(folder)
     cal, rest = split(tests, calibrate_on)
     levels = [level_of(t) for t in tests]
@@ -321,25 +340,31 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     with keeping({}, input="frf_levels", calibrate_on_n=[levels[i] for i in cal], harmonic_method=method) as done:
-        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done)
+        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done, form)
 
 
 def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[float], cal: list[int], say,
-                           method: str, bars: bool, done: dict) -> dict:
+                           method: str, bars: bool, done: dict, given: dict[str, float] | None = None) -> dict:
     """The fits and the prediction of ``_diagnose_levels``; each fit, once done, also into ``done``
-    {name: {"fitted", "cfg", ...}} (what an interruption keeps)."""
+    {name: {"fitted", "cfg", ...}} (what an interruption keeps). ``given``: the known model form."""
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
     db = [mode_bands(d) for d in dc]
     lines = sum(len(d.freq) for d in db)
+    ranged = nominal         # the plausible ranges: of the nominal before a form is held (``form_ranges``)
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N on {lines} lines of the modes' bands")
     lin = fit(nominal, db, None, bars=bars, label="linear")
     done["linear"] = done_fit(lin.theta, lin.cfg)
-    form = fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done)
+    if given:
+        form = {"tried": [], "named": list(given), "strengths": dict(given), "ranking": [], "second_round": None,
+                "points_at": None, "mode": "given", "reason": "the model form given",
+                "nominal": corrected(nominal, given)}
+    else:
+        form = fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done)
     lin_nominal_form = None
     if form["named"]:        # both level models from the corrected form (rt.discrepancy.diagnose.levels_form)
         lin_nominal_form, nominal = lin, form["nominal"]
         say(f"linear model with the model form {' and '.join(form['named'])} held")
-        lin = fit(nominal, db, None, bars=bars, label="linear, model form held")
+        lin = fit(nominal, db, None, plausible=form_ranges(ranged), bars=bars, label="linear, model form held")
         done["linear, model form held"] = done_fit(lin.theta, lin.cfg)
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
@@ -349,7 +374,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     for eff in [None, *candidates]:
         if eff is not None:
             say(fit_label(eff))
-        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars)
+        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars, ranged)
         done[fit_label(eff)] = done_fit(fits[eff]["theta"], fits[eff]["cfg"], evaluations=fits[eff]["evaluations"])
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
@@ -360,7 +385,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
         winner, final = None, None
     winner_effect = next((e for e in fits if winner and e is not None and e.name == winner["effect"]), None)
     per_volt = any(d.per_volt for d in data)
-    plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
+    plausible = ranges(ranged, [*CAL_NAMES, CLAMP])
     plausibility = verdict(plausible, fits[None]["theta"], (final or base)["theta"], (final or base)["effect"],
                            [e.name for e in candidates]) | {"linear_outside": outside(lin.theta, plausible)}
     say("prediction at the other levels")
