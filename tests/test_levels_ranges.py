@@ -56,3 +56,26 @@ def test_the_linear_level_fit_finds_k_t_with_the_form_held(joint_frfs):
 def test_a_given_form_must_be_a_model_form(tmp_path):
     with pytest.raises(ValueError, match="micro_slip.*not a model-form candidate"):
         diagnose_levels(tmp_path, [0.5], form={"micro_slip": 0.5})
+
+
+def test_the_broadband_test_beside_the_levels(tmp_path):
+    """rt.discrepancy.rig.levels.write_broadband: the stuck FRF over 4-1600 Hz with the FRF files' noise, read
+    back with sidecar broadband true and no level; a sidecar broadband that is not a boolean is refused."""
+    from frictionrt.plant.linear_frf import point_accelerances
+    from frictionrt.plant.model import build_plant
+    from frictionrt.rt.discrepancy.rig.frf import NOISE_REL, sensor_points
+    from frictionrt.rt.discrepancy.rig.levels import write_broadband
+    from frictionrt.rt.log.frf_files import check_meta
+    true = with_sets(Config(), [])
+    model = build_plant(true)
+    name = write_broadband(tmp_path, true, model, 100.0, np.random.default_rng(0))
+    (t,) = load_frf_folder(tmp_path)
+    assert name == "broadband.csv" and t.meta["broadband"] is True and t.meta["amplitude_n"] is None
+    assert t.freq_hz[0] == 4.0 and t.freq_hz[-1] == 1600.0
+    H = point_accelerances(model, sensor_points(true), 100.0, t.freq_hz)
+    for s, h in H.items():
+        strong = np.abs(h) > 1.0                                 # above the noise floor (2e-3 (m/s^2)/N)
+        rel = np.abs(t.H[s][strong] / h[strong] - 1.0)
+        assert 0.5 * NOISE_REL < np.sqrt(np.mean(rel ** 2)) < 1.5 * NOISE_REL
+    with pytest.raises(ValueError, match="sidecar broadband"):
+        check_meta(t.meta | {"broadband": "yes"})

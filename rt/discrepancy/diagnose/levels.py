@@ -325,12 +325,15 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
             raise ValueError(f"model form {name!r} is not a model-form candidate of this structure; give one of "
                              + ", ".join(e.name for e in form_candidates(nominal)))
     tests = load_frf_folder(folder)
+    broadband = [t for t in tests if t.meta.get("broadband")]    # beside the levels: the form stage's data
+    tests = [t for t in tests if not t.meta.get("broadband")]
     cal, rest = split(tests, calibrate_on)
     levels = [level_of(t) for t in tests]
     if len({t.excitation for t in tests}) > 1:
         raise ValueError(f"{folder}: the tests mix force and drive-voltage excitation; --calibrate-on takes one kind")
     try:
         data = prepare(tests, nominal)
+        wide = prepare(broadband, nominal) if broadband else []
         nominal, _ = with_sensor_points(tests, nominal)
         levels = random_levels(tests, data, levels, HALF_WIDTH, nominal)
         if method != "df" and any(isinstance(a, RandomLevel) for a in levels):
@@ -340,13 +343,15 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     with keeping({}, input="frf_levels", calibrate_on_n=[levels[i] for i in cal], harmonic_method=method) as done:
-        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done, form)
+        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done, form, wide)
 
 
 def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[float], cal: list[int], say,
-                           method: str, bars: bool, done: dict, given: dict[str, float] | None = None) -> dict:
+                           method: str, bars: bool, done: dict, given: dict[str, float] | None = None,
+                           wide: list[FRFData] | None = None) -> dict:
     """The fits and the prediction of ``_diagnose_levels``; each fit, once done, also into ``done``
-    {name: {"fitted", "cfg", ...}} (what an interruption keeps). ``given``: the known model form."""
+    {name: {"fitted", "cfg", ...}} (what an interruption keeps). ``given``: the known model form; ``wide``: the
+    broadband tests beside the levels (the form stage's data, all their lines, where there are any)."""
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
     db = [mode_bands(d) for d in dc]
     lines = sum(len(d.freq) for d in db)
@@ -356,10 +361,12 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     done["linear"] = done_fit(lin.theta, lin.cfg)
     if given:
         form = {"tried": [], "named": list(given), "strengths": dict(given), "ranking": [], "second_round": None,
-                "points_at": None, "mode": "given", "reason": "the model form given",
+                "points_at": None, "mode": "given", "reason": None,
                 "nominal": corrected(nominal, given)}
     else:
-        form = fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done)
+        form = (fit_form(nominal, wide, say, bars, done, on="the broadband test") if wide else
+                fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done))
+        form["on"] = ", ".join(d.name for d in wide) if wide else "the lowest calibration level"
     lin_nominal_form = None
     if form["named"]:        # both level models from the corrected form (rt.discrepancy.diagnose.levels_form)
         lin_nominal_form, nominal = lin, form["nominal"]
