@@ -413,7 +413,8 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     for eff in [None, *candidates]:
         if eff is not None:
             say(fit_label(eff))
-        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars, ranged)
+        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars,
+                                  **({"ranged": ranged} if form["named"] else {}))   # without a form: nominal's
         done[fit_label(eff)] = done_fit(fits[eff]["theta"], fits[eff]["cfg"], evaluations=fits[eff]["evaluations"])
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
