@@ -6,7 +6,7 @@ with the nominal model; the same with micro-slip at several excitation levels; a
                                           [--levels 40 100 300] [--seed 5] [--json OUT]
     python -m benchmarks.model_form_cases --case a [--seed 0]
     python -m benchmarks.model_form_cases --case c [--force-levels 0.5 1 2 5 10 20] [--spread 0.5]
-                                          [--band 50 1200] [--folder DIR] [--seed 5]
+                                          [--band 50 1200] [--folder DIR] [--seed 5] [--broadband]
 
 Case (a): the default structure, the rig's truth a voltage-driven shaker at the drive point with the
 catalogue's parameters (armature 0.1 kg, Bl 10 N/A, R 1.5 ohm: Bl^2 / R = 66.7 N s/m), FRF files per drive
@@ -24,8 +24,10 @@ default strength 0.5), stepped-sine level tests of the nonlinear plant at ``--fo
 (rt.discrepancy.diagnose.levels_form), the harmonic balance's named effect, and the top level's gap in the
 softening band, linear (with the form held, and of the nominal form) against the harmonic balance; done
 when micro_slip is named and the top level is predicted at least 3x closer than by the linear model.
-``--form-given``: the nominal holds the truth's clamp and joint (diagnosis.model_form = never), the second
-half of the case alone.
+``--broadband``: the level tests' folder also holds the low-level FRF over the whole band
+(rt.discrepancy.rig.levels.write_broadband), on which the form stage then fits the form.
+``--form-given``: the truth's clamp and joint given to the diagnosis as its model form (``diagnose_levels``'
+``form``: held as the form stage holds what it names, the form stage not run), the second half of the case alone.
 
 Case (b): the clamp's rotational compliance ``--clamp`` [rad/(N m)] and the joint's stiffness
 ``--joint`` (x the contact model's k_n_area, k_t_area) in the truth (its scatter and FRF noise of
@@ -106,7 +108,8 @@ def case_a(seed: int) -> dict:
 
 
 def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: float = 15.0, spread: float = 0.5,
-           folder: str | None = None, band_hz=(50.0, 1200.0), form_given: bool = False) -> dict:
+           folder: str | None = None, band_hz=(50.0, 1200.0), form_given: bool = False,
+           broadband: bool = False) -> dict:
     from frictionrt.rt.discrepancy.diagnose.levels import diagnose_levels
     from frictionrt.rt.discrepancy.rig.levels import make_level_campaign
     nominal = with_sets(Config(), [f"diagnosis.uncertainty.clamp_heights={clamp_heights!r}"])
@@ -116,22 +119,21 @@ def case_c(clamp: float, joint: float, force_levels, seed: int, clamp_heights: f
         t = time.perf_counter()
         base = get("micro_slip").apply(get("clamp_compliance").apply(nominal, clamp), spread)
         make_level_campaign(d, "joint_compliance", joint, seed=seed, cfg=base, force_levels_n=tuple(force_levels),
-                            band_hz=tuple(band_hz))
+                            band_hz=tuple(band_hz), broadband=broadband)
         rig_s = round(time.perf_counter() - t, 1)
     E_true = scatter_sets(np.random.default_rng(seed))["E"]
     levels = sorted(force_levels)
-    if form_given:           # the second half alone: the nominal told the truth's form, the form stage off
-        nominal = with_sets(truth(clamp, joint, nominal), ["diagnosis.model_form=never"])
+    given = {"clamp_compliance": clamp, "joint_compliance": joint} if form_given else None   # the second half alone
     t = time.process_time()
-    res = diagnose_levels(d, levels[:2], nominal, progress=lambda m: print(m, flush=True))
+    res = diagnose_levels(d, levels[:2], nominal, progress=lambda m: print(m, flush=True), form=given)
     cpu = time.process_time() - t
     top = next(p for p in res["prediction"] if p["level_n"] == levels[-1])
     form = res["model_form"]
     ratio = top["gap_linear_db"] / top["gap_nonlinear_db"] if top["gap_nonlinear_db"] > 0 else math.inf
     return {"clamp_true": clamp, "joint_true": joint, "spread_true": spread, "force_levels": levels, "seed": seed,
-            "band_hz": list(band_hz), "form_given": form_given,
+            "band_hz": list(band_hz), "form_given": form_given, "broadband": broadband,
             "folder": str(d), "rig_wall_s": rig_s,
-            "form_named": form["named"], "form_strengths": form["strengths"], "form_reason": form["reason"],
+            "form_on": form.get("on"), "form_named": form["named"], "form_strengths": form["strengths"], "form_reason": form["reason"],
             "form_points_at": form["points_at"], "form_ranking": form["ranking"],
             "form_second_round": form["second_round"],
             "named_effect": res["named_effect"], "ranking": res["ranking"],
@@ -177,6 +179,8 @@ def main(argv=None) -> int:
     ap.add_argument("--force-levels", type=float, nargs="+", default=[0.5, 1.0, 2.0, 5.0, 10.0, 20.0])
     ap.add_argument("--spread", type=float, default=0.5)
     ap.add_argument("--form-given", action="store_true", help="case c: the nominal holds the truth's clamp and joint")
+    ap.add_argument("--broadband", action="store_true", help="case c: a low-level FRF over the whole band beside the "
+                    "level tests, the form stage's data")
     ap.add_argument("--band", type=float, nargs=2, default=[50.0, 1200.0], help="case c: the level tests' band [Hz]")
     ap.add_argument("--folder", default=None)
     ap.add_argument("--clamp", type=float, default=3e-4)
@@ -193,7 +197,7 @@ def main(argv=None) -> int:
         out = truth_peaks(a.clamp, a.joint, seed, a.spread, a.clamp_heights)
     elif a.case == "c":
         out = case_c(a.clamp, a.joint, a.force_levels, seed, a.clamp_heights, a.spread, a.folder, a.band,
-                     a.form_given)
+                     a.form_given, a.broadband)
     else:
         out = case_b(a.clamp, a.joint, a.levels, seed, a.clamp_heights)
     text = json.dumps(out, indent=1)

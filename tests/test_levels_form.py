@@ -67,3 +67,22 @@ def test_the_report_says_what_the_form_stage_did():
         "model form: nothing named of clamp_compliance"
     named = {"reason": None, "named": ["joint_compliance"], "strengths": {"joint_compliance": 0.003}, "tried": []}
     assert form_line({"model_form": named}) == "model form named and held in both level models: joint_compliance = 0.003"
+
+
+def test_a_form_of_two_parts_starts_the_second_round():
+    """levels_form.two_part_start: the first round's best candidate, when it beats the calibration alone by the
+    naming margin of BIC but not by the RSS share and leaves a calibration scale outside its range, starts the
+    second round (a compliant clamp and a compliant joint, each alone leaving E or k_t pressed); not where it
+    is within the ranges or not better than the calibration by the margin."""
+    from frictionrt.rt.discrepancy.diagnose.campaign import NAME_THRESHOLD
+    from frictionrt.rt.discrepancy.diagnose.levels_form import two_part_start
+    plausible = {"E": (0.95, 1.05), "k_t": (0.128, 12.8), "modal_damping": (0.5, 50.0)}
+    base = {"score": 1000.0}
+    pressed = {"effect": "joint_compliance", "score": 1000.0 - 2572.0,
+               "theta": {"E": 0.717, "k_t": 0.46, "modal_damping": 10.0, "joint_compliance": 0.12}}
+    assert two_part_start([pressed], base, plausible) is pressed
+    inside = pressed | {"theta": pressed["theta"] | {"E": 0.99}}
+    assert two_part_start([inside], base, plausible) is None
+    small = pressed | {"score": 1000.0 - NAME_THRESHOLD}
+    assert two_part_start([small], base, plausible) is None
+    assert two_part_start([], base, plausible) is None

@@ -65,7 +65,7 @@ H_quantity = H_accelerance / (i omega)^(2 - k)."""
 EXCITATIONS = {"force": ("N", 13), "drive_voltage": ("V", 0)}
 """excitation -> (unit of the FRF's denominator, UFF 58 ordinate-denominator data characteristic)."""
 OPTIONAL_KEYS = {"quantity": "accelerance", "excitation": "force", "sensor_beams": {}, "drive_amplitude_v": None,
-                 "random": None}
+                 "random": None, "broadband": False}
 """Sidecar keys a file may omit, with the value a file without them has."""
 AMPLITUDES = ("F_amp_N", "drive_amp_N")         # optional per-line columns [N]
 UFF_SUFFIXES = (".uff", ".unv")
@@ -177,6 +177,9 @@ def check_meta(meta) -> dict:
         _finite(meta["drive_amplitude_v"], "sidecar drive_amplitude_v", positive=True)
     if meta.get("random") is not None:
         check_random(meta)
+    if not isinstance(meta.get("broadband", False), bool):
+        raise ValueError(f"sidecar broadband is {str(meta['broadband'])[:40]!r}; give true (a low-level FRF over the "
+                         "whole band beside level tests) or false, or leave it out")
     beams = meta.get("sensor_beams", {})
     if not isinstance(beams, dict):
         raise ValueError(f"sidecar sensor_beams is {str(beams)[:40]!r}; give an object {{sensor: beam name}} or "

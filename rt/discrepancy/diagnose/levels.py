@@ -16,9 +16,10 @@ higher ones? Two models, both calibrated on the tests at the levels ``calibrate_
   closed pair's Jenkins / Iwan describing function k_eq(|g_t|) with the slip force mu f_n at its static normal
   force, the normal contact linear; ~0.1 s per model evaluation (its build) plus 0.06 ms a line and level
   (docs/plant.md 10). "aft": the plant's own pair law
-  marched over the period (contact opening and closing, slip limit mu f_n(t)), 3 harmonics; 0.5-0.9 s
-  per level of 45 lines on the aluminium lap joint, whose overlap ends gape (there df's 10 N
-  prediction is 2.9x closer than the linear model's, aft's 49x: docs/discrepancy.md). With "df" the
+  marched over the period (contact opening and closing, slip limit mu f_n(t)), 3 harmonics, on the lines where
+  df's normal ratio of a closed pair reaches ``AFT_RATIO`` (df's solution on the others, where the two agree:
+  ``aft_where_open``); 0.5-0.9 s per level of 45 lines on the aluminium lap joint, whose overlap ends gape
+  (there df's 10 N prediction is 2.9x closer than the linear model's, aft's 49x: docs/discrepancy.md). With "df" the
   prediction reports where a closed pair's normal gap swings more than its static gap (``contact_note``).
 
 Residuals: rt.discrepancy.diagnose.frf's, (ln|H_meas| - ln|H_model|) / sigma_k on the lines above the
@@ -43,6 +44,7 @@ and over all lines, for both models, and their ratio.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -55,9 +57,10 @@ from frictionrt.plant.model import build_plant
 from frictionrt.rt.common.config import Config, with_sets
 from frictionrt.rt.discrepancy.chain import quiet, scale_bounds, scaled
 from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
-from frictionrt.rt.discrepancy.diagnose.frf import (FORCE_SCALE, FORCE_SCALE_N_PER_V, FRFData, bound_warnings, fit, model_H,
-                                         prepare, undamped_frequencies, weighted_residuals, with_sensor_points)
-from frictionrt.rt.discrepancy.diagnose.levels_form import fit_form
+from frictionrt.rt.discrepancy.diagnose.frf import (CAL_NAMES as FRF_CAL_NAMES, FORCE_SCALE, FORCE_SCALE_N_PER_V,
+                                                    FRFData, bound_warnings, fit, model_H, prepare,
+                                                    undamped_frequencies, weighted_residuals, with_sensor_points)
+from frictionrt.rt.discrepancy.diagnose.levels_form import corrected, fit_form, form_candidates
 from frictionrt.rt.discrepancy.diagnose.random_level import RandomLevel, is_random, level_accelerances, random_levels
 from frictionrt.rt.discrepancy.diagnose.structure import CAL_FAR
 from frictionrt.rt.discrepancy.effects import Effect, get
@@ -71,6 +74,8 @@ BOUNDS = {k: CAL_FAR[k][:2] for k in ("E", "k_t", "modal_damping")} | {"mu": (0.
 decade), within what the configuration accepts (``fit_bounds``); all moved on a log scale."""
 HALF_WIDTH = 0.12           # softening band: +-12 % around the mode (the rig's level lines)
 CANDIDATES = ("micro_slip", CLAMP)
+AFT_RATIO = 0.5             # method aft on the lines where df's normal ratio |g^_n| / |g_n0| of a closed pair reaches
+#                             this, df's own solution on the others (``aft_where_open``)
 AFT_MAX_ITER = 20           # Newton iterations of an "aft" start: converged lines take 1-9 on the lap joint; a start
 #                             that fails (the continuation across a jump) then costs a third of the default 60, and
 #                             gives the same FRFs there (2.4 instead of 6.5 s at 10 N)
@@ -118,6 +123,14 @@ def fit_bounds(nominal: Config) -> dict[str, tuple[float, float]]:
     return {k: scale_bounds(nominal, k, *b) for k, b in BOUNDS.items()} | {FORCE_SCALE: FORCE_SCALE_N_PER_V}
 
 
+def form_ranges(ranged: Config) -> dict[str, tuple[float, float]]:
+    """The linear level model's plausible ranges (rt.discrepancy.diagnose.plausible.ranges of E, k_t and the
+    modal damping) around ``ranged``, the nominal before a model form is held: a form's strength is not a
+    calibration scale (a compliant joint held at s x the contact's k_t_area leaves k_t, the contact's own
+    stiffness, around its literature range, not that range / s)."""
+    return ranges(ranged, list(FRF_CAL_NAMES))
+
+
 def mode_bands(d: FRFData) -> FRFData:
     """``d`` on the lines that carry the amplitude dependence: those within +-HALF_WIDTH of a measured mode
     (paired with the model's or not: ``f_modes``, ``unpaired_hz``), each in the band of its nearest mode;
@@ -160,12 +173,40 @@ def nonlinear_H(cfg: Config, data: list[FRFData], levels: list[float], scale: fl
         if key not in systems:
             systems[key] = harmonic_system(model, dict(d.points), F_N1=d.F_N1)
         g = scale if d.per_volt else 1.0
-        r = level_accelerances(systems[key], amp, g, d.freq, method=method, branches=False,
-                               **({"max_iter": AFT_MAX_ITER} if method == "aft" else {}))
+        r = (aft_where_open(systems[key], amp, g, d.freq) if method == "aft" else
+             level_accelerances(systems[key], amp, g, d.freq, method=method, branches=False))
         if details is not None:
             details.append(r)
         out.append({s: g * from_accelerance(h, d.freq, d.quantity) for s, h in r.H.items()})
     return out
+
+
+def aft_where_open(hs, amp: float, scale: float, freq_hz: np.ndarray):
+    """Method aft's FRF (plant.harmonic_frf.HarmonicFRF) at level ``amp`` x ``scale`` [N] on the lines freq_hz
+    [Hz], solved by aft only where it differs from df: df on every line first (one pass, ~1e-4 s a line), then
+    aft (AFT_MAX_ITER Newton iterations a start) on the lines where a closed pair's normal ratio
+    |g^_n| / |g_n0| reaches AFT_RATIO or df found no solution; df's solution on the others. Below a normal ratio
+    of 1 no pair opens, and the slip limit mu f_n(t) swings by that ratio: on the aluminium lap joint at 7.4 N
+    (400 lines of mode 2's region, benchmarks.levels_time's truth) aft and df differ by at most 0.001 dB where
+    df's ratio stays below 0.5, 0.011 below 0.8, 0.020 below 1, and by up to 4.1 dB above it; on the default
+    structure at 10 N (a compliant clamp and joint, micro_slip 0.5; 60 lines 50-1200 Hz) by up to 0.047 dB below
+    0.5, one line (855 Hz, ratio 0.03) 0.17 dB, and up to 2.2 dB above it."""
+    r = level_accelerances(hs, amp, scale, freq_hz, method="df", branches=False)
+    ratio = np.max(np.where(r.closed[None, :], r.normal_ratio, 0.0), axis=1, initial=0.0)
+    m = ~(ratio < AFT_RATIO)                  # NaN (no df solution) too
+    if not m.any():
+        return dataclasses.replace(r, method="aft")
+    a = level_accelerances(hs, amp, scale, freq_hz[m], method="aft", branches=False, max_iter=AFT_MAX_ITER)
+    out = {}
+    for k in ("g_t", "g_n", "normal_ratio", "slip_amp_m", "open_fraction", "converged", "iterations", "residual",
+              "n_solutions"):
+        v = getattr(r, k).copy()
+        v[m] = getattr(a, k)
+        out[k] = v
+    H = {s: np.where(m, 0.0, h) for s, h in r.H.items()}
+    for s in H:
+        H[s][m] = a.H[s]
+    return dataclasses.replace(r, method="aft", H=H, **out)
 
 
 def fit_label(effect: Effect | None) -> str:
@@ -174,12 +215,13 @@ def fit_label(effect: Effect | None) -> str:
 
 
 def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], start: dict,
-                  effect: Effect | None, method: str = "df", bars: bool = False) -> dict:
+                  effect: Effect | None, method: str = "df", bars: bool = False, ranged: Config | None = None
+                  ) -> dict:
     """Calibration (and the effect; and the force scale of drive-voltage tests) of the harmonic-balance
-    model on ``data``, penalised outside the plausible ranges around ``nominal`` (rt.discrepancy.diagnose.
-    plausible): {"theta", "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model
-    evaluations, with the best cost so far; Ctrl-C raises FitInterrupted with that best point
-    (rt.discrepancy.diagnose.watch)."""
+    model on ``data``, penalised outside the plausible ranges around ``ranged`` (default ``nominal``; the
+    nominal before a model form was held, ``form_ranges``) (rt.discrepancy.diagnose.plausible): {"theta",
+    "channels", "cfg", "evaluations"}. ``bars``: a tqdm bar on stderr over the model evaluations, with the best
+    cost so far; Ctrl-C raises FitInterrupted with that best point (rt.discrepancy.diagnose.watch)."""
     per_volt = any(d.per_volt for d in data)
     logs = list(CAL_NAMES) + ([FORCE_SCALE] if per_volt else [])
     names = logs + ([effect.name] if effect else [])
@@ -196,7 +238,7 @@ def fit_nonlinear(nominal: Config, data: list[FRFData], levels: list[float], sta
     def H_of(theta):
         return nonlinear_H(_cfg(nominal, theta, effect), data, levels, theta.get(FORCE_SCALE, 1.0), method)
 
-    plausible = ranges(nominal, names)
+    plausible = ranges(ranged if ranged is not None else nominal, names)
 
     def r(x):
         theta = theta_of(x)
@@ -292,26 +334,38 @@ def contact_note(pred: list[dict], method: str, unit: str, random: bool = False)
 
 
 def diagnose_levels(folder: str | Path, calibrate_on, nominal: Config | None = None, progress=None,
-                    method: str = "df", bars: bool = False) -> dict:
+                    method: str = "df", bars: bool = False, form: dict[str, float] | None = None) -> dict:
     """The workflow (module docstring) on a folder of FRF files at several levels, the harmonic balance
     by ``method`` (METHODS); a JSON-ready dict with the calibrated configuration under "_config" and
     plotting data under "_plots". ``progress(msg)``: the stages; ``bars``: tqdm bars on stderr inside the
-    harmonic-balance fits. Ctrl-C raises Interrupted with the fits done so far (rt.discrepancy.diagnose.watch)."""
+    harmonic-balance fits. ``form``: a model form known beforehand, {candidate name: strength}
+    (rt.discrepancy.effects, ``Effect.form``), held in both level models as the form stage holds the one it
+    names (rt.discrepancy.diagnose.levels_form; the form stage is not run). Ctrl-C raises Interrupted with the
+    fits done so far (rt.discrepancy.diagnose.watch). ValueError for a name in ``form`` that is not a model
+    form."""
     if method not in METHODS:
         raise ValueError(f"harmonic-balance method {method!r}: expected one of {', '.join(METHODS)}")
     with threadpool_limits(1):
-        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method, bars)
+        return _diagnose_levels(folder, calibrate_on, nominal, progress or (lambda msg: None), method, bars, form)
 
 
-def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str, bars: bool) -> dict:
+def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: str, bars: bool,
+                     form: dict[str, float] | None = None) -> dict:
     nominal = nominal if nominal is not None else with_sets(Config(), [])
+    for name in form or {}:
+        if name not in {e.name for e in form_candidates(nominal)}:
+            raise ValueError(f"model form {name!r} is not a model-form candidate of this structure; give one of "
+                             + ", ".join(e.name for e in form_candidates(nominal)))
     tests = load_frf_folder(folder)
+    broadband = [t for t in tests if t.meta.get("broadband")]    # beside the levels: the form stage's data
+    tests = [t for t in tests if not t.meta.get("broadband")]
     cal, rest = split(tests, calibrate_on)
     levels = [level_of(t) for t in tests]
     if len({t.excitation for t in tests}) > 1:
         raise ValueError(f"{folder}: the tests mix force and drive-voltage excitation; --calibrate-on takes one kind")
     try:
         data = prepare(tests, nominal)
+        wide = prepare(broadband, nominal) if broadband else []
         nominal, _ = with_sensor_points(tests, nominal)
         levels = random_levels(tests, data, levels, HALF_WIDTH, nominal)
         if method != "df" and any(isinstance(a, RandomLevel) for a in levels):
@@ -321,25 +375,35 @@ def _diagnose_levels(folder, calibrate_on, nominal: Config | None, say, method: 
     except ValueError as exc:
         raise ValueError(f"{folder}: {exc}") from None
     with keeping({}, input="frf_levels", calibrate_on_n=[levels[i] for i in cal], harmonic_method=method) as done:
-        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done)
+        return _calibrate_and_predict(nominal, data, levels, cal, say, method, bars, done, form, wide)
 
 
 def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[float], cal: list[int], say,
-                           method: str, bars: bool, done: dict) -> dict:
+                           method: str, bars: bool, done: dict, given: dict[str, float] | None = None,
+                           wide: list[FRFData] | None = None) -> dict:
     """The fits and the prediction of ``_diagnose_levels``; each fit, once done, also into ``done``
-    {name: {"fitted", "cfg", ...}} (what an interruption keeps)."""
+    {name: {"fitted", "cfg", ...}} (what an interruption keeps). ``given``: the known model form; ``wide``: the
+    broadband tests beside the levels (the form stage's data, all their lines, where there are any)."""
     dc, lc = [data[i] for i in cal], [levels[i] for i in cal]
     db = [mode_bands(d) for d in dc]
     lines = sum(len(d.freq) for d in db)
+    ranged = nominal         # the plausible ranges: of the nominal before a form is held (``form_ranges``)
     say(f"linear model, calibrated at {', '.join(f'{a:g}' for a in lc)} N on {lines} lines of the modes' bands")
     lin = fit(nominal, db, None, bars=bars, label="linear")
     done["linear"] = done_fit(lin.theta, lin.cfg)
-    form = fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done)
+    if given:
+        form = {"tried": [], "named": list(given), "strengths": dict(given), "ranking": [], "second_round": None,
+                "points_at": None, "mode": "given", "reason": None,
+                "nominal": corrected(nominal, given)}
+    else:
+        form = (fit_form(nominal, wide, say, bars, done, on="the broadband test") if wide else
+                fit_form(nominal, [b for b, a in zip(db, lc) if a == min(lc)], say, bars, done))
+        form["on"] = ", ".join(d.name for d in wide) if wide else "the lowest calibration level"
     lin_nominal_form = None
     if form["named"]:        # both level models from the corrected form (rt.discrepancy.diagnose.levels_form)
         lin_nominal_form, nominal = lin, form["nominal"]
         say(f"linear model with the model form {' and '.join(form['named'])} held")
-        lin = fit(nominal, db, None, bars=bars, label="linear, model form held")
+        lin = fit(nominal, db, None, plausible=form_ranges(ranged), bars=bars, label="linear, model form held")
         done["linear, model form held"] = done_fit(lin.theta, lin.cfg)
     H_lin = model_H(lin.cfg, data)
     start = {k: lin.theta[k] for k in ("E", "k_t", "modal_damping", FORCE_SCALE) if k in lin.theta}
@@ -349,7 +413,8 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
     for eff in [None, *candidates]:
         if eff is not None:
             say(fit_label(eff))
-        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars)
+        fits[eff] = fit_nonlinear(nominal, db, lc, fits[None]["theta"] if eff else start, eff, method, bars,
+                                  **({"ranged": ranged} if form["named"] else {}))   # without a form: nominal's
         done[fit_label(eff)] = done_fit(fits[eff]["theta"], fits[eff]["cfg"], evaluations=fits[eff]["evaluations"])
     results = [{"effect": e.name if e else None, "theta": f["theta"], "channels": f["channels"],
                 "score": bic(f["channels"], len(f["theta"])), "cfg": f["cfg"]} for e, f in fits.items()]
@@ -360,7 +425,7 @@ def _calibrate_and_predict(nominal: Config, data: list[FRFData], levels: list[fl
         winner, final = None, None
     winner_effect = next((e for e in fits if winner and e is not None and e.name == winner["effect"]), None)
     per_volt = any(d.per_volt for d in data)
-    plausible = ranges(nominal, [*CAL_NAMES, CLAMP])
+    plausible = ranges(ranged, [*CAL_NAMES, CLAMP])
     plausibility = verdict(plausible, fits[None]["theta"], (final or base)["theta"], (final or base)["effect"],
                            [e.name for e in candidates]) | {"linear_outside": outside(lin.theta, plausible)}
     say("prediction at the other levels")

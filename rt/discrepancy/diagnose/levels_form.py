@@ -9,11 +9,13 @@ linear calibration at the lowest calibration level presses E (``FORM_TRIGGER``) 
 (``diagnosis.model_form`` "auto"; "always": tried; "never": not), on data with at least ``MIN_MODES``
 measured modes (a form is told from the pattern of several modes' shifts).
 
-Tried as for FRF files (rt.discrepancy.diagnose.frf), on the lowest calibration level's lines with the level
-models' weights (its modes' bands, levels.mode_bands): the level where the joint slips least, so that its
-linear calibration sees the stuck structure's form rather than slip (a joint that slips at the calibration
-levels softens and damps its modes, which a linear fit takes for a softer joint or an added mass); the
-localisation
+Tried as for FRF files (rt.discrepancy.diagnose.frf), on the broadband tests beside the levels where the
+folder has them (sidecar ``broadband``: a low-level FRF over the whole band, all its lines; it holds the modes
+below the level tests' band, by which a compliant clamp is told from a uniform E), else on the lowest
+calibration level's lines with the level models' weights (its modes' bands, levels.mode_bands): the level
+where the joint slips least, so that its linear calibration sees the stuck structure's form rather than slip
+(a joint that slips at the calibration levels softens and damps its modes, which a linear fit takes for a
+softer joint or an added mass); the localisation
 (rt.discrepancy.diagnose.localise), each candidate fitted jointly with E, k_t and the modal damping
 (frf.fit), ranked by BIC (rt.discrepancy.diagnose.campaign.rank); a candidate named while a calibration
 scale is still pressed (or "always"), each other candidate is fitted with it and with the candidate the
@@ -24,7 +26,7 @@ calibrated from the corrected form, and the harmonic balance's own candidates le
 from __future__ import annotations
 
 from frictionrt.rt.common.config import Config
-from frictionrt.rt.discrepancy.diagnose.campaign import bic, rank
+from frictionrt.rt.discrepancy.diagnose.campaign import NAME_THRESHOLD, bic, rank
 from frictionrt.rt.discrepancy.diagnose.frf import CAL_NAMES, FRFData, Fit, fit, fit_label, next_candidate
 from frictionrt.rt.discrepancy.diagnose.localise import localise
 from frictionrt.rt.discrepancy.diagnose.plausible import outside, ranges
@@ -78,15 +80,31 @@ def why_not(nominal: Config, data: list[FRFData], linear: Fit | None = None) -> 
     return None
 
 
-def fit_form(nominal: Config, data: list[FRFData], say, bars: bool, done: dict) -> dict:
-    """The form stage (module docstring) on ``data``, the lowest calibration level's tests (the modes' bands),
+def two_part_start(ranked: list[dict], base: dict, plausible: dict) -> dict | None:
+    """Where the first round names no form (``rank``): its best candidate, if it beats the calibration alone by
+    the naming margin of BIC (campaign.NAME_THRESHOLD) but falls short of the RSS share, while the calibration
+    scales stay outside their plausible ranges with it: a form of two parts (a compliant clamp with a compliant
+    joint), each of which alone leaves the scales pressed (the clamp alone needs k_t below its range, the
+    joint alone E); the second round then starts from it, and a pair it names is the form. None otherwise."""
+    if not ranked:
+        return None
+    best = ranked[0]
+    if base["score"] - best["score"] <= NAME_THRESHOLD or not outside(best["theta"], plausible):
+        return None
+    return best
+
+
+def fit_form(nominal: Config, data: list[FRFData], say, bars: bool, done: dict,
+             on: str = "the lowest calibration level") -> dict:
+    """The form stage (module docstring) on ``data`` (``on`` names it in the progress messages), the lowest
+    calibration level's tests (the modes' bands) or the broadband tests beside the levels (all their lines),
     from the linear calibration there (fitted here, "model form: calibration only" in ``done``): {"tried": names, "named": names, "strengths": {name: fitted strength},
     "ranking": rows, "second_round": rows or None, "points_at", "mode", "reason": why not tried or None,
     "nominal": the corrected nominal (``nominal`` itself where nothing is named)}. Each fit also into ``done``."""
     mode = nominal.diagnosis.model_form
     reason, linear = why_not(nominal, data), None
     if reason is None:       # the linear calibration decides whether E is pressed
-        say("model form at the lowest calibration level: calibration only")
+        say(f"model form at {on}: calibration only")
         linear = fit(nominal, data, None, bars=bars, label="model form: calibration only")
         done["model form: calibration only"] = done_fit(linear.theta, linear.cfg)
         reason = why_not(nominal, data, linear)
@@ -95,7 +113,7 @@ def fit_form(nominal: Config, data: list[FRFData], say, bars: bool, done: dict) 
     if out["reason"] is not None:
         return out
     candidates = form_candidates(nominal)
-    say("model form at the lowest calibration level: localisation")
+    say(f"model form at {on}: localisation")
     where = localise(data, nominal, linear.cfg, linear.H, candidates, len(MODES))
     results = [{"effect": None, "theta": linear.theta, "channels": linear.channels,
                 "score": bic(linear.channels, len(linear.theta)), "fit": linear}]
@@ -111,17 +129,20 @@ def fit_form(nominal: Config, data: list[FRFData], say, bars: bool, done: dict) 
             "ranking": [{"effect": r["effect"], "delta_bic": round(base["score"] - r["score"], 2),
                          "rss_reduction": round(r["rss_reduction"], 4),
                          "fitted": {k: float(f"{v:.5g}") for k, v in r["theta"].items()}} for r in ranked]}
-    if winner is None:
-        return out
-    named, theta = [winner["effect"]], winner["theta"]
     plausible = ranges(nominal, list(CAL_NAMES))
-    if len(candidates) > 1 and (mode == "always" or outside(winner["theta"], plausible)):
+    first = winner or two_part_start(ranked, base, plausible)
+    if first is None:
+        return out
+    named, theta = ([winner["effect"]] if winner else []), first["theta"]
+    if len(candidates) > 1 and (mode == "always" or outside(first["theta"], plausible)):
         pointed = next((e for e in candidates if e.name == where["points_at"]), None)
-        second = next_candidate(nominal, data, get(winner["effect"]), winner["fit"],
-                                [e for e in candidates if e.name != winner["effect"]], say, bars, done, pointed)
-        out["second_round"] = {"first_named": winner["effect"], "held": second["held"], "named": second["named"],
-                               "ranking": second["ranking"]}
+        second = next_candidate(nominal, data, get(first["effect"]), first["fit"],
+                                [e for e in candidates if e.name != first["effect"]], say, bars, done, pointed)
+        out["second_round"] = {"first_named": winner["effect"] if winner else None, "first": first["effect"],
+                               "held": second["held"], "named": second["named"], "ranking": second["ranking"]}
         if second["named"]:
             named, theta = [second["held"], second["named"]], second["final"]["theta"]
+    if not named:
+        return out
     strengths = {n: float(f"{theta[n]:.6g}") for n in named}
     return out | {"named": named, "strengths": strengths, "nominal": corrected(nominal, strengths)}

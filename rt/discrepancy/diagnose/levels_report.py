@@ -39,12 +39,15 @@ def form_line(res: dict) -> str:
     f = res.get("model_form")
     if not f:
         return "model form: not tried"
+    held = ", ".join(f"{n} = {v:g}" for n, v in f.get("strengths", {}).items())
+    if f.get("mode") == "given":
+        return f"model form given and held in both level models: {held}"
     if f.get("reason"):
         return f"model form: not tried ({f['reason']})"
+    on = f" on {f['on']}" if f.get("on") else ""
     if not f.get("named"):
-        return f"model form: nothing named of {', '.join(f.get('tried', []))}"
-    return ("model form named and held in both level models: "
-            + ", ".join(f"{n} = {v:g}" for n, v in f["strengths"].items()))
+        return f"model form{on}: nothing named of {', '.join(f.get('tried', []))}"
+    return f"model form named{on} and held in both level models: {held}"
 
 
 def calibration_line(res: dict) -> str:

@@ -30,6 +30,15 @@ rms [N] over ``BAND_HZ`` (a drive voltage of that rms [V] with a force scale) fo
 coherence by Welch's method on the band's 0.0625 Hz lines (rt.discrepancy.rig.random_excitation); no
 noise added to H1 (the accelerometers' noise is in the record), the sidecar's "random" names the level
 (rms), the band and the estimator, amplitude_n and drive_amplitude_v null.
+
+Beside the levels (``broadband``): one low-level FRF over the whole band, ``broadband.csv``, written as
+rt.discrepancy.rig.frf writes FRF files (the true structure's stuck FRF at the held F_N1 on its FREQ_HZ,
+4-1600 Hz at 0.25 Hz, with its noise): what a lab measures first, at a level where no pair slips, and what
+shows the modes below the level tests' band (the stuck structure's modes 1 and 2 ring for tens of seconds at
+0.1 % damping, so their stepped-sine lines do not settle within ``SETTLE``). Sidecar ``broadband`` true,
+amplitude_n null (a drive-voltage campaign: per volt, as the levels). Not a simulation of a random test:
+at a level where no pair slips the stuck FRF is the structure's; a random test's H1 bias and random error
+are not in it.
 """
 from __future__ import annotations
 
@@ -47,7 +56,8 @@ from frictionrt.rt.common.config import Config, adaptive_screw
 from frictionrt.rt.discrepancy.chain import hold_voltage, stack_force
 from frictionrt.rt.discrepancy.effects import get
 from frictionrt.rt.discrepancy.rig.campaign import new_folder, true_structure
-from frictionrt.rt.discrepancy.rig.frf import NOISE_FLOOR, NOISE_REL, frf_meta, sensor_points
+from frictionrt.plant.linear_frf import point_accelerances
+from frictionrt.rt.discrepancy.rig.frf import FREQ_HZ, NOISE_FLOOR, NOISE_REL, drive_force_ratio, frf_meta, sensor_points
 from frictionrt.rt.discrepancy.rig.random_excitation import OVERLAP, random_test, record_s
 from frictionrt.rt.experiments.stepsine import Settle, harmonics_of_columns, resonance_grid, steady
 from frictionrt.rt.log.frf_files import FRFTest, write_frf_csv, write_frf_uff
@@ -130,15 +140,37 @@ def sweep_level(model: PlantModel, F_N1: float, amp_n: float, lines_hz: np.ndarr
     return LevelSweep(amp_n, np.asarray(lines_hz, float), {s: H[:, j] for j, s in enumerate(names)}, settled, sim_s)
 
 
+def write_broadband(folder: Path, true: Config, model: PlantModel, F_N1: float, rng: np.random.Generator,
+                    force_scale_N_per_V: float | None = None) -> str:
+    """The low-level FRF over the whole band beside the levels (module docstring) into ``folder``; its name."""
+    H = point_accelerances(model, sensor_points(true), F_N1, FREQ_HZ)
+    per_volt = force_scale_N_per_V is not None
+    if per_volt and true.shaker.on:
+        ratio = drive_force_ratio(true, model, F_N1, FREQ_HZ)
+        H = {s: h * ratio for s, h in H.items()}
+    gain = float(force_scale_N_per_V) if per_volt else 1.0
+    for s, h in H.items():
+        z, w = rng.standard_normal((2, len(h), 2)) @ np.array([1.0, 1j]) / np.sqrt(2)
+        H[s] = gain * (h * (1.0 + NOISE_REL * z) + NOISE_FLOOR * w)
+    held = f"adaptive screw held at about {F_N1_N:g} N by the stack" if F_N1 else "no adaptive screw"
+    drive = "shaker driven by a voltage, no force transducer" if per_volt else "force"
+    meta = frf_meta(true, round(F_N1, 2), f"low-level FRF over the whole band beside the level tests, {drive} at "
+                    f"the excitation point (contact stuck), {held}") | {"amplitude_n": None, "broadband": True} | (
+        {"excitation": "drive_voltage"} if per_volt else {})
+    write_frf_csv(folder / "broadband.csv", FRFTest("broadband", FREQ_HZ, H, None, None, meta))
+    return "broadband.csv"
+
+
 def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Generator,
                       progress=None, band_hz=BAND_HZ, force_scale_N_per_V: float | None = None,
-                      excitation: str = "stepsine") -> list[str]:
+                      excitation: str = "stepsine", broadband: bool = False) -> list[str]:
     """Run the level tests on the true structure and write them into ``folder`` (module docstring; stepped
     sines on lines around the modes in ``band_hz`` [Hz], or with ``excitation`` "random" a random force over
     ``band_hz``); returns the data file names. ``progress(msg)`` is told of each level. ``force_scale_N_per_V``
     s: a voltage-driven shaker without force transducer, the levels are drive amplitudes (rms, random) V [V],
     the force s V, the files' FRFs per volt (s H) with the sidecar's excitation drive_voltage and
-    drive_amplitude_v V (stepped sine) or random.rms V."""
+    drive_amplitude_v V (stepped sine) or random.rms V. ``broadband``: also the low-level FRF over the whole band
+    (``write_broadband``), after the levels."""
     with threadpool_limits(1):
         model = build_plant(true)
         F_N1 = stack_force(true, hold_voltage(true, F_N1_N)) if adaptive_screw(true) is not None else 0.0
@@ -181,6 +213,8 @@ def write_level_tests(folder: Path, true: Config, levels_n, rng: np.random.Gener
         (write_frf_uff if j % 2 else write_frf_csv)(folder / name, FRFTest(Path(name).stem, freq, H, None, None,
                                                                            meta, coh))
         names.append(name)
+    if broadband:
+        names.append(write_broadband(folder, true, model, F_N1, rng, force_scale_N_per_V))
     return names
 
 
@@ -188,11 +222,12 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
                         seed: int = 0, cfg: Config | None = None, force_levels_n=LEVELS_N,
                         other_form: tuple[str, ...] = (), progress=None, band_hz=BAND_HZ,
                         force_scale_N_per_V: float | None = None, excitation: str = "stepsine",
-                        refine: int | None = None) -> list[Path]:
+                        refine: int | None = None, broadband: bool = False) -> list[Path]:
     """Write the level tests (module docstring) into the new folder ``out_dir`` (a temporary folder,
     then renamed), from the true structure of rt.discrepancy.rig.campaign.true_structure (the same scatter draw and
     hidden effect for the seed, ``other_form`` refined by ``refine``; lines around the modes in ``band_hz`` [Hz]; ``force_scale_N_per_V``: the
-    levels are drive voltages, as write_level_tests; ``excitation``: "stepsine" or "random", as there); returns the
+    levels are drive voltages, as write_level_tests; ``excitation``: "stepsine" or "random", as there; ``broadband``:
+    also the low-level FRF over the whole band, as there); returns the
     data files written. ValueError for an effect of the actuator or the shaker (FRF files of the structure do not
     record them), an unknown excitation or a level that is not a positive finite force."""
     if excitation not in EXCITATIONS:
@@ -207,5 +242,6 @@ def make_level_campaign(out_dir: str | os.PathLike, effect: str = "none", streng
     rng = np.random.default_rng(seed)
     true = true_structure(cfg, effect, strength, rng, other_form, refine)
     with new_folder(out_dir) as tmp:
-        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz, force_scale_N_per_V, excitation)
+        names = write_level_tests(tmp, true, sorted(levels), rng, progress, band_hz, force_scale_N_per_V, excitation,
+                                  broadband)
     return [Path(out_dir) / n for n in names]
