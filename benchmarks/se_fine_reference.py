@@ -164,6 +164,18 @@ def footprint_classes_of(plant, cfg) -> np.ndarray:
     return out
 
 
+def hammer_row(plant, cfg, sensor, ref_hammer: dict) -> dict:
+    """The 100 N hammer test on ``plant`` (``impulse``): its f [Hz] and zeta, their error against
+    ``ref_hammer`` (f in %, zeta as a ratio) and its wall time [s]."""
+    from frictionrt.plant.se_analysis import impulse
+    t0 = time.perf_counter()
+    h = impulse(plant, cfg, F_HAMMER_N, sensor=sensor)
+    return {"hammer_f_hz": h["freq_hz"], "hammer_zeta": h["damping_ratio"],
+            "hammer_s": round(time.perf_counter() - t0, 1),
+            "hammer_f_err_pct": (100 * (np.array(h["freq_hz"]) / ref_hammer["freq_hz"] - 1)).round(2).tolist(),
+            "hammer_zeta_ratio": (np.array(h["damping_ratio"]) / ref_hammer["damping_ratio"]).round(3).tolist()}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cache", default=None, help="the reduced reference as .npz (written if missing)")
@@ -337,12 +349,7 @@ def main(argv=None) -> int:
             r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
             line = f"{c:>3} groups: closed {r['closed_F_min']} at {F_min:g} N, stuck modes 2-5 {r['stuck_err_pct']} %"
             if c in hg and "hammer" in ref:
-                t0 = time.perf_counter()
-                h = impulse(pc, cfg, F_HAMMER_N, sensor=sensor)
-                r.update(hammer_f_hz=h["freq_hz"], hammer_zeta=h["damping_ratio"],
-                         hammer_s=round(time.perf_counter() - t0, 1))
-                r["hammer_f_err_pct"] = (100 * (np.array(h["freq_hz"]) / ref["hammer"]["freq_hz"] - 1)).round(2).tolist()
-                r["hammer_zeta_ratio"] = (np.array(h["damping_ratio"]) / ref["hammer"]["damping_ratio"]).round(3).tolist()
+                r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
                 line += f"; hammer f {r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)"
             print(line, flush=True)
         except (RuntimeError, ValueError) as e:
@@ -362,11 +369,7 @@ def main(argv=None) -> int:
                 pc = build_se_plant(coarsen_structure(se57, c, cfg, "footprint"), cfg)
                 r["stuck_hz"] = vertical_modes(pc, F_min)[0].round(3).tolist()
                 r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
-                t0 = time.perf_counter()
-                h = impulse(pc, cfg, F_HAMMER_N, sensor=sensor)
-                r.update(hammer_f_hz=h["freq_hz"], hammer_zeta=h["damping_ratio"], hammer_s=round(time.perf_counter() - t0, 1))
-                r["hammer_f_err_pct"] = (100 * (np.array(h["freq_hz"]) / ref["hammer"]["freq_hz"] - 1)).round(2).tolist()
-                r["hammer_zeta_ratio"] = (np.array(h["damping_ratio"]) / ref["hammer"]["damping_ratio"]).round(3).tolist()
+                r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
                 print(f"57 points, {c or 'all':>3} groups: stuck modes 2-5 {r['stuck_err_pct']} %, hammer f "
                       f"{r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)", flush=True)
             except (RuntimeError, ValueError) as e:
