@@ -78,9 +78,29 @@ def _replay_plant() -> None:
         replay(out.with_suffix(".mcap"), plant=True)
 
 
-ROUNDS = ((_plant, _harmonic, _stuck_matching), (_loop_and_replays, _replay_plant))
+def _stepsine() -> None:
+    """A step-sine point as ``reproduce``'s workers run it, on the observer and on the oracle: the loop
+    pickled and unpickled on its way to the worker comes back with writable arrays, another type
+    than the design's read-only ones, so the tick compiles once more for it."""
+    import pickle
+
+    import cloudpickle
+
+    from frictionrt.rt.common.config import load
+    from frictionrt.rt.experiments.branches import Branch, run_branch
+    from frictionrt.rt.experiments.stepsine import Settle
+    from frictionrt.rt.loop import build_loop
+    cfg = load()
+    settle = Settle(periods_per_block=1, min_block_s=0.005, n_blocks=2, rel_tol=0.5, max_s=0.03)
+    for estimator in ("observer", "oracle"):
+        loop = pickle.loads(cloudpickle.dumps(build_loop(cfg, "hysteresis", estimator)))
+        run_branch(Branch(cfg, "hysteresis", 5.0, (200.0,), estimator, settle), loop)
+
+
+ROUNDS = ((_plant, _harmonic, _stuck_matching, _stepsine), (_loop_and_replays, _replay_plant))
 """The paths, in rounds: round 1 compiles the plant step that round 2's entry points call; in a
-round the jobs start in this order, so the two shorter paths of round 1 share one process."""
+round the jobs start in this order on the free process (round 1 on two: the plant's, then the
+step-sine's; the harmonic balance's, then the stuck matching's)."""
 
 
 def _timed(job) -> tuple[str, float, str | None]:
