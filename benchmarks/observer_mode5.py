@@ -130,7 +130,7 @@ def variant_outputs(params, amp, v_meas: np.ndarray, F_N: np.ndarray) -> tuple[n
 
 
 def one(amp_n: float, duration: float) -> dict:
-    from frictionrt.observer.accuracy import TAIL, band_limited_truth, nrmse
+    from frictionrt.observer.accuracy import TAIL, at_estimate_instant, band_limited_truth, nrmse
     from frictionrt.observer.amplitude import design_amplitude, no_amplitude
     from frictionrt.observer.kalman import design_observer
     from frictionrt.observer.offline import phasor
@@ -211,7 +211,7 @@ def one(amp_n: float, duration: float) -> dict:
             "u0_error": float(np.mean(np.abs(u_hat[tail])) / np.mean(np.abs(u_true[tail])) - 1.0),
             "U1_error": abs(phasor(u_hat, f, dt)) / abs(ph["u_true"]) - 1.0,
             "Y1_error": abs(phasor(y_hat, f, dt)) / abs(phasor(inputs[name], f, dt)) - 1.0,
-            "v_rel_nrmse": nrmse(v_hat, v_true)}
+            "v_rel_nrmse": nrmse(*at_estimate_instant(v_hat, v_true))}
     row["ratio_abs_s"] = {k: abs(v) for k, v in ratios.items()}
     row["ratio_phase_deg"] = {k: float(np.degrees(np.angle(v))) for k, v in ratios.items()}
     return row
