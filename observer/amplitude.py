@@ -24,8 +24,9 @@ mode i at a grid amplitude is a 2 x 2 matrix and a 2-vector (the friction input'
     [q_i; q_i']_{k+1} = Ad_i [q_i; q_i']_k|k + bd_i f_r           Ad_i = e^{A_i dt},  A_i = [[0, 1], [-w^2, -2 zeta w]]
                                                                    bd_i = int_0^dt e^{A_i s} ds [0; -t phi_i]
 
-``AmplitudeParams.blocks[i, j]`` = (Ad_i[0,0], Ad_i[0,1], Ad_i[1,0], Ad_i[1,1], bd_i[0], bd_i[1]) at
-AMP_GRID_M[j]; the run-time step (``frictionrt.observer.amplitude_step``) interpolates those six numbers
+``AmplitudeParams.blocks[i, j]`` = (Ad_i[0,0], Ad_i[0,1], Ad_i[1,0], Ad_i[1,1], bd_i[0], bd_i[1], p_i) at
+AMP_GRID_M[j] (p_i the participation, below); the run-time step (``frictionrt.observer.amplitude_step``)
+interpolates those seven numbers
 linearly between the two grid amplitudes around a_i, per mode per tick (scalar work: no matrix is
 formed, inverted or exponentiated in the tick). Everything else is the paper's step: filter-form
 update with the nominal gain M, implicit friction in v_rel (now beta = sum_i t phi_i bd_i[1] < 0,
