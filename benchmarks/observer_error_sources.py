@@ -52,7 +52,7 @@ def _u0_error(u_hat: np.ndarray, u_true: np.ndarray, tail: slice) -> float:
 
 def one(case) -> dict:
     law, mode, amp, f, duration, shift, scale = case
-    from frictionrt.observer.accuracy import TAIL, band_limited_truth, nrmse
+    from frictionrt.observer.accuracy import TAIL, at_estimate_instant, band_limited_truth, nrmse
     from frictionrt.observer.kalman import design_observer
     from frictionrt.observer.offline import fundamental_error, outputs, ukf_run
     from frictionrt.rt.common.config import load, with_sets
@@ -73,8 +73,8 @@ def one(case) -> dict:
             "rts": outputs(design, est.z_smooth, F)}
     row = {"law": law, "mode": mode, "amp_n": amp, "freq_hz": f, "duration_s": duration, "spring_scale": scale,
            "model_hz": float(design.model.modes_hz[mode - 1]),
-           "v_rel_nrmse": {k: nrmse(v, v_true) for k, (_, v) in cand.items()},
-           "u_rel_nrmse": {k: nrmse(u, u_true) for k, (u, _) in cand.items()},
+           "v_rel_nrmse": {k: nrmse(*at_estimate_instant(v, v_true)) for k, (_, v) in cand.items()},
+           "u_rel_nrmse": {k: nrmse(*at_estimate_instant(u, u_true)) for k, (u, _) in cand.items()},
            "v_rel_fund_error": {k: fundamental_error(v[1:], v_true[:-1], f, dt) for k, (_, v) in cand.items()},
            "u0_error": {k: _u0_error(u, u_true, tail) for k, (u, _) in cand.items()},
            "u0_error_law": s["u0_rel_error"], "acc045_amplitude": s["acc045_amplitude"],

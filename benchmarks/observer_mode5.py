@@ -130,7 +130,7 @@ def variant_outputs(params, amp, v_meas: np.ndarray, F_N: np.ndarray) -> tuple[n
 
 
 def one(amp_n: float, duration: float) -> dict:
-    from frictionrt.observer.accuracy import TAIL, band_limited_truth, nrmse
+    from frictionrt.observer.accuracy import TAIL, at_estimate_instant, band_limited_truth, nrmse
     from frictionrt.observer.amplitude import design_amplitude, no_amplitude
     from frictionrt.observer.kalman import design_observer
     from frictionrt.observer.offline import phasor
@@ -211,7 +211,7 @@ def one(amp_n: float, duration: float) -> dict:
             "u0_error": float(np.mean(np.abs(u_hat[tail])) / np.mean(np.abs(u_true[tail])) - 1.0),
             "U1_error": abs(phasor(u_hat, f, dt)) / abs(ph["u_true"]) - 1.0,
             "Y1_error": abs(phasor(y_hat, f, dt)) / abs(phasor(inputs[name], f, dt)) - 1.0,
-            "v_rel_nrmse": nrmse(v_hat, v_true)}
+            "v_rel_nrmse": nrmse(*at_estimate_instant(v_hat, v_true))}
     row["ratio_abs_s"] = {k: abs(v) for k, v in ratios.items()}
     row["ratio_phase_deg"] = {k: float(np.degrees(np.angle(v))) for k, v in ratios.items()}
     return row
@@ -270,6 +270,32 @@ def fitted_scales(amps=(5.0, 10.0), scales=None) -> list[dict]:
     return out
 
 
+def plant_ratios(amps=(5.0, 10.0), duration: float = 1.0, scale: float = 0.1) -> list[dict]:
+    """The points of ``frictionrt.observer.amplitude.PLANT_RATIOS``: per amplitude, the hysteresis law at mode 5's
+    passive peak (``FREQ_HZ``) on the amplitude kind at spring scale ``scale`` without a participation
+    (``ratios={}``); the first harmonics over the last 20 % of u_rel's band-limited truth U_rel, of the
+    measured tip velocity V_meas (the observer's input) and of the plant's v_tip: U_rel [m],
+    rho = U_rel / V_meas [s] (and U_rel / V_tip), and the law's u0 error on that estimate."""
+    import dataclasses
+    from frictionrt.observer.accuracy import band_limited_truth
+    from frictionrt.observer.amplitude import design_amplitude
+    from frictionrt.observer.offline import phasor
+    from frictionrt.rt.common.config import load, with_sets
+    from frictionrt.rt.loop import build_loop, run, summary
+    cfg = with_sets(load(), [f"observer.spring_scale={scale!r}"])
+    out = []
+    for amp_n in amps:
+        loop = build_loop(cfg, "hysteresis", "amplitude")
+        loop = dataclasses.replace(loop, amplitude=design_amplitude(cfg, loop.plant, ratios={})[1])
+        r = run(loop, FREQ_HZ, amp_n, duration)
+        dt = cfg.dt_s
+        U = abs(phasor(band_limited_truth(r.signal("u_rel"), dt, cfg.observer.oracle_bandwidth_hz), FREQ_HZ, dt))
+        out.append({"amp_n": amp_n, "U_rel_m": U, "rho_meas_s": U / abs(phasor(r.signal("v_tip_meas"), FREQ_HZ, dt)),
+                    "rho_tip_s": U / abs(phasor(r.signal("v_tip"), FREQ_HZ, dt)),
+                    "u0_error_law": summary(r)["u0_rel_error"]})
+    return out
+
+
 def format_rows(row: dict) -> list[str]:
     out = [f"F = {row['amp_n']:g} N at {row['freq_hz']} Hz (model mode 5 {row['model_hz']:.2f} Hz), "
            f"law's u0 error {100 * row['u0_error_law']:+.1f} %, F_N1 tail mean {row['F_N1_mean_tail_N']:.0f} N, "
@@ -307,9 +333,18 @@ def main(argv=None) -> int:
     ap.add_argument("--fit-scales", action="store_true",
                     help="instead: per --amps, the spring scale whose model's modes 3-5 sit nearest that amplitude's "
                          "passive peaks (fitted_scales)")
+    ap.add_argument("--plant-ratios", action="store_true",
+                    help="instead: the plant's U_rel / V_meas at mode 5 per --amps, the hysteresis law on the amplitude "
+                         "kind at scale 0.1 without a participation, 1 s (plant_ratios: observer.amplitude.PLANT_RATIOS)")
     a = ap.parse_args(argv)
     if not a.duration > 0:
         ap.error(f"--duration {a.duration}: must be > 0 s")
+    if a.plant_ratios:
+        print("| F [N] | U_rel [um] | U_rel / V_meas [us] | U_rel / V_tip [us] | u0 error without |\n| --- | --- | --- | --- | --- |")
+        for r in plant_ratios(a.amps):
+            print(f"| {r['amp_n']:g} | {1e6 * r['U_rel_m']:.4f} | {1e6 * r['rho_meas_s']:.4f} | {1e6 * r['rho_tip_s']:.4f} "
+                  f"| {100 * r['u0_error_law']:+.1f} % |", flush=True)
+        return 0
     if a.fit_scales:
         missing = [x for x in a.amps if (MODE, x) not in PEAKS_HZ]
         if missing:

@@ -24,12 +24,21 @@ mode i at a grid amplitude is a 2 x 2 matrix and a 2-vector (the friction input'
     [q_i; q_i']_{k+1} = Ad_i [q_i; q_i']_k|k + bd_i f_r           Ad_i = e^{A_i dt},  A_i = [[0, 1], [-w^2, -2 zeta w]]
                                                                    bd_i = int_0^dt e^{A_i s} ds [0; -t phi_i]
 
-``AmplitudeParams.blocks[i, j]`` = (Ad_i[0,0], Ad_i[0,1], Ad_i[1,0], Ad_i[1,1], bd_i[0], bd_i[1]) at
-AMP_GRID_M[j]; the run-time step (``frictionrt.observer.amplitude_step``) interpolates those six numbers
+``AmplitudeParams.blocks[i, j]`` = (Ad_i[0,0], Ad_i[0,1], Ad_i[1,0], Ad_i[1,1], bd_i[0], bd_i[1], p_i) at
+AMP_GRID_M[j] (p_i the participation, below); the run-time step (``frictionrt.observer.amplitude_step``)
+interpolates those seven numbers
 linearly between the two grid amplitudes around a_i, per mode per tick (scalar work: no matrix is
 formed, inverted or exponentiated in the tick). Everything else is the paper's step: filter-form
 update with the nominal gain M, implicit friction in v_rel (now beta = sum_i t phi_i bd_i[1] < 0,
 scheduled), the static correction D_u.
+
+Each mode also carries a participation p_i(a_i) (``participation``, the blocks' seventh column): the
+factor on its rows of C_u and C_v (u_rel_hat and v_rel_hat, and the friction's end-of-tick velocity)
+and on its friction input bd_i (the generalised force -p_i t phi_i f_r). The plant's u_rel per tip
+velocity grows with the amplitude where a linear model's is constant (``PLANT_RATIOS``); p_i is chosen
+so that the observer, as a linear filter from the measured tip velocity to u_rel_hat, has the plant's
+ratio at each measured amplitude. Modes without points keep p_i = 1, and then the step is the one
+without it, bit for bit.
 
 The gain M stays the paper's: the offline UKF with a time-varying gain matched the constant gain
 within 0.02 in NRMSE(v_rel) (docs/observer.md, "Where the error comes from"), so the gain is not
@@ -65,11 +74,23 @@ PLANT_PEAKS: dict[int, tuple[tuple[float, float], ...]] = {
 }
 
 
+# The plant's ratio rho = U_rel / V_meas (first harmonics of the damper's relative displacement and of
+# the measured tip velocity, the observer's input) against the u_rel amplitude, as
+# mode -> (f [Hz], ((U_rel [m], rho [s]), ...)): mode 5 at its passive step-sine peak, the hysteresis
+# law at 5 and 10 N (``python -m benchmarks.observer_mode5 --plant-ratios``). The truth's ratio grows
+# with the amplitude (the contact under the adaptive screw opens over more of the cycle); a linear
+# model's is constant. Modes 2-4 have none (their u0 error is within 3.5 % without).
+PLANT_RATIOS: dict[int, tuple[float, tuple[tuple[float, float], ...]]] = {
+    5: (615.87, ((1.5289e-6, 16.1149e-6), (2.4964e-6, 17.4504e-6))),
+}
+
+
 class AmplitudeParams(NamedTuple):
     """Constant arrays of the amplitude-following step (module docstring); empty (grid of size 0)
     when the kind does not run."""
     grid: np.ndarray       # (G,) amplitudes of a mode's share of u_rel [m], ascending, grid[0] = 0
-    blocks: np.ndarray     # (N, G, 6) per mode and grid amplitude: Ad (4, row-major) and bd (2)
+    blocks: np.ndarray     # (N, G, 7) per mode and grid amplitude: Ad (4, row-major), bd (2) and the
+    #                        participation p_i (the factor on mode i's rows of C_u, C_v and on its bd; 1: the model's)
     scale: np.ndarray      # (N,) |t phi_i| [m per modal unit]
     inv_omega: np.ndarray  # (N,) 1 / omega_i of the linear model [s]
     k_j: float             # > 0: the joint as a Jenkins element of this stiffness [N/m] (state slot 2N: the
@@ -78,7 +99,7 @@ class AmplitudeParams(NamedTuple):
 
 def no_amplitude(n_modes: int = 0) -> AmplitudeParams:
     """Parameters of size 0 (same types): the tick takes the paper's step."""
-    return AmplitudeParams(np.zeros(0), np.zeros((n_modes, 0, 6)), np.zeros(n_modes), np.zeros(n_modes), 0.0)
+    return AmplitudeParams(np.zeros(0), np.zeros((n_modes, 0, 7)), np.zeros(n_modes), np.zeros(n_modes), 0.0)
 
 
 def joint_stiffness(cfg: Config, model) -> float:
@@ -103,6 +124,57 @@ def frequency_ratios(n_modes: int, grid=AMP_GRID_M, peaks=None) -> np.ndarray:
         order = np.argsort(a)
         r[i] = np.interp(g, a[order], ratio[order])
     return r
+
+
+def filter_ratio(params, mode: int, f_hz: float, dt: float) -> tuple[complex, complex]:
+    """(U_other, U_mode) [s]: the paper's observer as a linear filter (friction off) from the measured
+    tip velocity to u_rel_hat = C_u z_k|k at f_hz [Hz], per unit input, split into the other modes'
+    part and the part of ``mode`` (1-based), whose rows the participation scales:
+
+        z_k|k-1 = (zeta I - A_d (I - M C_meas))^-1 A_d M Y,   z_k|k = z_k|k-1 + M (Y - C_meas z_k|k-1),
+        zeta = exp(i 2 pi f dt)"""
+    n = len(params.M)
+    N = n // 2
+    zeta = np.exp(2j * np.pi * f_hz * dt)
+    z = np.linalg.solve(zeta * np.eye(n) - params.A_d @ (np.eye(n) - np.outer(params.M, params.C_meas)),
+                        params.A_d @ params.M)
+    z = z + params.M * (1.0 - params.C_meas @ z)
+    rows = np.zeros(n, dtype=bool)
+    rows[[mode - 1, N + mode - 1]] = True
+    return complex(params.C_u[~rows] @ z[~rows]), complex(params.C_u[rows] @ z[rows])
+
+
+def participation(params, dt: float, grid=AMP_GRID_M, ratios=None) -> np.ndarray:
+    """(N, G) p_i(a_j) such that the observer as a linear filter (``filter_ratio``) has the plant's
+    |U_rel / V_meas| at each point of ``ratios`` (``PLANT_RATIOS``):
+
+        |U_other + p U_mode| = rho          (the positive root)
+
+    piecewise linear in the kernel's amplitude coordinate and held beyond the first and last points;
+    1 for a mode without points. The kernel's a_i is mode i's share of u_rel before the factor
+    (``scale`` = |t phi_i|), so a point (U, rho) sits at a = U / p."""
+    ratios = PLANT_RATIOS if ratios is None else ratios
+    n = len(params.M)
+    g = np.asarray(grid, dtype=float)
+    p = np.ones((n // 2, len(g)))
+    for mode, (f_hz, pts) in ratios.items():
+        if mode > n // 2 or not pts:
+            continue
+        U_o, U_m = filter_ratio(params, mode, f_hz, dt)
+        b = (U_o * np.conj(U_m)).real / abs(U_m) ** 2
+        fac = np.array([-b + np.sqrt(b * b + (rho ** 2 - abs(U_o) ** 2) / abs(U_m) ** 2) for _, rho in sorted(pts)])
+        a = np.array([U for U, _ in sorted(pts)]) / fac
+        p[mode - 1] = np.interp(g, a, fac)
+    return p
+
+
+def schedule_ratios(cfg: Config) -> dict[int, tuple[float, tuple[tuple[float, float], ...]]]:
+    """The participation's points for the configuration: ``PLANT_RATIOS`` where its plant is the
+    default's (``frictionrt.observer.amplitude_schedule.plant_key``), else none (p = 1: the ratio is
+    measured on the default plant only)."""
+    from frictionrt.observer.amplitude_schedule import plant_key
+    from frictionrt.rt.common.config import load
+    return PLANT_RATIOS if plant_key(cfg) == plant_key(load()) else {}
 
 
 def schedule_peaks(cfg: Config, plant=None) -> dict[int, tuple[tuple[float, float], ...]]:
@@ -138,7 +210,7 @@ def rebased_peaks(peaks, reference_hz, model_hz) -> dict[int, tuple[tuple[float,
 
 
 def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False,
-                     spring_scale: float | None = None) -> tuple[ObserverDesign, AmplitudeParams]:
+                     spring_scale: float | None = None, ratios=None) -> tuple[ObserverDesign, AmplitudeParams]:
     """The paper's design (its gain, its outputs) and the amplitude-following blocks (module
     docstring). ``peaks``: the schedule's points (default ``schedule_peaks``: the measured table on
     the default plant, harmonic balance on another). ``jenkins``:
@@ -148,7 +220,9 @@ def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False,
     (``frictionrt.observer.model.build_observer_model``; None: ``cfg.observer.spring_scale``; 1: the
     paper's model), the schedule's points
     re-based onto that model's frequencies (``rebased_peaks``; they are stated over the plant's
-    sliding-joint linearisation at F_min).
+    sliding-joint linearisation at F_min). ``ratios``: the participation's points (``participation``;
+    default ``schedule_ratios``: ``PLANT_RATIOS`` on the default plant, none on another), folded into
+    bd at design time (the friction's generalised force on mode i is -p_i t phi_i f_r).
 
     Raises ValueError if the error dynamics with the paper's gain are unstable at a grid amplitude
     (every mode at its r_i(a_j)), as ``design_observer`` does for its own model."""
@@ -166,11 +240,13 @@ def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False,
     dt = cfg.dt_s
     tphi = model.C_v[N:]
     r = frequency_ratios(N, AMP_GRID_M, peaks)
+    part = participation(p, dt, AMP_GRID_M, schedule_ratios(cfg) if ratios is None else ratios)
     G = len(AMP_GRID_M)
-    blocks = np.empty((N, G, 6))
+    blocks = np.empty((N, G, 7))
     for i in range(N):
         for j in range(G):
-            blocks[i, j] = mode_blocks(r[i, j] * model.omega[i], model.zeta, -tphi[i], dt)
+            blocks[i, j, :6] = mode_blocks(r[i, j] * model.omega[i], model.zeta, -part[i, j] * tphi[i], dt)
+            blocks[i, j, 6] = part[i, j]
     n = 2 * N
     I_MC = np.eye(n) - np.outer(p.M, p.C_meas)
     k_j = joint_stiffness(cfg, model) if jenkins else 0.0
@@ -179,11 +255,12 @@ def design_amplitude(cfg: Config, plant=None, peaks=None, jenkins: bool = False,
         bd = np.zeros(n)
         for i in range(N):
             A_d[np.ix_([i, N + i], [i, N + i])] = blocks[i, j, :4].reshape(2, 2)
-            bd[[i, N + i]] = blocks[i, j, 4:]
+            bd[[i, N + i]] = blocks[i, j, 4:6]
         T = A_d @ I_MC
         if jenkins:  # stuck: f = k_eff C_u A_d z (the slider fixed), k_eff = k_j / (1 - k_j (C_u bd + D_u))
-            k_eff = k_j / (1.0 - k_j * (model.C_u @ bd + model.D_u))
-            T = (np.eye(n) + k_eff * np.outer(bd, model.C_u)) @ T
+            C_u = model.C_u * np.tile(part[:, j], 2)
+            k_eff = k_j / (1.0 - k_j * (C_u @ bd + model.D_u))
+            T = (np.eye(n) + k_eff * np.outer(bd, C_u)) @ T
         rho = float(np.max(np.abs(np.linalg.eigvals(T))))
         if rho >= 1.0:
             raise ValueError(f"amplitude observer: unstable with the paper's gain at {AMP_GRID_M[j]:g} m "

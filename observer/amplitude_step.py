@@ -5,12 +5,13 @@ per mode from that mode's amplitude; per tick k with the a-priori state z_k|k-1 
 q_1'..q_N'):
 
     e       = y_k - C_meas z_k|k-1,   z_k|k = z_k|k-1 + M e          (the paper's gain M)
-    outputs as the paper's: v_rel_hat = C_v z_k|k, f_r,k = f_r(v_rel_hat, F_N,k),
-            u_rel_hat = C_u z_k|k + D_u f_r,k
     a_i     = |t phi_i| sqrt(q_i^2 + (q_i' / omega_i)^2)              from z_k|k
     (Ad_i, bd_i) = blocks[i, j] (1 - w) + blocks[i, j + 1] w,          grid[j] <= a_i < grid[j + 1]
-    v_next solves v = sum_i t phi_i (Ad_i z_i)[1] + beta f_r(v, F_N,k),  beta = sum_i t phi_i bd_i[1] < 0
-    z_k+1|k,i = Ad_i z_k|k,i + bd_i f_r(v_next, F_N,k)
+    p_i     = blocks[i, j, 6] + w (blocks[i, j + 1, 6] - blocks[i, j, 6])   mode i's participation
+    outputs as the paper's with mode i's rows of C_u, C_v times p_i (the paper's where every p_i = 1):
+            v_rel_hat = sum_i p_i C_v,i z_i, f_r,k = f_r(v_rel_hat, F_N,k), u_rel_hat = sum_i p_i C_u,i z_i + D_u f_r,k
+    v_next solves v = sum_i p_i t phi_i (Ad_i z_i)[1] + beta f_r(v, F_N,k),  beta = sum_i p_i t phi_i bd_i[1] < 0
+    z_k+1|k,i = Ad_i z_k|k,i + bd_i f_r(v_next, F_N,k)                 (bd_i carries p_i: the design's)
 
 With the Jenkins joint (k_j > 0; state slot 2N the slider's position s [m], slip limit
 q = mu |F_N|) the friction force is the spring's, f = k_j (u_rel - s) clamped to [-q, q], held
@@ -63,18 +64,8 @@ def _amplitude_step(k, x, u, p, a, w, x_next, y):
         x_next[i] = zi
         v_hat += C_v[i] * zi
         u_lin += C_u[i] * zi
-    q_slip = p.mu * abs(F_N)
-    s = 0.0
-    if jenkins:
-        s = x[n]
-        f_k = _clamp(k_j * (u_lin - s) / (1.0 - k_j * p.D_u), q_slip)
-    else:
-        f_k, _ = _friction(v_hat, F_N, p.mu, p.alpha)
-    y[0] = u_lin + p.D_u * f_k
-    y[1] = v_hat
-    y[2] = e
-    y[3] = f_k
-    # per mode: the blocks at its amplitude, A z into x_next, bd into w
+    # per mode: the blocks and the participation p_i at its amplitude (the outputs' share of mode i
+    # made p_i times; nothing added where p_i = 1), A z into x_next, bd into w
     v_star = 0.0
     beta = 0.0
     u_star = 0.0
@@ -93,6 +84,10 @@ def _amplitude_step(k, x, u, p, a, w, x_next, y):
         b0 = blocks[i, j]
         b1 = blocks[i, j + 1]
         c0 = 1.0 - wt
+        pi = b0[6] + wt * (b1[6] - b0[6])
+        dp = pi - 1.0
+        v_hat += dp * (C_v[i] * q + C_v[N + i] * qd)
+        u_lin += dp * (C_u[i] * q + C_u[N + i] * qd)
         a11 = c0 * b0[0] + wt * b1[0]
         a12 = c0 * b0[1] + wt * b1[1]
         a21 = c0 * b0[2] + wt * b1[2]
@@ -101,10 +96,23 @@ def _amplitude_step(k, x, u, p, a, w, x_next, y):
         w[N + i] = c0 * b0[5] + wt * b1[5]
         x_next[i] = a11 * q + a12 * qd
         x_next[N + i] = a21 * q + a22 * qd
-        v_star += C_v[N + i] * x_next[N + i]
-        beta += C_v[N + i] * w[N + i]
-        u_star += C_u[i] * x_next[i]
-        c_u += C_u[i] * w[i]
+        cv = pi * C_v[N + i]
+        cu = pi * C_u[i]
+        v_star += cv * x_next[N + i]
+        beta += cv * w[N + i]
+        u_star += cu * x_next[i]
+        c_u += cu * w[i]
+    q_slip = p.mu * abs(F_N)
+    s = 0.0
+    if jenkins:
+        s = x[n]
+        f_k = _clamp(k_j * (u_lin - s) / (1.0 - k_j * p.D_u), q_slip)
+    else:
+        f_k, _ = _friction(v_hat, F_N, p.mu, p.alpha)
+    y[0] = u_lin + p.D_u * f_k
+    y[1] = v_hat
+    y[2] = e
+    y[3] = f_k
     if jenkins:  # return mapping of the spring-slider with the force held over the tick
         f_next = k_j * (u_star - s) / (1.0 - k_j * c_u)
         if f_next > q_slip or f_next < -q_slip:

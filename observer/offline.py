@@ -56,7 +56,7 @@ import scipy.linalg as sla
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from tqdm import tqdm
 
-from frictionrt.observer.accuracy import TAIL, band_limited_truth, nrmse
+from frictionrt.observer.accuracy import TAIL, at_estimate_instant, band_limited_truth, nrmse
 from frictionrt.observer.kalman import ObserverDesign, design_observer, zoh
 from frictionrt.observer.step import _friction, _implicit_v
 
@@ -270,12 +270,12 @@ def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, desig
 
     Two alignments of the truth:
 
-    * ``v_rel_nrmse``, ``u_rel_nrmse``: row by row, as ``frictionrt.rt.loop.results.summary`` reports the estimation
-      error (comparable with ``frictionrt simulate``);
-    * ``v_rel_nrmse_aligned``, ``u_rel_nrmse_aligned``: at the same instant. Row k of a run's
+    * ``v_rel_nrmse``, ``u_rel_nrmse``: at the same instant, as ``frictionrt.rt.loop.results.summary``
+      reports the estimation error (comparable with ``frictionrt simulate``). Row k of a run's
       log holds the estimates at t_k but the plant's outputs after its step, at t_k+1
       (``frictionrt.rt.loop.tick``, ``frictionrt.plant.newmark._plant_step``): the estimate of row k+1 is compared with
-      the truth of row k. The row-by-row figures carry one tick of lag (3.4 deg at 196 Hz,
+      the truth of row k (``frictionrt.observer.accuracy.at_estimate_instant``);
+    * ``v_rel_nrmse_rows``, ``u_rel_nrmse_rows``: row by row, one tick of lag (3.4 deg at 196 Hz,
       6.5 deg at 378 Hz): a perfect estimate of a sine would show 2 sin(pi f dt) (0.06 at
       196 Hz, 0.11 at 378 Hz).
 
@@ -284,7 +284,8 @@ def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, desig
     observer was built from another configuration, ``build_loop(..., observer_cfg=...)``).
 
     Returns {"v_rel_nrmse": {"rt", "ukf"[, "rts"]: float}, "u_rel_nrmse": {...},
-    "v_rel_nrmse_aligned": {...}, "u_rel_nrmse_aligned": {...}, "v_rel_fund_error": {...},
+    "v_rel_nrmse_aligned", "u_rel_nrmse_aligned" (the same figures, the older records' name),
+    "v_rel_nrmse_rows": {...}, "u_rel_nrmse_rows": {...}, "v_rel_fund_error": {...},
     "u_rel_fund_error": {...} (``fundamental_error`` at the excitation frequency, aligned), "ticks": n,
     "ukf_us_per_step", "rts_us_per_step": wall time per tick [us]}.
     Raises ValueError for a run without the observer or a design that is not the run's.
@@ -309,10 +310,12 @@ def compare_on_run(run_result, *, smooth: bool = True, tail: float = TAIL, desig
     if smooth:
         cand["rts"] = outputs(design, est.z_smooth, F)
     f0 = float(run_result.freq_hz)
-    return {"v_rel_nrmse": {k: nrmse(v, v_true, tail) for k, (_, v) in cand.items()},
-            "u_rel_nrmse": {k: nrmse(u, u_true, tail) for k, (u, _) in cand.items()},
-            "v_rel_nrmse_aligned": {k: nrmse(v[1:], v_true[:-1], tail) for k, (_, v) in cand.items()},
-            "u_rel_nrmse_aligned": {k: nrmse(u[1:], u_true[:-1], tail) for k, (u, _) in cand.items()},
+    return {"v_rel_nrmse": {k: nrmse(*at_estimate_instant(v, v_true), tail) for k, (_, v) in cand.items()},
+            "u_rel_nrmse": {k: nrmse(*at_estimate_instant(u, u_true), tail) for k, (u, _) in cand.items()},
+            "v_rel_nrmse_aligned": {k: nrmse(*at_estimate_instant(v, v_true), tail) for k, (_, v) in cand.items()},
+            "u_rel_nrmse_aligned": {k: nrmse(*at_estimate_instant(u, u_true), tail) for k, (u, _) in cand.items()},
+            "v_rel_nrmse_rows": {k: nrmse(v, v_true, tail) for k, (_, v) in cand.items()},
+            "u_rel_nrmse_rows": {k: nrmse(u, u_true, tail) for k, (u, _) in cand.items()},
             "v_rel_fund_error": {k: fundamental_error(v[1:], v_true[:-1], f0, dt, tail) for k, (_, v) in cand.items()},
             "u_rel_fund_error": {k: fundamental_error(u[1:], u_true[:-1], f0, dt, tail) for k, (u, _) in cand.items()},
             "ticks": len(F), "ukf_us_per_step": est.us_per_step_filter, "rts_us_per_step": est.us_per_step_smoother}

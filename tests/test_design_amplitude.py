@@ -41,7 +41,7 @@ def _use(amp, monkeypatch, arrays, loop=None):
 def test_the_amplitude_kind_stores_its_tables_and_a_papers_observer_loop_none(amp):
     _, stored, loop, st, report = amp
     assert AMP_KEYS <= set(stored)
-    assert stored["params.amplitude.blocks"].shape == (7, 11, 6) and stored["params.amplitude.grid"][0] == 0.0
+    assert stored["params.amplitude.blocks"].shape == (7, 11, 7) and stored["params.amplitude.grid"][0] == 0.0
     assert stored["params.amplitude.k_j"].shape == () and float(stored["params.amplitude.k_j"]) == 0.0
     assert report["source"] == "log" and report["rebuilt_identical"] is True   # what replay reports
     assert report["why"] == "the design arrays the run used, from the log"

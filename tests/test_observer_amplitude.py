@@ -18,18 +18,18 @@ from frictionrt.rt.common.config import load
 def designs():
     cfg = load()
     plant = build_plant(cfg)
-    return (design_amplitude(cfg, plant, peaks={}), design_amplitude(cfg, plant),
+    return (design_amplitude(cfg, plant, peaks={}, ratios={}), design_amplitude(cfg, plant),
             design_amplitude(cfg, plant, jenkins=True))
 
 
 def _full(blocks_j, N):
-    """(2N, 2N) A_d and (2N,) bd from one grid amplitude's blocks (N, 6), slots [q; q']."""
+    """(2N, 2N) A_d and (2N,) bd from one grid amplitude's blocks (N, 7), slots [q; q']."""
     A = np.zeros((2 * N, 2 * N))
     B = np.zeros(2 * N)
     for i in range(N):
         s = [i, N + i]
         A[np.ix_(s, s)] = blocks_j[i, :4].reshape(2, 2)
-        B[s] = blocks_j[i, 4:]
+        B[s] = blocks_j[i, 4:6]
     return A, B
 
 
@@ -69,15 +69,16 @@ def _reference_step(x, u, p, a):
     jen = a.k_j > 0
     e = u[0] - p.C_meas @ x[:n]
     z = x[:n] + p.M * e
+    blk = np.empty((N, 7))
+    for i in range(N):
+        amp = a.scale[i] * np.hypot(z[i], z[N + i] * a.inv_omega[i])
+        blk[i] = [np.interp(amp, a.grid, a.blocks[i, :, m]) for m in range(7)]
+    p = p._replace(C_u=p.C_u * np.tile(blk[:, 6], 2), C_v=p.C_v * np.tile(blk[:, 6], 2))   # the participation
     v = p.C_v @ z
     c = p.mu * u[1] * 2 / np.pi
     q = p.mu * abs(u[1])
     f = np.clip(a.k_j * (p.C_u @ z - x[n]) / (1 - a.k_j * p.D_u), -q, q) if jen else c * np.arctan(p.alpha * v)
     y = np.array([p.C_u @ z + p.D_u * f, v, e, f])
-    blk = np.empty((N, 6))
-    for i in range(N):
-        amp = a.scale[i] * np.hypot(z[i], z[N + i] * a.inv_omega[i])
-        blk[i] = [np.interp(amp, a.grid, a.blocks[i, :, m]) for m in range(6)]
     A, B = _full(blk, N)
     if jen:
         u_star, c_u = p.C_u @ A @ z, p.C_u @ B + p.D_u

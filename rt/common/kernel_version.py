@@ -10,7 +10,7 @@ kernel and what now differs; regenerate the determinism fixture (tests/fixtures/
 """
 from __future__ import annotations
 
-KERNEL_VERSION = 2
+KERNEL_VERSION = 3
 
 # version -> what changed the bits from the version before it. Version 1 is the first recorded;
 # a log without a record (version 0) was computed by version 1's kernels or older ones, and its
@@ -19,6 +19,10 @@ CHANGES: dict[int, str] = {
     2: "observer Newton (observer/step.py _implicit_v, the C export's implicit_v) stops on convergence before "
        "the bracket test and on an exact zero of the residual; the observer's next state differs in the last "
        "bits where the old iteration bisected past its converged root",
+    3: "amplitude-following observer (observer/amplitude_step.py _amplitude_step, the C export's amplitude_step): "
+       "a participation per mode and grid amplitude (the blocks' seventh column) scales the mode's rows of C_u, C_v "
+       "and its friction input, mode 5's from the plant's U_rel / V_tip growth with the amplitude; the outputs are "
+       "summed per mode after the interpolation; the paper's observer and the oracle unchanged",
 }
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from frictionrt.observer.accuracy import band_limited_truth, lyapunov_command_error, nrmse, sign_error_rate
+from frictionrt.observer.accuracy import (at_estimate_instant, band_limited_truth, lyapunov_command_error, nrmse,
+                                          sign_error_rate)
 from frictionrt.rt.loop.driver import Run
 from frictionrt.rt.loop.supervisor import F_START
 
@@ -73,7 +74,8 @@ def _estimation_errors(r: Run) -> dict:
     the truth, the mean of (pi/2)|u_rel| (tracking.rt1), both over the last 20 % (over the
     rows held: a ring run's last ticks); the |v_rel|-weighted sign error rate of v_rel_hat and,
     under the Lyapunov law, the rms and mean error [N] of its command F* from the estimate against
-    F* from the truth (observer.accuracy), with the truth at the estimate's instant."""
+    F* from the truth (observer.accuracy), every one with the truth at the estimate's instant
+    (``observer.accuracy.at_estimate_instant``)."""
     cfg = r.loop.cfg
     dt, f_c = cfg.dt_s, cfg.observer.oracle_bandwidth_hz
     v_true = band_limited_truth(r.signal("v_rel"), dt, f_c)
@@ -81,13 +83,14 @@ def _estimation_errors(r: Run) -> dict:
     tail = _tail(r)
     u0_true = float(np.mean(0.5 * np.pi * np.abs(u_true[tail])))
     u0_hat = float(np.mean(r.signal("u0")[tail]))
-    v_hat = r.signal("v_rel_hat")
-    out = {"v_rel_nrmse": nrmse(v_hat, v_true), "u_rel_nrmse": nrmse(r.signal("u_rel_hat"), u_true),
+    # the estimate of row k + 1 with the truth of row k: both at t_k+1 (observer.accuracy)
+    v_hat, v_true = at_estimate_instant(r.signal("v_rel_hat"), v_true)
+    u_hat, u_true_k = at_estimate_instant(r.signal("u_rel_hat"), u_true)
+    out = {"v_rel_nrmse": nrmse(v_hat, v_true), "u_rel_nrmse": nrmse(u_hat, u_true_k),
            "u0_rel_error": (u0_hat - u0_true) / u0_true if u0_true > 0 else float("nan"),
-           # what the Lyapunov law uses, the truth at the estimate's instant (row k's plant outputs are at t_k+1)
-           "v_rel_sign_error": sign_error_rate(v_hat[1:], v_true[:-1])}
+           "v_rel_sign_error": sign_error_rate(v_hat, v_true)}
     if r.loop.law == "lyapunov":
         t = cfg.tracking
-        rms, mean = lyapunov_command_error(v_hat[1:], v_true[:-1], t.F_min_N, t.F_max_N, t.eps_m_s)
+        rms, mean = lyapunov_command_error(v_hat, v_true, t.F_min_N, t.F_max_N, t.eps_m_s)
         out |= {"fstar_rms_error_n": rms, "fstar_mean_error_n": mean}
     return out

@@ -60,7 +60,7 @@ typedef struct {                                                   /* observer/k
 #if CTRL_AMPLITUDE
 typedef struct {                                                   /* observer/amplitude.py AmplitudeParams */
     double grid[CTRL_N_GRID];                       /* a mode's share of u_rel's amplitude [m], ascending */
-    double blocks[CTRL_N_OBS / 2][CTRL_N_GRID][6];  /* per mode and grid point: Ad (row-major), bd */
+    double blocks[CTRL_N_OBS / 2][CTRL_N_GRID][7];  /* per mode and grid point: Ad (row-major), bd, participation */
     double scale[CTRL_N_OBS / 2];                   /* |t phi_i| [m per modal unit] */
     double inv_omega[CTRL_N_OBS / 2];               /* 1 / omega_i [s] */
     double k_j[1];                                  /* > 0: the Jenkins joint's stiffness [N/m]; 0: Coulomb
@@ -315,7 +315,8 @@ static double clamp_q(double f, double q)          /* _clamp: f into [-q, q] */
 
 /* One tick of the amplitude-following observer (_amplitude_step): the paper's measurement update
  * and outputs, then per mode its blocks interpolated at the mode's amplitude
- * a_i = |t phi_i| sqrt(q_i^2 + (q_i' / omega_i)^2), and the time update with the friction at the
+ * a_i = |t phi_i| sqrt(q_i^2 + (q_i' / omega_i)^2) (mode i's share of the outputs and of the
+ * friction's velocity times its interpolated participation), and the time update with the friction at the
  * end-of-tick velocity (or the Jenkins joint's return mapping when k_j > 0). */
 static void amplitude_step(const double *x, double y_meas, double F_N, double *x_next, double *y)
 {
@@ -337,6 +338,42 @@ static void amplitude_step(const double *x, double y_meas, double F_N, double *x
         v_hat += p->C_v[i] * zi;
         u_lin += p->C_u[i] * zi;
     }
+    /* per mode: the blocks and the participation p_i at its amplitude (the outputs' share of mode i
+     * made p_i times; nothing added where p_i = 1), A z into x_next, bd into w */
+    for (i = 0; i < N; ++i) {
+        const double q = x_next[i], qd = x_next[N + i];
+        const double r = qd * a->inv_omega[i];
+        const double amp = a->scale[i] * ctrl_sqrt(q * q + r * r);
+        const double *b0, *b1;
+        double wt, c0, pi, dp, cv, cu, a11, a12, a21, a22;
+        int j = 0;
+        while (j < G - 2 && amp >= a->grid[j + 1])
+            ++j;
+        wt = (amp - a->grid[j]) / (a->grid[j + 1] - a->grid[j]);
+        if (wt > 1.0)
+            wt = 1.0;
+        b0 = a->blocks[i][j];
+        b1 = a->blocks[i][j + 1];
+        c0 = 1.0 - wt;
+        pi = b0[6] + wt * (b1[6] - b0[6]);
+        dp = pi - 1.0;
+        v_hat += dp * (p->C_v[i] * q + p->C_v[N + i] * qd);
+        u_lin += dp * (p->C_u[i] * q + p->C_u[N + i] * qd);
+        a11 = c0 * b0[0] + wt * b1[0];
+        a12 = c0 * b0[1] + wt * b1[1];
+        a21 = c0 * b0[2] + wt * b1[2];
+        a22 = c0 * b0[3] + wt * b1[3];
+        w[i] = c0 * b0[4] + wt * b1[4];
+        w[N + i] = c0 * b0[5] + wt * b1[5];
+        x_next[i] = a11 * q + a12 * qd;
+        x_next[N + i] = a21 * q + a22 * qd;
+        cv = pi * p->C_v[N + i];
+        cu = pi * p->C_u[i];
+        v_star += cv * x_next[N + i];
+        beta += cv * w[N + i];
+        u_star += cu * x_next[i];
+        c_u += cu * w[i];
+    }
     if (jenkins) {
         s = x[CTRL_N_OBS];
         f_k = clamp_q(k_j * (u_lin - s) / (1.0 - k_j * p->D_u), q_slip);
@@ -347,35 +384,6 @@ static void amplitude_step(const double *x, double y_meas, double F_N, double *x
     y[1] = v_hat;
     y[2] = e;
     y[3] = f_k;
-    /* per mode: the blocks at its amplitude, A z into x_next, bd into w */
-    for (i = 0; i < N; ++i) {
-        const double q = x_next[i], qd = x_next[N + i];
-        const double r = qd * a->inv_omega[i];
-        const double amp = a->scale[i] * ctrl_sqrt(q * q + r * r);
-        const double *b0, *b1;
-        double wt, c0, a11, a12, a21, a22;
-        int j = 0;
-        while (j < G - 2 && amp >= a->grid[j + 1])
-            ++j;
-        wt = (amp - a->grid[j]) / (a->grid[j + 1] - a->grid[j]);
-        if (wt > 1.0)
-            wt = 1.0;
-        b0 = a->blocks[i][j];
-        b1 = a->blocks[i][j + 1];
-        c0 = 1.0 - wt;
-        a11 = c0 * b0[0] + wt * b1[0];
-        a12 = c0 * b0[1] + wt * b1[1];
-        a21 = c0 * b0[2] + wt * b1[2];
-        a22 = c0 * b0[3] + wt * b1[3];
-        w[i] = c0 * b0[4] + wt * b1[4];
-        w[N + i] = c0 * b0[5] + wt * b1[5];
-        x_next[i] = a11 * q + a12 * qd;
-        x_next[N + i] = a21 * q + a22 * qd;
-        v_star += p->C_v[N + i] * x_next[N + i];
-        beta += p->C_v[N + i] * w[N + i];
-        u_star += p->C_u[i] * x_next[i];
-        c_u += p->C_u[i] * w[i];
-    }
     if (jenkins) {                                  /* the spring-slider's return mapping, force held */
         f_next = k_j * (u_star - s) / (1.0 - k_j * c_u);
         if (f_next > q_slip || f_next < -q_slip) {
