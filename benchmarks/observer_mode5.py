@@ -218,7 +218,8 @@ def one(amp_n: float, duration: float) -> dict:
 
 
 PEAKS_HZ = {(2, 5.0): 70.77, (2, 10.0): 70.62, (3, 5.0): 200.77, (3, 10.0): 199.14,
-            (4, 5.0): 374.97, (4, 10.0): 370.20, (5, 5.0): 615.87, (5, 10.0): 615.87}   # passive step-sine peaks
+            (4, 5.0): 374.97, (4, 10.0): 370.20, (5, 5.0): 615.87, (5, 10.0): 615.87,
+            (4, 20.0): 369.00, (5, 20.0): 610.86}   # passive step-sine peaks (the full reproduction's)
 
 
 def in_loop(mode: int, amp_n: float, scale: float, duration: float, kind: str = "observer",
@@ -272,10 +273,10 @@ def fitted_scales(amps=(5.0, 10.0), scales=None) -> list[dict]:
 
 def plant_ratios(amps=(5.0, 10.0), duration: float = 1.0, scale: float = 0.1) -> list[dict]:
     """The points of ``frictionrt.observer.amplitude.PLANT_RATIOS``: per amplitude, the hysteresis law at mode 5's
-    passive peak (``FREQ_HZ``) on the amplitude kind at spring scale ``scale`` without a participation
+    passive peak at that amplitude (``PEAKS_HZ``) on the amplitude kind at spring scale ``scale`` without a participation
     (``ratios={}``); the first harmonics over the last 20 % of u_rel's band-limited truth U_rel, of the
     measured tip velocity V_meas (the observer's input) and of the plant's v_tip: U_rel [m],
-    rho = U_rel / V_meas [s] (and U_rel / V_tip), and the law's u0 error on that estimate."""
+    rho = U_rel / V_meas [s] (and U_rel / V_tip), and the law's u0 error on that estimate, and the frequency f_hz."""
     import dataclasses
     from frictionrt.observer.accuracy import band_limited_truth
     from frictionrt.observer.amplitude import design_amplitude
@@ -287,11 +288,12 @@ def plant_ratios(amps=(5.0, 10.0), duration: float = 1.0, scale: float = 0.1) ->
     for amp_n in amps:
         loop = build_loop(cfg, "hysteresis", "amplitude")
         loop = dataclasses.replace(loop, amplitude=design_amplitude(cfg, loop.plant, ratios={})[1])
-        r = run(loop, FREQ_HZ, amp_n, duration)
+        f_hz = PEAKS_HZ[(MODE, amp_n)]
+        r = run(loop, f_hz, amp_n, duration)
         dt = cfg.dt_s
-        U = abs(phasor(band_limited_truth(r.signal("u_rel"), dt, cfg.observer.oracle_bandwidth_hz), FREQ_HZ, dt))
-        out.append({"amp_n": amp_n, "U_rel_m": U, "rho_meas_s": U / abs(phasor(r.signal("v_tip_meas"), FREQ_HZ, dt)),
-                    "rho_tip_s": U / abs(phasor(r.signal("v_tip"), FREQ_HZ, dt)),
+        U = abs(phasor(band_limited_truth(r.signal("u_rel"), dt, cfg.observer.oracle_bandwidth_hz), f_hz, dt))
+        out.append({"amp_n": amp_n, "f_hz": f_hz, "U_rel_m": U, "rho_meas_s": U / abs(phasor(r.signal("v_tip_meas"), f_hz, dt)),
+                    "rho_tip_s": U / abs(phasor(r.signal("v_tip"), f_hz, dt)),
                     "u0_error_law": summary(r)["u0_rel_error"]})
     return out
 
@@ -340,9 +342,10 @@ def main(argv=None) -> int:
     if not a.duration > 0:
         ap.error(f"--duration {a.duration}: must be > 0 s")
     if a.plant_ratios:
-        print("| F [N] | U_rel [um] | U_rel / V_meas [us] | U_rel / V_tip [us] | u0 error without |\n| --- | --- | --- | --- | --- |")
+        print("| F [N] | f [Hz] | U_rel [um] | U_rel / V_meas [us] | U_rel / V_tip [us] | u0 error without |\n"
+              "| --- | --- | --- | --- | --- | --- |")
         for r in plant_ratios(a.amps):
-            print(f"| {r['amp_n']:g} | {1e6 * r['U_rel_m']:.4f} | {1e6 * r['rho_meas_s']:.4f} | {1e6 * r['rho_tip_s']:.4f} "
+            print(f"| {r['amp_n']:g} | {r['f_hz']:.2f} | {1e6 * r['U_rel_m']:.4f} | {1e6 * r['rho_meas_s']:.4f} | {1e6 * r['rho_tip_s']:.4f} "
                   f"| {100 * r['u0_error_law']:+.1f} % |", flush=True)
         return 0
     if a.fit_scales:

@@ -76,12 +76,14 @@ PLANT_PEAKS: dict[int, tuple[tuple[float, float], ...]] = {
 
 # The plant's ratio rho = U_rel / V_meas (first harmonics of the damper's relative displacement and of
 # the measured tip velocity, the observer's input) against the u_rel amplitude, as
-# mode -> (f [Hz], ((U_rel [m], rho [s]), ...)): mode 5 at its passive step-sine peak, the hysteresis
+# mode -> ((f [Hz], U_rel [m], rho [s]), ...): mode 5 at its passive step-sine peak, the hysteresis
 # law at 5 and 10 N (``python -m benchmarks.observer_mode5 --plant-ratios``). The truth's ratio grows
-# with the amplitude (the contact under the adaptive screw opens over more of the cycle); a linear
-# model's is constant. Modes 2-4 have none (their u0 error is within 3.5 % without).
-PLANT_RATIOS: dict[int, tuple[float, tuple[tuple[float, float], ...]]] = {
-    5: (615.87, ((1.5289e-6, 16.1149e-6), (2.4964e-6, 17.4504e-6))),
+# with the amplitude at a fixed frequency (the contact under the adaptive screw opens over more of the
+# cycle); a linear model's is constant. Modes 2-4 have none (their u0 error is within 3.5 % without).
+# The schedule's only coordinate is the amplitude: a point at another frequency (mode 5's 20 N peak,
+# 610.86 Hz) moves the error from that cell to the cells beside it (docs/observer.md section 11).
+PLANT_RATIOS: dict[int, tuple[tuple[float, float, float], ...]] = {
+    5: ((615.87, 1.5289e-6, 16.1149e-6), (615.87, 2.4964e-6, 17.4504e-6)),
 }
 
 
@@ -146,29 +148,35 @@ def filter_ratio(params, mode: int, f_hz: float, dt: float) -> tuple[complex, co
 
 def participation(params, dt: float, grid=AMP_GRID_M, ratios=None) -> np.ndarray:
     """(N, G) p_i(a_j) such that the observer as a linear filter (``filter_ratio``) has the plant's
-    |U_rel / V_meas| at each point of ``ratios`` (``PLANT_RATIOS``):
+    |U_rel / V_meas| at each point (f, U, rho) of ``ratios`` (``PLANT_RATIOS``), at that point's
+    frequency f:
 
-        |U_other + p U_mode| = rho          (the positive root)
+        |U_other(f) + p U_mode(f)| = rho          (the positive root)
 
     piecewise linear in the kernel's amplitude coordinate and held beyond the first and last points;
     1 for a mode without points. The kernel's a_i is mode i's share of u_rel before the factor
-    (``scale`` = |t phi_i|), so a point (U, rho) sits at a = U / p."""
+    (``scale`` = |t phi_i|), so a point (f, U, rho) sits at a = U / p."""
     ratios = PLANT_RATIOS if ratios is None else ratios
     n = len(params.M)
     g = np.asarray(grid, dtype=float)
     p = np.ones((n // 2, len(g)))
-    for mode, (f_hz, pts) in ratios.items():
+    for mode, pts in ratios.items():
         if mode > n // 2 or not pts:
             continue
-        U_o, U_m = filter_ratio(params, mode, f_hz, dt)
-        b = (U_o * np.conj(U_m)).real / abs(U_m) ** 2
-        fac = np.array([-b + np.sqrt(b * b + (rho ** 2 - abs(U_o) ** 2) / abs(U_m) ** 2) for _, rho in sorted(pts)])
-        a = np.array([U for U, _ in sorted(pts)]) / fac
+        a, fac = [], []
+        for f_hz, U, rho in sorted(pts, key=lambda q: q[1]):
+            U_o, U_m = filter_ratio(params, mode, f_hz, dt)
+            b = (U_o * np.conj(U_m)).real / abs(U_m) ** 2
+            fac.append(-b + np.sqrt(b * b + (rho ** 2 - abs(U_o) ** 2) / abs(U_m) ** 2))
+            a.append(U / fac[-1])
+        if np.any(np.diff(a) <= 0.0):
+            raise ValueError(f"participation of mode {mode}: the points' amplitudes U / p {a} [m] do not "
+                             "increase with U; give points whose U / p increases")
         p[mode - 1] = np.interp(g, a, fac)
     return p
 
 
-def schedule_ratios(cfg: Config) -> dict[int, tuple[float, tuple[tuple[float, float], ...]]]:
+def schedule_ratios(cfg: Config) -> dict[int, tuple[tuple[float, float, float], ...]]:
     """The participation's points for the configuration: ``PLANT_RATIOS`` where its plant is the
     default's (``frictionrt.observer.amplitude_schedule.plant_key``), else none (p = 1: the ratio is
     measured on the default plant only)."""

@@ -22,24 +22,31 @@ def designed():
 
 
 def test_participation_puts_the_plants_ratio_on_the_filter_and_is_folded_into_bd(designed):
-    """At each point the observer as a linear filter with mode 5's rows times p has the plant's
-    |U_rel / V_meas| (independently: the filter's response with those rows scaled); p grows with
-    the amplitude as the plant's ratio does, is held beyond the points, and is 1 elsewhere."""
+    """At each point (f, U, rho) the observer as a linear filter with mode 5's rows times p has the
+    plant's |U_rel / V_meas| at f (independently: the filter's response with those rows scaled); p
+    grows with the amplitude where the plant's ratio does at one frequency (the 5 and 10 N points,
+    both at 615.87 Hz), is held beyond the points, and is 1 elsewhere."""
     cfg, d, a = designed
     N = len(d.model.omega)
     assert a.blocks.shape == (N, len(AMP_GRID_M), 7)
     p = a.blocks[:, :, 6]
-    f_hz, ((U0, rho0), (U1, rho1)) = PLANT_RATIOS[5]
+    pts = PLANT_RATIOS[5]
     assert np.all(p[[0, 1, 2, 3, 5, 6]] == 1.0)
-    assert np.all(np.diff(p[4]) >= 0.0) and p[4, 0] == p[4, 1] and p[4, -1] == p[4, -2]
-    for U, rho in ((U0, rho0), (U1, rho1)):
-        fac = participation(d.params, cfg.dt_s, (0.0, U / 1.5, 1.0), {5: (f_hz, ((U, rho),))})[4, 0]
+    assert p[4, 0] == p[4, 1] and p[4, -1] == p[4, -2]
+    facs = []
+    for f_hz, U, rho in pts:
+        fac = participation(d.params, cfg.dt_s, (0.0, 1.0), {5: ((f_hz, U, rho),)})[4, 0]
         scaled = d.params._replace(C_u=d.params.C_u * np.where(np.arange(2 * N) % N == 4, fac, 1.0))
         U_o, U_m = filter_ratio(scaled, 5, f_hz, cfg.dt_s)
         assert abs(U_o + U_m) == pytest.approx(rho, rel=1e-12)
-    # the model's own filter ratio at 0.1 is below the plant's at both points (what p corrects)
-    U_o, U_m = filter_ratio(d.params, 5, f_hz, cfg.dt_s)
-    assert abs(U_o + U_m) < rho0 < rho1 and 1.0 < p[4, 0] < p[4, -1] < 1.3
+        facs.append(fac)
+        # the kernel's p at the point's own amplitude coordinate U / p is that factor
+        assert np.interp(U / fac, AMP_GRID_M, p[4]) == pytest.approx(fac, rel=0.05)
+    # the model's own filter ratio at 0.1 is below the plant's at both 615.87 Hz points (what p corrects)
+    (f0, _, rho0), (f1, _, rho1) = pts[:2]
+    assert f0 == f1
+    U_o, U_m = filter_ratio(d.params, 5, f0, cfg.dt_s)
+    assert abs(U_o + U_m) < rho0 < rho1 and 1.0 < facs[0] < facs[1] < 1.3
     # the friction's input column of mode 5 is p times the unscaled one (the ZOH is linear in b)
     plain = design_amplitude(cfg, spring_scale=0.1, ratios={})[1]
     assert np.all(plain.blocks[:, :, 6] == 1.0)
