@@ -495,11 +495,13 @@ def write_op4(se: Superelement, path: str | Path) -> Path:
     return Path(path)
 
 
-CLUSTERINGS = ("footprint", "coordinates")
+CLUSTERINGS = ("footprint", "coordinates", "footprint-patches")
 DEFAULT_CLUSTERING = CLUSTERINGS[0]
 """How ``--clusters N`` groups the interface's points (``coarsen``): "footprint" keeps the bolts'
 contact footprints apart (plant.se_coarsen.footprint_classes: which adaptive-bolt force closes each
-point) and fills them first, "coordinates" is k-means on the coordinates alone."""
+point) and fills them first, "coordinates" is k-means on the coordinates alone, "footprint-patches"
+the footprint groups with the normal stiffness that a coarse point loses on the patches the bolts
+hold closed kept in K (plant.se_coarsen.patch_stiffness)."""
 
 
 def footprint_regions(xyz: np.ndarray, classes: np.ndarray) -> np.ndarray:
