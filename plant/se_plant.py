@@ -14,7 +14,10 @@ the circular-Coulomb law (plant.contact3d._coulomb_disc) and the dashpots
 (plant.contact._interface_dashpot); the gaps are found by a modified Newton iteration: the LU
 factors of J = I - W dLambda/dg1 are kept from step to step and refreshed only when an iteration
 contracts the residual by less than REFACTOR_RATIO (a stuck or slowly changing interface costs
-one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)).
+one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)). After a rejected full step the
+line search first tries the step to the first branch change of the end-point law along the Newton
+direction (``_first_kink``; open/closed, stick/slip), just past it, so that the next iteration has
+the tangent of the side the solution lies on; then halving.
 
 The built-in 2-D plant keeps its own kernel (plant.newmark); this one serves imported structures
 with 2-D (nt = 2, circular limit) or 1-D (nt = 1) friction.
