@@ -14,7 +14,10 @@ the circular-Coulomb law (plant.contact3d._coulomb_disc) and the dashpots
 (plant.contact._interface_dashpot); the gaps are found by a modified Newton iteration: the LU
 factors of J = I - W dLambda/dg1 are kept from step to step and refreshed only when an iteration
 contracts the residual by less than REFACTOR_RATIO (a stuck or slowly changing interface costs
-one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)).
+one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)). After a rejected full step the
+line search first tries the step to the first branch change of the end-point law along the Newton
+direction (``_first_kink``; open/closed, stick/slip), just past it, so that the next iteration has
+the tangent of the side the solution lies on; then halving.
 
 The built-in 2-D plant keeps its own kernel (plant.newmark); this one serves imported structures
 with 2-D (nt = 2, circular limit) or 1-D (nt = 1) friction.
@@ -24,6 +27,7 @@ static equilibrium that sets the bolt's reference) are one unit, as plant.newmar
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -37,6 +41,7 @@ from frictionrt.plant.newmark import ROUNDOFF, _lu_factor, _lu_solve
 from frictionrt.plant.superelement import Superelement
 
 LINE_SEARCH = 30       # halvings of a Newton step before it is taken as it is
+KINK_PAST = 1e-6      # the kink step goes this fraction of itself (plus 1e-9 of the Newton step) past the branch change
 REFACTOR_RATIO = 1e-2   # refresh the Jacobian's factors when |r_new| > ratio |r_old| (a kept factor of the
                         # right contact pattern solves the piecewise-linear step in one iteration)
 RIGID_BODY_RAD_S = 2 * np.pi * 0.1
@@ -163,6 +168,60 @@ def _residual(p, wk):
 
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
+def _first_kink(p, wk, w):
+    """The smallest alpha in (0, 1) at which a point of the gaps g_old - alpha dg changes branch of
+    the end-point law (plant.contact3d._coulomb_disc): open <-> closed where g_n crosses 0, stick
+    <-> slip where phi(alpha) = |f*|^2 - (mu f_n)^2 changes sign, with f* = k_t (g_t - w) and
+    f_n = -k_n g_n linear in alpha (phi a quadratic); 2.0 if none. RT-safe."""
+    nt = p.nt
+    d = 1 + nt
+    best = 2.0
+    for i in range(p.k_n.shape[0]):
+        o = i * d
+        gn0 = wk.g_old[o]
+        dgn = -wk.dg[o]
+        closed_to = 1.0
+        if dgn != 0.0 and (gn0 < 0.0) != (gn0 + dgn < 0.0):
+            a = -gn0 / dgn
+            if 0.0 < a < best:
+                best = a
+            closed_to = a
+        if gn0 >= 0.0:
+            continue
+        kt2 = p.k_t[i] * p.k_t[i]
+        mkn2 = p.mu[i] * p.mu[i] * p.k_n[i] * p.k_n[i]
+        tt = 0.0
+        tu = 0.0
+        uu = 0.0
+        for a in range(nt):
+            t = wk.g_old[o + 1 + a] - w[i * nt + a]
+            u = -wk.dg[o + 1 + a]
+            tt += t * t
+            tu += t * u
+            uu += u * u
+        qa = kt2 * uu - mkn2 * dgn * dgn
+        qb = 2.0 * (kt2 * tu - mkn2 * gn0 * dgn)
+        qc = kt2 * tt - mkn2 * gn0 * gn0
+        lim = min(best, closed_to)
+        if abs(qa) <= 1e-14 * (abs(qb) + abs(qc)):
+            if qb != 0.0:
+                r = -qc / qb
+                if 0.0 < r < lim:
+                    best = r
+            continue
+        disc = qb * qb - 4.0 * qa * qc
+        if disc < 0.0:
+            continue
+        sq = math.sqrt(disc)
+        qq = -0.5 * (qb + (sq if qb >= 0.0 else -sq))   # the roots without cancellation
+        for r in (qq / qa, qc / qq if qq != 0.0 else 2.0):
+            if 0.0 < r < lim:
+                lim = r
+                best = r
+    return best
+
+
+@numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
 def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
     """One Newmark substep of length p.h in place on (q, qd, w, g, en). Returns Newton iterations
     (-1 if not converged)."""
@@ -218,14 +277,23 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
         _lu_solve(wk.LU, wk.piv, wk.dg, m)
         alpha = 1.0
         rn_new = rn
+        kink = 2.0   # the step to the first branch change: tried once, after a rejected full step
         for _ls in range(LINE_SEARCH):
             for i in range(m):
                 wk.g1[i] = wk.g_old[i] - alpha * wk.dg[i]
             e_fric = _mean_forces(g, wk.g1, w, p, wk, True)
             rn_new, floor = _residual(p, wk)
-            if rn_new <= (1.0 - 1e-4 * alpha) * rn or rn_new <= p.tol + floor:
+            if rn_new <= (1.0 - 1e-4 * alpha) * rn or rn_new <= p.tol + floor or (alpha == kink and rn_new <= rn):
                 break
-            alpha *= 0.5
+            if kink > 1.0:
+                kink = _first_kink(p, wk, w)
+                if kink >= 1.0:
+                    kink = -1.0   # no branch change before the full step
+                else:
+                    kink = kink * (1.0 + KINK_PAST) + KINK_PAST * 1e-3
+                    alpha = kink
+                    continue
+            alpha = 0.5 if alpha == kink else 0.5 * alpha
         stale = alpha < 1.0 or rn_new > REFACTOR_RATIO * rn
         rn = rn_new
         it += 1

@@ -495,11 +495,13 @@ def write_op4(se: Superelement, path: str | Path) -> Path:
     return Path(path)
 
 
-CLUSTERINGS = ("footprint", "coordinates")
+CLUSTERINGS = ("footprint", "coordinates", "footprint-patches")
 DEFAULT_CLUSTERING = CLUSTERINGS[0]
 """How ``--clusters N`` groups the interface's points (``coarsen``): "footprint" keeps the bolts'
 contact footprints apart (plant.se_coarsen.footprint_classes: which adaptive-bolt force closes each
-point) and fills them first, "coordinates" is k-means on the coordinates alone."""
+point) and fills them first, "coordinates" is k-means on the coordinates alone, "footprint-patches"
+the footprint groups with the normal stiffness that a coarse point loses on the patches the bolts
+hold closed kept in K (plant.se_coarsen.patch_stiffness)."""
 
 
 def footprint_regions(xyz: np.ndarray, classes: np.ndarray) -> np.ndarray:
@@ -571,6 +573,31 @@ def _footprint_groups(xyz: np.ndarray, classes: np.ndarray, n: int, seed: int) -
     return groups
 
 
+def coarsen_weights(se: Superelement, n_clusters: int, seed: int = 0, classes: np.ndarray | None = None) -> np.ndarray:
+    """The grouping of ``coarsen`` as its map W (c, p): W[c, i] = a_i / A_c for the points i of group
+    c (A_c the group's area), 0 elsewhere; the groups ordered by their mean coordinates."""
+    from scipy.cluster.vq import kmeans2
+    p = se.n_points
+    if not 1 <= n_clusters <= p:
+        raise _fail("clusters", f"{n_clusters} must lie in 1 .. {p} (the interface's points)")
+    if se.contact_xyz is None:
+        raise _fail("contact_xyz", "is needed to coarsen the interface (the points' coordinates)")
+    xyz = se.contact_xyz
+    if n_clusters == p:
+        groups = [np.array([i]) for i in range(p)]
+    elif classes is None:
+        _, label = kmeans2(xyz, n_clusters, minit="++", seed=seed)
+        groups = [np.flatnonzero(label == c) for c in range(n_clusters)]
+    else:
+        groups = _footprint_groups(xyz, np.asarray(classes, np.int64), n_clusters, seed)
+    groups = sorted((g for g in groups if len(g)), key=lambda g: tuple(xyz[g].mean(axis=0)))
+    a = se.contact_area
+    W = np.zeros((len(groups), p))
+    for c, g in enumerate(groups):
+        W[c, g] = a[g] / a[g].sum()
+    return W
+
+
 def coarsen(se: Superelement, n_clusters: int, seed: int = 0, classes: np.ndarray | None = None) -> Superelement:
     """The interface coarsened to n_clusters contact points (a node-clustering hyper-reduction),
     each group replaced by one point with the group's total area and its area-weighted mean gap
@@ -586,32 +613,20 @@ def coarsen(se: Superelement, n_clusters: int, seed: int = 0, classes: np.ndarra
     groups go to the regions of the lowest class first, in proportion to their points, and k-means
     splits a region into its groups.
     """
-    from scipy.cluster.vq import kmeans2
     p = se.n_points
     if not 1 <= n_clusters <= p:
         raise _fail("clusters", f"{n_clusters} must lie in 1 .. {p} (the interface's points)")
     if n_clusters == p:
         return se
-    if se.contact_xyz is None:
-        raise _fail("contact_xyz", "is needed to coarsen the interface (the points' coordinates)")
-    xyz = se.contact_xyz
-    if classes is None:
-        _, label = kmeans2(xyz, n_clusters, minit="++", seed=seed)
-        groups = [np.flatnonzero(label == c) for c in range(n_clusters)]
-    else:
-        groups = _footprint_groups(xyz, np.asarray(classes, np.int64), n_clusters, seed)
-    groups = sorted((g for g in groups if len(g)), key=lambda g: tuple(xyz[g].mean(axis=0)))
+    W = coarsen_weights(se, n_clusters, seed, classes)
     a = se.contact_area
-    W = np.zeros((len(groups), p))
-    for c, g in enumerate(groups):
-        W[c, g] = a[g] / a[g].sum()
     normal = None
     if se.contact_normal is not None:
         normal = W @ se.contact_normal
         normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     how = "" if classes is None else " by the bolts' footprints"
     return check(replace(se, contact_rows=np.einsum("cp,pdn->cdn", W, se.contact_rows),
-                         contact_area=np.array([a[g].sum() for g in groups]),
+                         contact_area=np.array([a[np.flatnonzero(w)].sum() for w in W]),
                          contact_gap0=None if se.contact_gap0 is None else W @ se.contact_gap0,
                          contact_xyz=W @ se.contact_xyz, contact_normal=normal,
-                         source=f"{se.source} coarsened to {len(groups)} points{how}"))
+                         source=f"{se.source} coarsened to {len(W)} points{how}"))
