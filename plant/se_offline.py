@@ -26,11 +26,27 @@ iteration O((|A| d)^2) plus a refactorisation of O((|A| d)^3 / 3) by LAPACK's bl
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 import scipy.linalg as sla
 
 from frictionrt.plant.newmark import ROUNDOFF
 from frictionrt.plant.se_plant import LINE_SEARCH, N_ENERGY, REFACTOR_RATIO, SEPlant, _mean_forces
+
+
+@numba.njit(cache=True, nogil=True)
+def _jacobian_block(W, Db, J):
+    """J = I - W blockdiag(Db) for W (k, k) and the blocks Db (k / d, d, d): (W D)[i, b d + j] =
+    sum_c W[i, b d + c] Db[b, c, j]."""
+    k = W.shape[0]
+    nb, d = Db.shape[0], Db.shape[1]
+    for i in range(k):
+        for b in range(nb):
+            for j in range(d):
+                acc = 0.0
+                for c in range(d):
+                    acc += W[i, b * d + c] * Db[b, c, j]
+                J[i, b * d + j] = (1.0 if i == b * d + j else 0.0) - acc
 
 
 class ActiveSetStepper:
@@ -52,7 +68,9 @@ class ActiveSetStepper:
         self.dyn = p.dyn > 0.0
         self.active = None       # bool (npt,): the active set of the kept factors
         self.lu = None
+        self.gathers = 0         # how often the active set changed (its blocks gathered again)
         self.counts = np.zeros(2, dtype=np.int64)
+        self.W_F = np.asfortranarray(p.W)        # column gathers of W are contiguous copies
 
     # --- the active set's blocks (gathered when the set changes)
     def _gather(self, active: np.ndarray):
@@ -62,11 +80,12 @@ class ActiveSetStepper:
         self.active = active.copy()
         self.idx = idx
         self.nb = len(pts)
-        self.W_A = np.asfortranarray(p.W[:, idx])        # (m, k): W's columns of A
+        self.W_A = self.W_F[:, idx]                       # (m, k), Fortran order: W's columns of A
         self.W_AA = np.ascontiguousarray(self.W_A[idx])
         self.absW_AA = np.abs(self.W_AA)
         self.G_A = np.ascontiguousarray(p.G[idx])         # (k, n)
         self.lu = None
+        self.gathers += 1
 
     def _residual(self, g1, g_pred):
         wk, idx = self.wk, self.idx
@@ -80,8 +99,9 @@ class ActiveSetStepper:
         nb, d = self.nb, self.d
         k = nb * d
         Db = self.wk.D.reshape(self.npt, d, d)[self.active]               # (nb, d, d) dLambda/dg1
-        WD = np.einsum("ibc,bcj->ibj", self.W_AA.reshape(k, nb, d), Db).reshape(k, k)
-        self.lu = sla.lu_factor(np.eye(k) - WD, check_finite=False)
+        J = np.empty((k, k))
+        _jacobian_block(self.W_AA, np.ascontiguousarray(Db), J)
+        self.lu = sla.lu_factor(J, overwrite_a=True, check_finite=False)
 
     def _substep(self, q, qd, w, g, en, F_exc, F_N1) -> int:
         p, wk, d, nt = self.p, self.wk, self.d, self.p.nt
