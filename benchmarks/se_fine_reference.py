@@ -4,7 +4,7 @@ interfaces against it.
 
     python -m benchmarks.se_fine_reference [--cache REF.npz] [--interface-pitch 0.005] [--width-elems 4]
         [--clusters 6,8,16] [--hammer-groups 6,8,16] [--keep-gap-um 20] [--cost-steps 20]
-        [--no-hammer] [--json OUT.json]
+        [--no-hammer] [--solver kernel|active-set] [--json OUT.json]
 
 1. Build (or read --cache, written on the first run): the hexahedral model, its Craig-Bampton
    reduction (wall and CPU time), and the reduction check: every contact point stuck, the reduced
@@ -19,6 +19,8 @@ interfaces against it.
    penalty and the dashpots vanish for g_n > 0), and the run checks at every step that each of them
    stays open (g_n > 0 from the full model's rows); a point that closes stops the script. The
    adaptive bolt's reference separation is the full interface's. Wall time per simulated second.
+   With --solver active-set, every point stays in the model and each substep's contact is solved on
+   the points closed at its start or end (plant.se_offline): no point is taken out, nothing to check.
 4. The interface coarsened by the bolts' footprints (plant.se_coarsen) to --clusters groups: the
    closed-stuck modes 2-5 at F_min against the full interface's, and the hammer test (--hammer-groups)
    against the full interface's hammer test.
@@ -189,6 +191,9 @@ def main(argv=None) -> int:
     ap.add_argument("--cost-steps", type=int, default=20, help="plant steps timed on the full interface")
     ap.add_argument("--record-s", type=float, default=None, help="the hammer record (default impulse.record_s)")
     ap.add_argument("--no-hammer", action="store_true")
+    ap.add_argument("--solver", choices=("kernel", "active-set"), default="kernel",
+                    help="the hammer's contact solve: the plant kernel on the points open by less than --keep-gap-um, "
+                         "or plant.se_offline's active-set solve on every point")
     ap.add_argument("--chunk", type=int, default=525, help="the hammer run's steps between progress lines")
     ap.add_argument("--hammer-budget-s", type=float, default=1e9,
                     help="end the hammer record after this wall time [s]; the fits then use the record as run")
@@ -261,16 +266,32 @@ def main(argv=None) -> int:
     # --- 3. the hammer test at F_N1 = 100 N on the active set, checked
     if not a.no_hammer:
         t0 = time.perf_counter()
-        ps, G_out, keep = active_set_plant(se, plant, cfg, g_n, 1e-6 * a.keep_gap_um)
+        if a.solver == "active-set":   # every point in the model, the contact solved on its active set
+            from frictionrt.plant.se_offline import ActiveSetStepper
+            ps, keep, G_out = plant, np.ones(se.n_points, bool), np.zeros((0, plant.n))
+        else:
+            ps, G_out, keep = active_set_plant(se, plant, cfg, g_n, 1e-6 * a.keep_gap_um)
         build_s = time.perf_counter() - t0
-        x = ps.initial_state(F_HAMMER_N)
+        x = x_hammer.copy() if ps is plant else ps.initial_state(F_HAMMER_N)
         sens = plant.params.S @ x_hammer[:plant.n]
         sens_sub = ps.params.S @ x[:ps.n]
         U = np.column_stack([force, np.full(n_rec, F_HAMMER_N)])
         Y = np.zeros((n_rec, len(ps.output_labels())))
         ns = np.zeros(n_rec, dtype=np.int64)
         gmin = np.full(n_rec, np.inf)
-        kern = _watch_kernel()
+        if a.solver == "active-set":
+            stepper = ActiveSetStepper(ps)
+
+            def kern(x, U, p, wk, Y, G_out, ns, gmin):
+                x = x.copy()
+                failed = 0
+                for k in range(U.shape[0]):
+                    t = time.perf_counter_ns()
+                    failed += stepper.step(x, U[k], Y[k]) < 0
+                    ns[k] = time.perf_counter_ns() - t
+                return x, failed
+        else:
+            kern = _watch_kernel()
         wk = ps.new_work()
         done, stop = 0, "the record"
         t0, c0 = time.perf_counter(), time.process_time()
