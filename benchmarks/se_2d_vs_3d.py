@@ -21,11 +21,11 @@ check of the script.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 COARSE = {"interface_pitch_m": 0.04, "pitch_m": 0.05, "cutoff_hz": 4000.0}
 
@@ -127,11 +127,9 @@ def main(argv=None) -> int:
             out["stepsine"] = {"points": a.clusters or se.n_points, "clustering": a.clustering, "rows": rows}
     out["load_avg_end"] = os.getloadavg()[0]
     out["wall_s"] = time.perf_counter() - t0
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -19,12 +19,12 @@ Threads: OPENBLAS_NUM_THREADS=1 on a shared machine.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 
 def block_ticks(f: float, dt: float) -> int:
@@ -166,11 +166,9 @@ def main(argv=None) -> int:
                       f"{len(rows)}, spacing {r['line_spacing_hz']} Hz; lines |H| "
                       f"{[round(x['H_abs'], 2) for x in rows]}, settled {[x['settled'] for x in rows]}; "
                       f"{r['wall_s']} s wall, load {r['load_avg']:.1f})", flush=True)
-                if a.json:
-                    with open(a.json, "w") as fh:
-                        json.dump(out, fh, indent=1)
+                write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -14,11 +14,11 @@ the 57 points' hammer test; the plant step's median wall time of the hammer run.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 COARSE = {"interface_pitch_m": 0.04, "pitch_m": 0.05, "cutoff_hz": 4000.0}
 
@@ -83,11 +83,9 @@ def main(argv=None) -> int:
             print(line, flush=True)
             out["rows"].append(r)
     out["load_avg_end"] = os.getloadavg()[0]
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -11,12 +11,12 @@ iterations per tick (max, p99.9, p99, mean) and the ticks above the default limi
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import tempfile
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 
 def main(argv=None) -> int:
@@ -54,11 +54,9 @@ def main(argv=None) -> int:
           f"(kernel version {KERNEL_VERSION}): Newton iterations max {out['max']}, p99.9 {out['p999']:g}, p99 "
           f"{out['p99']:g}, mean {out['mean']:.2f}; {out['over_40']} ticks over 40 {out['first_over_40']} "
           f"({out['wall_s']} s wall, load {out['load_avg']:.1f})")
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

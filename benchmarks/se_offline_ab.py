@@ -13,11 +13,11 @@ Threads: run with OPENBLAS_NUM_THREADS=1 on a shared machine.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 COARSE = {"interface_pitch_m": 0.04, "pitch_m": 0.05, "cutoff_hz": 4000.0}
 
@@ -171,11 +171,9 @@ def main(argv=None) -> int:
         active_run(plant, U, x0)
         pr.disable()
         pstats.Stats(pr).sort_stats("tottime").print_stats(12)
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

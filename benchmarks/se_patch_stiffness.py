@@ -20,6 +20,7 @@ import os
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 N_LIMIT = 8
 
@@ -106,15 +107,11 @@ def main(argv=None) -> int:
             print(f"{c:>3} {cl:<18} closed {s['F_min']['closed']:>2} | modes 2-5 at F_min {row['F_min_pct']} %, at F_max "
                   f"{row['F_max_pct']} % | every point stuck {row['stuck_all_pct']} %, open {row['open_pct']} % "
                   f"({row['build_s']} s)", flush=True)
-            if a.json:
-                with open(a.json, "w") as fh:
-                    json.dump(out, fh, indent=1)
+            write_json(a.json, out)
     out["load_avg_end"] = os.getloadavg()[0]
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

@@ -20,12 +20,12 @@ times: its missed deadlines (overruns), lateness and tick median.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import tempfile
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 BUDGET_US = 8.0
 
@@ -150,11 +150,9 @@ def main(argv=None) -> int:
             ok[r["friction_dims"]] = max(ok.get(r["friction_dims"], 0), r["points"])
     out["largest_within_budget"] = ok
     print(f"largest point count with the whole tick's median <= {BUDGET_US:g} us: {ok}")
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)

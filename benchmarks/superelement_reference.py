@@ -20,6 +20,7 @@ import os
 import time
 
 import numpy as np
+from benchmarks.entry import run_main, write_json
 
 
 def _vertical_modes(plant, F_N1, closed_only):
@@ -137,11 +138,9 @@ def main(argv=None) -> int:
             print(f"3. {k:>4} points, {nt}-D friction, {pl.n} modes: median {r['step_median_us']:9.2f} us, "
                   f"p99 {r['step_p99_us']:9.2f} us, Newton {r['newton_iter_mean']:.2f} (load {os.getloadavg()[0]:.1f})")
     out["cost"] = cost
-    if a.json:
-        with open(a.json, "w") as f:
-            json.dump(out, f, indent=1)
+    write_json(a.json, out)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_main(main)
