@@ -3,6 +3,9 @@ alternating in one process (``frictionrt budget``'s offline timed run, its "esti
 the clock read after the sanitising and the estimator step; docs/studies/observer-amplitude.md).
 
     python -m benchmarks.estimator_budget_ab [--rounds 6] [--ticks 42000] [--law lyapunov]
+                                             [--estimators observer amplitude amplitude:0.1]
+
+An estimator given as KIND:SCALE is designed with observer.spring_scale = SCALE.
 
 Prints per round and kind the estimator's median and p99.9 [us] and the whole tick's median, then
 per kind the median over rounds; the load average (os.getloadavg) before and after.
@@ -12,7 +15,7 @@ import os
 
 import numpy as np
 
-from frictionrt.rt.common.config import load
+from frictionrt.rt.common.config import load, with_sets
 from frictionrt.rt.loop import build_loop, run
 from frictionrt.rt.loop.budget import EXC_AMP_N, EXC_FREQ_HZ
 from frictionrt.rt.loop.build import COMPONENTS
@@ -22,10 +25,15 @@ if __name__ == "__main__":
     ap.add_argument("--rounds", type=int, default=6)
     ap.add_argument("--ticks", type=int, default=42000)
     ap.add_argument("--law", default="lyapunov", choices=["hysteresis", "lyapunov"])
-    ap.add_argument("--estimators", nargs="+", default=["observer", "amplitude"])
+    ap.add_argument("--estimators", nargs="+", default=["observer", "amplitude"],
+                    help="estimator kinds, each optionally KIND:SCALE (observer.spring_scale)")
     a = ap.parse_args()
     cfg = load()
-    loops = {e: build_loop(cfg, a.law, e) for e in a.estimators}
+    loops = {}
+    for e in a.estimators:
+        kind, _, scale = e.partition(":")
+        c = with_sets(cfg, [f"observer.spring_scale={scale}"]) if scale else cfg
+        loops[e] = build_loop(c, a.law, kind)
     col = COMPONENTS.index("estimator")
     for lp in loops.values():
         run(lp, EXC_FREQ_HZ, EXC_AMP_N, 0.01, timing=True)  # compile or load the cache
