@@ -11,13 +11,14 @@ mean form, m = 1 per mode):
 Run time (``_se_step``, RT-safe, allocation-free): Lambda per point is the normal spring's
 discrete gradient (plant.contact._normal_impulse), the trapezoid of the tangential end forces of
 the circular-Coulomb law (plant.contact3d._coulomb_disc) and the dashpots
-(plant.contact._interface_dashpot); the gaps are found by a modified Newton iteration: the LU
-factors of J = I - W dLambda/dg1 are kept from step to step and refreshed only when an iteration
-contracts the residual by less than REFACTOR_RATIO (a stuck or slowly changing interface costs
-one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)). After a rejected full step the
+(plant.contact._interface_dashpot); the gaps are found by a modified Newton iteration from the
+previous step's gaps: the LU factors of J = I - W dLambda/dg1 are kept from step to step and
+refreshed only when an iteration contracts the residual by less than REFACTOR_RATIO (a stuck or
+slowly changing interface costs one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)). After a rejected full step the
 line search first tries the step to the first branch change of the end-point law along the Newton
 direction (``_first_kink``; open/closed, stick/slip), just past it, so that the next iteration has
-the tangent of the side the solution lies on; then halving.
+the tangent of the side the solution lies on; then halving. A kink step is taken without a decrease
+of |r|, but not twice in a row without a 1 % decrease (KINK_PROGRESS).
 
 The built-in 2-D plant keeps its own kernel (plant.newmark); this one serves imported structures
 with 2-D (nt = 2, circular limit) or 1-D (nt = 1) friction.
@@ -42,6 +43,7 @@ from frictionrt.plant.superelement import Superelement
 
 LINE_SEARCH = 30       # halvings of a Newton step before it is taken as it is
 KINK_PAST = 1e-6      # the kink step goes this fraction of itself (plus 1e-9 of the Newton step) past the branch change
+KINK_PROGRESS = 0.99  # a kink step that leaves |r| above this fraction of itself is not followed by another
 REFACTOR_RATIO = 1e-2   # refresh the Jacobian's factors when |r_new| > ratio |r_old| (a kept factor of the
                         # right contact pattern solves the piecewise-linear step in one iteration)
 RIGID_BODY_RAD_S = 2 * np.pi * 0.1
@@ -132,18 +134,26 @@ def _mean_forces(g0, g1, w_old, p, wk, with_tangent):
 
 @numba.njit(cache=True, nogil=True, _nrt=False, fastmath=FASTMATH)
 def _factor_jacobian(p, wk):
-    """LU of J = I - W blockdiag(D) into wk.LU (the blocks are the points' d x d tangents)."""
-    m = p.W.shape[0]
-    d = 1 + p.nt
+    """LU of J = I - W blockdiag(D) into wk.LU (the blocks are the points' d x d tangents): column
+    o + c of J is e_(o+c) - sum_k W[:, o + k] D_j[k, c] for point j's block at o = j d. The indices
+    are unsigned (as plant.newmark._lu_factor: a signed index is wrapped at every access)."""
+    m = numba.uint64(p.W.shape[0])
+    d = numba.uint64(1 + p.nt)
+    npt = m // d
+    W = p.W
+    Db = wk.D
+    J = wk.LU
     for i in range(m):
-        for j in range(m):
-            jb = j // d
-            cj = j - jb * d
-            acc = 0.0
-            for kk in range(d):
-                acc += p.W[i, jb * d + kk] * wk.D[jb * d * d + kk * d + cj]
-            wk.LU[i, j] = (1.0 if i == j else 0.0) - acc
-    _lu_factor(wk.LU, wk.piv, m)
+        for jb in range(npt):
+            o = jb * d
+            od = o * d
+            for c in range(d):
+                acc = 0.0
+                for kk in range(d):
+                    acc += W[i, o + kk] * Db[od + kk * d + c]
+                J[i, o + c] = -acc
+        J[i, i] += 1.0
+    _lu_factor(wk.LU, wk.piv, p.W.shape[0])
     wk.have_lu[0] = 1
 
 
@@ -247,15 +257,12 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
         wk.lam0[o] = 0.0
         for a in range(nt):
             wk.lam0[o + 1 + a] = -p.k_t[i] * (g[o + 1 + a] - w[i * nt + a]) if g[o] < 0.0 else 0.0
-    # --- initial guess: the previous gaps moved by the predictor's change
+    # --- initial guess: the previous step's gaps. With the factors kept from that step (the tangent of
+    # its contact pattern) the first Newton step is exact while no point changes branch (the step is
+    # linear in g1 on a stick, open or closed branch); a fixed-point guess g_pred + W Lambda(g0, g0)
+    # moved the sliding and just-closing points across the cone and took twice the iterations.
     for i in range(m):
         wk.g1[i] = g[i]
-    _mean_forces(g, wk.g1, w, p, wk, False)
-    for i in range(m):
-        acc = wk.g_pred[i]
-        for j in range(m):
-            acc += p.W[i, j] * wk.lam[j]
-        wk.g1[i] = acc
     # --- modified Newton with backtracking on |r|_2 (the residual is continuous and piecewise smooth:
     # a full step can cycle between stick and slip, a shortened one descends)
     it = 0
@@ -264,6 +271,7 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
     rn, floor = _residual(p, wk)
     stale = wk.have_lu[0] == 0
     converged = False
+    free_kink = True
     while it < p.max_iter:
         if rn <= p.tol + floor:
             converged = True
@@ -277,7 +285,7 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
         _lu_solve(wk.LU, wk.piv, wk.dg, m)
         alpha = 1.0
         rn_new = rn
-        kink = 2.0   # the step to the first branch change: tried once, after a rejected full step
+        kink = 2.0 if free_kink else -1.0   # the step to the first branch change: tried once, after a rejected full step
         for _ls in range(LINE_SEARCH):
             for i in range(m):
                 wk.g1[i] = wk.g_old[i] - alpha * wk.dg[i]
@@ -294,6 +302,10 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
                     alpha = kink
                     continue
             alpha = 0.5 if alpha == kink else 0.5 * alpha
+        # a kink step is accepted without a decrease of |r|; after one that did not reduce it by
+        # KINK_PROGRESS the next iteration backtracks only (a point on its branch boundary at the
+        # round-off floor otherwise took the same kink step every iteration)
+        free_kink = not (alpha == kink and rn_new > KINK_PROGRESS * rn and rn_new > p.tol + floor)
         stale = alpha < 1.0 or rn_new > REFACTOR_RATIO * rn
         rn = rn_new
         it += 1
