@@ -3,7 +3,8 @@ four across its width: 585 contact points; the paper's model had 632), and the c
 interfaces against it.
 
     python -m benchmarks.se_fine_reference [--cache REF.npz] [--interface-pitch 0.005] [--width-elems 4]
-        [--clusters 6,8,16] [--hammer-groups 6,8,16] [--keep-gap-um 20] [--cost-steps 20]
+        [--clusters 6,8,16] [--clustering footprint[,footprint-patches]] [--hammer-groups 6,8,16]
+        [--keep-gap-um 20] [--cost-steps 20]
         [--no-hammer] [--solver kernel|active-set] [--json OUT.json]
 
 1. Build (or read --cache, written on the first run): the hexahedral model, its Craig-Bampton
@@ -21,7 +22,8 @@ interfaces against it.
    adaptive bolt's reference separation is the full interface's. Wall time per simulated second.
    With --solver active-set, every point stays in the model and each substep's contact is solved on
    the points closed at its start or end (plant.se_offline): no point is taken out, nothing to check.
-4. The interface coarsened by the bolts' footprints (plant.se_coarsen) to --clusters groups: the
+4. The interface coarsened by the bolts' footprints (plant.se_coarsen; --clustering footprint-patches:
+   with the held patches' normal stiffness kept) to --clusters groups: the
    closed-stuck modes 2-5 at F_min against the full interface's, and the hammer test (--hammer-groups)
    against the full interface's hammer test.
 Threads: run with OPENBLAS_NUM_THREADS=1 on a shared machine (docs/studies/superelement-3d.md 7).
@@ -147,25 +149,6 @@ def vertical_modes(plant, F_N1):
     return f[(z > y) & (f > 1.0)][1:5], int(closed.sum())
 
 
-def footprint_classes_of(plant, cfg) -> np.ndarray:
-    """plant.se_coarsen.footprint_classes from an already built plant (its modal coordinates, the
-    adaptive bolt's spring taken out again: the bolt a force), so the fine interface's plant is not
-    rebuilt for each group count: per point the index of the smallest force of footprint_levels_n
-    that closes it."""
-    from frictionrt.plant.se_coarsen import footprint_levels_n
-    from frictionrt.plant.se_plant import static_equilibrium
-    p = plant.params
-    K_free = np.diag(p.omega2) - p.bolt_k * np.outer(p.bolt_row, p.bolt_row)
-    p0 = p._replace(f_const=p.f_const - p.bolt_row * p.bolt_k * p.bolt_ref)
-    levels = footprint_levels_n(cfg)
-    d = 1 + p.nt
-    out = np.full(plant.n_points, len(levels), np.int64)
-    for i in range(len(levels) - 1, -1, -1):
-        _, _, g = static_equilibrium(p0, levels[i], K=K_free)
-        out[g[0::d] < 0.0] = i
-    return out
-
-
 def hammer_row(plant, cfg, sensor, ref_hammer: dict) -> dict:
     """The 100 N hammer test on ``plant`` (``impulse``): its f [Hz] and zeta, their error against
     ``ref_hammer`` (f in %, zeta as a ratio) and its wall time [s]."""
@@ -187,6 +170,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cutoff", type=float, default=4000.0)
     ap.add_argument("--clusters", default="6,8,16", help="footprint groups of the coarsened interfaces")
     ap.add_argument("--hammer-groups", default="6,8,16", help="the coarsened interfaces' hammer tests")
+    ap.add_argument("--clustering", default="footprint", help="the coarsened interfaces' groupings, comma-separated "
+                    "(plant.superelement.CLUSTERINGS but coordinates: footprint, footprint-patches)")
     ap.add_argument("--keep-gap-um", type=float, default=20.0, help="the hammer's active set: points open by less")
     ap.add_argument("--cost-steps", type=int, default=20, help="plant steps timed on the full interface")
     ap.add_argument("--record-s", type=float, default=None, help="the hammer record (default impulse.record_s)")
@@ -202,13 +187,13 @@ def main(argv=None) -> int:
     ap.add_argument("--build-only", action="store_true")
     ap.add_argument("--json", metavar="OUT.json")
     a = ap.parse_args(argv)
+    from benchmarks.se_patch_stiffness import footprint_closed_of
     from frictionrt import jobs
     from frictionrt.plant.impulse import hammer_force
     from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
     from frictionrt.plant.se_analysis import _timed_run, fit_hammer, impulse
-    from frictionrt.plant.se_coarsen import coarsen_structure, footprint_levels_n
+    from frictionrt.plant.se_coarsen import classes_of, coarsen_structure, footprint_levels_n
     from frictionrt.plant.se_plant import build_se_plant
-    from frictionrt.plant.superelement import coarsen
     from frictionrt.rt.common.config import Config, with_sets
     cfg = Config()
     if a.record_s:
@@ -353,32 +338,34 @@ def main(argv=None) -> int:
     # --- 4. the coarsened interfaces against the full one
     rows = []
     hg = {int(c) for c in a.hammer_groups.split(",") if c}
-    classes = None
+    closed = None
     for c in (int(x) for x in a.clusters.split(",") if x):
-        r = {"groups": c}
-        try:
-            t0 = time.perf_counter()
-            if classes is None:
-                classes = footprint_classes_of(plant, cfg)
-                out["footprint_classes"] = np.bincount(classes).tolist()
-                print(f"footprint classes of the {se.n_points} points (closed at {footprint_levels_n(cfg)} N, open): "
-                      f"{out['footprint_classes']} ({time.perf_counter() - t0:.0f} s)", flush=True)
-            pc = build_se_plant(coarsen(se, c, classes=classes), cfg)
-            r["build_s"] = round(time.perf_counter() - t0, 1)
-            f_st, r["closed_F_min"] = vertical_modes(pc, F_min)
-            r["stuck_hz"] = f_st.round(3).tolist()
-            r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
-            line = f"{c:>3} groups: closed {r['closed_F_min']} at {F_min:g} N, stuck modes 2-5 {r['stuck_err_pct']} %"
-            if c in hg and "hammer" in ref:
-                r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
-                line += f"; hammer f {r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)"
-            print(line, flush=True)
-        except (RuntimeError, ValueError) as e:
-            r["error"] = str(e)
-            print(f"{c:>3} groups: {e}", flush=True)
-        rows.append(r)
-        out["coarse"] = rows
-        dump()
+        for cl in a.clustering.split(","):
+            r = {"groups": c, "clustering": cl}
+            try:
+                t0 = time.perf_counter()
+                if closed is None:
+                    closed = footprint_closed_of(plant, cfg)
+                    out["footprint_classes"] = np.bincount(classes_of(closed)).tolist()
+                    print(f"footprint classes of the {se.n_points} points (closed at {footprint_levels_n(cfg)} N, open): "
+                          f"{out['footprint_classes']} ({time.perf_counter() - t0:.0f} s)", flush=True)
+                pc = build_se_plant(coarsen_structure(se, c, cfg, cl, closed=closed), cfg)
+                r["build_s"] = round(time.perf_counter() - t0, 1)
+                f_st, r["closed_F_min"] = vertical_modes(pc, F_min)
+                r["stuck_hz"] = f_st.round(3).tolist()
+                r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
+                line = (f"{c:>3} groups, {cl}: closed {r['closed_F_min']} at {F_min:g} N, stuck modes 2-5 "
+                        f"{r['stuck_err_pct']} %")
+                if c in hg and "hammer" in ref:
+                    r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
+                    line += f"; hammer f {r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)"
+                print(line, flush=True)
+            except (RuntimeError, ValueError) as e:
+                r["error"] = str(e)
+                print(f"{c:>3} groups, {cl}: {e}", flush=True)
+            rows.append(r)
+            out["coarse"] = rows
+            dump()
     # --- 5. the 57-point reference (benchmarks.se_footprint's) and its coarsened interfaces against the fine one
     if a.coarse_reference and "hammer" in ref:
         from frictionrt.plant import fe3d

@@ -2,7 +2,8 @@
 plant.se_offline's active-set solve) and on the built-in 2-D beams, the same procedure on both.
 
     python -m benchmarks.se_fine_stepsine --cache REF.npz [--modes 4,5] [--amps 5,20] [--lines 5]
-        [--span 0.03] [--spans 4:0.04,5:0.02] [--centres 4:372,5:615] [--F-N1 40] [--settle-tol 0.02] [--max-s 0.3] [--no-3d] [--json OUT.json]
+        [--span 0.03] [--spans 4:0.04,5:0.02] [--centres 4:372,5:615] [--F-N1 40] [--settle-tol 0.02] [--max-s 0.3]
+        [--coarse 6:footprint-patches,...] [--no-fine] [--no-3d] [--json OUT.json]
 
 Per mode and force amplitude A: --lines frequencies spread over +-span (relative) around the 2-D
 beams' closed-stuck frequency at F_N1 (or --centre-3d: the 3-D reference's), stepped upwards with the
@@ -12,6 +13,10 @@ excitation, in blocks of at least 10 periods and 20 ms; per block the acceleranc
 line is settled when |H| changes by less than --settle-tol between two blocks, or is measured after
 --max-s. The peak is the line of the largest |H|, refined by a parabola through it and its
 neighbours in (f, |H|): its frequency's resolution is the line spacing (span 2 / (lines - 1)).
+--coarse GROUPS:CLUSTERING,...: the same procedure on the 585 points' interface coarsened
+(plant.se_coarsen.coarsen_structure, the footprints solved once on the fine plant), stepped by the
+loop's kernel (plant.se_plant); --no-fine skips the 585 points' own runs (hours; their peaks are in
+docs/studies/superelement-offline.md) but still builds their plant for the footprints.
 This is the plant alone (F_N1 held exactly), not the closed loop's ``compare --mode`` of
 benchmarks.se_2d_vs_3d, so its peaks are compared with the 2-D beams' from this same script.
 Threads: OPENBLAS_NUM_THREADS=1 on a shared machine.
@@ -78,6 +83,17 @@ def peak_of(rows):
     return float(f[k]), float(H[k]), k
 
 
+def coarse_runner(plant, F_N1: float, sensor: str):
+    """run_block for a coarsened interface: the loop's kernel (plant.se_plant.run) with F_N1 held."""
+    from frictionrt.plant.se_plant import run
+    ix = plant.output_index()[f"a_{sensor}"]
+
+    def run_block(x, U):
+        Y, x = run(plant, U[:, 0], F_N1, x0=x)
+        return x, Y[:, ix]
+    return run_block
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cache", required=True)
@@ -93,6 +109,9 @@ def main(argv=None) -> int:
     ap.add_argument("--centres", default=None, metavar="MODE:HZ,...",
                     help="the lines' centres per mode [Hz] (e.g. a previous run's peaks), instead of the stuck frequencies")
     ap.add_argument("--no-3d", action="store_true")
+    ap.add_argument("--coarse", default="", metavar="GROUPS:CLUSTERING,...",
+                    help="also these coarsened interfaces of the 585 points (e.g. 6:footprint,6:footprint-patches)")
+    ap.add_argument("--no-fine", action="store_true", help="skip the 585 points' own runs (not their plant)")
     ap.add_argument("--json", metavar="OUT.json")
     a = ap.parse_args(argv)
     from frictionrt.plant import superelement as S
@@ -102,6 +121,8 @@ def main(argv=None) -> int:
     from frictionrt.plant.simulate import _run as run2d
     from frictionrt.rt.common.config import Config
     from benchmarks.se_fine_reference import vertical_modes
+    from benchmarks.se_patch_stiffness import footprint_closed_of
+    from frictionrt.plant.se_coarsen import coarsen_structure
     cfg = Config()
     dt = cfg.dt_s
     F_N1 = cfg.tracking.F_passive_N if a.F_N1 is None else a.F_N1
@@ -142,6 +163,15 @@ def main(argv=None) -> int:
                     raise RuntimeError("the 3-D active-set solve failed")
                 acc[k] = Y1[ix3]
             return x, acc
+
+        models = [] if a.no_fine else [("3-D 585", run_3d, lambda: x3_rest.copy())]
+        closed = None
+        for spec in (c for c in a.coarse.split(",") if c):
+            groups, clustering = spec.split(":")
+            if closed is None:
+                closed = footprint_closed_of(ps, cfg)
+            pc = build_se_plant(coarsen_structure(se, int(groups), cfg, clustering, closed=closed), cfg)
+            models.append((f"{groups} {clustering}", coarse_runner(pc, F_N1, sensor), lambda pc=pc: pc.initial_state(F_N1)))
     if a.centres:
         centres.update({int(k): float(v) for k, v in (c.split(":") for c in a.centres.split(","))})
     print(f"F_N1 = {F_N1:g} N; line centres {centres} Hz", flush=True)
@@ -150,10 +180,7 @@ def main(argv=None) -> int:
             if a.spans else a.span
         freqs = centres[mode] * (1 + np.linspace(-span, span, a.lines))
         for amp in (float(v) for v in a.amps.split(",")):
-            for name, fn, x0 in (("2-D", run_2d, lambda: m2.initial_state(F_N1)),
-                                 ("3-D 585", run_3d if ps is not None else None, lambda: x3_rest.copy())):
-                if fn is None:
-                    continue
+            for name, fn, x0 in [("2-D", run_2d, lambda: m2.initial_state(F_N1))] + (models if ps is not None else []):
                 t0, c0 = time.perf_counter(), time.process_time()
                 rows, _ = stepped_sine(fn, x0(), freqs, amp, dt, a.settle_tol, a.max_s)
                 fp, Hp, k = peak_of(rows)
