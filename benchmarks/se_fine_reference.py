@@ -187,6 +187,10 @@ def main(argv=None) -> int:
     ap.add_argument("--build-only", action="store_true")
     ap.add_argument("--json", metavar="OUT.json")
     a = ap.parse_args(argv)
+    from frictionrt.plant.superelement import CLUSTERINGS
+    bad = [c for c in a.clustering.split(",") if c not in CLUSTERINGS]
+    if bad:
+        ap.error(f"--clustering {bad[0]!r}: give one or more of {', '.join(CLUSTERINGS)}, comma-separated")
     from benchmarks.se_patch_stiffness import footprint_closed_of
     from frictionrt import jobs
     from frictionrt.plant.impulse import hammer_force

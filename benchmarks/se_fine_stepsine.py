@@ -115,6 +115,13 @@ def main(argv=None) -> int:
     ap.add_argument("--json", metavar="OUT.json")
     a = ap.parse_args(argv)
     from frictionrt.plant import superelement as S
+    coarse = []
+    for spec in (c for c in a.coarse.split(",") if c):
+        groups, _, clustering = spec.partition(":")
+        if not groups.isdigit() or int(groups) < 1 or clustering not in S.CLUSTERINGS:
+            ap.error(f"--coarse {spec!r}: give GROUPS:CLUSTERING, GROUPS >= 1 and CLUSTERING one of "
+                     f"{', '.join(S.CLUSTERINGS)} (e.g. 6:footprint-patches)")
+        coarse.append((int(groups), clustering))
     from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
     from frictionrt.plant.se_offline import ActiveSetStepper
     from frictionrt.plant.se_plant import build_se_plant
@@ -166,11 +173,10 @@ def main(argv=None) -> int:
 
         models = [] if a.no_fine else [("3-D 585", run_3d, lambda: x3_rest.copy())]
         closed = None
-        for spec in (c for c in a.coarse.split(",") if c):
-            groups, clustering = spec.split(":")
+        for groups, clustering in coarse:
             if closed is None:
                 closed = footprint_closed_of(ps, cfg)
-            pc = build_se_plant(coarsen_structure(se, int(groups), cfg, clustering, closed=closed), cfg)
+            pc = build_se_plant(coarsen_structure(se, groups, cfg, clustering, closed=closed), cfg)
             models.append((f"{groups} {clustering}", coarse_runner(pc, F_N1, sensor), lambda pc=pc: pc.initial_state(F_N1)))
     if a.centres:
         centres.update({int(k): float(v) for k, v in (c.split(":") for c in a.centres.split(","))})
