@@ -195,7 +195,7 @@ def main(argv=None) -> int:
     from frictionrt import jobs
     from frictionrt.plant.impulse import hammer_force
     from frictionrt.plant.model import build_plant, preloaded_pairs, stuck_frequencies_hz
-    from frictionrt.plant.se_analysis import _timed_run, fit_hammer, impulse
+    from frictionrt.plant.se_analysis import _timed_run, fit_hammer
     from frictionrt.plant.se_coarsen import classes_of, coarsen_structure, footprint_levels_n
     from frictionrt.plant.se_plant import build_se_plant
     from frictionrt.rt.common.config import Config, with_sets
@@ -340,13 +340,35 @@ def main(argv=None) -> int:
         dump()
 
     # --- 4. the coarsened interfaces against the full one
+    def add_row(key: str, rows: list, r: dict, label: str, fill) -> None:
+        """fill(r) adds a coarse interface's figures to r and returns its line; an interface that
+        does not build (no equilibrium, a count out of range) is a row with its one-line error."""
+        try:
+            print(f"{label}: {fill(r)}", flush=True)
+        except (RuntimeError, ValueError) as e:
+            r["error"] = str(e)
+            print(f"{label}: {e}", flush=True)
+        rows.append(r)
+        out[key] = rows
+        dump()
+
+    def stuck_and_hammer(pc, r: dict, hammer: bool) -> str:
+        f_st, r["closed_F_min"] = vertical_modes(pc, F_min)
+        r["stuck_hz"] = f_st.round(3).tolist()
+        r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
+        line = f"closed {r['closed_F_min']} at {F_min:g} N, stuck modes 2-5 {r['stuck_err_pct']} %"
+        if hammer:
+            r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
+            line += f"; hammer f {r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)"
+        return line
+
     rows = []
     hg = {int(c) for c in a.hammer_groups.split(",") if c}
     closed = None
     for c in (int(x) for x in a.clusters.split(",") if x):
         for cl in a.clustering.split(","):
-            r = {"groups": c, "clustering": cl}
-            try:
+            def fill(r, c=c, cl=cl):
+                nonlocal closed
                 t0 = time.perf_counter()
                 if closed is None:
                     closed = footprint_closed_of(plant, cfg)
@@ -355,41 +377,17 @@ def main(argv=None) -> int:
                           f"{out['footprint_classes']} ({time.perf_counter() - t0:.0f} s)", flush=True)
                 pc = build_se_plant(coarsen_structure(se, c, cfg, cl, closed=closed), cfg)
                 r["build_s"] = round(time.perf_counter() - t0, 1)
-                f_st, r["closed_F_min"] = vertical_modes(pc, F_min)
-                r["stuck_hz"] = f_st.round(3).tolist()
-                r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
-                line = (f"{c:>3} groups, {cl}: closed {r['closed_F_min']} at {F_min:g} N, stuck modes 2-5 "
-                        f"{r['stuck_err_pct']} %")
-                if c in hg and "hammer" in ref:
-                    r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
-                    line += f"; hammer f {r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)"
-                print(line, flush=True)
-            except (RuntimeError, ValueError) as e:
-                r["error"] = str(e)
-                print(f"{c:>3} groups, {cl}: {e}", flush=True)
-            rows.append(r)
-            out["coarse"] = rows
-            dump()
+                return stuck_and_hammer(pc, r, c in hg and "hammer" in ref)
+            add_row("coarse", rows, {"groups": c, "clustering": cl}, f"{c:>3} groups, {cl}", fill)
     # --- 5. the 57-point reference (benchmarks.se_footprint's) and its coarsened interfaces against the fine one
     if a.coarse_reference and "hammer" in ref:
         from frictionrt.plant import fe3d
         se57, _ = fe3d.reference_superelement(cfg)
         rows57 = []
         for c in [0] + [int(x) for x in a.clusters.split(",") if x]:
-            r = {"points": se57.n_points, "groups": c}
-            try:
-                pc = build_se_plant(coarsen_structure(se57, c, cfg, "footprint"), cfg)
-                r["stuck_hz"] = vertical_modes(pc, F_min)[0].round(3).tolist()
-                r["stuck_err_pct"] = (100 * (np.array(r["stuck_hz"]) / ref["stuck_hz"] - 1)).round(2).tolist()
-                r.update(hammer_row(pc, cfg, sensor, ref["hammer"]))
-                print(f"57 points, {c or 'all':>3} groups: stuck modes 2-5 {r['stuck_err_pct']} %, hammer f "
-                      f"{r['hammer_f_err_pct']} %, zeta ratio {r['hammer_zeta_ratio']} ({r['hammer_s']} s)", flush=True)
-            except (RuntimeError, ValueError) as e:
-                r["error"] = str(e)
-                print(f"57 points, {c} groups: {e}", flush=True)
-            rows57.append(r)
-            out["coarse_57"] = rows57
-            dump()
+            add_row("coarse_57", rows57, {"points": se57.n_points, "groups": c}, f"57 points, {c or 'all':>3} groups",
+                    lambda r, c=c: stuck_and_hammer(build_se_plant(coarsen_structure(se57, c, cfg, "footprint"), cfg),
+                                                    r, True))
     out["load_avg_end"] = os.getloadavg()[0]
     dump()
     return 0
