@@ -15,7 +15,9 @@ default the bolts' footprints; 0: the 57 points as built), with 2-D friction (ci
 average is kept beside each row. --fine-steps: the steps of cases above 24 points. The offline runs'
 tick times are pooled over the repetitions for the tails (median, p99, p99.9, max). --paced-s: the
 paced run (absolute deadlines at dt, as ``frictionrt budget``) of each loop, alternating, --paced-reps
-times: its missed deadlines (overruns), lateness and tick median.
+times: its missed deadlines (overruns), lateness and tick median, and the ticks the supervisor held
+passive (a burst of overruns latches the fault overrun_burst: the law stops, F_N1 goes to F_min,
+and the ticks after it are the passive loop's).
 """
 from __future__ import annotations
 
@@ -58,6 +60,7 @@ def main(argv=None) -> int:
     from frictionrt.rt.loop.driver import run
     from frictionrt.rt.loop.floor import tails_us
     from frictionrt.rt.loop.structure import structure_of
+    from frictionrt.rt.loop.supervisor import FAULT_CODES
     cfg = with_sets(Config(), a.set)
     kw = {"interface_pitch_m": 0.04, "pitch_m": 0.05} if a.mesh == "coarse" else {}
     se, _ = fe3d.reference_superelement(cfg, **kw)
@@ -80,7 +83,12 @@ def main(argv=None) -> int:
         p = run(loop, EXC_FREQ_HZ, EXC_AMP_N, a.paced_s, paced=True)
         late = p.signal("late_ns")
         n_p = len(late) + p.overruns
-        return {"ticks": int(len(late)), "overruns": int(p.overruns), "overrun_rate": p.overruns / n_p,
+        passive = np.asarray(p.signal("passive")) > 0.5
+        latched = np.asarray(p.signal("fault_latched"))
+        first = int(np.argmax(passive)) if passive.any() else -1
+        return {"passive_ticks": int(passive.sum()), "first_passive_tick": first,
+                "fault": FAULT_CODES[int(latched[first])] if first >= 0 else "none",
+                "ticks": int(len(late)), "overruns": int(p.overruns), "overrun_rate": p.overruns / n_p,
                 "late": tails_us(late), "tick_median_us": float(np.median(p.signal("tick_ns")) / 1e3),
                 "tick_p99_us": float(np.percentile(p.signal("tick_ns"), 99) / 1e3),
                 "tick_p999_us": float(np.percentile(p.signal("tick_ns"), 99.9) / 1e3),
@@ -139,10 +147,13 @@ def main(argv=None) -> int:
                     print(f"    paced {a.paced_s:g} s: missed {pa['overruns']} of {pa['ticks'] + pa['overruns']} "
                           f"({100 * pa['overrun_rate']:.3f} %), late p99.9 {pa['late']['p999_us']:.1f} us, tick median "
                           f"{pa['tick_median_us']:.2f} / p99 {pa['tick_p99_us']:.1f} / p99.9 {pa['tick_p999_us']:.1f} / max "
-                          f"{pa['tick_max_us']:.0f} us, {pa['ticks_over_period']} ticks over the period, {pa['wall_s']:.1f} s wall"
-                          f" | built-in missed {pb['overruns']} ({100 * pb['overrun_rate']:.3f} %), late p99.9 "
+                          f"{pa['tick_max_us']:.0f} us, {pa['ticks_over_period']} ticks over the period, {pa['wall_s']:.1f} s wall, "
+                          f"passive {pa['passive_ticks']} ticks"
+                          + (f" ({pa['fault']} from tick {pa['first_passive_tick']})" if pa['passive_ticks'] else "")
+                          + f" | built-in missed {pb['overruns']} ({100 * pb['overrun_rate']:.3f} %), late p99.9 "
                           f"{pb['late']['p999_us']:.1f} us, tick median {pb['tick_median_us']:.2f} / p99 {pb['tick_p99_us']:.1f} / "
-                          f"p99.9 {pb['tick_p999_us']:.1f} / max {pb['tick_max_us']:.0f} us, {pb['ticks_over_period']} over "
+                          f"p99.9 {pb['tick_p999_us']:.1f} / max {pb['tick_max_us']:.0f} us, {pb['ticks_over_period']} over, "
+                          f"passive {pb['passive_ticks']} ticks "
                           f"(load {os.getloadavg()[0]:.1f}; {pa['realtime']})", flush=True)
     ok = {}
     for r in out["rows"]:
