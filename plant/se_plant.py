@@ -14,10 +14,11 @@ the circular-Coulomb law (plant.contact3d._coulomb_disc) and the dashpots
 (plant.contact._interface_dashpot); the gaps are found by a modified Newton iteration from the
 previous step's gaps: the LU factors of J = I - W dLambda/dg1 are kept from step to step and
 refreshed only when an iteration contracts the residual by less than REFACTOR_RATIO (a stuck or
-slowly changing interface costs one substitution per iteration, O(m^2); a refresh costs O(m^3 / 3)). After a rejected full step the
-line search first tries the step to the first branch change of the end-point law along the Newton
-direction (``_first_kink``; open/closed, stick/slip), just past it, so that the next iteration has
-the tangent of the side the solution lies on; then halving. A kink step is taken without a decrease
+slowly changing interface costs one substitution per iteration, O(m^2); a refresh costs
+O(m^3 / 3)). After a rejected full step the line search first tries the step to the first branch
+change of the end-point law along the Newton direction (``_first_kink``; open/closed, stick/slip),
+just past it, so that the next iteration has the tangent of the side the solution lies on; then
+halving. A kink step is taken without a decrease
 of |r|, but not twice in a row without a 1 % decrease (KINK_PROGRESS).
 
 The built-in 2-D plant keeps its own kernel (plant.newmark); this one serves imported structures
@@ -285,7 +286,8 @@ def _se_substep(q, qd, w, g, en, F_exc, F_N1, p, wk):
         _lu_solve(wk.LU, wk.piv, wk.dg, m)
         alpha = 1.0
         rn_new = rn
-        kink = 2.0 if free_kink else -1.0   # the step to the first branch change: tried once, after a rejected full step
+        # the step to the first branch change: tried once, after a rejected full step
+        kink = 2.0 if free_kink else -1.0
         for _ls in range(LINE_SEARCH):
             for i in range(m):
                 wk.g1[i] = wk.g_old[i] - alpha * wk.dg[i]
